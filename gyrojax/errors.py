@@ -1,0 +1,22 @@
+"""gyrojax's own error types. Everything a user can get wrong raises one of these with a message that names
+the file and the key, or the row and the column, and says what would be valid."""
+
+
+class GyrojaxError(Exception):
+    """Base class of every error gyrojax raises on purpose."""
+
+
+class RecordError(GyrojaxError, ValueError):
+    """A record file (CONVENTIONS §5) is malformed."""
+
+
+class PlanError(GyrojaxError, ValueError):
+    """A test plan is malformed."""
+
+
+class TruthError(GyrojaxError, ValueError):
+    """A truth file (CONVENTIONS §8) is malformed."""
+
+
+class ModelError(GyrojaxError, ValueError):
+    """An effect list is invalid for an instrument, or a plan cannot identify a model."""

@@ -1,0 +1,456 @@
+"""Record files: ``NAME.csv`` + ``NAME.json`` (CONVENTIONS §5).
+
+A record is one test run. ``load_record`` validates everything at the boundary and raises
+:class:`~gyrojax.errors.RecordError` naming the file and the key, or the row and the column; ``save_record``
+writes both files atomically and never over a good file without ``force``.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .effects import ACCEL, INSTRUMENT_KINDS, SDF, TDF
+from .errors import RecordError
+from .io import atomic_write_text
+
+FORMAT = "gyrojax-record-1"
+AXIS_TOL = 1e-6
+GAP_FACTOR = 1.5  # a time step above 1.5 × the median step ends a continuous segment (CONVENTIONS §5)
+
+TRIAD_KEYS = {SDF: ("ia", "oa", "sa"), TDF: ("x", "y", "z"), ACCEL: ("ia", "pa", "oa")}
+
+
+@dataclass
+class Record:
+    """One test run: metadata (the JSON, unknown keys kept) and columns (numpy arrays, every CSV column kept).
+
+    Units are those of the files: s, deg, deg/s, mA, °C. Use the properties for the derived views.
+    """
+
+    meta: dict
+    columns: dict[str, np.ndarray]
+    path: str | None = None
+    _rates_derived: bool | None = field(default=None, repr=False)
+
+    # ---- metadata views ------------------------------------------------------------------------------------
+    @property
+    def name(self) -> str:
+        return self.meta["name"]
+
+    @property
+    def kind(self) -> str:
+        return self.meta["instrument"]["kind"]
+
+    @property
+    def mode(self) -> str:
+        return self.meta["mode"]
+
+    @property
+    def axis_names(self) -> list[str]:
+        return [a["name"] for a in self.meta["table"]["axes"]]
+
+    @property
+    def axes_enu(self) -> np.ndarray:
+        """Table axis unit vectors in L at zero angles, outermost first, shape (k, 3)."""
+        return np.array([a["axis_enu"] for a in self.meta["table"]["axes"]], dtype=float)
+
+    @property
+    def triad(self) -> np.ndarray:
+        """Instrument axes in platform coordinates, rows (IA, OA, SA) / (X, Y, Z) / (IA, PA, OA)."""
+        keys = TRIAD_KEYS[self.kind]
+        return np.array([self.meta["instrument"][k] for k in keys], dtype=float)
+
+    @property
+    def latitude_deg(self) -> float:
+        return float(self.meta["site"]["latitude_deg"])
+
+    @property
+    def gravity_mps2(self) -> float:
+        return float(self.meta["site"]["gravity_mps2"])
+
+    @property
+    def scale_factor(self) -> float:
+        """Nominal scale factor: deg/h/mA for gyros, g/mA for accelerometers."""
+        key = "scale_factor_g_per_mA" if self.kind == ACCEL else "scale_factor_deg_per_h_per_mA"
+        return float(self.meta[key])
+
+    @property
+    def servo_axis_index(self) -> int | None:
+        s = self.meta.get("servo_axis")
+        return None if s is None else self.axis_names.index(s)
+
+    @property
+    def encoder_axis_index(self) -> int:
+        """Axis whose angle readout carries ``encoder_harmonic``: the servo axis, or else the last axis."""
+        s = self.servo_axis_index
+        return len(self.axis_names) - 1 if s is None else s
+
+    # ---- column views --------------------------------------------------------------------------------------
+    @property
+    def n(self) -> int:
+        return len(self.columns["time_s"])
+
+    @property
+    def time_s(self) -> np.ndarray:
+        return self.columns["time_s"]
+
+    @property
+    def angles_deg(self) -> np.ndarray:
+        """Table angles, shape (n, k), deg."""
+        return np.stack([self.columns[f"angle_{a}_deg"] for a in self.axis_names], axis=1)
+
+    @property
+    def segment_id(self) -> np.ndarray:
+        """Integer id of the continuous segment of each sample (CONVENTIONS §5)."""
+        return continuous_segments(self.time_s, self.columns.get("segment"))
+
+    @property
+    def rates_derived(self) -> bool:
+        """True when at least one table rate is derived from the angles (no ``rate_<axis>_dps`` column)."""
+        return any(f"rate_{a}_dps" not in self.columns for a in self.axis_names)
+
+    @property
+    def rates_dps(self) -> np.ndarray:
+        """Table rates, shape (n, k), deg/s: the rate columns where given, else derived inside segments."""
+        seg = self.segment_id
+        out = []
+        for a in self.axis_names:
+            col = self.columns.get(f"rate_{a}_dps")
+            out.append(col if col is not None else derive_rate(self.time_s, self.columns[f"angle_{a}_deg"], seg))
+        return np.stack(out, axis=1)
+
+    @property
+    def current_mA(self) -> np.ndarray:
+        """Torquer current; servo records without the column have 0 (commanded current)."""
+        if self.kind == TDF:
+            return np.stack([self.columns["current_x_mA"], self.columns["current_y_mA"]], axis=1)
+        col = self.columns.get("current_mA")
+        return np.zeros(self.n) if col is None else col
+
+    @property
+    def indicated(self) -> np.ndarray:
+        """Indicated output S_nom·i: deg/h for gyros (TDF: shape (n, 2)), g for accelerometers."""
+        return self.scale_factor * self.current_mA
+
+    @property
+    def temperature_C(self) -> np.ndarray | None:
+        return self.columns.get("temperature_C")
+
+    def to_pandas(self):
+        """The CSV columns as a ``pandas.DataFrame`` (with ``segment_id`` added); metadata in ``.attrs``."""
+        import pandas as pd
+
+        df = pd.DataFrame(self.columns)
+        df["segment_id"] = self.segment_id
+        df.attrs.update(copy.deepcopy(self.meta))
+        return df
+
+    def with_columns(self, **cols) -> "Record":
+        """A copy with some columns replaced or added."""
+        new = dict(self.columns)
+        new.update({k: np.asarray(v, dtype=float) for k, v in cols.items()})
+        return Record(copy.deepcopy(self.meta), new, self.path)
+
+
+def continuous_segments(time_s: np.ndarray, segment: np.ndarray | None = None) -> np.ndarray:
+    """Label continuous runs: a new one starts where ``segment`` changes or the step exceeds 1.5 × median."""
+    n = len(time_s)
+    if n < 2:
+        return np.zeros(n, dtype=np.int64)
+    dt = np.diff(time_s)
+    brk = dt > GAP_FACTOR * np.median(dt)
+    if segment is not None:
+        brk |= np.diff(segment) != 0
+    return np.concatenate([[0], np.cumsum(brk)]).astype(np.int64)
+
+
+def derive_rate(time_s: np.ndarray, angle_deg: np.ndarray, segment_id: np.ndarray) -> np.ndarray:
+    """Angle rate (deg/s) by second-order differences, inside each continuous segment only."""
+    rate = np.zeros_like(angle_deg, dtype=float)
+    starts = np.flatnonzero(np.diff(segment_id, prepend=-1))
+    ends = np.append(starts[1:], len(time_s))
+    for s, e in zip(starts, ends):
+        if e - s >= 2:
+            rate[s:e] = np.gradient(angle_deg[s:e], time_s[s:e])
+    return rate
+
+
+# ---- loading and validation ----------------------------------------------------------------------------------
+
+
+def record_paths(path: str | os.PathLike) -> tuple[Path, Path]:
+    """(csv, json) paths of a record given either file (or the common stem)."""
+    p = Path(path)
+    if p.suffix.lower() in (".csv", ".json"):
+        stem = p.with_suffix("")
+    else:
+        stem = p
+    return stem.with_suffix(".csv"), stem.with_suffix(".json")
+
+
+def _err(file, msg):
+    return RecordError(f"{file}: {msg}")
+
+
+def _unit_vector(file, key, v):
+    if not isinstance(v, (list, tuple)) or len(v) != 3:
+        raise _err(file, f"key {key!r} must be a list of 3 numbers, got {v!r}")
+    try:
+        arr = np.array([float(x) for x in v])
+    except (TypeError, ValueError):
+        raise _err(file, f"key {key!r} must hold 3 numbers, got {v!r}") from None
+    if not np.all(np.isfinite(arr)):
+        raise _err(file, f"key {key!r} has a non-finite component: {v!r}")
+    norm = float(np.linalg.norm(arr))
+    if abs(norm - 1.0) > AXIS_TOL:
+        raise _err(file, f"key {key!r} is not a unit vector (norm {norm:.9g}; tolerance {AXIS_TOL})")
+    return arr
+
+
+def _require(file, d, key, where=""):
+    if not isinstance(d, dict) or key not in d:
+        raise _err(file, f"missing required key {where + key!r}")
+    return d[key]
+
+
+def _number(file, d, key, where=""):
+    v = _require(file, d, key, where)
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise _err(file, f"key {where + key!r} must be a finite number, got {v!r}")
+    return float(v)
+
+
+def validate_meta(meta, file="record.json") -> dict:
+    """Check a record's JSON against CONVENTIONS §5; returns it unchanged (unknown keys kept)."""
+    if not isinstance(meta, dict):
+        raise _err(file, "the top level must be a JSON object")
+    fmt = _require(file, meta, "format")
+    if fmt != FORMAT:
+        raise _err(file, f"key 'format' is {fmt!r}; this reader knows {FORMAT!r}")
+    name = _require(file, meta, "name")
+    if not isinstance(name, str) or not name:
+        raise _err(file, "key 'name' must be a non-empty string")
+    site = _require(file, meta, "site")
+    lat = _number(file, site, "latitude_deg", "site.")
+    if not -90.0 <= lat <= 90.0:
+        raise _err(file, f"key 'site.latitude_deg' must lie in [-90, 90], got {lat}")
+    g = _number(file, site, "gravity_mps2", "site.")
+    if not 9.7 <= g <= 9.9:
+        raise _err(file, f"key 'site.gravity_mps2' = {g} is not a gravity on the Earth's surface (9.7–9.9 m/s²)")
+    table = _require(file, meta, "table")
+    axes = _require(file, table, "axes", "table.")
+    if not isinstance(axes, list) or not axes:
+        raise _err(file, "key 'table.axes' must be a non-empty list of {name, axis_enu}")
+    seen = set()
+    for i, ax in enumerate(axes):
+        where = f"table.axes[{i}]."
+        nm = _require(file, ax, "name", where)
+        if not isinstance(nm, str) or not nm or "," in nm:
+            raise _err(file, f"key {where + 'name'!r} must be a non-empty string without commas")
+        if nm in seen:
+            raise _err(file, f"key {where + 'name'!r}: axis name {nm!r} is used twice")
+        seen.add(nm)
+        _unit_vector(file, where + "axis_enu", _require(file, ax, "axis_enu", where))
+    inst = _require(file, meta, "instrument")
+    kind = _require(file, inst, "kind", "instrument.")
+    if kind not in INSTRUMENT_KINDS:
+        raise _err(file, f"key 'instrument.kind' is {kind!r}; valid: {', '.join(INSTRUMENT_KINDS)}")
+    keys = TRIAD_KEYS[kind]
+    vecs = [_unit_vector(file, f"instrument.{k}", _require(file, inst, k, "instrument.")) for k in keys]
+    for i in range(3):
+        for j in range(i + 1, 3):
+            d = float(vecs[i] @ vecs[j])
+            if abs(d) > AXIS_TOL:
+                raise _err(
+                    file,
+                    f"keys 'instrument.{keys[i]}' and 'instrument.{keys[j]}' are not orthogonal (dot {d:.3g})",
+                )
+    # right-handed: first × second = third (IA × OA = SA; X × Y = Z; IA × PA = OA)
+    hand = float(np.cross(vecs[0], vecs[1]) @ vecs[2])
+    if hand < 0:
+        raise _err(
+            file,
+            f"key 'instrument.{keys[2]}': the triad is left-handed; "
+            f"{keys[0]} × {keys[1]} must equal {keys[2]} (it equals −{keys[2]})",
+        )
+    mode = _require(file, meta, "mode")
+    if mode not in ("rebalance", "servo"):
+        raise _err(file, f"key 'mode' is {mode!r}; valid: 'rebalance', 'servo'")
+    sf_key = "scale_factor_g_per_mA" if kind == ACCEL else "scale_factor_deg_per_h_per_mA"
+    sf = _number(file, meta, sf_key)
+    if sf == 0.0:
+        raise _err(file, f"key {sf_key!r} must be non-zero")
+    servo = meta.get("servo_axis")
+    if mode == "servo":
+        if servo is None:
+            raise _err(file, "key 'servo_axis' must name a table axis when mode is 'servo'")
+        if kind == TDF:
+            raise _err(file, "key 'mode': servo mode is supported for sdf-gyro and pendulous-accel only")
+    if servo is not None and servo not in seen:
+        raise _err(file, f"key 'servo_axis' is {servo!r}; table axes are {sorted(seen)}")
+    return meta
+
+
+def _parse_csv(csv_path: Path) -> tuple[list[str], np.ndarray]:
+    """Header and float matrix of a CSV, naming the row and column of the first bad cell."""
+    import pandas as pd
+
+    try:
+        with open(csv_path, "rb") as fh:
+            raw = fh.read()
+    except OSError as e:
+        raise _err(csv_path, f"cannot read: {e.strerror}") from None
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        raise _err(csv_path, f"is not UTF-8 (byte {e.start}); save it as UTF-8") from None
+    if not text.strip():
+        raise _err(csv_path, "is empty; a header row and at least one sample are required")
+    import io
+
+    try:
+        df = pd.read_csv(io.StringIO(text), dtype=str, keep_default_na=False, skipinitialspace=True)
+    except pd.errors.ParserError as e:
+        raise _err(csv_path, f"is not a valid comma-separated table: {e}") from None
+    except pd.errors.EmptyDataError:
+        raise _err(csv_path, "has no header row") from None
+    header = [str(c).strip() for c in df.columns]
+    dups = {h for h in header if header.count(h) > 1}
+    bad = [h for h in header if h.startswith("Unnamed:") or not h]
+    if bad:
+        raise _err(csv_path, "row 1 (header) has an empty column name")
+    if dups or any("." in h and h.rsplit(".", 1)[-1].isdigit() and h.rsplit(".", 1)[0] in header for h in header):
+        raise _err(csv_path, f"row 1 (header) repeats a column name: {sorted(dups) or header}")
+    if len(df) == 0:
+        raise _err(csv_path, "has a header but no samples")
+    values = df.to_numpy(dtype=str)
+    out = np.empty(values.shape, dtype=float)
+    for j, h in enumerate(header):
+        col = values[:, j]
+        try:
+            out[:, j] = col.astype(float)
+        except ValueError:
+            for i, v in enumerate(col):
+                try:
+                    float(v)
+                except ValueError:
+                    what = "is empty" if v.strip() == "" else f"holds {v!r}, not a number"
+                    raise _err(csv_path, f"row {i + 2}, column {h!r} {what}") from None
+        bad = ~np.isfinite(out[:, j])
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise _err(csv_path, f"row {i + 2}, column {h!r} holds {values[i, j]!r}; values must be finite")
+    return header, out
+
+
+def validate_columns(meta: dict, columns: dict[str, np.ndarray], file="record.csv") -> None:
+    """Check the CSV columns against the metadata (CONVENTIONS §5)."""
+    if "time_s" not in columns:
+        raise _err(file, f"missing required column 'time_s'; columns are {list(columns)}")
+    t = columns["time_s"]
+    if len(t) > 1:
+        dt = np.diff(t)
+        if np.any(dt <= 0):
+            i = int(np.flatnonzero(dt <= 0)[0])
+            what = "repeats" if dt[i] == 0 else "decreases from"
+            raise _err(
+                file,
+                f"row {i + 3}, column 'time_s': time {what} the previous row's {t[i]!r} (got {t[i + 1]!r}); "
+                "times must be strictly increasing",
+            )
+    names = [a["name"] for a in meta["table"]["axes"]]
+    for a in names:
+        if f"angle_{a}_deg" not in columns:
+            hint = [c for c in columns if c.startswith("angle_")]
+            raise _err(file, f"missing required column 'angle_{a}_deg' for table axis {a!r}; angle columns: {hint}")
+    kind = meta["instrument"]["kind"]
+    if meta["mode"] == "rebalance":
+        need = ("current_x_mA", "current_y_mA") if kind == TDF else ("current_mA",)
+        for c in need:
+            if c not in columns:
+                raise _err(file, f"missing required column {c!r} (rebalance mode, {kind})")
+    if "segment" in columns:
+        seg = columns["segment"]
+        if np.any(seg != np.round(seg)):
+            i = int(np.flatnonzero(seg != np.round(seg))[0])
+            raise _err(file, f"row {i + 2}, column 'segment' holds {seg[i]!r}; segment labels are integers")
+
+
+def load_record(path: str | os.PathLike) -> Record:
+    """Load and validate one record from ``NAME.csv`` or ``NAME.json`` (either path works)."""
+    csv_path, json_path = record_paths(path)
+    for p in (json_path, csv_path):
+        if not p.exists():
+            raise RecordError(f"{p}: no such file (a record is NAME.csv + NAME.json side by side)")
+    try:
+        text = json_path.read_bytes().decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        raise _err(json_path, f"is not UTF-8 (byte {e.start})") from None
+    try:
+        meta = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise _err(json_path, f"is not valid JSON: {e.msg} at line {e.lineno}, column {e.colno}") from None
+    validate_meta(meta, json_path)
+    header, values = _parse_csv(csv_path)
+    columns = {h: values[:, j].copy() for j, h in enumerate(header)}
+    validate_columns(meta, columns, csv_path)
+    return Record(meta, columns, str(csv_path))
+
+
+def load_records(paths) -> list[Record]:
+    """Load several records (a campaign). A directory loads every record in it, sorted by name."""
+    out = []
+    if isinstance(paths, (str, os.PathLike)):
+        paths = [paths]
+    for p in paths:
+        p = Path(p)
+        if p.is_dir():
+            stems = sorted({q.with_suffix("") for q in p.glob("*.json")} & {q.with_suffix("") for q in p.glob("*.csv")})
+            out.extend(load_record(s.with_suffix(".json")) for s in stems)
+        else:
+            out.append(load_record(p))
+    names = [r.name for r in out]
+    dup = {n for n in names if names.count(n) > 1}
+    if dup:
+        raise RecordError(f"records named {sorted(dup)} appear twice in the campaign")
+    return out
+
+
+def _fmt(x: float) -> str:
+    return repr(float(x)) if x != 0 else "0"
+
+
+def record_csv_text(record: Record) -> str:
+    """The CSV text of a record (full float64 precision)."""
+    header = list(record.columns)
+    cols = [record.columns[h] for h in header]
+    lines = [",".join(header)]
+    for row in zip(*cols):
+        lines.append(",".join(_fmt(v) for v in row))
+    return "\n".join(lines) + "\n"
+
+
+def save_record(record: Record, directory: str | os.PathLike, force: bool = False) -> Path:
+    """Write ``NAME.csv`` and ``NAME.json`` into ``directory`` atomically; returns the JSON path.
+
+    Refuses to overwrite existing files unless ``force``; validates before writing anything.
+    """
+    d = Path(directory)
+    d.mkdir(parents=True, exist_ok=True)
+    validate_meta(record.meta, f"{record.name}.json")
+    validate_columns(record.meta, record.columns, f"{record.name}.csv")
+    csv_path, json_path = d / f"{record.name}.csv", d / f"{record.name}.json"
+    if not force:
+        for p in (csv_path, json_path):
+            if p.exists():
+                raise RecordError(f"{p}: exists; pass force=True (or --force) to overwrite")
+    atomic_write_text(csv_path, record_csv_text(record))
+    atomic_write_text(json_path, json.dumps(record.meta, indent=1) + "\n")
+    return json_path

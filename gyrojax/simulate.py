@@ -1,0 +1,197 @@
+"""Quasi-static simulation of a plan into records (CONVENTIONS §5).
+
+The instrument's indicated output comes from the same measurement model the fit uses
+(:func:`gyrojax.model.predict`), with the truth's coefficients and set-up errors, plus random drift. Servo runs
+integrate the servo axis in time (``lax.scan``, RK4 between samples) so that the table angle is the integral of
+the balance equation (Hu 3-59). Deterministic for a given key.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import replace
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from . import effects as fx
+from . import frames, units
+from .model import Model, RecordData, encoder_error, predict, record_data, servo_rate
+from .noise import random_drift
+from .plans import Plan, Run
+from .records import FORMAT, Record
+from .truth import Truth, truth_from_dict
+
+
+def truth_model(truth: Truth, kind: str) -> tuple[Model, np.ndarray]:
+    """The model holding every effect the truth sets, and its θ."""
+    coeffs = truth.all_coefficients()
+    names = []
+    for c, v in coeffs.items():
+        e = fx.effect_of_coefficient(c)
+        if v != 0.0 and e not in names:
+            if kind not in fx.get(e).kinds:
+                continue
+            names.append(e)
+    model = Model(tuple(names), kind)
+    return model, model.pack({c: v for c, v in coeffs.items() if fx.effect_of_coefficient(c) in names})
+
+
+def run_meta(plan: Plan, run: Run) -> dict:
+    g = plan.gravity_mps2
+    if g is None:
+        g = float(frames.normal_gravity(np.deg2rad(plan.latitude_deg)))
+    kind = run.instrument["kind"]
+    sf_key = "scale_factor_g_per_mA" if kind == fx.ACCEL else "scale_factor_deg_per_h_per_mA"
+    return {
+        "format": FORMAT,
+        "name": run.name,
+        "site": {"latitude_deg": plan.latitude_deg, "gravity_mps2": g},
+        "table": {"axes": [{"name": n, "axis_enu": list(map(float, u))} for n, u in run.axes]},
+        "instrument": copy.deepcopy(run.instrument),
+        "mode": run.mode,
+        sf_key: run.scale_factor,
+        "servo_axis": run.servo_axis,
+        "notes": f"simulated by gyrojax from plan {plan.name!r}",
+    }
+
+
+def run_samples(run: Run, t0: float):
+    """Time (n,), true angles (n,k) deg, true rates (n,k) deg/s, segment labels (n,) of a run."""
+    ts, angs, rates, labels = [], [], [], []
+    t = t0
+    for j, seg in enumerate(run.segments):
+        tt, a, r = seg.samples()
+        ts.append(t + tt)
+        angs.append(a)
+        rates.append(r)
+        labels.append(np.full(len(tt), j if seg.label is None else seg.label))
+        t = t + seg.duration_s + run.gap_s
+    return np.concatenate(ts), np.concatenate(angs), np.concatenate(rates), np.concatenate(labels)
+
+
+def _temperature(run: Run, t: np.ndarray) -> np.ndarray | None:
+    spec = run.temperature_C
+    if spec is None:
+        return None
+    spec = np.atleast_1d(np.asarray(spec, dtype=float))
+    frac = (t - t[0]) / max(t[-1] - t[0], 1e-9)
+    if spec.size == 1:
+        return np.full_like(t, spec[0])
+    if spec.size == 2:
+        return spec[0] + (spec[1] - spec[0]) * frac
+    return spec[0] + spec[1] * np.sin(2 * np.pi * (t - t[0]) / spec[2])
+
+
+def _servo_integrate(model, theta, data: RecordData, setup, start, drift_rate):
+    """Integrate the servo axis: θ_{k+1} = θ_k + RK4 of the null-keeping rate + ν_k Δt (rad)."""
+    s = data.servo_axis
+
+    def rate_at(angle, k):
+        one = replace(
+            data,
+            time_s=data.time_s[k][None],
+            angles=data.angles[k][None].at[0, s].set(angle),
+            rates=data.rates[k][None],
+            temperature=data.temperature[k][None],
+            command=data.command[k][None],
+            y=jnp.zeros(1),
+            weight=jnp.ones(1),
+            dt=jnp.zeros(0),
+            rates_derived=False,
+        )
+        no_enc = {"delta": setup["delta"], "encoder": jnp.zeros(4)}
+        r, _ = servo_rate(model, theta, one, no_enc)
+        return r[0]
+
+    def step(angle, inp):
+        k, dt, nu = inp
+        k1 = rate_at(angle, k)
+        k2 = rate_at(angle + 0.5 * dt * k1, k)
+        k3 = rate_at(angle + 0.5 * dt * k2, k)
+        k4 = rate_at(angle + dt * k3, k)
+        new = angle + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4) + nu * units.DEG_PER_H * dt
+        return new, new
+
+    n = data.time_s.shape[0]
+    dt = jnp.diff(data.time_s)
+    _, rest = jax.lax.scan(step, start, (jnp.arange(n - 1), dt, drift_rate[1:]))
+    return jnp.concatenate([jnp.atleast_1d(start), rest])
+
+
+def simulate_run(plan: Plan, run: Run, truth: Truth, key, t0: float = 0.0) -> Record:
+    """One record of a plan (see module doc)."""
+    kind = run.instrument["kind"]
+    meta = run_meta(plan, run)
+    t, ang, rates, labels = run_samples(run, t0)
+    cols = {"time_s": t}
+    for i, (name, _) in enumerate(run.axes):
+        cols[f"angle_{name}_deg"] = ang[:, i].copy()
+    for i, (name, _) in enumerate(run.axes):
+        cols[f"rate_{name}_dps"] = rates[:, i].copy()
+    cols["segment"] = labels.astype(float)
+    temp = _temperature(run, t)
+    if temp is not None:
+        cols["temperature_C"] = temp
+    if kind == fx.TDF:
+        cols["current_x_mA"] = np.zeros(len(t))
+        cols["current_y_mA"] = np.zeros(len(t))
+    else:
+        cols["current_mA"] = np.zeros(len(t))
+    rec = Record(meta, cols)
+    model, theta = truth_model(truth, kind)
+    theta = jnp.asarray(theta)
+    data = record_data(rec)
+    setup = _setup_dict(truth)
+    enc = rec.encoder_axis_index
+    if run.mode == "servo":
+        s = rec.servo_axis_index
+        drift = random_drift(key, t, truth.noise)
+        start = jnp.deg2rad(ang[0, s])
+        true_s = np.asarray(_servo_integrate(model, theta, data, setup, start, drift))
+        read = true_s + (np.asarray(encoder_error(setup["encoder"], jnp.asarray(true_s))[0]) if s == enc else 0.0)
+        cols[f"angle_{run.axes[s][0]}_deg"] = np.rad2deg(read)
+        cols[f"rate_{run.axes[s][0]}_dps"] = np.rad2deg(np.gradient(true_s, t))
+        return Record(meta, cols)
+    # rebalance: read angle on the encoder axis carries h(θ_true)
+    h = np.asarray(encoder_error(setup["encoder"], jnp.deg2rad(jnp.asarray(ang[:, enc])))[0])
+    cols[f"angle_{run.axes[enc][0]}_deg"] = ang[:, enc] + np.rad2deg(h)
+    data = record_data(Record(meta, cols))
+    ind = np.asarray(predict(model, theta, data))
+    if kind == fx.TDF:
+        k1, k2 = jax.random.split(key)
+        n = len(t)
+        cols["current_x_mA"] = (ind[:n] + np.asarray(random_drift(k1, t, truth.noise))) / run.scale_factor
+        cols["current_y_mA"] = (ind[n:] + np.asarray(random_drift(k2, t, truth.noise))) / run.scale_factor
+    else:
+        noise = np.asarray(random_drift(key, t, truth.noise))
+        if kind == fx.ACCEL:
+            noise = noise * 0.0  # accelerometer noise: white in g is not part of the gyro noise names
+        cols["current_mA"] = (ind + noise) / run.scale_factor
+    return Record(meta, cols)
+
+
+def _setup_dict(truth: Truth) -> dict:
+    tilt = truth.setup.get("table_tilt", (0.0, 0.0))
+    az = truth.setup.get("table_azimuth", (0.0,))
+    enc = truth.setup.get("encoder_harmonic", (0.0, 0.0, 0.0, 0.0))
+    delta = jnp.asarray([tilt[0], tilt[1], az[0]]) * units.ARCSEC
+    return {"delta": delta, "encoder": jnp.asarray(enc, dtype=jnp.float64) * units.ARCSEC}
+
+
+def simulate(plan: Plan, truth, key=None, seed: int = 0) -> list[Record]:
+    """Simulate every run of ``plan`` with ``truth`` (a :class:`Truth` or a truth dict) into records.
+
+    Runs follow each other on one campaign clock. Each run draws its noise from ``fold_in(key, run index)``,
+    so a run's noise does not depend on the others.
+    """
+    if not isinstance(truth, Truth):
+        truth = truth_from_dict(truth)
+    if key is None:
+        key = jax.random.PRNGKey(seed)
+    out, t0 = [], 0.0
+    for i, run in enumerate(plan.runs):
+        out.append(simulate_run(plan, run, truth, jax.random.fold_in(key, i), t0))
+        t0 += run.duration_s + plan.gap_between_runs_s
+    return out

@@ -1,0 +1,78 @@
+"""Truth files: what a simulation is told is true (CONVENTIONS §8)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import effects as fx
+from .errors import TruthError
+from .noise import validate_noise
+
+SETUP_SIZES = {"table_tilt": 2, "table_azimuth": 1, "encoder_harmonic": 4}
+
+
+@dataclass(frozen=True)
+class Truth:
+    """Coefficients (report units, by coefficient name), set-up errors (by set-up effect name) and noise."""
+
+    coefficients: dict = field(default_factory=dict)
+    setup: dict = field(default_factory=dict)
+    noise: dict = field(default_factory=dict)
+
+    def all_coefficients(self) -> dict:
+        """Instrument and set-up coefficients together, by coefficient name."""
+        out = dict(self.coefficients)
+        for name, vals in self.setup.items():
+            for c, v in zip(fx.get(name).coefficients, np.atleast_1d(vals)):
+                out[c] = float(v)
+        return out
+
+    def to_dict(self) -> dict:
+        return {"coefficients": dict(self.coefficients),
+                "setup": {k: (list(v) if np.ndim(v) else v) for k, v in self.setup.items()},
+                "noise": {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.noise.items()}}
+
+
+def truth_from_dict(d, where: str = "truth") -> Truth:
+    """Validate a truth dict; unknown names are errors naming the key."""
+    if not isinstance(d, dict):
+        raise TruthError(f"{where}: the top level must be an object")
+    for k in d:
+        if k not in ("coefficients", "setup", "noise"):
+            raise TruthError(f"{where}: unknown key {k!r}; valid: 'coefficients', 'setup', 'noise'")
+    idx = fx.coefficient_index()
+    coeffs = {}
+    setup_coeffs = {c for e in SETUP_SIZES for c in fx.get(e).coefficients}
+    for k, v in (d.get("coefficients") or {}).items():
+        if k not in idx:
+            raise TruthError(f"{where}: key 'coefficients.{k}' is not a coefficient name; valid: {', '.join(idx)}")
+        if k in setup_coeffs:
+            raise TruthError(f"{where}: key 'coefficients.{k}' is a set-up error; give it under 'setup'")
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
+            raise TruthError(f"{where}: key 'coefficients.{k}' must be a finite number, got {v!r}")
+        coeffs[k] = float(v)
+    setup = {}
+    for k, v in (d.get("setup") or {}).items():
+        if k not in SETUP_SIZES:
+            raise TruthError(f"{where}: key 'setup.{k}' unknown; valid: {', '.join(SETUP_SIZES)}")
+        arr = np.atleast_1d(np.asarray(v, dtype=float))
+        if arr.size != SETUP_SIZES[k] or not np.all(np.isfinite(arr)):
+            raise TruthError(f"{where}: key 'setup.{k}' needs {SETUP_SIZES[k]} finite number(s) in arcsec, got {v!r}")
+        setup[k] = tuple(float(x) for x in arr)
+    noise = validate_noise(d.get("noise"), f"{where}: noise")
+    return Truth(coeffs, setup, noise)
+
+
+def load_truth(path) -> Truth:
+    p = Path(path)
+    try:
+        d = json.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise TruthError(f"{p}: no such file") from None
+    except (UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise TruthError(f"{p}: not valid UTF-8 JSON ({e})") from None
+    return truth_from_dict(d, str(p))
