@@ -18,7 +18,7 @@ of ``Model.coefficient_names``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import partial
 
 import jax
@@ -131,7 +131,7 @@ def full_model_for_truth(coefficients: dict, kind: str, setup: dict | None = Non
     jax.tree_util.register_dataclass,
     data_fields=["axes", "triad", "latitude", "gravity", "time_s", "angles", "rates", "temperature", "y",
                  "weight", "command", "dt"],
-    meta_fields=["kind", "mode", "servo_axis", "encoder_axis", "rates_derived", "name"],
+    meta_fields=["kind", "mode", "servo_axis", "encoder_axis", "rates_derived"],
 )
 @dataclass(frozen=True)
 class RecordData:
@@ -154,7 +154,6 @@ class RecordData:
     servo_axis: int | None = None
     encoder_axis: int = 0
     rates_derived: bool = False
-    name: str = ""
 
 
 def record_data(record: Record) -> RecordData:
@@ -195,7 +194,6 @@ def record_data(record: Record) -> RecordData:
         servo_axis=record.servo_axis_index,
         encoder_axis=record.encoder_axis_index,
         rates_derived=bool(record.rates_derived),
-        name=record.name,
     )
 
 
