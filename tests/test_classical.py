@@ -321,6 +321,10 @@ def test_servo_harmonics_and_coefficients(servo_records):
     # −D_O/(g sinφ), a term 3-59 leaves out. The sum gives D_IO (servo_coefficients).
     K_zy_printed = (book["N"]["A1"] - book["S"]["A1"]) / (S2 * g * g)
     rel_close(K_zy_printed, -SDF_TRUTH["D_O"] / (S * g), tol=1e-8)
+    # K_xy = 2A2S/cos²φ "or −2A2N/cos²φ": the sin 2θ harmonics of both runs are equal, so the two printed forms
+    # give opposite values; 2A2/cos²φ is −D_OS here (the g_y g_z term, which 3-59 writes −K_yz g_y g_z).
+    rel_close(book["N"]["A2"], book["S"]["A2"], scale=1.0)
+    rel_close(2 * book["S"]["A2"] / (C * C * g * g), -SDF_TRUTH["D_OS"], tol=1e-8)
 
 
 # ---- 4. two-axis tumble (Hu 3-47 to 3-53) ----------------------------------------------------------------------
