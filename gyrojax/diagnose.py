@@ -328,7 +328,7 @@ def _plan_jacobians(kind: str):
     options = {
         "multiposition-24": lambda: plans.multiposition(24, minutes=1.0, dt_s=6.0),
         "tumble (flipped, CW/CCW)": lambda: plans.tumble(revolutions=1.0, dt_s=60.0),
-        "two-axis-tumble 1:2": lambda: plans.two_axis_tumble(1, 2, revolutions=1.0, dt_s=60.0),
+        "two-axis-tumble 5:1": lambda: plans.two_axis_tumble(5, 1, revolutions=1.0, dt_s=60.0),
         "rate-ladder": lambda: plans.rate_ladder(seconds=5.0, dt_s=1.0),
         "eight-position": lambda: plans.eight_position(minutes=1.0, dt_s=6.0),
     }

@@ -224,15 +224,22 @@ def tumble(revolutions: float = 2.0, earth_rates: float = 10.0, dt_s: float = 2.
                 reference="Hu 3-12 to 3-21")
 
 
-def two_axis_tumble(m: int = 1, n: int = 2, earth_rates: float = 10.0, revolutions: float = 2.0,
+def two_axis_tumble(m: int = 5, n: int = 1, earth_rates: float = 10.0, revolutions: float = 1.0,
                     dt_s: float = 2.0, latitude_deg=DEFAULT_LATITUDE) -> Plan:
-    """Two-axis tumble with rate ratio m:n (Hu 3-47 to 3-53): outer polar axis at m·r, inner at n·r."""
+    """Two-axis tumble with rate ratio m:n (Hu 3-47 to 3-53, fig. 3-22).
+
+    The outer axis is polar and carries the OA; the inner axis lies in the meridian at (0, −sin φ, cos φ) and
+    carries the IA, so the IA sees only the inner-axis rate. The outer axis turns at m·r and the inner at n·r
+    (r = ``earth_rates`` Earth rates); ``revolutions`` counts revolutions of the slower axis. Ratios whose
+    harmonics collide (such as 1:2) are allowed here but defeat Hu's harmonic separation (3-51).
+    """
     axis = polar_axis(latitude_deg)
+    p = math.radians(latitude_deg)
+    inner = (0.0, -math.sin(p), math.cos(p))
     r = earth_rates * units.OMEGA_IE_DEG_PER_H / 3600.0
-    inner = E
-    dur = revolutions * 360.0 / (r * max(m, n))
+    dur = revolutions * 360.0 / (r * min(m, n))
     seg = Segment((0.0, 0.0), dur, dt_s, rate_dps=(m * r, n * r))
-    run = Run(f"tumble-{m}-{n}", (("outer", axis), ("inner", inner)), sdf_mount(N, E), (seg,))
+    run = Run(f"tumble-{m}-{n}", (("outer", axis), ("inner", inner)), sdf_mount(inner, axis), (seg,))
     return Plan(f"two-axis-tumble-{m}:{n}", (run,), latitude_deg, description=f"two-axis tumble {m}:{n}",
                 reference="Hu 3-47 to 3-53")
 

@@ -1,0 +1,62 @@
+"""Readable reports: coefficient tables and diagnosis summaries (text), residual views (figures).
+
+Every number carries its unit. Figures use matplotlib's Agg backend and are returned as Figure objects or saved to
+PNG; nothing here changes a result.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .identify import FitResult
+
+
+def _fmt(v: float, s: float | None = None) -> str:
+    if s is None or not np.isfinite(s):
+        return f"{v: .6g}"
+    if s == 0:
+        return f"{v: .6g} ± 0"
+    digits = max(0, 2 - int(math.floor(math.log10(abs(s))))) if s > 0 else 6
+    digits = min(digits, 10)
+    return f"{v: .{digits}f} ± {s:.2g}"
+
+
+def fit_table(res: FitResult) -> str:
+    """Coefficient table: name, value ± std, unit, t statistic and significance (CIGTF style)."""
+    lines = [f"fit of {', '.join(res.model.terms)} to {len(res.record_names)} record(s), {res.n_samples} samples"]
+    lines.append(f"{'coefficient':14s} {'value ± std':>28s}  {'unit':12s} {'t':>9s}  significant")
+    for c, v, s, u, t, p in zip(res.coefficient_names, res.theta, res.std, res.model.coefficient_units,
+                                res.t_statistics, res.p_values):
+        sig = "yes" if np.isfinite(p) and p < 0.05 else ("—" if not np.isfinite(p) else "no")
+        lines.append(f"{c:14s} {_fmt(v, s):>28s}  {u:12s} {t:9.2f}  {sig}")
+    lines.append(f"residual RMS {res.residual_rms:.6g} deg/h; white-noise floor {res.noise_floor:.6g} deg/h")
+    idf = res.identifiability
+    lines.append(f"condition number {idf.get('condition', float('nan')):.3g}; rank {idf.get('rank')} of {idf.get('size')}")
+    for name, nz in zip(res.record_names, res.noise):
+        if getattr(nz, "order", 0) == "gm":
+            lines.append(f"  noise {name}: white {math.sqrt(nz.white_var):.3g} + Gauss–Markov "
+                         f"{math.sqrt(nz.gm_var):.3g} deg/h, τ {nz.tau_s:.3g} s")
+        elif nz.order:
+            lines.append(f"  noise {name}: AR({nz.order}), innovation std {nz.innovation_std:.3g} deg/h")
+    return "\n".join(lines)
+
+
+def diagnosis_text(d) -> str:
+    """Verdict, residual against floor, and the ranked candidates with their aliases."""
+    lines = [f"verdict: {d.verdict}   (family-wise α = {d.alpha})",
+             f"model: {', '.join(d.fit.model.terms)}",
+             f"residual RMS {d.residual_rms:.6g} deg/h; white-noise floor {d.noise_floor:.6g} deg/h"]
+    lines.append(f"{'candidate':18s} {'statistic':>12s} {'df':>3s} {'p (Holm)':>10s} {'RMS after':>12s}  aliases")
+    for c in d.candidates[:12]:
+        al = ", ".join(c.aliases) if c.aliases else ""
+        if c.separated_by:
+            al += f"  (separate with: {'; '.join(c.separated_by[:3])})"
+        lines.append(f"{c.name:18s} {c.statistic:12.4g} {c.df:3d} {c.p_adjusted:10.3g} {c.rms_after:12.6g}  {al}")
+    if d.unexcited:
+        lines.append("not excited by this plan: " + ", ".join(d.unexcited))
+    top = d.top
+    if d.verdict == "missing-effect" and top is not None:
+        lines.append(f"→ add {top.name!r} and refit (gyrojax fit … --terms {','.join(d.fit.model.terms + (top.name,))})")
+    return "\n".join(lines)
