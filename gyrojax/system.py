@@ -29,6 +29,15 @@ gyro drift is δω = J δc (J: drift per unit coefficient error at the operating
 
 so W(t) is a navigation-cost weight for a design criterion (weighted A-optimality of a test plan).
 
+**Angle random walk** N (rad/√s, white rate noise of PSD N²) on the level channel: a rate impulse at time s tilts
+the platform for good, so δx(t) = R_0 ∫ (1 − cos ω_s(t − s)) w(s) ds and
+
+    σ²_x(t) = R_0² N² [3t/2 − 2 sin(ω_s t)/ω_s + sin(2ω_s t)/(4ω_s)]     (Schuler loop)
+    σ²_x(t) = g² N² t⁵/20                                              (no feedback, short time)
+
+**Heading.** A vertical (azimuth) drift turns the heading error at its own rate, γ = δω_D t (free azimuth); an east
+drift biases gyrocompass alignment by δγ = δω_E/(Ω cos L) (Titterton 10.13: 0.01 °/h → about 1 mrad at 45°).
+
 Units: SI inside (rad, rad/s, m, s); public helpers that take drifts in deg/h say so.
 """
 
@@ -47,7 +56,10 @@ R0 = units.WGS84_A
 __all__ = [
     "R0",
     "drift_position_weight",
+    "alignment_heading_error",
     "drift_to_position_rate",
+    "heading_error",
+    "position_error_std_arw",
     "position_error_closed_form",
     "position_error_std",
     "position_sensitivities",
@@ -169,3 +181,23 @@ def drift_position_weight(t, jac, lat=0.0, source="gyro_h", **kw):
 def position_error_std(t, cov, jac, lat=0.0, source="gyro_h", **kw):
     """1σ position error (m) at time t from the residual uncertainty Σ_c of identified coefficients."""
     return jnp.sqrt(jnp.trace(drift_position_weight(t, jac, lat, source, **kw) @ jnp.asarray(cov, jnp.float64)))
+
+
+def heading_error(t, drift_deg_per_h):
+    """Heading error (rad) from an uncompensated vertical drift (deg/h): γ = δω_D t (free azimuth)."""
+    return jnp.asarray(drift_deg_per_h) * units.DEG_PER_H * jnp.asarray(t, jnp.float64)
+
+
+def position_error_std_arw(t, arw_deg_per_rt_h, g=units.G0, radius=R0, schuler=True):
+    """1σ position error (m) from angle random walk N (deg/√h) on the level gyro (module doc)."""
+    t = jnp.asarray(t, jnp.float64)
+    n = arw_deg_per_rt_h * units.DEG / 60.0  # rad/√s
+    if not schuler:
+        return g * n * jnp.sqrt(t**5 / 20.0)
+    ws = schuler_frequency(g, radius)
+    return radius * n * jnp.sqrt(1.5 * t - 2 * jnp.sin(ws * t) / ws + jnp.sin(2 * ws * t) / (4 * ws))
+
+
+def alignment_heading_error(east_drift_deg_per_h, lat, omega=units.OMEGA_IE):
+    """Gyrocompassing heading error (rad) from an east gyro drift: δγ = δω_E/(Ω cos L) (Titterton 10.13)."""
+    return jnp.asarray(east_drift_deg_per_h) * units.DEG_PER_H / (omega * jnp.cos(lat))

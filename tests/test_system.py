@@ -115,3 +115,23 @@ def jnp_full(n, v):
     import jax.numpy as jnp
 
     return jnp.full(n, v)
+
+
+@pytest.mark.parametrize("schuler, t_end", [(True, 4 * 3600.0), (False, 300.0)])
+def test_arw_position_error_monte_carlo(schuler, t_end):
+    # Angle random walk 0.05 °/√h: piecewise-constant white rate noise through the loop vs the closed form.
+    rng = np.random.default_rng(7)
+    n_steps, arw = 400, 0.05
+    dt = t_end / n_steps
+    sigma_rate = arw * units.DEG / 60.0 / np.sqrt(dt)  # rad/s per step
+    noise = rng.normal(0, sigma_rate, (3000, n_steps))
+    x_end = jax.vmap(lambda w: system.simulate_channel(dt, w, schuler=schuler)[-1, 3])(noise)
+    sigma = float(system.position_error_std_arw(t_end, arw, schuler=schuler))
+    assert float(np.std(np.asarray(x_end))) == pytest.approx(sigma, rel=0.05)  # 3000 draws: 1.3 % std error
+
+
+def test_heading_errors():
+    # Titterton 10.13 / L5090: "0.01 °/h of east-gyro bias gives 1 mrad of heading at 45° latitude".
+    assert float(system.alignment_heading_error(0.01, np.deg2rad(45.0))) == pytest.approx(1e-3, rel=0.07)
+    # free azimuth: γ = δω_D t, so 0.01 °/h for one hour is 0.01°
+    assert float(system.heading_error(3600.0, 0.01)) == pytest.approx(np.deg2rad(0.01), rel=1e-12)
