@@ -10,7 +10,9 @@ For θ = A sin ωt the estimate is K·Aω cos ωt with the gain
     K(ω) = sin(ωΔT/2) / (ωΔT/2)                                                        (Hu 4-11)
 
 an amplitude error with no phase error. Independent angle-reading errors of standard deviation ε give a rate error
-of standard deviation √2·ε/ΔT (Hu 4-2 writes the worst case of one reading as ε/ΔT).
+of standard deviation √2·ε/ΔT (Hu 4-2 writes the worst case of one reading as ε/ΔT). White *rate* noise of
+two-sided PSD q (angle random walk N = √q) passes with power gain K², whose noise bandwidth is
+∫ K(2πf)² df = 1/ΔT, so the rate estimate has variance q/ΔT (:func:`moving_average_arw_std`).
 
 **Kalman running mean** (Hu 6-21 to 6-23). A slowly varying angle read with white error of variance R,
 θ_k = θ_{k−1}, Z_k = θ_k + e_k, is estimated by θ̂_k = θ̂_{k−1} + K_k (Z_k − θ̂_{k−1}) (Hu 6-22). With prior
@@ -37,6 +39,7 @@ __all__ = [
     "kalman_gain",
     "kalman_running_mean",
     "kalman_variance",
+    "moving_average_arw_std",
     "moving_average_gain",
     "moving_average_rate",
     "moving_average_rate_noise_std",
@@ -70,6 +73,11 @@ def moving_average_gain(omega, window_s):
 def moving_average_rate_noise_std(angle_noise_std, window_s):
     """Standard deviation of the rate from two independent angle readings of std ε: √2·ε/ΔT (Hu 4-2)."""
     return jnp.sqrt(2.0) * angle_noise_std / window_s
+
+
+def moving_average_arw_std(arw, window_s):
+    """Rate-estimate std from white rate noise of ARW ``arw`` (angle unit/√s): N/√ΔT (noise bandwidth of 4-11)."""
+    return arw / jnp.sqrt(window_s)
 
 
 def kalman_variance(k, p0, r):

@@ -18,7 +18,7 @@ of ``Model.coefficient_names``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import partial
 
 import jax

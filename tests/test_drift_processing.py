@@ -43,6 +43,23 @@ def test_moving_average_rate_noise_monte_carlo():
     assert rate.std() == pytest.approx(std_expected, rel=0.01)
 
 
+def test_moving_average_white_rate_noise_bandwidth():
+    # White rate noise through the moving average: variance = q·∫K(2πf)² df (Hu 4-11 as a power gain), which
+    # scipy's quadrature evaluates to q/ΔT; and a Monte Carlo of an angle random walk agrees.
+    from scipy.integrate import quad
+
+    window = 2.0
+    half, _ = quad(lambda f: float(dp.moving_average_gain(2 * np.pi * f, window)) ** 2, 0, 200, limit=2000)
+    assert 2 * half == pytest.approx(1 / window, rel=2e-3)  # tail beyond 200 Hz is ≈ 1/(π² ΔT²·200) of it
+    rng = np.random.default_rng(6)
+    arw, dt, n = 0.3, 0.01, 200
+    theta = np.cumsum(rng.normal(0, arw * np.sqrt(dt), 400_000))
+    _, rate = dp.moving_average_rate(theta, dt, n)
+    assert float(np.std(rate)) == pytest.approx(
+        float(dp.moving_average_arw_std(arw, n * dt)), rel=0.05
+    )  # ~2000 independent windows: 1.6 % std error
+
+
 def test_kalman_recursion_matches_book_closed_forms():
     # Hu 6-22: p_k = p0 R/(k p0 + R), K_k = p0/((k+1) p0 + R), for an arbitrary (not large) prior.
     p0, r = 3.0, 10.0

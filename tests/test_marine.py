@@ -9,6 +9,8 @@
 import jax
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
 from gyrojax import marine, units
@@ -157,3 +159,18 @@ def test_position_fix_corrections_invert_equation_16(gamma_c):
     got1, got2 = marine.position_fix_corrections(d_lat, d_lon, gamma_c, t_c, LAT)
     assert float(got1) == pytest.approx(e1, rel=1e-10)
     assert float(got2) == pytest.approx(e2z, rel=1e-9)
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    lat_deg=st.floats(-70, 70),
+    gaps_h=st.lists(st.floats(0.2, 30.0), min_size=2, max_size=5),
+)
+def test_rank_five_for_any_latitude_and_fix_times(lat_deg, gaps_h):
+    lat = np.deg2rad(lat_deg)
+    times = np.concatenate([[0.0], np.cumsum(gaps_h)]) * 3600
+    rank, null = marine.rank_and_null_space(marine.fix_matrix(lat, times), rtol=1e-9)
+    assert rank == 5
+    v = np.asarray(null[:, 0])
+    nv = np.array([1, 0, np.tan(lat), 0, 1, 0]) / np.sqrt(2 + np.tan(lat) ** 2)
+    assert abs(abs(v @ nv) - 1) < 1e-8
