@@ -28,8 +28,8 @@ after which ``"D_I_trend"`` is accepted by ``fit``, ``diagnose`` and the simulat
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Callable
 
 import jax.numpy as jnp
 

@@ -18,7 +18,7 @@ of ``Model.coefficient_names``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import partial
 
 import jax
