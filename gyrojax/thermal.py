@@ -17,6 +17,10 @@ the line through the hot (τ_room ≥ 0) or the cold (τ_room < 0) point on the 
 
 S_01 − S_04 measures turn-on repeatability and thermal hysteresis between the two room runs.
 
+**Per-point values** (the paper's "before" case, 001 l.134): using the coefficient of the nearest calibration
+temperature makes the compensation a staircase in T, so the navigation solution jumps where T crosses a bin
+boundary; :func:`binned_model` builds it for comparison.
+
 **Compensation.** For a rate gyro the indicated rate is ω_ind = (1 + s(T)) ω + b(T), so ω̂ = (ω_ind − b̂(T))/(1 + ŝ(T)).
 
 **Navigation error.** :func:`navigation_position_error` feeds the residual gyro and accelerometer errors of a run
@@ -46,6 +50,7 @@ T_REF_C = 20.0
 __all__ = [
     "T_REF_C",
     "TwoSlope",
+    "binned_model",
     "compensate_rate",
     "extrapolate_to_reference",
     "full_temperature_plan",
@@ -89,6 +94,18 @@ def two_slope_from_runs(k_b, tau_b, k_h, tau_h, k_d, tau_d, k_a, tau_a):
     s04 = extrapolate_to_reference(k_a, tau_a, k_h, tau_h, k_d, tau_d)
     e = 0.5 * (s01 + s04)
     return e, (k_h - e) / tau_h, (k_d - e) / tau_d, s01 - s04
+
+
+def binned_model(cal_temps_c, cal_values):
+    """Piecewise-constant model: the value at the nearest calibration temperature (001 l.134, uncompensated case)."""
+    temps = jnp.asarray(cal_temps_c, jnp.float64)
+    vals = jnp.asarray(cal_values, jnp.float64)
+
+    def model(temperature_c):
+        t = jnp.asarray(temperature_c, jnp.float64)
+        return vals[jnp.argmin(jnp.abs(t[..., None] - temps), axis=-1)]
+
+    return model
 
 
 def compensate_rate(indicated, temperature_c, bias: TwoSlope | None = None, scale: TwoSlope | None = None):

@@ -76,6 +76,23 @@ def test_compensation_recovers_true_rate():
     np.testing.assert_allclose(resid, np.asarray(sf(temp)) * w, rtol=1e-9)
 
 
+def test_binned_values_jump_where_continuous_model_does_not():
+    # 001 l.134: per-temperature-point coefficients make the compensated output jump at bin boundaries.
+    cal_t = [20.0 + t for t in TAUS.values()]
+    binned = thermal.binned_model(cal_t, [float(TRUTH(t)) for t in cal_t])
+    temp = np.linspace(-45.0, 60.0, 2101)  # a slow chamber sweep, 0.05 °C per sample
+    w = 36000.0
+    ind = w + np.asarray(TRUTH(temp))
+    resid_binned = np.asarray(thermal.compensate_rate(ind, temp, binned)) - w
+    resid_model = np.asarray(thermal.compensate_rate(ind, temp, TRUTH)) - w
+    assert np.abs(resid_model).max() < 1e-9
+    steps = np.abs(np.diff(resid_binned))
+    # three boundaries between the four calibration points (−45, 18, 23, 60 °C); each jump is the model's change
+    # between neighbouring points (± one sample's drift of the truth, ≤ 0.021 × 0.05):
+    big = np.sort(steps[steps > 0.05])
+    np.testing.assert_allclose(big, [0.012 * 3 + 0.021 * 2, 0.012 * 37, 0.021 * 63], atol=1.1e-3)
+
+
 def test_navigation_error_with_and_without_compensation():
     # Spec-sheet scale (001 Tables 1-2): accelerometer K_0 temperature coefficient ≤ 1e-5 g/°C; FOG bias 0.1 °/h
     # class. Run at −45 °C (low end of the −45…60 °C range) for 90 s at 100 Hz, as in 001 l.136.
