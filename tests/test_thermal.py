@@ -89,8 +89,9 @@ def test_binned_values_jump_where_continuous_model_does_not():
     steps = np.abs(np.diff(resid_binned))
     # three boundaries between the four calibration points (−45, 18, 23, 60 °C); each jump is the model's change
     # between neighbouring points (± one sample's drift of the truth, ≤ 0.021 × 0.05):
-    big = np.sort(steps[steps > 0.05])
-    np.testing.assert_allclose(big, [0.012 * 3 + 0.021 * 2, 0.012 * 37, 0.021 * 63], atol=1.1e-3)
+    # |k(23) − k(18)| = |0.012·3 − 0.021·2|, |k(60) − k(23)| = 0.012·37, |k(18) − k(−45)| = 0.021·63
+    big = np.sort(steps[steps > 0.003])
+    np.testing.assert_allclose(big, [0.042 - 0.036, 0.012 * 37, 0.021 * 63], atol=1.1e-3)
 
 
 def test_navigation_error_with_and_without_compensation():
