@@ -23,7 +23,8 @@ u = (ψ_q, ψ_e, ψ_p at t_1, ε_q/ω_ie, ε_e/ω_ie, ε_p/ω_ie). The paper say
 east gyro drift" (003 l.34, truncated). :func:`fix_matrix` builds it for any number of fixes; its rank is 5 and its
 null vector is u ∝ (1, 0, tan L, 0, 1, 0): an east drift ε_e = ω_ie a with ψ_q = a, ψ_p = a tan L is an
 equilibrium of eq. 2 that leaves δl = δL = 0 for ever, so no number of position fixes can see it. It shows in the
-azimuth φ_d = −a / cos L, so one heading reference (:func:`heading_row`) restores full rank.
+azimuth φ_d = −a / cos L, so one heading reference (:func:`heading_row`) restores full rank. (Fixes spaced by
+whole sidereal days lose more rank still: Φ returns to the identity there.)
 
 **Velocity-reference scheme** for a space-stabilised INS (003 eqs. 11–17): velocity errors (eq. 11), least
 squares for the apparent misalignment from δv_N (eqs. 12–13; the printed matrix lacks its inverse and a "sin"),
