@@ -39,6 +39,8 @@ DEFAULT_TERMS = {
     fx.SDF: ("D_F", "D_I", "D_O", "D_S"),
     fx.TDF: ("DX_F", "DY_F"),
     fx.ACCEL: ("K_0", "K_1"),
+    fx.FOG: ("D_F", "sf_error"),
+    fx.RLG: ("D_F", "sf_error"),
 }
 
 

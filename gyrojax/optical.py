@@ -21,9 +21,9 @@ output rate (in input-rate units) is
 **Registered effect.** ``lock_in`` (coefficient ``Omega_L``, deg/h) for the instrument kind ``"rlg"``: it adds
 Ω_out(ω_I) − ω_I to the indicated rate, so a :class:`gyrojax.model.Model` of kind ``"rlg"`` predicts the dead band.
 ``Model`` and ``indicated_output`` accept the new kind unchanged (it takes the SDF input names ω_I, ω_O, ω_S and
-the base output ω_I). Records cannot yet declare ``"rlg"`` or ``"fog"`` (``records.INSTRUMENT_KINDS``), and the
-existing bias / scale-factor / misalignment effects list only the three CONVENTIONS kinds; see
-:data:`REUSABLE_EFFECTS` for the effects whose ``kinds`` would need ``"fog"``/``"rlg"`` added.
+the base output ω_I). Records declare ``"kind": "fog"`` or ``"rlg"`` with ``ia``, ``oa``, ``sa`` like an SDF gyro, and
+the bias, scale-factor, misalignment, trend and temperature effects of CONVENTIONS §6 apply to them
+(:data:`REUSABLE_EFFECTS`); g-sensitive drift terms do not.
 
 Units: rates in deg/h at the surface (any consistent unit for the pure functions), SI for lengths and wavelengths.
 """
