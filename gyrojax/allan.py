@@ -261,6 +261,9 @@ def allan(segments, tau0: float, m_list=None, ci: float = ONE_SIGMA, alpha=None)
         counts[ok] += c_j
     taus = m * tau0
     avar = sums / (2.0 * taus**2 * counts)
+    level = max(float(np.max(np.abs(s))) for s in segments)
+    if not np.sqrt(np.max(avar)) > 1e-12 * level:
+        raise AllanError("the Allan variance is zero at every tau (to rounding): the rate series is constant")
     adev = np.sqrt(avar)
     out = AllanResult(
         taus, adev, adev, adev, np.ones(len(m)), np.zeros(len(m), int), m, counts, tuple(len(s) for s in segments), ci
@@ -361,7 +364,7 @@ def _wnnls(basis, avar, edf, n_iter=6):
     A = basis / scale
     model = avar.copy()
     for _ in range(n_iter):
-        w = np.sqrt(edf / 2.0) / np.maximum(model, 1e-3 * avar)
+        w = np.sqrt(edf / 2.0) / np.maximum(model, 1e-3 * np.maximum(avar, avar.max() * 1e-12))
         c, _ = optimize.nnls(A * w[:, None], avar * w)
         new = A @ c
         if np.allclose(new, model, rtol=1e-6):
@@ -390,6 +393,8 @@ def fit_noise_model(
     taus, avar, edf = (np.asarray(a, float) for a in (taus, avar, edf))
     if taus.shape != avar.shape or taus.shape != edf.shape or taus.size < 2:
         raise AllanError("taus, avar and edf must be 1-D arrays of the same length >= 2")
+    if not (np.all(np.isfinite(avar)) and np.all(avar >= 0) and np.any(avar > 0) and np.all(edf > 0)):
+        raise AllanError("avar must be finite, >= 0 and not all zero; edf must be > 0")
     names = [t for t in terms]
     for t in names:
         term_basis(t, taus[:1])

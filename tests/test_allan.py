@@ -244,5 +244,7 @@ def test_input_errors():
         allan.allan(np.ones(100), 0.0)
     with pytest.raises(allan.AllanError):
         allan.allan(np.array([1.0, np.nan, 2.0, 3.0, 4.0]), 1.0)
+    with pytest.raises(allan.AllanError, match="constant"):
+        allan.allan(np.full(100, 0.4), 1.0)
     with pytest.raises(allan.AllanError):
         allan.fit_noise_model([1.0, 2.0], [1.0, 1.0], [1.0, 1.0], terms=("flicker",))
