@@ -13,6 +13,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 from allantools import ci as at_ci
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy import integrate
 
 from gyrojax import allan, noise
@@ -248,3 +250,17 @@ def test_input_errors():
         allan.allan(np.full(100, 0.4), 1.0)
     with pytest.raises(allan.AllanError):
         allan.fit_noise_model([1.0, 2.0], [1.0, 1.0], [1.0, 1.0], terms=("flicker",))
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    a=st.floats(-1e3, 1e3).filter(lambda v: abs(v) > 1e-3),
+    b=st.floats(-1e4, 1e4),
+    seed=st.integers(0, 2**31 - 1),
+)
+def test_adev_affine_invariance(a, b, seed):
+    """σ_A(a·y + b) = |a|·σ_A(y): a constant bias (D_F, Earth rate) never enters the Allan deviation."""
+    y = np.random.default_rng(seed).normal(size=300)
+    m = [1, 2, 5, 30, 99]
+    ref = np.asarray(allan.overlapping_adev(y, 0.5, m))
+    np.testing.assert_allclose(allan.overlapping_adev(a * y + b, 0.5, m), abs(a) * ref, rtol=1e-8)
