@@ -48,3 +48,29 @@ def test_noise_rejects_moving_and_missing_records(tmp_path, capsys):
     assert main(["noise", str(p), "--json"]) == 2
     assert "static" in capsys.readouterr().err
     assert main(["noise", str(tmp_path / "nothing.json")]) == 2
+
+
+def test_noise_pools_records(tmp_path, capsys):
+    """Two static records of one campaign are pooled: the 1 s ADEV of the pool matches the direct pooled
+    estimate of their indicated rates (Σ S_j / 2τ² Σ M_j, from allantools' per-record values)."""
+    import dataclasses
+    import math
+
+    import allantools
+    import numpy as np
+
+    from gyrojax.records import load_records
+
+    p = plans.fixed_position(hours=0.5)
+    p = dataclasses.replace(p, runs=(p.runs[0], dataclasses.replace(p.runs[0], name="fixed-b")))
+    for r in simulate(p, {"noise": {"white": 0.003}}, seed=2):
+        save_record(r, tmp_path)
+    assert main(["noise", str(tmp_path), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    num = den = 0.0
+    for r in load_records([tmp_path]):
+        _, d, _, ns = allantools.oadev(r.indicated, rate=1.0, data_type="freq", taus=np.array([1.0]))
+        num, den = num + d[0] ** 2 * ns[0], den + ns[0]
+    assert out["adev_deg_per_h"][0] == pytest.approx(math.sqrt(num / den), rel=1e-9)
+    assert out["terms"]["white"]["value"] == pytest.approx(0.003, rel=0.1)
+    assert np.isfinite(out["adev_high"]).all()
