@@ -468,7 +468,7 @@ def fit(records, terms=None, *, kind: str | None = None, noise: str = "ar", allo
             break
     # noise model and GLS pass
     if noise == "ar":
-        noises = [fit_noise(r, lab, t) for r, _, lab, t in lin]
+        noises = [fit_noise(r, lab, t, design=j) for r, j, lab, t in lin]
         for _ in range(3 if not model.is_linear else 1):
             rw, jw = _stack(lin, noises, scales)
             step, _ = _solve(jw, rw)
