@@ -20,19 +20,23 @@ deterministic effect (CONVENTIONS §6).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from functools import lru_cache
 
+import jax
+import jax.numpy as jnp
 import numpy as np
 from scipy import stats
 
 from . import effects as fx
 from .errors import ModelError
 from .identify import Campaign, FitResult, fit, linearize
-from .model import Model
+from .model import Model, jacobian, record_data
 from .whiten import ARNoise, fit_noise, whiten
 
+NUISANCE_TREND = False
 COLLINEAR = 0.999  # canonical correlation above which two candidates are aliases in this plan
 UNSEEN = 1e-6  # |X⊥| / |X| below which a candidate is indistinguishable from the model
 
@@ -152,17 +156,38 @@ def _stack_whitened(lin, noises):
     return np.concatenate(rows_r), np.concatenate(rows_j, axis=0)
 
 
+def _nuisance(t: np.ndarray) -> np.ndarray:
+    """Per-record offset: structure that noise models must not absorb (see :func:`_noise_models`)."""
+    if NUISANCE_TREND:
+        return np.column_stack([np.ones_like(t), (t - t.mean()) / max(float(np.ptp(t)), 1e-9)])
+    return np.ones((len(t), 1))
+
+
 def _noise_models(lin, cols) -> list:
-    """Per-record noise model from the residual left after projecting on the regressor columns ``cols``."""
+    """Per-record noise model from the residual left after projecting on the regressor columns ``cols`` and on a
+    per-record offset.
+
+    A misspecified model leaves deterministic structure in its residual; the slowest kind (a record-wide offset, as
+    a flipped mounting gives an omitted D_O) would otherwise pass for long-memory noise and hide the very effect
+    under test. It is a nuisance regressor only here; REML keeps the noise estimate unbiased when it is absent.
+    Slower-than-the-record drift is kept apart from noise by the cap on τ (:data:`gyrojax.whiten.TAU_SPAN_FRACTION`).
+    """
     scales = [max(np.sqrt(np.mean(r * r)), 1e-300) for r, *_ in lin]
+    n_rec = len(lin)
+    blocks = []
+    for i, ((r, j, _lab, t), s) in enumerate(zip(lin, scales)):
+        k = 1 + int(NUISANCE_TREND)
+        nu = np.zeros((len(r), k * n_rec))
+        nu[:, k * i : k * i + k] = _nuisance(t)
+        blocks.append(np.column_stack([j[:, cols] / s, nu]))
     r_all = np.concatenate([r / s for (r, *_), s in zip(lin, scales)])
-    j_all = np.concatenate([j[:, cols] / s for (_, j, *_), s in zip(lin, scales)], axis=0)
-    ub = _basis(j_all)
+    ub = _basis(np.concatenate(blocks, axis=0))
     res = r_all - ub @ (ub.T @ r_all)
     out, i0 = [], 0
     for (r, j, lab, t), s in zip(lin, scales):
         n = len(r)
-        nz = fit_noise(res[i0 : i0 + n] * s, lab, t, design=j[:, cols])
+        design = np.column_stack([j[:, cols], _nuisance(t)])
+        nz = fit_noise(res[i0 : i0 + n] * s, lab, t, design=design)
         out.append(nz if nz.innovation_std > 0 else ARNoise(np.zeros(0), s, s))
         i0 += n
     return out
@@ -323,7 +348,7 @@ def _colour_candidate(res: FitResult, noises, lin, alpha) -> Candidate | None:
 def _plan_jacobians(kind: str):
     """Regressors of every named effect in a few short built-in plans (computed once per process)."""
     from . import plans
-    from .simulate import simulate
+    from .simulate import plan_records
 
     options = {
         "multiposition-24": lambda: plans.multiposition(24, minutes=1.0, dt_s=6.0),
@@ -333,12 +358,35 @@ def _plan_jacobians(kind: str):
         "eight-position": lambda: plans.eight_position(minutes=1.0, dt_s=6.0),
     }
     model = Model(tuple(n for n in fx.names(kind) if n != "bias_temperature"), kind)
-    out = {}
+    runs, owner = [], []
     for name, build in options.items():
-        camp = Campaign.of(simulate(build(), {"coefficients": {}}))
-        lin = linearize(model, np.zeros(model.size), camp)
-        out[name] = np.concatenate([j for _, j, *_ in lin], axis=0)
-    return model, out
+        for rec in plan_records(build()):
+            runs.append(rec)
+            owner.append(name)
+    # one compile for all: every run padded to two table axes (a still dummy axis outermost) and one length
+    n_max = max(r.n for r in runs)
+    padded, lengths = [], []
+    for rec in runs:
+        d = record_data(rec)
+        n = rec.n
+        pad = lambda a: np.concatenate([a, np.repeat(a[-1:], n_max - n, axis=0)], axis=0)  # noqa: E731
+        angles, rates, axes = np.asarray(d.angles), np.asarray(d.rates), np.asarray(d.axes)
+        if axes.shape[0] == 1:
+            angles = np.column_stack([np.zeros(n), angles])
+            rates = np.column_stack([np.zeros(n), rates])
+            axes = np.vstack([[0.0, 0.0, 1.0], axes])
+        padded.append(dataclasses.replace(
+            d, axes=axes, angles=pad(angles), rates=pad(rates), time_s=pad(np.asarray(d.time_s)),
+            temperature=pad(np.asarray(d.temperature)), y=pad(np.asarray(d.y)), weight=pad(np.asarray(d.weight)),
+            command=pad(np.asarray(d.command)), dt=np.zeros(n_max - 1), triad=np.asarray(d.triad),
+            latitude=np.asarray(d.latitude), gravity=np.asarray(d.gravity), encoder_axis=1))
+        lengths.append(n)
+    batch = jax.tree_util.tree_map(lambda *xs: np.stack(xs), *padded)
+    jac = jax.jit(jax.vmap(lambda d: jacobian(model, jnp.zeros(model.size), d)))(batch)
+    out: dict = {}
+    for name, n, j in zip(owner, lengths, np.asarray(jac)):
+        out.setdefault(name, []).append(j[:n])
+    return model, {k: np.concatenate(v, axis=0) for k, v in out.items()}
 
 
 def separating_plans(kind: str, effects: tuple) -> list:

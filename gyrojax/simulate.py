@@ -120,8 +120,21 @@ def _servo_integrate(model, theta, data: RecordData, setup, start, drift_rate):
     return jnp.concatenate([jnp.atleast_1d(start), rest])
 
 
-def simulate_run(plan: Plan, run: Run, truth: Truth, key, t0: float = 0.0) -> Record:
-    """One record of a plan (see module doc)."""
+def geometry_record(plan: Plan, run: Run, t0: float = 0.0) -> Record:
+    """A run's record with its table motion and zero current: the geometry that regressors and design need."""
+    return _run_columns(plan, run, t0)[0]
+
+
+def plan_records(plan: Plan) -> list[Record]:
+    """Geometry-only records of every run of a plan, on the campaign clock (no instrument output)."""
+    out, t0 = [], 0.0
+    for run in plan.runs:
+        out.append(geometry_record(plan, run, t0))
+        t0 += run.duration_s + plan.gap_between_runs_s
+    return out
+
+
+def _run_columns(plan: Plan, run: Run, t0: float):
     kind = run.instrument["kind"]
     meta = run_meta(plan, run)
     t, ang, rates, labels = run_samples(run, t0)
@@ -139,7 +152,13 @@ def simulate_run(plan: Plan, run: Run, truth: Truth, key, t0: float = 0.0) -> Re
         cols["current_y_mA"] = np.zeros(len(t))
     else:
         cols["current_mA"] = np.zeros(len(t))
-    rec = Record(meta, cols)
+    return Record(meta, cols), meta, cols, t, ang
+
+
+def simulate_run(plan: Plan, run: Run, truth: Truth, key, t0: float = 0.0) -> Record:
+    """One record of a plan (see module doc)."""
+    kind = run.instrument["kind"]
+    rec, meta, cols, t, ang = _run_columns(plan, run, t0)
     model, theta = truth_model(truth, kind)
     theta = jnp.asarray(theta)
     data = record_data(rec)

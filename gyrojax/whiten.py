@@ -18,8 +18,8 @@ from scipy.linalg import solve_toeplitz
 from scipy.signal import lfilter
 
 P_MAX = 20
-TAU_SPAN_FRACTION = 4.0
-"""Gauss–Markov correlation times are capped at the record span / 4: structure slower than that cannot be told from
+TAU_SPAN_FRACTION = 8.0
+"""Gauss–Markov correlation times are capped at the record span / 8: structure slower than that cannot be told from
 a deterministic trend within the record, and is left to ``bias_trend`` (and the diagnosis) rather than to noise."""
 
 
@@ -316,7 +316,13 @@ def _gm_mle(r, labels, times, start: GMNoise, design=None) -> GMNoise:
             return gm_reml(r, design, labels, times, unpack(u))
         return gm_loglik(r, labels, times, unpack(u))[0]
 
-    u0 = np.log([min(start.tau_s, tau_max), start.gm_var, start.white_var])
+    # the likelihood in τ has local minima on short records: start from the best of a grid of correlation times
+    dt0 = float(np.median(np.diff(times[ok]))) if ok.sum() > 1 else 1.0
+    starts = [min(start.tau_s, tau_max)] + list(np.geomspace(max(2 * dt0, 1e-9), tau_max, 8))
+    total = start.gm_var + start.white_var
+    cands = [np.log([t, v * total, (1 - v) * total]) for t in starts for v in (0.02, 0.1, 0.3)]
+    cands.append(np.log([min(start.tau_s, tau_max), start.gm_var, start.white_var]))
+    u0 = min(cands, key=nll)
     sol = minimize(nll, u0, method="Nelder-Mead", options={"xatol": 1e-3, "fatol": 1e-3, "maxiter": 300})
     best = sol.x if sol.fun <= nll(u0) else u0
     return unpack(best)
