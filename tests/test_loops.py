@@ -135,6 +135,8 @@ def test_rebalance_vmap_over_gyros_and_grad_against_finite_differences():
         u = loops.simulate_rebalance(p, w, DT, third)
         return jnp.sum(u[-80:] ** 2) / 1e4
 
+    loss = jax.jit(loss, static_argnums=1)
+
     # vmap over a batch of gyros equals one-by-one
     batch = jax.tree_util.tree_map(lambda v: jnp.array([v, 1.1 * v, 0.9 * v]), base)
     got = jax.vmap(lambda q: loops.simulate_rebalance(q, w, DT))(batch)
