@@ -142,7 +142,7 @@ def timed(f, *a, reps=2):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--hours", type=float, default=24.0, help="simulated span for the full JAX run (h)")
-    ap.add_argument("--chunk-s", type=float, default=300.0, help="chunk length (s) for the long run and the race")
+    ap.add_argument("--chunk-s", type=float, default=288.0, help="chunk length (s) for the long run and the race")
     ap.add_argument("--scipy-s", type=float, default=20.0, help="span given to scipy.signal.dlsim (s)")
     args = ap.parse_args(argv)
 

@@ -223,10 +223,12 @@ def rebalance_closed_loop_tf(p: RebalanceParams, s, third_order: bool = False):
 def simulate_rebalance(p: RebalanceParams, omega_in_deg_per_h, dt: float, third_order: bool = False, x0=None):
     """Indicated rate u_k = S_nom·i(t_k) (deg/h) of the analog rebalance loop at the loop rate 1/dt.
 
-    ``omega_in_deg_per_h`` (n,): ω_I + drift (deg/h), held over each step (zero-order hold). The linear loop is
-    exact (ZOH of the closed loop); the torquer's nonlinearity δ = torquer_rate(u) − u (ppm-level) enters as an
-    input held over the step after it is read, which is a one-step delay on a part-per-million term.
-    Starts from the equilibrium at ω_in[0] unless ``x0`` is given. jit/vmap/grad-safe.
+    ``omega_in_deg_per_h`` (n,): ω_I + drift (deg/h), held over [t_k, t_k + dt) (zero-order hold); u_k is read at
+    t_k, before ω_k acts (the ``dlsim`` convention y_k = C x_k). The linear loop is exact for any dt (ZOH of the
+    continuous closed loop). The torquer's ppm-level departure δ = torquer_rate(u) − u enters as an input held
+    over the step, set implicitly to its end-of-step value (two fixed-point sweeps, contraction ~1e-4), so the
+    steady state is exact whatever the step. Starts from the equilibrium at ω_in[0] unless ``x0`` is given.
+    jit/vmap/grad-safe (``third_order`` static).
     """
     a, b, c, d = rebalance_state_space(p, third_order)
     ad, bd, c, _ = zoh(a, b, c, d, dt)
@@ -235,13 +237,17 @@ def simulate_rebalance(p: RebalanceParams, omega_in_deg_per_h, dt: float, third_
         # equilibrium with the nominal torquer: 0 = A x + B [w0, 0]
         x0 = jnp.linalg.solve(a, -b[:, 0] * w[0])
     cu = c[0]
+    u0 = cu @ x0
 
-    def step(x, wk):
-        u = cu @ x
-        delta = torquer_rate(p, u) - u
-        return ad @ x + bd[:, 0] * wk + bd[:, 1] * delta, u
+    def step(carry, wk):
+        x, delta = carry
+        xf = ad @ x + bd[:, 0] * wk
+        for _ in range(2):
+            u_next = cu @ (xf + bd[:, 1] * delta)
+            delta = torquer_rate(p, u_next) - u_next
+        return (xf + bd[:, 1] * delta, delta), cu @ x
 
-    _, u = jax.lax.scan(step, x0, w)
+    _, u = jax.lax.scan(step, (x0, torquer_rate(p, u0) - u0), w)
     return u
 
 
@@ -249,11 +255,14 @@ def loop_indicated_rate(params: RebalanceParams, omega_I_deg_per_h, dt: float, t
     """Glue for ``simulate(dynamics="loop")``: indicated rate (deg/h) of the analog rebalance loop.
 
     ``omega_I_deg_per_h`` (n,) is the quasi-static rate the float senses (deg/h): the input-axis rate plus every
-    drift torque expressed as a rate, sampled every ``dt`` seconds and held (ZOH). Returns (n,) u = S_nom·i at
-    the same instants, which lags the input by the loop's dynamics and carries the torquer's E_SF, E_A, E_2
-    (set those to zero in ``params`` if the caller's effect model already applies them).
+    drift torque expressed as a rate, one value per sample, each held for ``dt`` seconds (ZOH; dt may be the
+    record's sample interval, the loop is discretised exactly). Returns (n,): u_k = S_nom·i at the *end* of
+    sample k's hold interval, so a constant input reads its balance value with no sample delay. The output
+    lags the input by the loop's dynamics and carries the torquer's E_SF, E_A, E_2 (set those to zero in
+    ``params`` if the caller's effect model already applies them).
     """
-    return simulate_rebalance(params, omega_I_deg_per_h, dt, third_order)
+    w = jnp.asarray(omega_I_deg_per_h, dtype=jnp.float64)
+    return simulate_rebalance(params, jnp.concatenate([w, w[-1:]]), dt, third_order)[1:]
 
 
 # ---------------------------------------------------------------------------------------------------------------

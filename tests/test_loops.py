@@ -145,7 +145,7 @@ def test_rebalance_vmap_over_gyros_and_grad_against_finite_differences():
         np.testing.assert_allclose(got[i], loops.simulate_rebalance(one, w, DT), rtol=1e-13, atol=1e-10)
 
     for third in (False, True):
-        g = jax.grad(loss)(base, third)
+        g = jax.jit(jax.grad(loss), static_argnums=1)(base, third)
         for f in dataclasses.fields(base):
             v = getattr(base, f.name)
             h = 1e-3 * abs(v) if v else 1e-3
@@ -307,3 +307,32 @@ def test_lifted_dlsim_equals_scipy_dlsim():
     _, y_ref, _ = sig.dlsim((ad, bd, cd, dd, 0.05), u, x0=x0)
     y, xf = loops.lifted_dlsim(jnp.asarray(ad), jnp.asarray(bd), jnp.asarray(cd), jnp.asarray(dd), u, x0, block=64)
     np.testing.assert_allclose(np.asarray(y), y_ref, rtol=0, atol=1e-10 * np.abs(y_ref).max())
+
+
+def test_loop_indicated_rate_glue_at_record_interval():
+    """With the record's 1 s interval as the step, every sample reads the balance value of its own input
+    (the loop settles in ≪ 1 s): the quasi-static CONVENTIONS model, with no sample delay."""
+    e_sf, e_a, e_2 = 150.0, 40.0, 25.0
+    p = loops.default_rebalance(E_SF=e_sf, E_A=e_a, E_2=e_2)
+    rng = np.random.default_rng(7)
+    w = rng.uniform(-3000.0, 3000.0, 200)
+    u = np.asarray(jax.jit(loops.loop_indicated_rate, static_argnums=(2, 3))(p, w, 1.0))
+    expect = w + 1e-6 * (e_sf * w + e_a * np.abs(w) + e_2 * w * w / 3600.0)
+    np.testing.assert_allclose(u, expect, rtol=0, atol=1e-6)  # the effects are ~0.1-1 deg/h
+
+
+def test_pulse_scale_factor_error_5_76():
+    """Current-amplitude errors change the loop scale factor by (ΔI⁺ + ΔI⁻)/2 relative to I (Hu 5-76, first
+    term; the timing term vanishes for a rate-independent ΔT). Our ΔI± make the pulses stronger, so the counts
+    (and the indicated rate) fall: E_SF = −(ΔI⁺ + ΔI⁻)/(2I). The book's sign belongs to its Fig. 5-44, which the
+    seed lacks; the magnitude is the check."""
+    pp = loops.default_pulse(dI_plus=0.3, dI_minus=0.1)
+    n, skip = 22_000, 2000
+    n_deg_h = pp.I_pulse * pp.gyro.S_nom / (M / TS)  # the quantum N (5-70) in deg/h·s: I·S_nom/f_q
+    rates = []
+    for omega in (500.0, -500.0):
+        counts = np.asarray(PULSE(pp, np.full(n, omega), TS, M))[skip:]
+        rates.append(n_deg_h * counts.sum() / (counts.size * TS))
+    e_sf = (rates[0] - rates[1]) / 1000.0 - 1.0
+    book = (pp.dI_plus + pp.dI_minus) / 2 / pp.I_pulse
+    assert -e_sf == pytest.approx(book, rel=0.01)
