@@ -43,7 +43,7 @@ def test_zoh_of_the_loops_matches_scipy():
     ):
         a, b, c, d = map(np.asarray, (a, b, c, d))
         ad, bd, *_ = sig.cont2discrete((a, b, c, d), DT, method="zoh")
-        jad, jbd, *_ = zoh(a, b, c, d, DT)
+        jad, jbd, *_ = jax.jit(zoh)(a, b, c, d, DT)
         np.testing.assert_allclose(np.asarray(jad), ad, rtol=0, atol=1e-12 * np.abs(ad).max())
         np.testing.assert_allclose(np.asarray(jbd), bd, rtol=0, atol=1e-12 * np.abs(bd).max())
 
@@ -139,10 +139,10 @@ def test_rebalance_vmap_over_gyros_and_grad_against_finite_differences():
 
     # vmap over a batch of gyros equals one-by-one
     batch = jax.tree_util.tree_map(lambda v: jnp.array([v, 1.1 * v, 0.9 * v]), base)
-    got = jax.vmap(lambda q: loops.simulate_rebalance(q, w, DT))(batch)
+    got = jax.jit(jax.vmap(lambda q: loops.simulate_rebalance(q, w, DT)))(batch)
     for i in range(3):
         one = jax.tree_util.tree_map(lambda v: v[i], batch)
-        np.testing.assert_allclose(got[i], loops.simulate_rebalance(one, w, DT), rtol=1e-13, atol=1e-10)
+        np.testing.assert_allclose(got[i], SIM(one, w, DT), rtol=1e-13, atol=1e-10)
 
     for third in (False, True):
         g = jax.jit(jax.grad(loss), static_argnums=1)(base, third)
@@ -336,3 +336,34 @@ def test_pulse_scale_factor_error_5_76():
     e_sf = (rates[0] - rates[1]) / 1000.0 - 1.0
     book = (pp.dI_plus + pp.dI_minus) / 2 / pp.I_pulse
     assert -e_sf == pytest.approx(book, rel=0.01)
+
+
+def test_servo_disturbance_response_5_15_and_stiffness_gradient():
+    """Angle error per disturbance torque, θ_T/M = 1/[s(Js + K_m(K_e + K_tach)) + K_m·K_1·G_1(s)·K_sg·(H/C)/(τs+1)]
+    (Hu 5-15 integrated, with G_g from 2-59), at 5 frequencies to 1 %; and ∂ε/∂K_1 = −ε/K_1 from ε = M/K_T."""
+    p = loops.default_servo(K_tach=0.5)
+    freqs = np.array([0.3, 2.0, 10.0, 30.0, 80.0])
+    n = 6000
+    t = np.arange(n) * DT
+    x = np.sin(2 * np.pi * freqs[:, None] * t[None, :])
+    z = np.zeros(n)
+    th = np.asarray(jax.jit(jax.vmap(lambda m: loops.simulate_servo(p, z, z, m, DT)[0]))(x))
+    keep = slice(2667, None)  # the last 3.333 s (one cycle at 0.3 Hz); least squares copes with partial cycles
+    s = 2j * np.pi * freqs
+    g1 = (p.tau_lead * s + 1) / (p.tau_lag * s + 1)
+    den = s * (p.J_table * s + p.K_motor * (p.K_emf + p.K_tach)) + p.K_motor * p.K_amp * g1 * p.K_pickoff * (
+        p.H / p.C_damp
+    ) / (p.I_float / p.C_damp * s + 1)
+    ref = (1 / den) * (1 - np.exp(-s * DT)) / (s * DT)
+    got = np.array([_fit_gain(th[i, keep], x[i, keep], t[keep], f) for i, f in enumerate(freqs)])
+    np.testing.assert_array_less(np.abs(got / ref - 1), 0.01)
+
+    m, q0, n2 = 0.05, loops.default_servo(), 1500
+
+    def eps(q):
+        return loops.simulate_servo(q, jnp.zeros(n2), jnp.zeros(n2), jnp.full(n2, m), DT)[0][-1]
+
+    e, g = jax.jit(jax.value_and_grad(eps))(q0)
+    assert float(e) == pytest.approx(m / loops.servo_stiffness(q0), rel=0.01)
+    assert float(g.K_amp) == pytest.approx(-float(e) / q0.K_amp, rel=0.01)
+    assert float(g.J_table) == pytest.approx(0.0, abs=1e-3 * abs(float(e)) / q0.J_table)  # static: no inertia
