@@ -314,7 +314,9 @@ def simulate_pulse(pp: PulseParams, omega_in_deg_per_h, t_s: float, m_per_period
     The torquer then carries +(I + ΔI⁺) for n₊/f_q − ΔT and −(I + ΔI⁻) for the rest; the float and the
     (analog) compensator are propagated exactly through both parts (ZOH with sub-step switching, tabulated
     over n₊). The indicated rate of a span T is N·Σ(n₊ − n₋)/T (Hu 5-71/5-73), N = ``pulse_quantum``.
-    ``omega_in_deg_per_h``: (n,) ω_I + drift (deg/h) held over each period.
+    ``omega_in_deg_per_h``: (n,) ω_I + drift (deg/h) held over each period. jit/vmap-safe with
+    ``t_s``, ``m_per_period`` static; the duty rounding makes the counts piecewise constant in the parameters,
+    so gradients through this loop are zero (differentiate the analog loop instead).
     """
     p = pp.gyro
     f_q = m_per_period / t_s
