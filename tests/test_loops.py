@@ -1,5 +1,14 @@
 """Loops: exact ZOH, analog rebalance, pulse rebalance, table servo (Hu 2-50..2-63, 5-8..5-21, 5-36/37, 5-51,
-5-62..5-76). References: scipy.signal, closed forms derived from the block diagrams, the book's formulas."""
+5-62..5-76). References: scipy.signal, closed forms derived from the block diagrams, the book's formulas.
+
+Misprints met in the seed (002) while reading these sections:
+- 2-50 writes the torquer torque M_zg; 2-51 and the symbol list call it M_tg.
+- after 2-56, "H 对 C_(CF)x 之比" (the angle gain): the damping is about OA, C_(CF)y.
+- 2-63 (float response to case motion about OA) is garbled: the stiffnesses K_(FW)x K_(FW)y C stand in a
+  numerator over Δ(s); only its limits 2-64/2-65 are usable. "传递函数 (2-64) 的幅值比" should cite 2-65.
+- the example after 5-73 says T > 0.01 s; N/ω_d1 gives 0.01 h (test_pulse_resolution_example_misprint_5_73).
+- 5-76 gives ΔK = +(ΔI⁺ + ΔI⁻)/2; its sign depends on Fig. 5-44 (absent), only the magnitude is checked.
+"""
 
 import dataclasses
 import math
