@@ -380,6 +380,69 @@ def dwell_from_logits(z, total_s: float, min_fraction: float):
     return total_s * (min_fraction + (1.0 - n * min_fraction) * jax.nn.softmax(z))
 
 
+_COMPILED: dict = {}
+"""Compiled optimisers by configuration and argument shapes (a repeated design skips compilation)."""
+
+
+def _optimiser(model, crit, n_positions, total, m, free_dwell, noise, dt_s, adam_steps, lbfgs_steps, learning_rate):
+    """The multi-start optimiser: f((angles, logits), template, thetas) -> (params, history, losses, |grad|)."""
+    full = crit.design_model(model)
+
+    def loss_fn(params, template, thetas):
+        ang, z = params
+        dw = dwell_from_logits(z, total, m) if free_dwell else jnp.full(n_positions, total / n_positions)
+        tab = Table(template, (), (), {}, 0.0)
+
+        def one(th):
+            return crit.loss(static_fisher(full, tab, ang, dw, noise, dt_s, th), model.size)
+
+        return jnp.mean(jax.vmap(one)(thetas))
+
+    adam = optax.adam(learning_rate)
+    lb = optax.lbfgs()
+
+    def optimise(params, template, thetas):
+        def loss(p):
+            return loss_fn(p, template, thetas)
+
+        vg = jax.value_and_grad(loss)
+        vg_state = optax.value_and_grad_from_state(loss)
+
+        def run_adam(p0):
+            def step(carry, _):
+                p, s = carry
+                val, g = vg(p)
+                upd, s = adam.update(g, s, p)
+                return (optax.apply_updates(p, upd), s), val
+
+            (p, _), hist = jax.lax.scan(step, (p0, adam.init(p0)), None, length=adam_steps)
+            return p, hist
+
+        def run_lbfgs(p0):
+            def step(carry, _):
+                p, s = carry
+                val, g = vg_state(p, state=s)
+                upd, s = lb.update(g, s, p, value=val, grad=g, value_fn=loss)
+                return (optax.apply_updates(p, upd), s), val
+
+            (p, _), hist = jax.lax.scan(step, (p0, lb.init(p0)), None, length=lbfgs_steps)
+            return p, hist
+
+        p, h1 = jax.vmap(run_adam)(params)
+        if lbfgs_steps:
+            p2, h2 = jax.vmap(run_lbfgs)(p)
+            # keep the L-BFGS result only where it is finite and no worse
+            l1, l2 = jax.vmap(loss)(p), jax.vmap(loss)(p2)
+            good = jnp.isfinite(l2) & (l2 <= l1)
+            p = jax.tree_util.tree_map(lambda a, b: jnp.where(good.reshape((-1,) + (1,) * (a.ndim - 1)), b, a), p, p2)
+            h1 = jnp.concatenate([h1, h2], axis=1)
+        vals, grads = jax.vmap(vg)(p)
+        gn = jax.vmap(lambda g: jnp.sqrt(sum(jnp.sum(x * x) for x in jax.tree_util.tree_leaves(g))))(grads)
+        return p, h1, vals, gn
+
+    return optimise
+
+
 def design(
     terms,
     n_positions: int = 24,
@@ -417,64 +480,19 @@ def design(
     if thetas.shape[1] == model.size and full.size > model.size:
         thetas = jnp.concatenate([thetas, jnp.zeros((thetas.shape[0], full.size - model.size))], axis=1)
 
-    def loss_fn(params):
-        ang, z = params
-        dw = dwell_from_logits(z, total, m) if free_dwell else jnp.full(n_positions, total / n_positions)
-
-        def one(th):
-            return crit.loss(static_fisher(full, table, ang, dw, noise, dt_s, th), model.size)
-
-        return jnp.mean(jax.vmap(one)(thetas))
-
     key = jax.random.PRNGKey(seed)
     ang0 = jax.random.uniform(key, (starts, n_positions, k), minval=0.0, maxval=2 * math.pi)
     if crit.kind == "detect":
         _check_detectable(model, crit, table, ang0[0], total / n_positions, noise, dt_s)
     z0 = jnp.zeros((starts, n_positions))
-    adam = optax.adam(learning_rate)
-    vg = jax.value_and_grad(loss_fn)
-
-    def run_adam(p0):
-        def step(carry, _):
-            p, s = carry
-            val, g = vg(p)
-            upd, s = adam.update(g, s, p)
-            return (optax.apply_updates(p, upd), s), val
-
-        (p, _), hist = jax.lax.scan(step, (p0, adam.init(p0)), None, length=adam_steps)
-        return p, hist
-
-    lb = optax.lbfgs()
-    vg_state = optax.value_and_grad_from_state(loss_fn)
-
-    def run_lbfgs(p0):
-        def step(carry, _):
-            p, s = carry
-            val, g = vg_state(p, state=s)
-            upd, s = lb.update(g, s, p, value=val, grad=g, value_fn=loss_fn)
-            return (optax.apply_updates(p, upd), s), val
-
-        (p, _), hist = jax.lax.scan(step, (p0, lb.init(p0)), None, length=lbfgs_steps)
-        return p, hist
-
-    @jax.jit
-    def optimise(params):
-        p, h1 = jax.vmap(run_adam)(params)
-        if lbfgs_steps:
-            p2, h2 = jax.vmap(run_lbfgs)(p)
-            # keep the L-BFGS result only where it is finite and no worse
-            l1, l2 = jax.vmap(loss_fn)(p), jax.vmap(loss_fn)(p2)
-            good = jnp.isfinite(l2) & (l2 <= l1)
-            p = jax.tree_util.tree_map(lambda a, b: jnp.where(good.reshape((-1,) + (1,) * (a.ndim - 1)), b, a), p, p2)
-            h1 = jnp.concatenate([h1, h2], axis=1)
-        vals, grads = jax.vmap(vg)(p)
-        gn = jax.vmap(lambda g: jnp.sqrt(sum(jnp.sum(x * x) for x in jax.tree_util.tree_leaves(g))))(grads)
-        return p, h1, vals, gn
-
+    config = (model, crit, n_positions, total, m, free_dwell, noise, dt_s, adam_steps, lbfgs_steps, learning_rate)
+    args = ((ang0, z0), table.template, thetas)
+    ckey = (config, jax.tree_util.tree_structure(args), tuple(x.shape for x in jax.tree_util.tree_leaves(args)))
     t0 = time.perf_counter()
-    compiled = optimise.lower((ang0, z0)).compile()
+    if ckey not in _COMPILED:
+        _COMPILED[ckey] = jax.jit(_optimiser(*config)).lower(*args).compile()
     t1 = time.perf_counter()
-    (ang, z), hist, vals, gn = jax.block_until_ready(compiled((ang0, z0)))
+    (ang, z), hist, vals, gn = jax.block_until_ready(_COMPILED[ckey](*args))
     timing = {"compile_s": t1 - t0, "run_s": time.perf_counter() - t1}
     vals = np.where(np.isfinite(np.asarray(vals)), np.asarray(vals), np.inf)
     b = int(np.argmin(vals))
@@ -610,7 +628,16 @@ def cmd_design(args) -> int:
         gm = (s, tau)
     noise = Noise(args.arw, gm)
     res = design(
-        terms, args.positions, args.hours, args.criterion, noise=noise, dt_s=args.dt, starts=args.starts, seed=args.seed
+        terms,
+        args.positions,
+        args.hours,
+        args.criterion,
+        noise=noise,
+        dt_s=args.dt,
+        starts=args.starts,
+        seed=args.seed,
+        adam_steps=args.adam_steps,
+        lbfgs_steps=args.lbfgs_steps,
     )
     plan = res.plan()
     from pathlib import Path
@@ -657,6 +684,8 @@ def _add_design(sub):
     s.add_argument("--dt", type=float, default=1.0, help="sample interval, s")
     s.add_argument("--starts", type=int, default=8)
     s.add_argument("--seed", type=int, default=0)
+    s.add_argument("--adam-steps", type=int, default=600)
+    s.add_argument("--lbfgs-steps", type=int, default=40)
     s.add_argument("--out", required=True)
     s.add_argument("--json", action="store_true")
     s.set_defaults(func=cmd_design)

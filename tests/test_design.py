@@ -162,6 +162,7 @@ def test_cli_design_writes_a_runnable_plan(tmp_path, capsys):
     from gyrojax.cli import main
 
     out = tmp_path / "plan.json"
+    # the same configuration as the N = 8 design above: the compiled optimiser is reused
     rc = main(
         [
             "design",
@@ -170,16 +171,22 @@ def test_cli_design_writes_a_runnable_plan(tmp_path, capsys):
             "--positions",
             "8",
             "--hours",
-            "1",
+            "2",
             "--criterion",
             "D",
             "--out",
             str(out),
             "--json",
             "--starts",
-            "2",
+            "3",
+            "--adam-steps",
+            "300",
+            "--lbfgs-steps",
+            "0",
             "--dt",
-            "60",
+            "30",
+            "--arw",
+            str(ARW),
         ]
     )
     assert rc == 0
