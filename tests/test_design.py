@@ -15,7 +15,7 @@ from gyrojax import plans
 from gyrojax.errors import ModelError
 from gyrojax.identify import Campaign, linearize
 from gyrojax.model import Model, record_data
-from gyrojax.noise import random_drift
+from gyrojax.noise import gauss_markov, random_drift, white
 from gyrojax.simulate import simulate
 
 ARW = 0.01  # deg/√h
@@ -63,6 +63,13 @@ def test_gauss_markov_mean_factor_against_discrete_covariance():
     i = np.arange(n)
     ref = np.exp(-np.abs(i[:, None] - i[None, :]) * dt / tau).mean()
     assert float(D.gm_mean_factor(T / tau)) == pytest.approx(ref, rel=2e-3)
+    # and against the project's generator: white + GM position means, 4000 draws (std error of a variance 2.2 %)
+    keys = jax.random.split(jax.random.PRNGKey(2), 4000)
+    dts = jnp.full(120, 1.0)
+    gm = jax.vmap(lambda k: gauss_markov(k, dts, 0.02, tau))(keys)
+    wh = jax.vmap(lambda k: white(jax.random.fold_in(k, 1), 120, 1.0, ARW))(keys)
+    var = float(jnp.var(jnp.mean(gm + wh, axis=1)))
+    assert var == pytest.approx(float(D.Noise(ARW, (0.02, tau)).mean_variance(120.0, 1.0)), rel=0.08)
     assert float(D.gm_mean_factor(1e-6)) == pytest.approx(1.0, rel=1e-6)
     assert float(D.gm_mean_factor(1e4)) == pytest.approx(2e-4, rel=1e-3)
 
