@@ -14,7 +14,9 @@ with n_k = T_k/Δt, σ_w = N·60/√Δt deg/h for angle random walk N (deg/√h)
 and f the variance ratio of the mean of a first-order Gauss–Markov process (σ_g, τ) over a window T (from
 ∫∫ e^{−|t−s|/τ} ds dt / T²). For white noise alone σ_w²/n_k = (60 N)²/T_k, so F = Σ_k T_k j_kᵀ j_k / (60 N)²:
 it depends on the dwell time, not on Δt. Positions are treated as independent (the Gauss–Markov correlation
-between positions, e^{−gap/τ}, is neglected; this is exact for τ ≪ gap and conservative in practice). The rows j_k
+between positions, e^{−gap/τ}, is neglected; this is exact for τ ≪ gap). This is the information of the
+position-mean estimator (Hu ch. 4 processing); the GLS bound 1ᵀΣ⁻¹1 of a fit that whitens the drift exactly is
+larger, so under coloured noise the criteria are conservative. The rows j_k
 come from one :class:`~gyrojax.model.RecordData` whose "samples" are the N positions, so J is differentiable in
 the gimbal angles (and, through T_k, in the dwell fractions).
 
@@ -27,7 +29,8 @@ F = Σ_records Jᵀ J / σ_w² from the records of a noise-free simulation, with
 =================  ===========================================================================================
 ``D``              −log det F (D-optimal: smallest confidence ellipsoid)
 ``A``              trace(W F⁻¹), W = diag(weights) (default 1): mean variance
-``E``              −λ_min(F) (unit-dependent: θ is in report units)
+``E``              −λ_min(F) (unit-dependent: θ is in report units; non-smooth where eigenvalues cross, so
+                   its final gradient norm need not vanish)
 ``c:C1=w1,...``    cᵀ F⁻¹ c: the variance of the combination cᵀθ
 ``detect:NAME``    −log λ_NAME with λ = δᵀ (F_aa − F_aθ F_θθ⁻¹ F_θa) δ the noncentrality of the score test for the
                    omitted effect NAME at nominal magnitude δ (the information on NAME orthogonal to the model's
@@ -41,7 +44,13 @@ it (Bayesian design by ``vmap``); for linear models any θ gives the same F.
 **Parameterisation.** N positions on the two-axis table (``plans.TWO_AXIS``): free angles (trunnion, platform) in
 rad, and dwell fractions p = m + (1 − N m)·softmax(z) (minimum fraction m) of the total dwell time. Adam then a few
 L-BFGS steps, ``vmap`` over random starts; the best start is kept. :func:`design_plan` turns the result into a
-:class:`gyrojax.plans.Plan` that ``gyrojax simulate`` runs.
+:class:`gyrojax.plans.Plan` that ``gyrojax simulate`` runs. ``Table.fixture()`` replaces the table by a free
+orientation (an E–N–U Euler chain) for a fixture; a discrete N is chosen by :func:`sweep_positions`.
+
+**Limits.** A static SDF position gives one scalar, so a p-coefficient model needs N ≥ p positions (the 9-term
+model cannot be identified from 8). In every static 1-g position a_I² + a_O² + a_S² = (g/g0)², so D_OO is aliased
+with D_F, D_II, D_SS: ``detect:D_OO`` for the 9-term model has zero noncentrality whatever the plan, and
+:func:`design` refuses it (only a centrifuge changes |f|).
 """
 
 from __future__ import annotations
@@ -646,10 +655,10 @@ def cmd_design(args) -> int:
     summary = res.summary()
     rows = []
     if args.positions in plans.MULTIPOSITION_SETS:
-        from .simulate import simulate
-
-        classical = plans.multiposition(args.positions, minutes=args.hours * 60.0 / args.positions, dt_s=args.dt)
-        f = record_fisher(res.model, simulate(classical, {"coefficients": {}}), noise)
+        # the classical equal-interval set, equal dwell, same noise model (coloured included)
+        pos = jnp.deg2rad(jnp.asarray(plans.MULTIPOSITION_SETS[args.positions], dtype=jnp.float64))
+        dwell = jnp.full(args.positions, args.hours * 3600.0 / args.positions)
+        f = np.asarray(static_fisher(res.model, res.table, pos, dwell, noise, args.dt))
         rows.append({"plan": f"multiposition-{args.positions}", **criterion_values(f, res.model)})
     rows.append(
         {"plan": f"designed-{args.positions} ({res.criterion.label()})", **criterion_values(res.fisher, res.model)}
