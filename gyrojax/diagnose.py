@@ -34,9 +34,12 @@ from . import effects as fx
 from .errors import ModelError
 from .identify import Campaign, FitResult, fit, linearize
 from .model import Model, jacobian, record_data
-from .whiten import ARNoise, fit_noise, whiten
+from .whiten import ARNoise, GMNoise, fit_noise, profile_likelihood, whiten
 
 NUISANCE_TREND = False
+SLOW = ("bias_trend", "bias_temperature")
+"""Candidates that vary slowly in time and so compete with long-memory drift for the same residual structure:
+they are tested by a profile likelihood ratio with the noise re-estimated under both hypotheses."""
 COLLINEAR = 0.999  # canonical correlation above which two candidates are aliases in this plan
 UNSEEN = 1e-6  # |X⊥| / |X| below which a candidate is indistinguishable from the model
 
@@ -240,6 +243,33 @@ def _score(lin, noises, model: Model, full: Model, cand, p0: int, rms_now: float
     return tested, perps, unexcited
 
 
+def _slow_lr(c: Candidate, lin, full: Model, p0: int, noises) -> None:
+    """Replace the score statistic of a slow candidate by the profile likelihood ratio, record by record.
+
+    For each record, −2 log L of [model] and of [model + candidate] (coefficients per record, noise white + GM
+    maximised in each case, τ capped as everywhere); LR = Σ difference ~ χ²(Σ added rank) when the effect is
+    absent. A trend that GM noise could mimic is then judged by how much better the data fit with it as a
+    deterministic term than with the drift re-estimated to explain it.
+    """
+    cols_c = np.arange(full.size)[full.slices()[c.name]]
+    stat, df = 0.0, 0
+    for (r, j, lab, t), nz in zip(lin, noises):
+        base = np.column_stack([j[:, :p0], np.ones(len(r))])
+        alt = np.column_stack([base, j[:, cols_c]])
+        rank0 = np.linalg.matrix_rank(base / np.maximum(np.abs(base).max(axis=0), 1e-300))
+        rank1 = np.linalg.matrix_rank(alt / np.maximum(np.abs(alt).max(axis=0), 1e-300))
+        if rank1 <= rank0:
+            continue
+        start = nz if isinstance(nz, GMNoise) else None
+        l0 = profile_likelihood(r, base, lab, t, start)
+        l1 = profile_likelihood(r, alt, lab, t, start)
+        stat += max(l0 - l1, 0.0)
+        df += rank1 - rank0
+    if df:
+        logp = float(stats.chi2.logsf(stat, df))
+        c.statistic, c.df, c.p_value, c.log10_p = stat, df, math.exp(logp), logp / math.log(10)
+
+
 def diagnose(records, terms=None, *, alpha: float = 0.01, candidates=None, result: FitResult | None = None,
              campaign: Campaign | None = None, suggest_tests: bool = True) -> Diagnosis:
     """Rank the effects the model ``terms`` is missing, from the data of ``records``.
@@ -282,6 +312,12 @@ def diagnose(records, terms=None, *, alpha: float = 0.01, candidates=None, resul
         if best.log10_p + math.log10(len(live)) >= math.log10(alpha) or best.name in extra:
             break
         extra.append(best.name)
+
+    # slow candidates: likelihood ratio with the Gauss–Markov noise re-estimated with and without the candidate
+    if any(isinstance(nz, GMNoise) for nz in noises):
+        for c in tested:
+            if c.name in SLOW and c.df > 0:
+                _slow_lr(c, lin, full, p0, noises)
 
     # aliases between candidates: collinear projected regressors
     names_t = [c.name for c in tested if c.name in perps]

@@ -255,6 +255,29 @@ def gm_reml(r: np.ndarray, design: np.ndarray, labels: np.ndarray, times: np.nda
     return float(np.sum(logs) + e @ e + 2.0 * np.sum(np.log(d)))
 
 
+def gm_profile(r: np.ndarray, design: np.ndarray, labels: np.ndarray, times: np.ndarray, nz: GMNoise) -> float:
+    """Profile −2 log-likelihood (without 2π) of r under ``nz`` with ``design`` estimated by GLS: Σ log S_k + |ẽ|²."""
+    ok = labels >= 0
+    x = np.column_stack([r[ok], design[ok]])
+    w, logs = kalman_whiten(x, times[ok], nz, series_restarts(labels[ok], times[ok]))
+    rw, jw = w[:, 0], w[:, 1:]
+    if jw.shape[1]:
+        q, _ = np.linalg.qr(jw)
+        rw = rw - q @ (q.T @ rw)
+    return float(np.sum(logs) + rw @ rw)
+
+
+def profile_likelihood(r, design, labels, times, start: GMNoise | None = None) -> float:
+    """min over white + Gauss–Markov parameters of :func:`gm_profile`: the ML fit of a regression with GM noise."""
+    start = start or fit_gm(r, labels, times)
+    if start is None:
+        ok = labels >= 0
+        v = max(float(np.var(r[ok])), 1e-300)
+        start = GMNoise(float(np.ptp(times[ok])) / 20 or 1.0, 0.1 * v, 0.9 * v)
+    best = _gm_mle(r, labels, times, start, design, profile=True)
+    return gm_profile(r, design, labels, times, best)
+
+
 def fit_gm(r: np.ndarray, labels: np.ndarray, times: np.ndarray, max_lag: int = 2000,
            design: np.ndarray | None = None) -> GMNoise | None:
     """White + Gauss–Markov model from the pooled autocovariance: γ_0 = σ_w² + σ_g², γ_k = σ_g² φ^k (k ≥ 1),
@@ -293,7 +316,7 @@ def fit_gm(r: np.ndarray, labels: np.ndarray, times: np.ndarray, max_lag: int = 
     return _gm_mle(r, labels, times, start, design)
 
 
-def _gm_mle(r, labels, times, start: GMNoise, design=None) -> GMNoise:
+def _gm_mle(r, labels, times, start: GMNoise, design=None, profile: bool = False) -> GMNoise:
     """Refine a white + Gauss–Markov model by maximising the exact (Kalman) likelihood — restricted (REML) when the
     regressors of the fit are given, so that the drift the fitted coefficients absorbed is not lost from σ_g².
 
@@ -313,7 +336,8 @@ def _gm_mle(r, labels, times, start: GMNoise, design=None) -> GMNoise:
         if np.any(np.abs(u) > 700):
             return np.inf
         if design is not None:
-            return gm_reml(r, design, labels, times, unpack(u))
+            f = gm_profile if profile else gm_reml
+            return f(r, design, labels, times, unpack(u))
         return gm_loglik(r, labels, times, unpack(u))[0]
 
     # the likelihood in τ has local minima on short records: start from the best of a grid of correlation times
