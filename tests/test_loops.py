@@ -377,3 +377,21 @@ def test_servo_disturbance_response_5_15_and_stiffness_gradient():
     assert float(e) == pytest.approx(m / loops.servo_stiffness(q0), rel=0.01)
     assert float(g.K_amp) == pytest.approx(-float(e) / q0.K_amp, rel=0.01)
     assert float(g.J_table) == pytest.approx(0.0, abs=1e-3 * abs(float(e)) / q0.J_table)  # static: no inertia
+
+
+def test_simulate_with_loop_dynamics_matches_quasi_static_at_low_frequency():
+    """Every rebalance plan runs through the loop; at the plans' (low) input frequencies the loop output equals
+    the quasi-static balance equation within the loop's static error (Hu 3-55, 5-64 to 5-67)."""
+    from gyrojax import plans, simulate
+
+    truth = {"coefficients": {"D_F": 0.4, "D_I": 0.6, "E_SF": 120.0}}
+    for plan in (plans.multiposition(8, minutes=0.5, dt_s=1.0), plans.rate_ladder(rates_dps=(5, 50), seconds=4),
+                 plans.tumble(revolutions=0.1, dt_s=10.0)):
+        qs = simulate(plan, truth)
+        lp = simulate(plan, truth, dynamics="loop")
+        for a, b in zip(qs, lp):
+            # the first sample of each segment carries the step from the table moving between segments
+            seg = a.segment_id
+            keep = np.diff(seg, prepend=-1) == 0
+            scale = np.abs(a.indicated).max()
+            np.testing.assert_allclose(b.indicated[keep], a.indicated[keep], rtol=0, atol=1e-6 * scale + 1e-9)
