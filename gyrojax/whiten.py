@@ -269,12 +269,13 @@ def gm_profile(r: np.ndarray, design: np.ndarray, labels: np.ndarray, times: np.
 
 def profile_likelihood(r, design, labels, times, start: GMNoise | None = None) -> float:
     """min over white + Gauss–Markov parameters of :func:`gm_profile`: the ML fit of a regression with GM noise."""
+    given = start
     start = start or fit_gm(r, labels, times)
     if start is None:
         ok = labels >= 0
         v = max(float(np.var(r[ok])), 1e-300)
         start = GMNoise(float(np.ptp(times[ok])) / 20 or 1.0, 0.1 * v, 0.9 * v)
-    best = _gm_mle(r, labels, times, start, design, profile=True)
+    best = _gm_mle(r, labels, times, start, design, profile=True, grid=given is None)
     return gm_profile(r, design, labels, times, best)
 
 
@@ -316,7 +317,8 @@ def fit_gm(r: np.ndarray, labels: np.ndarray, times: np.ndarray, max_lag: int = 
     return _gm_mle(r, labels, times, start, design)
 
 
-def _gm_mle(r, labels, times, start: GMNoise, design=None, profile: bool = False) -> GMNoise:
+def _gm_mle(r, labels, times, start: GMNoise, design=None, profile: bool = False, grid: bool = True) -> GMNoise:
+    # grid=False: a coarser grid of starts (the profile likelihood ratio refits twice per slow candidate)
     """Refine a white + Gauss–Markov model by maximising the exact (Kalman) likelihood — restricted (REML) when the
     regressors of the fit are given, so that the drift the fitted coefficients absorbed is not lost from σ_g².
 
@@ -342,9 +344,10 @@ def _gm_mle(r, labels, times, start: GMNoise, design=None, profile: bool = False
 
     # the likelihood in τ has local minima on short records: start from the best of a grid of correlation times
     dt0 = float(np.median(np.diff(times[ok]))) if ok.sum() > 1 else 1.0
-    starts = [min(start.tau_s, tau_max)] + list(np.geomspace(max(2 * dt0, 1e-9), tau_max, 8))
+    n_tau, fractions = (8, (0.02, 0.1, 0.3)) if grid else (5, (0.03, 0.2))
+    starts = [min(start.tau_s, tau_max)] + list(np.geomspace(max(2 * dt0, 1e-9), tau_max, n_tau))
     total = start.gm_var + start.white_var
-    cands = [np.log([t, v * total, (1 - v) * total]) for t in starts for v in (0.02, 0.1, 0.3)]
+    cands = [np.log([t, v * total, (1 - v) * total]) for t in starts for v in fractions]
     cands.append(np.log([min(start.tau_s, tau_max), start.gm_var, start.white_var]))
     u0 = min(cands, key=nll)
     sol = minimize(nll, u0, method="Nelder-Mead", options={"xatol": 1e-3, "fatol": 1e-3, "maxiter": 300})
