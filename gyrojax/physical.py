@@ -41,7 +41,7 @@ class PhysicalSDF:
 
     H: float  # angular momentum, g·cm²/s
     m: float  # float mass, g
-    l: tuple = (0.0, 0.0, 0.0)  # centre-of-mass offset (l_I, l_O, l_S), cm
+    l: tuple = (0.0, 0.0, 0.0)  # noqa: E741 (Hu's symbol) centre-of-mass offset (l_I, l_O, l_S), cm
     q: tuple = field(default_factory=lambda: ((0.0,) * 3,) * 3)  # compliance tensor K'_ij, cm/dyn (rows I, O, S)
     M_F0: float = 0.0  # acceleration-insensitive torque about OA, dyn·cm
 
