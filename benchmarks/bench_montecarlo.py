@@ -47,15 +47,13 @@ def study(draws: int, minutes: float = 10.0, dt_s: float = 1.0) -> mc.Study:
 # ---- the numpy reference -------------------------------------------------------------------------------------------
 
 
-def _rot(u, ang):
-    """Rotation matrices (n, 3, 3) about unit u by angles (n,) (Rodrigues)."""
-    k = np.array([[0, -u[2], u[1]], [u[2], 0, -u[0]], [-u[1], u[0], 0]])
-    s, c = np.sin(ang)[:, None, None], np.cos(ang)[:, None, None]
-    return np.eye(3) + s * k + (1 - c) * (k @ k)
+def _rotate(u, c, s, v):
+    """R(u, θ) v for every sample (Rodrigues on (3, n) arrays): v cos θ + (u × v) sin θ + u (u·v)(1 − cos θ)."""
+    return v * c + np.cross(u, v, axis=0) * s + u[:, None] * (u @ v) * (1 - c)
 
 
 class NumpyMC:
-    """The same per-draw work as the JAX pipeline, in numpy (one record, two-axis table, encoder on the last axis)."""
+    """The same per-draw work as the JAX pipeline in numpy, vectorised over samples (one record, two-axis table)."""
 
     def __init__(self, pipe: mc.Pipeline):
         d = pipe.data[0]
@@ -75,14 +73,17 @@ class NumpyMC:
         return enc[0] * np.cos(a) + enc[1] * np.sin(a) + enc[2] * np.cos(2 * a) + enc[3] * np.sin(2 * a)
 
     def inputs(self, ang, delta):
-        """Specific force (g) along IA, OA, SA for every sample (rates are zero in a static plan, kept general)."""
+        """Rate (deg/h) and specific force (g) along IA, OA, SA, (n, 3) each, vectorised over samples."""
         b = np.eye(3) + np.array([[0, -delta[2], delta[1]], [delta[2], 0, -delta[0]], [-delta[1], delta[0], 0]])
-        r1, r2 = _rot(self.axes[0], ang[:, 0]), _rot(self.axes[1], ang[:, 1])
-        c = b @ (r1 @ r2)
-        w_lp = b @ (self.rates[:, 0:1] * self.axes[0] + self.rates[:, 1:2] * (r1 @ self.axes[1])).T
-        w = np.einsum("nji,nj->ni", c, self.omega + w_lp.T) @ self.triad.T / units.DEG_PER_H
-        a = np.einsum("nji,j->ni", c, self.f) @ self.triad.T / units.G0
-        return w, a
+        u1, u2 = self.axes
+        c1, s1, c2, s2 = np.cos(ang[:, 0]), np.sin(ang[:, 0]), np.cos(ang[:, 1]), np.sin(ang[:, 1])
+        n = len(c1)
+        w_lp = self.rates[:, 0] * u1[:, None] + self.rates[:, 1] * _rotate(u1, c1, s1, np.repeat(u2[:, None], n, 1))
+        w = b.T @ (self.omega[:, None] + b @ w_lp)  # Cᵀ = R2ᵀ R1ᵀ Bᵀ
+        f = np.repeat((b.T @ self.f)[:, None], n, 1)
+        w, f = _rotate(u1, c1, -s1, w), _rotate(u1, c1, -s1, f)
+        w, f = _rotate(u2, c2, -s2, w), _rotate(u2, c2, -s2, f)
+        return (self.triad @ w).T / units.DEG_PER_H, (self.triad @ f).T / units.G0
 
     @staticmethod
     def regressors(a):

@@ -517,6 +517,32 @@ def build_pipeline(study: Study, plan=None, records=None) -> Pipeline:
     )
 
 
+def identifiable_terms(records, candidates, kind: str = fx.SDF):
+    """The candidates a plan can separate: (kept, dropped) after greedily dropping, from each alias group of
+    :func:`gyrojax.identify.identifiability` on the noise-free regressors, every member but the first listed
+    (and every unexcited effect). E.g. a 1 g test keeps D_F of D_F, D_II, D_OO, D_SS only after dropping one."""
+    from .identify import identifiability
+    from .model import jacobian_jit
+
+    terms = list(Model.of(candidates, kind).terms)
+    dropped = []
+    data = [record_data(r) for r in records]
+    while terms:
+        model = Model(tuple(terms), kind)
+        jac = np.concatenate(
+            [np.asarray(jacobian_jit(model, jnp.zeros(model.size), d)) * np.asarray(d.weight)[:, None] for d in data]
+        )
+        rep = identifiability(jac, model)
+        bad = list(rep["unexcited"]) + [t for g in rep["aliases"] for t in g[1:]]
+        bad = [t for t in terms if t in bad]
+        if not bad:
+            break
+        drop = bad[-1]  # one at a time: dropping one member may resolve the group
+        terms.remove(drop)
+        dropped.append(drop)
+    return terms, dropped
+
+
 # ---- running a study ---------------------------------------------------------------------------------------------
 
 
