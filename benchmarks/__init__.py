@@ -1,0 +1,1 @@
+"""Benchmarks and slow studies: plain scripts printing results (``python -m benchmarks.<name>``)."""
