@@ -47,6 +47,9 @@ def truth_from_dict(d, where: str = "truth") -> Truth:
     idx = fx.coefficient_index()
     coeffs = {}
     setup_coeffs = {c for e in SETUP_SIZES for c in fx.get(e).coefficients}
+    for part in ("coefficients", "setup", "noise"):
+        if d.get(part) is not None and not isinstance(d[part], dict):
+            raise TruthError(f"{where}: key {part!r} must be an object of name: value, got {type(d[part]).__name__}")
     for k, v in (d.get("coefficients") or {}).items():
         if k not in idx:
             raise TruthError(f"{where}: key 'coefficients.{k}' is not a coefficient name; valid: {', '.join(idx)}")
@@ -59,10 +62,19 @@ def truth_from_dict(d, where: str = "truth") -> Truth:
     for k, v in (d.get("setup") or {}).items():
         if k not in SETUP_SIZES:
             raise TruthError(f"{where}: key 'setup.{k}' unknown; valid: {', '.join(SETUP_SIZES)}")
-        arr = np.atleast_1d(np.asarray(v, dtype=float))
+        try:
+            if isinstance(v, (bool, str)) or any(isinstance(x, (bool, str)) for x in np.atleast_1d(v)):
+                raise ValueError
+            arr = np.atleast_1d(np.asarray(v, dtype=float))
+        except (TypeError, ValueError):
+            arr = np.zeros(0)
         if arr.size != SETUP_SIZES[k] or not np.all(np.isfinite(arr)):
             raise TruthError(f"{where}: key 'setup.{k}' needs {SETUP_SIZES[k]} finite number(s) in arcsec, got {v!r}")
         setup[k] = tuple(float(x) for x in arr)
+    for k, v in (d.get("noise") or {}).items():  # numbers only (validate_noise names the valid terms)
+        vals = v if isinstance(v, (list, tuple)) else [v]
+        if not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in vals):
+            raise TruthError(f"{where}: key 'noise.{k}' must hold numbers (CONVENTIONS §8 units), got {v!r}")
     noise = validate_noise(d.get("noise"), f"{where}: noise")
     return Truth(coeffs, setup, noise)
 
@@ -73,6 +85,10 @@ def load_truth(path) -> Truth:
         d = json.loads(p.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise TruthError(f"{p}: no such file") from None
+    except IsADirectoryError:
+        raise TruthError(f"{p}: is a directory; a truth file is one JSON object (CONVENTIONS §8)") from None
+    except OSError as e:
+        raise TruthError(f"{p}: cannot read: {e.strerror}") from None
     except (UnicodeDecodeError, json.JSONDecodeError) as e:
         raise TruthError(f"{p}: not valid UTF-8 JSON ({e})") from None
     return truth_from_dict(d, str(p))
