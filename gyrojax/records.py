@@ -18,7 +18,6 @@ import numpy as np
 
 from .effects import ACCEL, INSTRUMENT_KINDS, SDF, TDF
 from .errors import RecordError
-from .io import atomic_write_text
 
 FORMAT = "gyrojax-record-1"
 AXIS_TOL = 1e-6
@@ -557,20 +556,44 @@ def _fmt(x) -> str:
     return repr(float(x)) if x != 0 else "0"
 
 
-def record_csv_text(record: Record) -> str:
-    """The CSV text of a record (full float64 precision)."""
+CSV_CHUNK_ROWS = 100_000
+
+
+def record_csv_chunks(record: Record, rows: int = CSV_CHUNK_ROWS):
+    """The CSV text of a record in pieces of ``rows`` rows (full float64 precision), header first."""
     header = list(record.columns)
     cols = [record.columns[h] for h in header]
-    lines = [",".join(header)]
-    for row in zip(*cols):
-        lines.append(",".join(_fmt(v) for v in row))
-    return "\n".join(lines) + "\n"
+    yield ",".join(header) + "\n"
+    for s in range(0, record.n, rows):
+        part = zip(*(c[s : s + rows] for c in cols))
+        yield "\n".join(",".join(_fmt(v) for v in row) for row in part) + "\n"
+
+
+def record_csv_text(record: Record) -> str:
+    """The CSV text of a record (full float64 precision)."""
+    return "".join(record_csv_chunks(record))
+
+
+def _write_temp(path: Path, pieces) -> str:
+    """Write text pieces to a temporary file beside ``path``; returns its name (the caller renames it)."""
+    import tempfile
+
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            for piece in pieces:
+                fh.write(piece.encode("utf-8"))
+    except BaseException:
+        os.unlink(tmp)
+        raise
+    return tmp
 
 
 def save_record(record: Record, directory: str | os.PathLike, force: bool = False) -> Path:
     """Write ``NAME.csv`` and ``NAME.json`` into ``directory`` atomically; returns the JSON path.
 
-    Refuses to overwrite existing files unless ``force``; validates before writing anything.
+    Refuses to overwrite existing files unless ``force``; validates before writing anything; a failure while
+    writing leaves no partial file behind.
     """
     d = Path(directory)
     d.mkdir(parents=True, exist_ok=True)
@@ -581,6 +604,17 @@ def save_record(record: Record, directory: str | os.PathLike, force: bool = Fals
         for p in (csv_path, json_path):
             if p.exists():
                 raise RecordError(f"{p}: exists; pass force=True (or --force) to overwrite")
-    atomic_write_text(csv_path, record_csv_text(record))
-    atomic_write_text(json_path, json.dumps(record.meta, indent=1) + "\n")
+    # both files go to temporary names first (the CSV streamed in chunks, so memory stays one chunk), then are
+    # renamed: a failure while writing leaves no partial file and never touches an existing record
+    temps = []
+    try:
+        temps.append(_write_temp(csv_path, record_csv_chunks(record)))
+        temps.append(_write_temp(json_path, [json.dumps(record.meta, indent=1) + "\n"]))
+        os.replace(temps[0], csv_path)
+        os.replace(temps[1], json_path)
+    except BaseException:
+        for t in temps:
+            if os.path.exists(t):
+                os.unlink(t)
+        raise
     return json_path
