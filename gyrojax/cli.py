@@ -189,7 +189,7 @@ def register_command(adder):
 def _load_extras():
     import importlib
 
-    for mod in ("gyrojax.allan", "gyrojax.design", "gyrojax.montecarlo"):
+    for mod in ("gyrojax.allan", "gyrojax.design", "gyrojax.montecarlo", "gyrojax.optical"):
         try:
             importlib.import_module(mod)
         except ModuleNotFoundError as e:

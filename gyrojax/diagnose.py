@@ -160,9 +160,9 @@ def _noise_models(lin, cols) -> list:
     ub = _basis(j_all)
     res = r_all - ub @ (ub.T @ r_all)
     out, i0 = [], 0
-    for (r, _, lab, t), s in zip(lin, scales):
+    for (r, j, lab, t), s in zip(lin, scales):
         n = len(r)
-        nz = fit_noise(res[i0 : i0 + n] * s, lab, t)
+        nz = fit_noise(res[i0 : i0 + n] * s, lab, t, design=j[:, cols])
         out.append(nz if nz.innovation_std > 0 else ARNoise(np.zeros(0), s, s))
         i0 += n
     return out

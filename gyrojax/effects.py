@@ -38,7 +38,11 @@ from . import units
 SDF = "sdf-gyro"
 TDF = "tdf-gyro"
 ACCEL = "pendulous-accel"
-INSTRUMENT_KINDS = (SDF, TDF, ACCEL)
+FOG = "fog"
+RLG = "rlg"
+INSTRUMENT_KINDS = (SDF, TDF, ACCEL, FOG, RLG)
+"""CONVENTIONS §5 kinds, extended by the optical gyros (IEEE 952/647 form, axes ``ia``, ``oa``, ``sa`` as the SDF)."""
+OPTICAL = (FOG, RLG)
 
 
 @dataclass(frozen=True)
@@ -155,7 +159,7 @@ register(
         name="D_F",
         coefficients=("D_F",),
         units=("deg/h",),
-        kinds=(SDF,),
+        kinds=(SDF, FOG, RLG),
         contribution=lambda x, c: c[0] + 0.0 * x["a_I"],
         description="acceleration-insensitive drift (flex leads, pickoff and torquer reaction torques)",
         reference="Hu 2-6 to 2-11, 2-45",
@@ -171,7 +175,7 @@ register(
         name="sf_error",
         coefficients=("E_SF",),
         units=("ppm",),
-        kinds=(SDF,),
+        kinds=(SDF, FOG, RLG),
         contribution=lambda x, c: c[0] * units.PPM * x["w_I"],
         description="torquer scale-factor error: indicated rate too large by E_SF·ω_I",
         reference="Hu 3-1 to 3-11, ch. 3 appendix 1; Titterton §8.5.2; IEEE 528 (scale factor)",
@@ -182,7 +186,7 @@ register(
         name="sf_asymmetry",
         coefficients=("E_A",),
         units=("ppm",),
-        kinds=(SDF,),
+        kinds=(SDF, FOG, RLG),
         contribution=lambda x, c: c[0] * units.PPM * jnp.abs(x["w_I"]),
         description="scale-factor asymmetry: + and − torquer currents scale differently",
         reference="Hu ch. 3 appendix 1; Titterton §8.5.2; IEEE 528 (scale-factor asymmetry)",
@@ -193,7 +197,7 @@ register(
         name="sf_quadratic",
         coefficients=("E_2",),
         units=("ppm/(deg/s)",),
-        kinds=(SDF,),
+        kinds=(SDF, FOG, RLG),
         contribution=lambda x, c: c[0] * units.PPM * x["w_I"] * (x["w_I"] / units.SECONDS_PER_HOUR),
         description="second-order scale-factor nonlinearity: E_2·ω_I·(ω_I in deg/s)",
         reference="Titterton §8.5.2 (rate transfer test); IEEE 528 (nonlinearity)",
@@ -204,7 +208,7 @@ register(
         name="ia_misalignment",
         coefficients=("M_O", "M_S"),
         units=("arcsec", "arcsec"),
-        kinds=(SDF,),
+        kinds=(SDF, FOG, RLG),
         contribution=lambda x, c: units.ARCSEC * (c[0] * x["w_O"] + c[1] * x["w_S"]),
         description="input-axis misalignment: the IA leans toward OA by M_O and toward SA by M_S",
         reference="Titterton §8.5.2 (several mountings); IEEE 517 (input-axis misalignment)",
@@ -217,7 +221,7 @@ register(
         name="bias_trend",
         coefficients=("D_T",),
         units=("deg/h/h",),
-        kinds=(SDF, TDF),
+        kinds=(SDF, TDF, FOG, RLG),
         contribution=lambda x, c: c[0] * x["t_h"],
         description="bias drifting linearly with time since the campaign clock's zero",
         reference="Hu 4-64 onwards (regression with trend); IEEE 528 (drift rate trend)",
@@ -228,7 +232,7 @@ register(
         name="bias_temperature",
         coefficients=("D_TEMP",),
         units=("deg/h/°C",),
-        kinds=(SDF, TDF),
+        kinds=(SDF, TDF, FOG, RLG),
         contribution=lambda x, c: c[0] * (x["temperature_C"] - 20.0),
         description="bias sensitivity to instrument temperature, referred to 20 °C",
         reference="seed 001 (temperature compensation); IEEE 528 (temperature sensitivity)",
@@ -241,7 +245,7 @@ register(
         name="table_tilt",
         coefficients=("delta_E", "delta_N"),
         units=("arcsec", "arcsec"),
-        kinds=(SDF, TDF, ACCEL),
+        kinds=(SDF, TDF, ACCEL, FOG, RLG),
         contribution=None,
         description="table base tilted by the small rotation (δ_E, δ_N, 0): the Earth-rate and g projections move",
         reference="Hu ch. 5 (table axis tilt: Δω = (n ± 1) Ω sin δ); digest §3",
@@ -254,7 +258,7 @@ register(
         name="table_azimuth",
         coefficients=("delta_U",),
         units=("arcsec",),
-        kinds=(SDF, TDF, ACCEL),
+        kinds=(SDF, TDF, ACCEL, FOG, RLG),
         contribution=None,
         description="table base turned by δ_U about Up (azimuth set-up error)",
         reference="Hu ch. 5 (azimuth error of the table reference); digest §3",
@@ -267,7 +271,7 @@ register(
         name="encoder_harmonic",
         coefficients=("c1", "s1", "c2", "s2"),
         units=("arcsec",) * 4,
-        kinds=(SDF, TDF, ACCEL),
+        kinds=(SDF, TDF, ACCEL, FOG, RLG),
         contribution=None,
         description="angle readout error, once and twice per revolution, on the servo (or last) table axis",
         reference="Hu 5-51 (Inductosyn zero and electrical errors); digest §3",

@@ -39,6 +39,8 @@ DEFAULT_TERMS = {
     fx.SDF: ("D_F", "D_I", "D_O", "D_S"),
     fx.TDF: ("DX_F", "DY_F"),
     fx.ACCEL: ("K_0", "K_1"),
+    fx.FOG: ("D_F", "sf_error"),
+    fx.RLG: ("D_F", "sf_error"),
 }
 
 
@@ -337,7 +339,7 @@ class FitResult:
 def _noise_json(nz) -> dict:
     if getattr(nz, "order", 0) == "gm":
         return {"kind": "white+gauss_markov", "white_std": float(np.sqrt(nz.white_var)),
-                "gauss_markov_std": float(np.sqrt(nz.gm_var)), "tau_samples": nz.tau_samples,
+                "gauss_markov_std": float(np.sqrt(nz.gm_var)), "tau_s": float(nz.tau_s),
                 "innovation_std": nz.innovation_std, "std": nz.std}
     return {"kind": "ar", "ar_order": int(nz.order), "innovation_std": nz.innovation_std, "std": nz.std}
 
@@ -394,6 +396,15 @@ def _stack(lin, noises, scales):
     return np.concatenate(rows_r), np.concatenate(rows_j, axis=0)
 
 
+def _rms(r) -> float:
+    return float(np.sqrt(np.mean(r * r))) if len(r) else 0.0
+
+
+def _noise_scale(r, labels) -> float:
+    """Initial per-record noise level: the high-frequency residual, floored for noise-free data."""
+    return max(first_difference_std(r, labels), 1e-9 * _rms(r), 1e-15)
+
+
 def _solve(jw, rw, rank_tol=ALIAS_TOL):
     """Least-squares step in normalised columns: (step, covariance) by SVD with a rank cut."""
     if jw.shape[1] == 0:
@@ -437,7 +448,7 @@ def fit(records, terms=None, *, kind: str | None = None, noise: str = "ar", allo
 
     # white pass: per-record σ from the high-frequency residual, Gauss–Newton to convergence
     lin = linearize(model, theta, camp)
-    scales = [max(first_difference_std(r, lab), 1e-300) for r, _, lab, _ in lin]
+    scales = [_noise_scale(r, lab) for r, _, lab, _ in lin]
     noises = [None] * n_rec
     it, converged = 0, model.is_linear
     for it in range(1, max_iter + 1):
@@ -457,7 +468,7 @@ def fit(records, terms=None, *, kind: str | None = None, noise: str = "ar", allo
             break
     # noise model and GLS pass
     if noise == "ar":
-        noises = [fit_noise(r, lab, t) for r, _, lab, t in lin]
+        noises = [fit_noise(r, lab, t, design=j) for r, j, lab, t in lin]
         for _ in range(3 if not model.is_linear else 1):
             rw, jw = _stack(lin, noises, scales)
             step, _ = _solve(jw, rw)
@@ -466,7 +477,7 @@ def fit(records, terms=None, *, kind: str | None = None, noise: str = "ar", allo
     elif noise != "white":
         raise ModelError(f"noise must be 'ar' or 'white', got {noise!r}")
     else:
-        scales = [max(float(np.std(r)), 1e-300) for r, *_ in lin]
+        scales = [max(float(np.std(r)), 1e-9 * _rms(r), 1e-15) for r, *_ in lin]
     rw, jw = _stack(lin, noises, scales)
     report = identifiability(jw, model)
     _, cov = _solve(jw, rw)

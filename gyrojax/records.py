@@ -23,7 +23,8 @@ FORMAT = "gyrojax-record-1"
 AXIS_TOL = 1e-6
 GAP_FACTOR = 1.5  # a time step above 1.5 × the median step ends a continuous segment (CONVENTIONS §5)
 
-TRIAD_KEYS = {SDF: ("ia", "oa", "sa"), TDF: ("x", "y", "z"), ACCEL: ("ia", "pa", "oa")}
+TRIAD_KEYS = {SDF: ("ia", "oa", "sa"), TDF: ("x", "y", "z"), ACCEL: ("ia", "pa", "oa"), "fog": ("ia", "oa", "sa"),
+              "rlg": ("ia", "oa", "sa")}
 
 
 @dataclass

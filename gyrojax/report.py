@@ -60,3 +60,177 @@ def diagnosis_text(d) -> str:
     if d.verdict == "missing-effect" and top is not None:
         lines.append(f"→ add {top.name!r} and refit (gyrojax fit … --terms {','.join(d.fit.model.terms + (top.name,))})")
     return "\n".join(lines)
+
+
+# ---- residual views (matplotlib) --------------------------------------------------------------------------------
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def measurement_inputs(record) -> dict:
+    """Per-measurement views of a record for plotting: time (h), table angles (deg), a_I/a_O/a_S (g), ω_I (deg/h),
+    temperature, segment. Servo intervals are placed at their first sample."""
+    import jax.numpy as jnp
+
+    from .model import Model, _setup_values, instrument_inputs, record_data
+
+    d = record_data(record)
+    x = instrument_inputs(d, _setup_values(Model((), d.kind), jnp.zeros(0)))
+    n = record.n
+    view = {"time_h": record.time_s / 3600.0, "segment": record.segment_id}
+    for i, a in enumerate(record.axis_names):
+        view[f"angle {a} (deg)"] = record.angles_deg[:, i]
+    keys = ("a_I", "a_O", "a_S", "w_I") if record.kind != "tdf-gyro" else ("a_X", "a_Y", "a_Z", "w_X")
+    for k in keys:
+        if k in x:
+            view[k] = np.asarray(x[k])[:n]
+    if record.temperature_C is not None:
+        view["temperature (°C)"] = record.temperature_C
+    if record.mode == "servo":
+        view = {k: v[:-1] for k, v in view.items()}
+        view["segment"] = view["segment"].copy()
+    if record.kind == "tdf-gyro":
+        view = {k: np.concatenate([v, v]) for k, v in view.items()}
+    return view
+
+
+def _band(ax, x, r, sigma, bins=48, color="C1"):
+    """Binned mean of r against x with its ±3σ band (σ of a bin mean from the white-noise floor)."""
+    if len(x) < 2 or np.ptp(x) == 0:
+        return
+    edges = np.linspace(np.min(x), np.max(x), bins + 1)
+    idx = np.clip(np.digitize(x, edges) - 1, 0, bins - 1)
+    cnt = np.bincount(idx, minlength=bins)
+    mean = np.bincount(idx, weights=r, minlength=bins) / np.maximum(cnt, 1)
+    mid = 0.5 * (edges[1:] + edges[:-1])
+    ok = cnt > 0
+    half = 3 * sigma / np.sqrt(np.maximum(cnt, 1))
+    ax.plot(mid[ok], mean[ok], color=color, lw=1.6, label="binned mean")
+    ax.fill_between(mid[ok], -half[ok], half[ok], color="0.6", alpha=0.35, label="±3σ of a bin mean")
+
+
+def residual_figure(res: FitResult, records, against: str = "auto", title: str | None = None):
+    """Residuals of every record against one view (``"time"``, a table angle, ``"a_I"`` …) with ±3σ bands.
+
+    ``against="auto"`` picks the angle of the moving axis for tumbles and servo runs, else time.
+    """
+    plt = _plt()
+    n = len(res.residuals)
+    cols = min(n, 4)
+    rows = int(np.ceil(n / cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(3.6 * cols + 0.6, 2.8 * rows + 0.6), squeeze=False, sharey=True)
+    sigma = res.noise_floor
+    for k, (rec, r) in enumerate(zip(records, res.residuals)):
+        ax = axes[k // cols][k % cols]
+        view = measurement_inputs(rec)
+        key = against
+        if against == "auto":
+            moving = [a for i, a in enumerate(rec.axis_names) if np.ptp(rec.angles_deg[:, i]) > 90]
+            key = f"angle {moving[-1]} (deg)" if moving else "time_h"
+        elif against == "time":
+            key = "time_h"
+        x = np.asarray(view.get(key, view["time_h"]))[: len(r)]
+        if key.startswith("angle"):
+            x = np.mod(x, 360.0)
+        ax.plot(x, r, ".", ms=1.2, alpha=0.35, color="C0", rasterized=True)
+        _band(ax, x, r, sigma)
+        ax.axhline(0, color="k", lw=0.6)
+        ax.set_title(rec.name, fontsize=9)
+        ax.set_xlabel(key.replace("time_h", "time (h)"), fontsize=8)
+        if k % cols == 0:
+            ax.set_ylabel("residual (deg/h)", fontsize=8)
+        ax.tick_params(labelsize=7)
+    for k in range(n, rows * cols):
+        axes[k // cols][k % cols].axis("off")
+    lim = max(6 * sigma, np.percentile(np.abs(np.concatenate(res.residuals)), 99.5))
+    axes[0][0].set_ylim(-lim, lim)
+    fig.suptitle(title or f"residuals of {', '.join(res.model.terms)}", fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def harmonic_spectrum(res: FitResult, records, order: int = 4):
+    """Amplitude of the residual's harmonics in the moving table angle (tumble and servo runs), per record,
+    with the 3σ detection level of a harmonic amplitude for white noise at the floor."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(6.4, 3.2))
+    ks = np.arange(1, order + 1)
+    width = 0.8 / max(len(records), 1)
+    floor = res.noise_floor
+    for j, (rec, r) in enumerate(zip(records, res.residuals)):
+        moving = [i for i in range(len(rec.axis_names)) if np.ptp(rec.angles_deg[:, i]) > 90]
+        if not moving:
+            continue
+        th = np.deg2rad(rec.angles_deg[: len(r), moving[-1]])
+        cols = [np.ones_like(th)] + [f(k * th) for k in ks for f in (np.cos, np.sin)]
+        a = np.column_stack(cols)
+        coef, *_ = np.linalg.lstsq(a, r, rcond=None)
+        amp = np.hypot(coef[1::2], coef[2::2])
+        ax.bar(ks + (j - len(records) / 2) * width, amp, width, label=rec.name)
+        level = 3 * floor * np.sqrt(2.0 / len(r))
+        ax.axhline(level, color="0.4", ls="--", lw=0.8)
+    ax.set_xticks(ks, [f"{k}θ" for k in ks])
+    ax.set_ylabel("amplitude (deg/h)")
+    ax.set_title("harmonics of the residual in table angle (dashed: 3σ for white noise)", fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+def error_falling_figure(steps, title="the error falls as the missing effects are added"):
+    """Residual RMS of each model in the loop against the white-noise floor (the demo's headline figure).
+
+    ``steps``: list of (label, residual_rms, noise_floor).
+    """
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7.2, 3.6))
+    labels = [s[0] for s in steps]
+    rms = np.array([s[1] for s in steps])
+    floor = np.array([s[2] for s in steps])
+    x = np.arange(len(steps))
+    ax.semilogy(x, rms, "o-", color="C3", lw=2, label="residual RMS")
+    ax.semilogy(x, floor, "s--", color="0.3", lw=1, label="white-noise floor")
+    ax.fill_between(x, floor, floor * 1.1, color="C2", alpha=0.25, label="within 10 % of the floor")
+    ax.set_xticks(x, labels, rotation=12, fontsize=8, ha="right")
+    ax.set_ylabel("deg/h")
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def candidates_figure(d, top: int = 10):
+    """Evidence for each candidate: −log10 of the Holm-adjusted p-value, with the α line."""
+    plt = _plt()
+    cands = [c for c in d.candidates if c.df > 0][:top]
+    fig, ax = plt.subplots(figsize=(6.4, 0.32 * len(cands) + 1.2))
+    m = max(len([c for c in d.candidates if c.df > 0]), 1)
+    vals = [min(-(c.log10_p + np.log10(m)), 300) for c in cands]
+    colors = ["C3" if v > -np.log10(d.alpha) else "0.6" for v in vals]
+    ax.barh([c.name for c in cands][::-1], vals[::-1], color=colors[::-1])
+    ax.axvline(-np.log10(d.alpha), color="k", ls="--", lw=0.8, label=f"α = {d.alpha}")
+    ax.set_xscale("symlog", linthresh=10)
+    ax.set_xlabel("evidence: −log10 p (Holm-adjusted)")
+    ax.set_title(f"candidates for the missing effect (model: {', '.join(d.fit.model.terms)})", fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+def save(fig, path) -> None:
+    """Save a figure to PNG atomically."""
+    import io
+
+    from .io import atomic_write_bytes
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    _plt().close(fig)
+    atomic_write_bytes(path, buf.getvalue())

@@ -239,7 +239,24 @@ def gm_loglik(r: np.ndarray, labels: np.ndarray, times: np.ndarray, nz: GMNoise)
     return float(np.sum(logs) + w @ w), int(ok.sum())
 
 
-def fit_gm(r: np.ndarray, labels: np.ndarray, times: np.ndarray, max_lag: int = 2000) -> GMNoise | None:
+def gm_reml(r: np.ndarray, design: np.ndarray, labels: np.ndarray, times: np.ndarray, nz: GMNoise) -> float:
+    """Restricted −2 log-likelihood of r under ``nz`` with the regressors ``design`` (n, p) estimated by GLS:
+    Σ log S_k + |ẽ|² + log det(J̃ᵀJ̃), with ẽ the whitened GLS residual and J̃ the whitened regressors."""
+    ok = labels >= 0
+    x = np.column_stack([r[ok], design[ok]])
+    w, logs = kalman_whiten(x, times[ok], nz, series_restarts(labels[ok], times[ok]))
+    rw, jw = w[:, 0], w[:, 1:]
+    if jw.shape[1] == 0:
+        return float(np.sum(logs) + rw @ rw)
+    q, rr = np.linalg.qr(jw)
+    e = rw - q @ (q.T @ rw)
+    d = np.abs(np.diag(rr))
+    d = d[d > 1e-12 * max(d.max(), 1e-300)]
+    return float(np.sum(logs) + e @ e + 2.0 * np.sum(np.log(d)))
+
+
+def fit_gm(r: np.ndarray, labels: np.ndarray, times: np.ndarray, max_lag: int = 2000,
+           design: np.ndarray | None = None) -> GMNoise | None:
     """White + Gauss–Markov model from the pooled autocovariance: γ_0 = σ_w² + σ_g², γ_k = σ_g² φ^k (k ≥ 1),
     φ = exp(−Δt/τ) at the median step Δt."""
     from scipy.optimize import minimize_scalar
@@ -273,11 +290,12 @@ def fit_gm(r: np.ndarray, labels: np.ndarray, times: np.ndarray, max_lag: int = 
     if a <= 0 or a >= g0:
         return None
     start = GMNoise(-dt0 / np.log(phi), a, g0 - a)
-    return _gm_mle(r, labels, times, start)
+    return _gm_mle(r, labels, times, start, design)
 
 
-def _gm_mle(r, labels, times, start: GMNoise) -> GMNoise:
-    """Refine a white + Gauss–Markov model by maximising the exact (Kalman) likelihood.
+def _gm_mle(r, labels, times, start: GMNoise, design=None) -> GMNoise:
+    """Refine a white + Gauss–Markov model by maximising the exact (Kalman) likelihood — restricted (REML) when the
+    regressors of the fit are given, so that the drift the fitted coefficients absorbed is not lost from σ_g².
 
     The autocovariance fit inside short segments underestimates τ when τ is comparable to a segment; the
     likelihood sees the correlation across the gaps between segments too.
@@ -294,6 +312,8 @@ def _gm_mle(r, labels, times, start: GMNoise) -> GMNoise:
     def nll(u):
         if np.any(np.abs(u) > 700):
             return np.inf
+        if design is not None:
+            return gm_reml(r, design, labels, times, unpack(u))
         return gm_loglik(r, labels, times, unpack(u))[0]
 
     u0 = np.log([min(start.tau_s, tau_max), start.gm_var, start.white_var])
@@ -302,12 +322,22 @@ def _gm_mle(r, labels, times, start: GMNoise) -> GMNoise:
     return unpack(best)
 
 
-def fit_noise(r: np.ndarray, labels: np.ndarray, times: np.ndarray, p_max: int = P_MAX):
-    """The better of AR(p) and white + Gauss–Markov by BIC (exact likelihood for GM, conditional for AR)."""
+def fit_noise(r: np.ndarray, labels: np.ndarray, times: np.ndarray, p_max: int = P_MAX,
+              design: np.ndarray | None = None):
+    """The noise model of a residual: white + Gauss–Markov (maximum likelihood), unless an AR(p ≥ 1) model is
+    better by BIC.
+
+    White noise is never preferred to the GM model it is nested in: a Gauss–Markov drift too weak per sample for a
+    model-selection criterion to notice can still dominate the error of a coefficient that depends on slow
+    differences (position means), so dropping it would understate standard errors. When the drift is absent the
+    likelihood drives its variance to ~0 and nothing is lost.
+    """
     ar = fit_ar(r, labels, p_max)
-    gm = fit_gm(r, labels, times)
+    gm = fit_gm(r, labels, times, design=design)
     if gm is None or ar.innovation_std <= 0:
         return ar
+    if ar.order == 0:
+        return gm
     w, keep = whiten(r, labels, ar)
     n = int((labels >= 0).sum())
     n_ar = max(len(keep), 1)
