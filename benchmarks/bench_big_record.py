@@ -34,7 +34,15 @@ TILE = 1_000_000
 
 
 def peak_rss_gb() -> float:
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2  # Linux: kB
+    """Peak resident memory of this process, GB: ``getrusage`` (Linux: kB; it includes what a process inherited at
+    fork, hence every step runs in a fresh subprocess started by a small parent), cross-checked by VmHWM."""
+    ru = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2
+    try:
+        with open("/proc/self/status") as fh:
+            hwm = next(int(line.split()[1]) for line in fh if line.startswith("VmHWM")) / 1024**2
+    except (OSError, StopIteration):
+        hwm = ru
+    return min(ru, hwm)
 
 
 def write_record(directory: Path, n: int, seed: int = 0) -> Path:
@@ -83,17 +91,30 @@ def run_fit(path: str, how: str) -> dict:
         res = fit_chunked(path, TERMS)
         values, stds = res.values, res.stds
     t2 = time.perf_counter()
-    return {"how": how, "load_s": t1 - t0, "fit_s": t2 - t1, "total_s": t2 - t0, "peak_rss_gb": peak_rss_gb(),
-            "values": values, "stds": stds}
+    return {
+        "how": how,
+        "load_s": t1 - t0,
+        "fit_s": t2 - t1,
+        "total_s": t2 - t0,
+        "peak_rss_gb": peak_rss_gb(),
+        "values": values,
+        "stds": stds,
+    }
 
 
-def _child(path: str, how: str, cap_gb: float | None) -> dict:
+def write_step(directory: str, n: int) -> dict:
+    t0 = time.perf_counter()
+    path = write_record(Path(directory), n)
+    return {"path": str(path), "write_s": time.perf_counter() - t0, "peak_rss_gb": peak_rss_gb()}
+
+
+def _child(call: str, cap_gb: float | None = None, how: str = "write") -> dict:
     code = (
         "import json, resource, sys\n"
         f"cap = {cap_gb!r}\n"
         "if cap: resource.setrlimit(resource.RLIMIT_AS, (int(cap * 2**30), int(cap * 2**30)))\n"
-        "from benchmarks.bench_big_record import run_fit\n"
-        f"print(json.dumps(run_fit({path!r}, {how!r})))\n"
+        "from benchmarks.bench_big_record import run_fit, write_step\n"
+        f"print(json.dumps({call}))\n"
     )
     env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]), JAX_PLATFORMS="cpu")
     t0 = time.perf_counter()
@@ -113,20 +134,28 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(args.dir or tmp)
-        t0 = time.perf_counter()
-        path = write_record(d, args.n)
+        w = _child(f"write_step({str(d)!r}, {args.n})")
+        if "failed" in w:
+            print(f"writing failed: {w['failed']}")
+            return 1
+        path = w["path"]
         size = sum(f.stat().st_size for f in d.glob("big.*")) / 2**30
-        print(f"wrote {args.n:.3g} samples ({size:.2f} GiB) in {time.perf_counter() - t0:.1f} s; "
-              f"writer peak RSS {peak_rss_gb():.2f} GB")
+        print(
+            f"wrote {args.n:.3g} samples ({size:.2f} GiB) with save_record in {w['write_s']:.1f} s; "
+            f"writer peak RSS {w['peak_rss_gb']:.2f} GB"
+        )
         for how in args.paths.split(","):
-            r = _child(str(path), how, args.mem_cap_gb if how == "standard" else None)
+            cap = args.mem_cap_gb if how == "standard" else None
+            r = _child(f"run_fit({path!r}, {how!r})", cap, how)
             if "failed" in r:
                 print(f"{how:9s} FAILED under a {args.mem_cap_gb:g} GB cap after {r['wall_s']:.1f} s: {r['failed']}")
                 continue
             est = ", ".join(f"{k}={r['values'][k]:.5f}±{r['stds'][k]:.5f}" for k in TERMS)
             ok = "under" if r["peak_rss_gb"] < 4 else "OVER"
-            print(f"{how:9s} load {r['load_s']:.1f} s, fit {r['fit_s']:.1f} s, total {r['total_s']:.1f} s, "
-                  f"peak RSS {r['peak_rss_gb']:.2f} GB ({ok} the 4 GB target); {est}")
+            print(
+                f"{how:9s} load {r['load_s']:.1f} s, fit {r['fit_s']:.1f} s, total {r['total_s']:.1f} s, "
+                f"peak RSS {r['peak_rss_gb']:.2f} GB ({ok} the 4 GB target); {est}"
+            )
         print(f"truth: {TRUTH['coefficients']}")
     return 0
 

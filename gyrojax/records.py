@@ -293,7 +293,7 @@ def validate_meta(meta, file="record.json") -> dict:
             raise _err(file, "key 'servo_axis' must name a table axis when mode is 'servo'")
         if kind == TDF:
             raise _err(file, "key 'mode': servo mode is supported for sdf-gyro and pendulous-accel only")
-    if servo is not None and servo not in seen:
+    if servo is not None and (not isinstance(servo, str) or servo not in seen):
         raise _err(file, f"key 'servo_axis' is {servo!r}; table axes are {sorted(seen)}")
     return meta
 

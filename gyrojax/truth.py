@@ -72,10 +72,15 @@ def truth_from_dict(d, where: str = "truth") -> Truth:
             raise TruthError(f"{where}: key 'setup.{k}' needs {SETUP_SIZES[k]} finite number(s) in arcsec, got {v!r}")
         setup[k] = tuple(float(x) for x in arr)
     for k, v in (d.get("noise") or {}).items():  # numbers only (validate_noise names the valid terms)
-        vals = v if isinstance(v, (list, tuple)) else [v]
+        vals = v if isinstance(v, (list, tuple)) and k in ("gauss_markov", "bias_instability") else [v]
         if not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in vals):
             raise TruthError(f"{where}: key 'noise.{k}' must hold numbers (CONVENTIONS §8 units), got {v!r}")
-    noise = validate_noise(d.get("noise"), f"{where}: noise")
+    try:
+        noise = validate_noise(d.get("noise"), f"{where}: noise")
+    except TruthError:
+        raise
+    except (TypeError, ValueError, OverflowError) as e:
+        raise TruthError(f"{where}: key 'noise' is invalid ({e}); see CONVENTIONS §8") from None
     return Truth(coeffs, setup, noise)
 
 
