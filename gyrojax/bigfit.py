@@ -77,8 +77,11 @@ def _check_chunk(meta, cols, csv_path, offset: int, prev_t: float | None):
             raise _err(csv_path, f"row {offset + i + 2}, column {h!r} holds {c[i]!r}; values must be finite numbers")
     t = cols["time_s"]
     if prev_t is not None and t[0] <= prev_t:
-        raise _err(csv_path, f"row {offset + 2}, column 'time_s': time {t[0]!r} does not exceed the previous row's "
-                             f"{prev_t!r}; times must be strictly increasing")
+        raise _err(
+            csv_path,
+            f"row {offset + 2}, column 'time_s': time {t[0]!r} does not exceed the previous row's "
+            f"{prev_t!r}; times must be strictly increasing",
+        )
     try:
         validate_columns(meta, cols, csv_path)
     except Exception as e:  # re-number the rows of a chunk-local message
@@ -91,8 +94,16 @@ def _check_chunk(meta, cols, csv_path, offset: int, prev_t: float | None):
 def _chunks(csv_path: Path, header, chunk_rows: int):
     import pandas as pd
 
-    reader = pd.read_csv(csv_path, dtype=np.float64, na_filter=False, skipinitialspace=True, names=header, header=0,
-                         chunksize=chunk_rows, encoding="utf-8-sig")
+    reader = pd.read_csv(
+        csv_path,
+        dtype=np.float64,
+        na_filter=False,
+        skipinitialspace=True,
+        names=header,
+        header=0,
+        chunksize=chunk_rows,
+        encoding="utf-8-sig",
+    )
     yield from reader
 
 
@@ -117,12 +128,16 @@ def fit_chunked(path, terms=None, chunk_rows: int = 200_000, allow_aliases: bool
     meta = validate_meta(read_meta(json_path), json_path)
     kind = meta["instrument"]["kind"]
     if meta["mode"] != "rebalance" or kind == fx.TDF:
-        raise ModelError(f"{json_path}: fit_chunked handles rebalance records of an sdf-gyro or pendulous-accel "
-                         f"(this one is {meta['mode']}, {kind}); use gyrojax.identify.fit")
+        raise ModelError(
+            f"{json_path}: fit_chunked handles rebalance records of an sdf-gyro or pendulous-accel "
+            f"(this one is {meta['mode']}, {kind}); use gyrojax.identify.fit"
+        )
     model = Model.of(terms if terms is not None else DEFAULT_TERMS[kind], kind)
     if not model.is_linear:
-        raise ModelError(f"fit_chunked needs effects linear in their coefficients; {model.terms} are not all linear "
-                         "(table_tilt, table_azimuth, encoder_harmonic): use gyrojax.identify.fit")
+        raise ModelError(
+            f"fit_chunked needs effects linear in their coefficients; {model.terms} are not all linear "
+            "(table_tilt, table_azimuth, encoder_harmonic): use gyrojax.identify.fit"
+        )
     with open(csv_path, "rb") as fh:
         head = fh.read(1 << 16)
     header = _csv_header(csv_path, head if b"\n" in head else _read_csv_bytes(csv_path))
@@ -147,8 +162,10 @@ def fit_chunked(path, terms=None, chunk_rows: int = 200_000, allow_aliases: bool
             for a in moving_derived:
                 ang = cols[f"angle_{a}_deg"]
                 if np.ptp(ang) > 0 or (a in last_angles and ang[0] != last_angles[a]):
-                    raise ModelError(f"{csv_path}: table axis {a!r} moves but has no 'rate_{a}_dps' column; "
-                                     "fit_chunked needs table rates as columns (or use gyrojax.identify.fit)")
+                    raise ModelError(
+                        f"{csv_path}: table axis {a!r} moves but has no 'rate_{a}_dps' column; "
+                        "fit_chunked needs table rates as columns (or use gyrojax.identify.fit)"
+                    )
             last_angles = {a: cols[f"angle_{a}_deg"][-1] for a in moving_derived}
             if "temperature_C" in cols:
                 temp_lo, temp_hi = min(temp_lo, cols["temperature_C"].min()), max(temp_hi, cols["temperature_C"].max())
@@ -174,8 +191,10 @@ def fit_chunked(path, terms=None, chunk_rows: int = 200_000, allow_aliases: bool
     if n == 0:
         raise _err(csv_path, "has a header but no samples; at least one sample row is required")
     if "bias_temperature" in model.terms and temp_hi - temp_lo < 1e-6:
-        raise ModelError(f"{csv_path}: effect 'bias_temperature' cannot be fitted: column 'temperature_C' is "
-                         f"constant ({temp_lo} °C), so it aliases D_F")
+        raise ModelError(
+            f"{csv_path}: effect 'bias_temperature' cannot be fitted: column 'temperature_C' is "
+            f"constant ({temp_lo} °C), so it aliases D_F"
+        )
 
     # solve in unit-norm columns; identifiability from R with RᵀR = JᵀJ
     norms = np.sqrt(np.clip(np.diag(jtj), 0.0, None))
@@ -188,7 +207,7 @@ def fit_chunked(path, terms=None, chunk_rows: int = 200_000, allow_aliases: bool
     if (report["aliases"] or report["unexcited"]) and not allow_aliases:
         raise IdentifiabilityError(f"{csv_path}: " + alias_message(report), report)
     smax = lam.max() if p else 1.0
-    keep = lam > (1e-7 ** 2) * smax
+    keep = lam > (1e-7**2) * smax
     inv = (v[:, keep] / lam[keep]) @ v[:, keep].T
     delta = inv @ (jtr / sc) / sc
     theta = (theta0 if theta0 is not None else np.zeros(p)) + delta

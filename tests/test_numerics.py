@@ -31,7 +31,7 @@ def eight():
 
 @pytest.fixture(scope="module")
 def fixed_noisy():
-    return simulate(plans.fixed_position(hours=0.05), {"coefficients": {"D_F": 0.1}, "noise": {"white": 0.01}}, seed=2)
+    return simulate(plans.fixed_position(hours=0.01), {"coefficients": {"D_F": 0.1}, "noise": {"white": 0.01}}, seed=2)
 
 
 @pytest.fixture(scope="module")
