@@ -355,7 +355,12 @@ def plan_to_json(plan: Plan) -> str:
 
 
 def _is_num(v) -> bool:
-    return not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return False
+    try:
+        return math.isfinite(float(v))
+    except OverflowError:
+        return False
 
 
 def validate_plan(plan: Plan, where: str = "plan") -> Plan:

@@ -204,7 +204,7 @@ def _unit_vector(file, key, v):
         raise _err(file, f"key {key!r} must be a list of 3 numbers (a unit vector), got {v!r}")
     try:
         arr = np.array([float(x) for x in v])
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise _err(file, f"key {key!r} must hold 3 numbers, got {v!r}") from None
     if not np.all(np.isfinite(arr)):
         raise _err(file, f"key {key!r} has a non-finite component: {v!r}")
@@ -220,9 +220,19 @@ def _require(file, d, key, where=""):
     return d[key]
 
 
+def _finite_number(v) -> bool:
+    """A JSON number that is a finite float64 (not a bool, not an integer too large for a float)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return False
+    try:
+        return math.isfinite(float(v))
+    except OverflowError:
+        return False
+
+
 def _number(file, d, key, where=""):
     v = _require(file, d, key, where)
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+    if not _finite_number(v):
         raise _err(file, f"key {where + key!r} must be a finite number, got {v!r}")
     return float(v)
 
@@ -339,7 +349,10 @@ def _csv_header(csv_path: Path, raw: bytes) -> list[str]:
 
     end = raw.find(b"\n")
     line = (raw if end < 0 else raw[:end]).decode("utf-8").rstrip("\r")
-    header = [h.strip() for h in next(csv.reader([line]))] if line.strip() else []
+    try:
+        header = [h.strip() for h in next(csv.reader([line]))] if line.strip() else []
+    except csv.Error as e:
+        raise _err(csv_path, f"row 1 (header) is not a comma-separated line ({e}); a stray carriage return?") from None
     if not header:
         raise _err(csv_path, "row 1 (header) is empty; it must name the columns (time_s, angle_<axis>_deg, …)")
     if len(header) == 1:
@@ -362,6 +375,22 @@ def _csv_header(csv_path: Path, raw: bytes) -> list[str]:
     return header
 
 
+def _numbered_rows(csv_path, reader):
+    """(file row number, fields) of each CSV row, streamed; a malformed line is an error naming its row."""
+    import csv
+
+    while True:
+        try:
+            row = next(reader)
+        except StopIteration:
+            return
+        except csv.Error as e:
+            raise _err(
+                csv_path, f"row {reader.line_num} is not a valid CSV row ({e}); a stray carriage return or quote?"
+            ) from None
+        yield reader.line_num, row
+
+
 def _diagnose_csv(csv_path: Path, raw: bytes, header: list[str], strict: bool) -> None:
     """Stream the rows and raise at the first row of the wrong length or the first bad numeric cell.
 
@@ -371,11 +400,10 @@ def _diagnose_csv(csv_path: Path, raw: bytes, header: list[str], strict: bool) -
     import io
 
     check = [j for j, h in enumerate(header) if strict or must_be_numeric(h)]
-    reader = csv.reader(io.StringIO(raw.decode("utf-8")), skipinitialspace=True)
-    next(reader)
+    rows = _numbered_rows(csv_path, csv.reader(io.StringIO(raw.decode("utf-8")), skipinitialspace=True))
+    next(rows, None)  # the header
     n = len(header)
-    for row in reader:
-        i = reader.line_num
+    for i, row in rows:
         if not row:
             continue
         if len(row) < n:

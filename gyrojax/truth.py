@@ -37,6 +37,15 @@ class Truth:
                 "noise": {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.noise.items()}}
 
 
+def _finite_number(v) -> bool:
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return False
+    try:
+        return bool(np.isfinite(float(v)))
+    except OverflowError:
+        return False
+
+
 def truth_from_dict(d, where: str = "truth") -> Truth:
     """Validate a truth dict; unknown names are errors naming the key."""
     if not isinstance(d, dict):
@@ -55,7 +64,7 @@ def truth_from_dict(d, where: str = "truth") -> Truth:
             raise TruthError(f"{where}: key 'coefficients.{k}' is not a coefficient name; valid: {', '.join(idx)}")
         if k in setup_coeffs:
             raise TruthError(f"{where}: key 'coefficients.{k}' is a set-up error; give it under 'setup'")
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
+        if not _finite_number(v):
             raise TruthError(f"{where}: key 'coefficients.{k}' must be a finite number, got {v!r}")
         coeffs[k] = float(v)
     setup = {}
@@ -66,7 +75,7 @@ def truth_from_dict(d, where: str = "truth") -> Truth:
             if isinstance(v, (bool, str)) or any(isinstance(x, (bool, str)) for x in np.atleast_1d(v)):
                 raise ValueError
             arr = np.atleast_1d(np.asarray(v, dtype=float))
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             arr = np.zeros(0)
         if arr.size != SETUP_SIZES[k] or not np.all(np.isfinite(arr)):
             raise TruthError(f"{where}: key 'setup.{k}' needs {SETUP_SIZES[k]} finite number(s) in arcsec, got {v!r}")

@@ -236,6 +236,12 @@ CASES = [
         "csv-latin1-byte", raw("csv", lambda b: b.replace(b"\n3.0,", b"\n3.0\xb0,", 1)), ("fixed.csv", "UTF-8", "row 5")
     ),
     Case("csv-nul-bytes", raw("csv", lambda b: b[:200] + b"\x00\x00" + b[200:]), ("fixed.csv",)),
+    Case(
+        "csv-stray-carriage-return",
+        raw("csv", lambda b: b.replace(b"\n1.0,", b"\n1.0\r,", 1)),
+        ("fixed.csv", "row 3", "carriage return"),
+    ),
+    Case("csv-header-leading-cr", raw("csv", lambda b: b"\r" + b), ("fixed.csv", "row 1")),
     # --- CSV: header problems
     Case("csv-missing-time", drop_column("time_s"), ("fixed.csv", "'time_s'", "required")),
     Case("csv-missing-angle", drop_column("angle_base_deg"), ("fixed.csv", "'angle_base_deg'", "'base'")),
@@ -609,6 +615,8 @@ TRUTH_CASES = [
     ({"noise": {"white": "loud"}}, ("'noise.white'", "number")),
     ({"noise": {"pink": 1.0}}, ("noise", "'pink'", "valid")),
     ({"noise": [1]}, ("'noise'", "object")),
+    ({"coefficients": {"D_F": 10**400}}, ("'coefficients.D_F'", "finite number")),
+    ({"noise": {"white": []}}, ("'noise.white'", "number")),
     ({"coeffs": {}}, ("'coeffs'", "valid")),
     ({"coefficients": {"delta_E": 3.0}}, ("'coefficients.delta_E'", "setup")),
 ]
