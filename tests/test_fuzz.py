@@ -292,8 +292,11 @@ def _files(valid: Path, tmp: Path) -> list[str]:
 def test_random_command_lines(valid):
     with tempfile.TemporaryDirectory() as tmp:
         files = _files(valid, Path(tmp))
+        cli._load_extras()  # sub-commands other modules add (``noise`` …), except the long ``demo``
+        sub = next(a for a in cli.build_parser()._actions if a.dest == "command")
+        commands = COMMANDS + [c for c in sub.choices if c not in COMMANDS and c != "demo"]
         token = st.sampled_from(FLAGS) | st.sampled_from(VALUES) | st.sampled_from(files)
-        argv_st = st.tuples(st.sampled_from(COMMANDS), st.lists(token, max_size=6)).map(lambda t: [t[0], *t[1]])
+        argv_st = st.tuples(st.sampled_from(commands), st.lists(token, max_size=6)).map(lambda t: [t[0], *t[1]])
 
         @settings(
             max_examples=EXAMPLES or 60,
