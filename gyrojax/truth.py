@@ -61,16 +61,18 @@ def truth_from_dict(d, where: str = "truth") -> Truth:
             raise TruthError(f"{where}: key {part!r} must be an object of name: value, got {type(d[part]).__name__}")
     for k, v in (d.get("coefficients") or {}).items():
         if k not in idx:
-            raise TruthError(f"{where}: key 'coefficients.{k}' is not a coefficient name; valid: {', '.join(idx)}")
+            raise TruthError(
+                f"{where}: key {'coefficients.' + str(k)!r} is not a coefficient name; valid: {', '.join(idx)}"
+            )
         if k in setup_coeffs:
-            raise TruthError(f"{where}: key 'coefficients.{k}' is a set-up error; give it under 'setup'")
+            raise TruthError(f"{where}: key {'coefficients.' + str(k)!r} is a set-up error; give it under 'setup'")
         if not _finite_number(v):
-            raise TruthError(f"{where}: key 'coefficients.{k}' must be a finite number, got {v!r}")
+            raise TruthError(f"{where}: key {'coefficients.' + str(k)!r} must be a finite number, got {v!r}")
         coeffs[k] = float(v)
     setup = {}
     for k, v in (d.get("setup") or {}).items():
         if k not in SETUP_SIZES:
-            raise TruthError(f"{where}: key 'setup.{k}' unknown; valid: {', '.join(SETUP_SIZES)}")
+            raise TruthError(f"{where}: key {'setup.' + str(k)!r} unknown; valid: {', '.join(SETUP_SIZES)}")
         try:
             if isinstance(v, (bool, str)) or any(isinstance(x, (bool, str)) for x in np.atleast_1d(v)):
                 raise ValueError
@@ -78,12 +80,14 @@ def truth_from_dict(d, where: str = "truth") -> Truth:
         except (TypeError, ValueError, OverflowError):
             arr = np.zeros(0)
         if arr.size != SETUP_SIZES[k] or not np.all(np.isfinite(arr)):
-            raise TruthError(f"{where}: key 'setup.{k}' needs {SETUP_SIZES[k]} finite number(s) in arcsec, got {v!r}")
+            raise TruthError(
+                f"{where}: key {'setup.' + str(k)!r} needs {SETUP_SIZES[k]} finite number(s) in arcsec, got {v!r}"
+            )
         setup[k] = tuple(float(x) for x in arr)
     for k, v in (d.get("noise") or {}).items():  # numbers only (validate_noise names the valid terms)
         vals = v if isinstance(v, (list, tuple)) and k in ("gauss_markov", "bias_instability") else [v]
         if not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in vals):
-            raise TruthError(f"{where}: key 'noise.{k}' must hold numbers (CONVENTIONS §8 units), got {v!r}")
+            raise TruthError(f"{where}: key {'noise.' + str(k)!r} must hold numbers (CONVENTIONS §8 units), got {v!r}")
     try:
         noise = validate_noise(d.get("noise"), f"{where}: noise")
     except TruthError:

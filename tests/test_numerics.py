@@ -207,3 +207,47 @@ def test_scaled_data_gives_scaled_estimates(fixed_noisy):
         w_i = float(np.mean(rec.indicated)) - base.values["D_F"]  # the Earth-rate part of the output
         expected = (w_i + base.values["D_F"]) * k - w_i
         assert abs(ref.values["D_F"] - expected) <= 1e-9 * abs(expected) + 1e-12
+
+
+# ---- no NaN out of the jitted model ---------------------------------------------------------------------------------
+
+
+def test_every_sdf_effect_has_finite_regressors_from_rest_to_1000_dps():
+    """Zero rate (|ω| and ω·|ω| terms have kinks there) and 1000 deg/s, all three ladder mountings, every SDF effect
+    (including the nonlinear set-up ones): the Jacobian is finite."""
+    import jax.numpy as jnp
+
+    from gyrojax import effects as fx
+    from gyrojax.model import Model, jacobian_jit, predict_jit, record_data
+
+    recs = simulate(plans.rate_ladder(rates_dps=(0, 1000), seconds=2, dt_s=0.5), {"coefficients": {"D_F": 1e-5}})
+    terms = tuple(n for n in fx.names() if fx.SDF in fx.get(n).kinds)
+    assert {"sf_asymmetry", "sf_quadratic", "table_tilt", "encoder_harmonic"} <= set(terms)
+    m = Model(terms)
+    theta = jnp.zeros(m.size)
+    for r in recs:
+        d = record_data(r)
+        assert np.all(np.isfinite(np.asarray(predict_jit(m, theta, d))))
+        assert np.all(np.isfinite(np.asarray(jacobian_jit(m, theta, d)))), r.name
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "model.servo_rate / simulate: a servo record whose IA is perpendicular to the servo axis (so turning the table "
+        "cannot null the pickoff) makes the Newton step divide by dω_ind/dθ̇_s = 0; simulate returns NaN table angles "
+        "without a word. It should raise (e.g. validate_meta: in servo mode the IA must have a component along the "
+        "servo axis when that axis is the innermost one)."
+    ),
+)
+def test_servo_with_ia_perpendicular_to_the_servo_axis_is_announced():
+    up, east, north = (0.0, 0.0, 1.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)
+    seg = plans.Segment((0.0,), 10.0, 1.0)
+    run = plans.Run(
+        "servo-ia-level", (("servo", up),), plans.sdf_mount(east, north), (seg,), mode="servo", servo_axis="servo"
+    )
+    try:
+        (rec,) = simulate(plans.Plan("servo-bad", (run,)), {"coefficients": {"D_F": 0.1}})
+    except GyrojaxError:
+        return
+    assert np.all(np.isfinite(rec.columns["angle_servo_deg"]))
