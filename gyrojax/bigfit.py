@@ -153,19 +153,24 @@ def fit_chunked(path, terms=None, chunk_rows: int = 200_000, allow_aliases: bool
     prev_t = None
     temp_lo, temp_hi = np.inf, -np.inf
     last_angles: dict = {}
+    last_seg = None
     import pandas as pd
 
     try:
         for df in _chunks(csv_path, header, chunk_rows):
             cols = {h: df[h].to_numpy() for h in header}
             _check_chunk(meta, cols, csv_path, n, prev_t)
-            for a in moving_derived:
+            seg = cols.get("segment")
+            for a in moving_derived:  # derived rates are zero only where the angle holds still inside a segment
                 ang = cols[f"angle_{a}_deg"]
-                if np.ptp(ang) > 0 or (a in last_angles and ang[0] != last_angles[a]):
+                same = np.ones(len(ang) - 1, bool) if seg is None else np.diff(seg) == 0
+                edge = a in last_angles and (seg is None or seg[0] == last_seg) and ang[0] != last_angles[a]
+                if np.any(np.diff(ang)[same] != 0) or edge:
                     raise ModelError(
-                        f"{csv_path}: table axis {a!r} moves but has no 'rate_{a}_dps' column; "
+                        f"{csv_path}: table axis {a!r} moves inside a segment but has no 'rate_{a}_dps' column; "
                         "fit_chunked needs table rates as columns (or use gyrojax.identify.fit)"
                     )
+            last_seg = None if seg is None else seg[-1]
             last_angles = {a: cols[f"angle_{a}_deg"][-1] for a in moving_derived}
             if "temperature_C" in cols:
                 temp_lo, temp_hi = min(temp_lo, cols["temperature_C"].min()), max(temp_hi, cols["temperature_C"].max())

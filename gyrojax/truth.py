@@ -74,9 +74,10 @@ def truth_from_dict(d, where: str = "truth") -> Truth:
         if k not in SETUP_SIZES:
             raise TruthError(f"{where}: key {'setup.' + str(k)!r} unknown; valid: {', '.join(SETUP_SIZES)}")
         try:
-            if isinstance(v, (bool, str)) or any(isinstance(x, (bool, str)) for x in np.atleast_1d(v)):
+            flat = v if isinstance(v, list) else [v]
+            if not all(_finite_number(x) for x in flat):
                 raise ValueError
-            arr = np.atleast_1d(np.asarray(v, dtype=float))
+            arr = np.asarray(flat, dtype=float)
         except (TypeError, ValueError, OverflowError):
             arr = np.zeros(0)
         if arr.size != SETUP_SIZES[k] or not np.all(np.isfinite(arr)):
