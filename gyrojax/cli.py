@@ -78,7 +78,7 @@ def cmd_simulate(args) -> int:
     plan = _plan_from_arg(args.plan, _options(args.option))
     truth = load_truth(args.truth) if args.truth else Truth()
     out = Path(args.out)
-    recs = simulate(plan, truth, seed=args.seed)
+    recs = simulate(plan, truth, seed=args.seed, dynamics=args.dynamics)
     if not args.force:
         for r in recs:
             for p in record_paths(out / r.name):
@@ -147,6 +147,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", required=True, help="output directory")
     s.add_argument("--seed", type=int, default=0)
     s.add_argument("--option", "-o", action="append", metavar="NAME=VALUE", help="plan builder option")
+    s.add_argument("--dynamics", choices=("quasi-static", "loop"), default="quasi-static",
+                   help="quasi-static balance equation, or through the analog rebalance loop")
     s.add_argument("--force", action="store_true", help="overwrite existing records")
     s.add_argument("--json", action="store_true")
     s.set_defaults(func=cmd_simulate)

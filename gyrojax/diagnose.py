@@ -20,19 +20,26 @@ deterministic effect (CONVENTIONS §6).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from functools import lru_cache
 
+import jax
+import jax.numpy as jnp
 import numpy as np
 from scipy import stats
 
 from . import effects as fx
 from .errors import ModelError
 from .identify import Campaign, FitResult, fit, linearize
-from .model import Model
-from .whiten import ARNoise, fit_noise, whiten
+from .model import Model, jacobian, record_data
+from .whiten import ARNoise, GMNoise, fit_noise, profile_likelihood, whiten
 
+NUISANCE_TREND = False
+SLOW = ("bias_trend", "bias_temperature")
+"""Candidates that vary slowly in time and so compete with long-memory drift for the same residual structure:
+they are tested by a profile likelihood ratio with the noise re-estimated under both hypotheses."""
 COLLINEAR = 0.999  # canonical correlation above which two candidates are aliases in this plan
 UNSEEN = 1e-6  # |X⊥| / |X| below which a candidate is indistinguishable from the model
 
@@ -152,17 +159,38 @@ def _stack_whitened(lin, noises):
     return np.concatenate(rows_r), np.concatenate(rows_j, axis=0)
 
 
+def _nuisance(t: np.ndarray) -> np.ndarray:
+    """Per-record offset: structure that noise models must not absorb (see :func:`_noise_models`)."""
+    if NUISANCE_TREND:
+        return np.column_stack([np.ones_like(t), (t - t.mean()) / max(float(np.ptp(t)), 1e-9)])
+    return np.ones((len(t), 1))
+
+
 def _noise_models(lin, cols) -> list:
-    """Per-record noise model from the residual left after projecting on the regressor columns ``cols``."""
+    """Per-record noise model from the residual left after projecting on the regressor columns ``cols`` and on a
+    per-record offset.
+
+    A misspecified model leaves deterministic structure in its residual; the slowest kind (a record-wide offset, as
+    a flipped mounting gives an omitted D_O) would otherwise pass for long-memory noise and hide the very effect
+    under test. It is a nuisance regressor only here; REML keeps the noise estimate unbiased when it is absent.
+    Slower-than-the-record drift is kept apart from noise by the cap on τ (:data:`gyrojax.whiten.TAU_SPAN_FRACTION`).
+    """
     scales = [max(np.sqrt(np.mean(r * r)), 1e-300) for r, *_ in lin]
+    n_rec = len(lin)
+    blocks = []
+    for i, ((r, j, _lab, t), s) in enumerate(zip(lin, scales)):
+        k = 1 + int(NUISANCE_TREND)
+        nu = np.zeros((len(r), k * n_rec))
+        nu[:, k * i : k * i + k] = _nuisance(t)
+        blocks.append(np.column_stack([j[:, cols] / s, nu]))
     r_all = np.concatenate([r / s for (r, *_), s in zip(lin, scales)])
-    j_all = np.concatenate([j[:, cols] / s for (_, j, *_), s in zip(lin, scales)], axis=0)
-    ub = _basis(j_all)
+    ub = _basis(np.concatenate(blocks, axis=0))
     res = r_all - ub @ (ub.T @ r_all)
     out, i0 = [], 0
     for (r, j, lab, t), s in zip(lin, scales):
         n = len(r)
-        nz = fit_noise(res[i0 : i0 + n] * s, lab, t, design=j[:, cols])
+        design = np.column_stack([j[:, cols], _nuisance(t)])
+        nz = fit_noise(res[i0 : i0 + n] * s, lab, t, design=design)
         out.append(nz if nz.innovation_std > 0 else ARNoise(np.zeros(0), s, s))
         i0 += n
     return out
@@ -215,6 +243,33 @@ def _score(lin, noises, model: Model, full: Model, cand, p0: int, rms_now: float
     return tested, perps, unexcited
 
 
+def _slow_lr(c: Candidate, lin, full: Model, p0: int, noises) -> None:
+    """Replace the score statistic of a slow candidate by the profile likelihood ratio, record by record.
+
+    For each record, −2 log L of [model] and of [model + candidate] (coefficients per record, noise white + GM
+    maximised in each case, τ capped as everywhere); LR = Σ difference ~ χ²(Σ added rank) when the effect is
+    absent. A trend that GM noise could mimic is then judged by how much better the data fit with it as a
+    deterministic term than with the drift re-estimated to explain it.
+    """
+    cols_c = np.arange(full.size)[full.slices()[c.name]]
+    stat, df = 0.0, 0
+    for (r, j, lab, t), nz in zip(lin, noises):
+        base = np.column_stack([j[:, :p0], np.ones(len(r))])
+        alt = np.column_stack([base, j[:, cols_c]])
+        rank0 = np.linalg.matrix_rank(base / np.maximum(np.abs(base).max(axis=0), 1e-300))
+        rank1 = np.linalg.matrix_rank(alt / np.maximum(np.abs(alt).max(axis=0), 1e-300))
+        if rank1 <= rank0:
+            continue
+        start = nz if isinstance(nz, GMNoise) else None
+        l0 = profile_likelihood(r, base, lab, t, start)
+        l1 = profile_likelihood(r, alt, lab, t, start)
+        stat += max(l0 - l1, 0.0)
+        df += rank1 - rank0
+    if df:
+        logp = float(stats.chi2.logsf(stat, df))
+        c.statistic, c.df, c.p_value, c.log10_p = stat, df, math.exp(logp), logp / math.log(10)
+
+
 def diagnose(records, terms=None, *, alpha: float = 0.01, candidates=None, result: FitResult | None = None,
              campaign: Campaign | None = None, suggest_tests: bool = True) -> Diagnosis:
     """Rank the effects the model ``terms`` is missing, from the data of ``records``.
@@ -257,6 +312,12 @@ def diagnose(records, terms=None, *, alpha: float = 0.01, candidates=None, resul
         if best.log10_p + math.log10(len(live)) >= math.log10(alpha) or best.name in extra:
             break
         extra.append(best.name)
+
+    # slow candidates: likelihood ratio with the Gauss–Markov noise re-estimated with and without the candidate
+    if any(isinstance(nz, GMNoise) for nz in noises):
+        for c in tested:
+            if c.name in SLOW and c.df > 0:
+                _slow_lr(c, lin, full, p0, noises)
 
     # aliases between candidates: collinear projected regressors
     names_t = [c.name for c in tested if c.name in perps]
@@ -323,7 +384,7 @@ def _colour_candidate(res: FitResult, noises, lin, alpha) -> Candidate | None:
 def _plan_jacobians(kind: str):
     """Regressors of every named effect in a few short built-in plans (computed once per process)."""
     from . import plans
-    from .simulate import simulate
+    from .simulate import plan_records
 
     options = {
         "multiposition-24": lambda: plans.multiposition(24, minutes=1.0, dt_s=6.0),
@@ -333,12 +394,35 @@ def _plan_jacobians(kind: str):
         "eight-position": lambda: plans.eight_position(minutes=1.0, dt_s=6.0),
     }
     model = Model(tuple(n for n in fx.names(kind) if n != "bias_temperature"), kind)
-    out = {}
+    runs, owner = [], []
     for name, build in options.items():
-        camp = Campaign.of(simulate(build(), {"coefficients": {}}))
-        lin = linearize(model, np.zeros(model.size), camp)
-        out[name] = np.concatenate([j for _, j, *_ in lin], axis=0)
-    return model, out
+        for rec in plan_records(build()):
+            runs.append(rec)
+            owner.append(name)
+    # one compile for all: every run padded to two table axes (a still dummy axis outermost) and one length
+    n_max = max(r.n for r in runs)
+    padded, lengths = [], []
+    for rec in runs:
+        d = record_data(rec)
+        n = rec.n
+        pad = lambda a: np.concatenate([a, np.repeat(a[-1:], n_max - n, axis=0)], axis=0)  # noqa: E731
+        angles, rates, axes = np.asarray(d.angles), np.asarray(d.rates), np.asarray(d.axes)
+        if axes.shape[0] == 1:
+            angles = np.column_stack([np.zeros(n), angles])
+            rates = np.column_stack([np.zeros(n), rates])
+            axes = np.vstack([[0.0, 0.0, 1.0], axes])
+        padded.append(dataclasses.replace(
+            d, axes=axes, angles=pad(angles), rates=pad(rates), time_s=pad(np.asarray(d.time_s)),
+            temperature=pad(np.asarray(d.temperature)), y=pad(np.asarray(d.y)), weight=pad(np.asarray(d.weight)),
+            command=pad(np.asarray(d.command)), dt=np.zeros(n_max - 1), triad=np.asarray(d.triad),
+            latitude=np.asarray(d.latitude), gravity=np.asarray(d.gravity), encoder_axis=1))
+        lengths.append(n)
+    batch = jax.tree_util.tree_map(lambda *xs: np.stack(xs), *padded)
+    jac = jax.jit(jax.vmap(lambda d: jacobian(model, jnp.zeros(model.size), d)))(batch)
+    out: dict = {}
+    for name, n, j in zip(owner, lengths, np.asarray(jac)):
+        out.setdefault(name, []).append(j[:n])
+    return model, {k: np.concatenate(v, axis=0) for k, v in out.items()}
 
 
 def separating_plans(kind: str, effects: tuple) -> list:

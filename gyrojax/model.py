@@ -291,6 +291,10 @@ def indicated_output(model: Model, theta, x: dict, kind: str):
     return out
 
 
+NONLINEAR_IN_RATE = ("sf_asymmetry", "sf_quadratic", "lock_in")
+"""Effects whose output is not linear in the input rate: the servo rate then needs Newton iterations."""
+
+
 def servo_rate(model: Model, theta, data: RecordData, setup: dict):
     """Rate of the servo axis (rad/s) that keeps the pickoff at null at each sample (Hu 3-59, general mounting).
 
@@ -305,7 +309,8 @@ def servo_rate(model: Model, theta, data: RecordData, setup: dict):
         return indicated_output(model, theta, x, data.kind) - data.command
 
     r = jnp.zeros(data.time_s.shape[0])
-    for _ in range(3):
+    nonlinear_in_rate = any(t in model.terms for t in NONLINEAR_IN_RATE)
+    for _ in range(3 if nonlinear_in_rate else 1):
         f, df = jax.jvp(residual, (r,), (jnp.ones_like(r),))
         r = r - f / df
     return r, angles

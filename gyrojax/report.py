@@ -33,7 +33,8 @@ def fit_table(res: FitResult) -> str:
         lines.append(f"{c:14s} {_fmt(v, s):>28s}  {u:12s} {t:9.2f}  {sig}")
     lines.append(f"residual RMS {res.residual_rms:.6g} deg/h; white-noise floor {res.noise_floor:.6g} deg/h")
     idf = res.identifiability
-    lines.append(f"condition number {idf.get('condition', float('nan')):.3g}; rank {idf.get('rank')} of {idf.get('size')}")
+    cond = idf.get("condition", float("nan"))
+    lines.append(f"condition number {cond:.3g}; rank {idf.get('rank')} of {idf.get('size')}")
     for name, nz in zip(res.record_names, res.noise):
         if getattr(nz, "order", 0) == "gm":
             lines.append(f"  noise {name}: white {math.sqrt(nz.white_var):.3g} + Gauss–Markov "
@@ -58,7 +59,8 @@ def diagnosis_text(d) -> str:
         lines.append("not excited by this plan: " + ", ".join(d.unexcited))
     top = d.top
     if d.verdict == "missing-effect" and top is not None:
-        lines.append(f"→ add {top.name!r} and refit (gyrojax fit … --terms {','.join(d.fit.model.terms + (top.name,))})")
+        terms = ",".join(d.fit.model.terms + (top.name,))
+        lines.append(f"→ add {top.name!r} and refit (gyrojax fit … --terms {terms})")
     return "\n".join(lines)
 
 

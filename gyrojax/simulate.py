@@ -120,8 +120,21 @@ def _servo_integrate(model, theta, data: RecordData, setup, start, drift_rate):
     return jnp.concatenate([jnp.atleast_1d(start), rest])
 
 
-def simulate_run(plan: Plan, run: Run, truth: Truth, key, t0: float = 0.0) -> Record:
-    """One record of a plan (see module doc)."""
+def geometry_record(plan: Plan, run: Run, t0: float = 0.0) -> Record:
+    """A run's record with its table motion and zero current: the geometry that regressors and design need."""
+    return _run_columns(plan, run, t0)[0]
+
+
+def plan_records(plan: Plan) -> list[Record]:
+    """Geometry-only records of every run of a plan, on the campaign clock (no instrument output)."""
+    out, t0 = [], 0.0
+    for run in plan.runs:
+        out.append(geometry_record(plan, run, t0))
+        t0 += run.duration_s + plan.gap_between_runs_s
+    return out
+
+
+def _run_columns(plan: Plan, run: Run, t0: float):
     kind = run.instrument["kind"]
     meta = run_meta(plan, run)
     t, ang, rates, labels = run_samples(run, t0)
@@ -139,7 +152,41 @@ def simulate_run(plan: Plan, run: Run, truth: Truth, key, t0: float = 0.0) -> Re
         cols["current_y_mA"] = np.zeros(len(t))
     else:
         cols["current_mA"] = np.zeros(len(t))
-    rec = Record(meta, cols)
+    return Record(meta, cols), meta, cols, t, ang
+
+
+LOOP_MAX_STEP_S = 0.5
+"""Longest step of the loop's exact discretisation (the matrix exponential of a stiff loop over seconds overflows)."""
+
+
+def _through_loop(ind: np.ndarray, rec: Record, loop) -> np.ndarray:
+    """Pass a quasi-static indicated rate through the rebalance loop's dynamics, continuous segment by segment
+    (each sample held for its interval, Hu 2-50 to 2-56). The torquer's own scale-factor errors are the effect
+    model's (``sf_error`` …), so the loop's are zeroed here to count them once."""
+    import dataclasses
+
+    from .loops import loop_indicated_rate
+
+    params = dataclasses.replace(loop, E_SF=0.0, E_A=0.0, E_2=0.0)
+    out = np.array(ind, dtype=float)
+    seg = rec.segment_id
+    t = rec.time_s
+    for sid in np.unique(seg):
+        idx = np.flatnonzero(seg == sid)
+        if len(idx) < 2:
+            continue
+        dt = float(np.median(np.diff(t[idx])))
+        m = max(1, int(np.ceil(dt / LOOP_MAX_STEP_S)))  # a long hold is the same hold repeated in shorter steps
+        held = np.repeat(out[idx], m)
+        out[idx] = np.asarray(loop_indicated_rate(params, held, dt / m))[m - 1 :: m]
+    return out
+
+
+def simulate_run(plan: Plan, run: Run, truth: Truth, key, t0: float = 0.0, dynamics: str = "quasi-static",
+                 loop=None) -> Record:
+    """One record of a plan (see module doc)."""
+    kind = run.instrument["kind"]
+    rec, meta, cols, t, ang = _run_columns(plan, run, t0)
     model, theta = truth_model(truth, kind)
     theta = jnp.asarray(theta)
     data = record_data(rec)
@@ -165,6 +212,10 @@ def simulate_run(plan: Plan, run: Run, truth: Truth, key, t0: float = 0.0) -> Re
         cols["current_x_mA"] = (ind[:n] + np.asarray(random_drift(k1, t, truth.noise))) / run.scale_factor
         cols["current_y_mA"] = (ind[n:] + np.asarray(random_drift(k2, t, truth.noise))) / run.scale_factor
     else:
+        if dynamics == "loop" and kind in (fx.SDF, fx.FOG, fx.RLG):
+            from .loops import default_rebalance
+
+            ind = _through_loop(ind, Record(meta, cols), loop if loop is not None else default_rebalance())
         noise = np.asarray(random_drift(key, t, truth.noise))
         if kind == fx.ACCEL:
             noise = noise * 0.0  # accelerometer noise: white in g is not part of the gyro noise names
@@ -180,18 +231,23 @@ def _setup_dict(truth: Truth) -> dict:
     return {"delta": delta, "encoder": jnp.asarray(enc, dtype=jnp.float64) * units.ARCSEC}
 
 
-def simulate(plan: Plan, truth, key=None, seed: int = 0) -> list[Record]:
+def simulate(plan: Plan, truth, key=None, seed: int = 0, dynamics: str = "quasi-static", loop=None) -> list[Record]:
     """Simulate every run of ``plan`` with ``truth`` (a :class:`Truth` or a truth dict) into records.
 
     Runs follow each other on one campaign clock. Each run draws its noise from ``fold_in(key, run index)``,
-    so a run's noise does not depend on the others.
+    so a run's noise does not depend on the others. ``dynamics="loop"`` passes the indicated rate of rebalance runs
+    through the analog capture loop (:mod:`gyrojax.loops`; ``loop`` = its ``RebalanceParams``, default
+    ``default_rebalance()``): at low input frequency it reproduces the quasi-static balance equation, and it shows
+    the loop's lag on oscillating or fast-changing tables. Servo runs are integrated in time either way.
     """
+    if dynamics not in ("quasi-static", "loop"):
+        raise ValueError(f"dynamics must be 'quasi-static' or 'loop', got {dynamics!r}")
     if not isinstance(truth, Truth):
         truth = truth_from_dict(truth)
     if key is None:
         key = jax.random.PRNGKey(seed)
     out, t0 = [], 0.0
     for i, run in enumerate(plan.runs):
-        out.append(simulate_run(plan, run, truth, jax.random.fold_in(key, i), t0))
+        out.append(simulate_run(plan, run, truth, jax.random.fold_in(key, i), t0, dynamics, loop))
         t0 += run.duration_s + plan.gap_between_runs_s
     return out

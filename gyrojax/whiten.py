@@ -18,8 +18,8 @@ from scipy.linalg import solve_toeplitz
 from scipy.signal import lfilter
 
 P_MAX = 20
-TAU_SPAN_FRACTION = 4.0
-"""Gauss–Markov correlation times are capped at the record span / 4: structure slower than that cannot be told from
+TAU_SPAN_FRACTION = 8.0
+"""Gauss–Markov correlation times are capped at the record span / 8: structure slower than that cannot be told from
 a deterministic trend within the record, and is left to ``bias_trend`` (and the diagnosis) rather than to noise."""
 
 
@@ -255,6 +255,30 @@ def gm_reml(r: np.ndarray, design: np.ndarray, labels: np.ndarray, times: np.nda
     return float(np.sum(logs) + e @ e + 2.0 * np.sum(np.log(d)))
 
 
+def gm_profile(r: np.ndarray, design: np.ndarray, labels: np.ndarray, times: np.ndarray, nz: GMNoise) -> float:
+    """Profile −2 log-likelihood (without 2π) of r under ``nz`` with ``design`` estimated by GLS: Σ log S_k + |ẽ|²."""
+    ok = labels >= 0
+    x = np.column_stack([r[ok], design[ok]])
+    w, logs = kalman_whiten(x, times[ok], nz, series_restarts(labels[ok], times[ok]))
+    rw, jw = w[:, 0], w[:, 1:]
+    if jw.shape[1]:
+        q, _ = np.linalg.qr(jw)
+        rw = rw - q @ (q.T @ rw)
+    return float(np.sum(logs) + rw @ rw)
+
+
+def profile_likelihood(r, design, labels, times, start: GMNoise | None = None) -> float:
+    """min over white + Gauss–Markov parameters of :func:`gm_profile`: the ML fit of a regression with GM noise."""
+    given = start
+    start = start or fit_gm(r, labels, times)
+    if start is None:
+        ok = labels >= 0
+        v = max(float(np.var(r[ok])), 1e-300)
+        start = GMNoise(float(np.ptp(times[ok])) / 20 or 1.0, 0.1 * v, 0.9 * v)
+    best = _gm_mle(r, labels, times, start, design, profile=True, grid=given is None)
+    return gm_profile(r, design, labels, times, best)
+
+
 def fit_gm(r: np.ndarray, labels: np.ndarray, times: np.ndarray, max_lag: int = 2000,
            design: np.ndarray | None = None) -> GMNoise | None:
     """White + Gauss–Markov model from the pooled autocovariance: γ_0 = σ_w² + σ_g², γ_k = σ_g² φ^k (k ≥ 1),
@@ -293,7 +317,8 @@ def fit_gm(r: np.ndarray, labels: np.ndarray, times: np.ndarray, max_lag: int = 
     return _gm_mle(r, labels, times, start, design)
 
 
-def _gm_mle(r, labels, times, start: GMNoise, design=None) -> GMNoise:
+def _gm_mle(r, labels, times, start: GMNoise, design=None, profile: bool = False, grid: bool = True) -> GMNoise:
+    # grid=False: a coarser grid of starts (the profile likelihood ratio refits twice per slow candidate)
     """Refine a white + Gauss–Markov model by maximising the exact (Kalman) likelihood — restricted (REML) when the
     regressors of the fit are given, so that the drift the fitted coefficients absorbed is not lost from σ_g².
 
@@ -313,10 +338,18 @@ def _gm_mle(r, labels, times, start: GMNoise, design=None) -> GMNoise:
         if np.any(np.abs(u) > 700):
             return np.inf
         if design is not None:
-            return gm_reml(r, design, labels, times, unpack(u))
+            f = gm_profile if profile else gm_reml
+            return f(r, design, labels, times, unpack(u))
         return gm_loglik(r, labels, times, unpack(u))[0]
 
-    u0 = np.log([min(start.tau_s, tau_max), start.gm_var, start.white_var])
+    # the likelihood in τ has local minima on short records: start from the best of a grid of correlation times
+    dt0 = float(np.median(np.diff(times[ok]))) if ok.sum() > 1 else 1.0
+    n_tau, fractions = (8, (0.02, 0.1, 0.3)) if grid else (5, (0.03, 0.2))
+    starts = [min(start.tau_s, tau_max)] + list(np.geomspace(max(2 * dt0, 1e-9), tau_max, n_tau))
+    total = start.gm_var + start.white_var
+    cands = [np.log([t, v * total, (1 - v) * total]) for t in starts for v in fractions]
+    cands.append(np.log([min(start.tau_s, tau_max), start.gm_var, start.white_var]))
+    u0 = min(cands, key=nll)
     sol = minimize(nll, u0, method="Nelder-Mead", options={"xatol": 1e-3, "fatol": 1e-3, "maxiter": 300})
     best = sol.x if sol.fun <= nll(u0) else u0
     return unpack(best)
