@@ -114,6 +114,8 @@ def cmd_diagnose(args) -> int:
     from .records import load_records
     from .report import diagnosis_text
 
+    if not 0.0 < args.alpha < 1.0:
+        raise UsageError(f"--alpha must lie in (0, 1), got {args.alpha}")
     recs = load_records(args.records)
     d = diagnose(recs, _terms(args.terms) or None, alpha=args.alpha)
     if args.json:
@@ -216,6 +218,10 @@ def main(argv=None) -> int:
         return 2
     except BrokenPipeError:
         return 0
+    except OSError as e:  # a file the user named cannot be written or read: an input error, not a crash
+        where = f"{e.filename}: " if e.filename else ""
+        print(f"gyrojax: error: {where}{e.strerror or e}".replace("\n", " "), file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print("gyrojax: interrupted", file=sys.stderr)
         return 1

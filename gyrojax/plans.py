@@ -328,14 +328,21 @@ BUILDERS = {
 }
 
 
+MAX_SAMPLES = 50_000_000
+"""A plan asking for more samples than this (all runs together) is refused rather than simulated."""
+
+
 def build(name: str, **options) -> Plan:
-    """Build a built-in plan by name with keyword options (see ``gyrojax plans``)."""
+    """Build a built-in plan by name with keyword options (see ``gyrojax plans``); the result is validated."""
     if name not in BUILDERS:
         raise PlanError(f"unknown plan {name!r}; built-in plans: {', '.join(BUILDERS)}")
     try:
-        return BUILDERS[name][0](**options)
-    except TypeError as e:
-        raise PlanError(f"plan {name!r}: {e}") from None
+        plan = BUILDERS[name][0](**options)
+    except (TypeError, ValueError, ZeroDivisionError, OverflowError) as e:
+        if isinstance(e, PlanError):
+            raise
+        raise PlanError(f"plan {name!r}: bad option(s) {options}: {e}") from None
+    return validate_plan(plan, f"plan {name!r} with options {options}")
 
 
 # ---- JSON ------------------------------------------------------------------------------------------------------
@@ -347,40 +354,149 @@ def plan_to_json(plan: Plan) -> str:
     return json.dumps(d, indent=1)
 
 
+def _is_num(v) -> bool:
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return False
+    try:
+        return math.isfinite(float(v))
+    except OverflowError:
+        return False
+
+
+def validate_plan(plan: Plan, where: str = "plan") -> Plan:
+    """Check a plan's numbers and each run's geometry (as the record it will become); errors name the key."""
+    from .records import FORMAT, RecordError, validate_meta
+
+    if not _is_num(plan.latitude_deg) or not -90.0 <= plan.latitude_deg <= 90.0:
+        raise PlanError(f"{where}: key 'latitude_deg' must be a number in [-90, 90], got {plan.latitude_deg!r}")
+    if plan.gravity_mps2 is not None and (not _is_num(plan.gravity_mps2) or not 9.7 <= plan.gravity_mps2 <= 9.9):
+        raise PlanError(
+            f"{where}: key 'gravity_mps2' must be null or a number in [9.7, 9.9], got {plan.gravity_mps2!r}"
+        )
+    if not plan.runs:
+        raise PlanError(f"{where}: key 'runs' must hold at least one run")
+    total = 0
+    for i, run in enumerate(plan.runs):
+        k = len(run.axes)
+        if not run.segments:
+            raise PlanError(f"{where}: key 'runs[{i}].segments' must hold at least one segment")
+        for j, seg in enumerate(run.segments):
+            at = f"runs[{i}].segments[{j}]"
+            for key in ("start_deg", "rate_dps", "amplitude_deg"):
+                v = getattr(seg, key)
+                if v is None and key != "start_deg":
+                    continue
+                if not isinstance(v, (list, tuple)) or len(v) != k or not all(_is_num(x) for x in v):
+                    raise PlanError(f"{where}: key '{at}.{key}' needs {k} value(s), finite numbers (one per table "
+                                    f"axis), got {v!r}")
+            for key in ("duration_s", "dt_s"):
+                v = getattr(seg, key)
+                if not _is_num(v) or not v > 0:
+                    raise PlanError(f"{where}: key '{at}.{key}' must be a finite number > 0, got {v!r}")
+            if not _is_num(seg.frequency_hz):
+                raise PlanError(f"{where}: key '{at}.frequency_hz' must be a finite number, got {seg.frequency_hz!r}")
+            total += max(1, round(seg.duration_s / seg.dt_s))
+            if total > MAX_SAMPLES:
+                raise PlanError(f"{where}: key '{at}' asks for {seg.duration_s / seg.dt_s:.3g} samples; a plan may "
+                                f"have at most {MAX_SAMPLES:.0e} samples in all (shorten duration_s or raise dt_s)")
+        if not _is_num(run.gap_s) or run.gap_s < 0:
+            raise PlanError(f"{where}: key 'runs[{i}].gap_s' must be a finite number >= 0, got {run.gap_s!r}")
+        inst = run.instrument if isinstance(run.instrument, dict) else {}
+        sf_key = "scale_factor_g_per_mA" if inst.get("kind") == "pendulous-accel" else "scale_factor_deg_per_h_per_mA"
+        meta = {"format": FORMAT, "name": run.name,
+                "site": {"latitude_deg": plan.latitude_deg, "gravity_mps2": plan.gravity_mps2 or 9.8},
+                "table": {"axes": [{"name": n, "axis_enu": list(u)} for n, u in run.axes]},
+                "instrument": run.instrument, "mode": run.mode, sf_key: run.scale_factor,
+                "servo_axis": run.servo_axis}
+        try:
+            validate_meta(meta, f"runs[{i}]")
+        except RecordError as e:
+            msg = str(e).replace("'scale_factor_deg_per_h_per_mA'", "'scale_factor'")
+            raise PlanError(f"{where}: {msg.replace('scale_factor_g_per_mA', 'scale_factor')}") from None
+    return plan
+
+
+def _need(where, d, key, path):
+    if not isinstance(d, dict):
+        raise PlanError(f"{where}: key {path.rstrip('.')!r} must be an object")
+    if key not in d:
+        raise PlanError(f"{where}: missing required key {path + key!r}")
+    return d[key]
+
+
+def _list(where, v, path):
+    if not isinstance(v, list):
+        raise PlanError(f"{where}: key {path!r} must be a list, got {type(v).__name__}")
+    return v
+
+
+def _number(where, v, path, default=None):
+    if v is None and default is not None:
+        return default
+    if not _is_num(v):
+        raise PlanError(f"{where}: key {path!r} must be a finite number, got {v!r}")
+    return float(v)
+
+
+def _numbers(where, v, path):
+    if v is None:
+        return None
+    if not isinstance(v, list) or not all(_is_num(x) for x in v):
+        raise PlanError(f"{where}: key {path!r} must be a list of finite numbers (one per table axis), got {v!r}")
+    return tuple(float(x) for x in v)
+
+
 def plan_from_dict(d: dict, where: str = "plan") -> Plan:
-    """A plan from its JSON dict, validated (errors name the key)."""
+    """A plan from its JSON dict, validated (errors name the key, e.g. ``runs[0].segments[2].dt_s``)."""
     if not isinstance(d, dict):
         raise PlanError(f"{where}: the top level must be an object")
     if d.get("format") != PLAN_FORMAT:
         raise PlanError(f"{where}: key 'format' must be {PLAN_FORMAT!r}, got {d.get('format')!r}")
-    try:
-        runs = []
-        for i, r in enumerate(d["runs"]):
-            segs = []
-            for j, s in enumerate(r["segments"]):
-                k = len(r["axes"])
-                for key in ("start_deg", "rate_dps", "amplitude_deg"):
-                    v = s.get(key)
-                    if v is not None and len(v) != k:
-                        raise PlanError(f"{where}: key 'runs[{i}].segments[{j}].{key}' needs {k} values")
-                if not s["duration_s"] > 0 or not s.get("dt_s", 1.0) > 0:
-                    raise PlanError(f"{where}: key 'runs[{i}].segments[{j}]' needs duration_s > 0 and dt_s > 0")
-                segs.append(Segment(
-                    tuple(s["start_deg"]), float(s["duration_s"]), float(s.get("dt_s", 1.0)),
-                    None if s.get("rate_dps") is None else tuple(s["rate_dps"]),
-                    None if s.get("amplitude_deg") is None else tuple(s["amplitude_deg"]),
-                    float(s.get("frequency_hz", 0.0)), s.get("label"),
-                ))
-            axes = tuple((a[0], tuple(a[1])) for a in r["axes"])
-            runs.append(Run(r["name"], axes, dict(r["instrument"]), tuple(segs), r.get("mode", "rebalance"),
-                            r.get("servo_axis"), float(r.get("scale_factor", 17.171)), float(r.get("gap_s", 30.0)),
-                            r.get("temperature_C")))
-        return Plan(d["name"], tuple(runs), float(d.get("latitude_deg", DEFAULT_LATITUDE)), d.get("gravity_mps2"),
-                    d.get("description", ""), d.get("reference", ""), float(d.get("gap_between_runs_s", 60.0)))
-    except KeyError as e:
-        raise PlanError(f"{where}: missing required key {e.args[0]!r}") from None
-    except (TypeError, ValueError) as e:
-        raise PlanError(f"{where}: {e}") from None
+    runs = []
+    for i, r in enumerate(_list(where, _need(where, d, "runs", ""), "runs")):
+        at = f"runs[{i}]."
+        axes = []
+        for a, ax in enumerate(_list(where, _need(where, r, "axes", at), at + "axes")):
+            if not (isinstance(ax, list) and len(ax) == 2 and isinstance(ax[0], str) and isinstance(ax[1], list)):
+                raise PlanError(f"{where}: key '{at}axes[{a}]' must be [name, [e, n, u]], got {ax!r}")
+            axes.append((ax[0], _numbers(where, ax[1], f"{at}axes[{a}][1]")))
+        segs = []
+        for j, s in enumerate(_list(where, _need(where, r, "segments", at), at + "segments")):
+            sat = f"{at}segments[{j}]."
+            label = s.get("label") if isinstance(s, dict) else None
+            if label is not None and (not _is_num(label) or label != int(label)):
+                raise PlanError(f"{where}: key '{sat}label' must be an integer or null, got {label!r}")
+            segs.append(Segment(
+                _numbers(where, _need(where, s, "start_deg", sat), sat + "start_deg"),
+                _number(where, _need(where, s, "duration_s", sat), sat + "duration_s"),
+                _number(where, s.get("dt_s"), sat + "dt_s", 1.0),
+                _numbers(where, s.get("rate_dps"), sat + "rate_dps"),
+                _numbers(where, s.get("amplitude_deg"), sat + "amplitude_deg"),
+                _number(where, s.get("frequency_hz"), sat + "frequency_hz", 0.0),
+                None if label is None else int(label),
+            ))
+        inst = _need(where, r, "instrument", at)
+        if not isinstance(inst, dict):
+            raise PlanError(f"{where}: key '{at}instrument' must be an object (CONVENTIONS §5), got {inst!r}")
+        name = _need(where, r, "name", at)
+        if not isinstance(name, str) or not name:
+            raise PlanError(f"{where}: key '{at}name' must be a non-empty string, got {name!r}")
+        temp = r.get("temperature_C")
+        if temp is not None and not (_is_num(temp) or (isinstance(temp, list) and all(_is_num(x) for x in temp))):
+            raise PlanError(f"{where}: key '{at}temperature_C' must be null, a number or a list of numbers")
+        runs.append(Run(name, tuple(axes), dict(inst), tuple(segs), r.get("mode", "rebalance"), r.get("servo_axis"),
+                        _number(where, r.get("scale_factor"), at + "scale_factor", 17.171),
+                        _number(where, r.get("gap_s"), at + "gap_s", 30.0),
+                        tuple(temp) if isinstance(temp, list) else temp))
+    name = _need(where, d, "name", "")
+    if not isinstance(name, str):
+        raise PlanError(f"{where}: key 'name' must be a string, got {name!r}")
+    lat = d.get("latitude_deg", DEFAULT_LATITUDE)
+    if not _is_num(lat):
+        raise PlanError(f"{where}: key 'latitude_deg' must be a finite number in [-90, 90], got {lat!r}")
+    plan = Plan(name, tuple(runs), float(lat), d.get("gravity_mps2"), str(d.get("description", "")),
+                str(d.get("reference", "")), _number(where, d.get("gap_between_runs_s"), "gap_between_runs_s", 60.0))
+    return validate_plan(plan, where)
 
 
 def load_plan(path) -> Plan:
@@ -391,8 +507,13 @@ def load_plan(path) -> Plan:
         d = json.loads(p.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise PlanError(f"{p}: no such file") from None
+    except IsADirectoryError:
+        raise PlanError(f"{p}: is a directory; a plan is one JSON file") from None
+    except OSError as e:
+        raise PlanError(f"{p}: cannot read: {e.strerror}") from None
     except (UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise PlanError(f"{p}: not a valid UTF-8 JSON plan ({e})") from None
+        what = "empty" if not p.read_bytes().strip() else "not a valid UTF-8 JSON plan"
+        raise PlanError(f"{p}: is {what} ({e}); a plan is a JSON object with format {PLAN_FORMAT!r}") from None
     return plan_from_dict(d, str(p))
 
 

@@ -18,7 +18,6 @@ import numpy as np
 
 from .effects import ACCEL, INSTRUMENT_KINDS, SDF, TDF
 from .errors import RecordError
-from .io import atomic_write_text
 
 FORMAT = "gyrojax-record-1"
 AXIS_TOL = 1e-6
@@ -201,11 +200,11 @@ def _err(file, msg):
 
 
 def _unit_vector(file, key, v):
-    if not isinstance(v, (list, tuple)) or len(v) != 3:
-        raise _err(file, f"key {key!r} must be a list of 3 numbers, got {v!r}")
+    if not isinstance(v, (list, tuple)) or len(v) != 3 or any(isinstance(x, bool) for x in v):
+        raise _err(file, f"key {key!r} must be a list of 3 numbers (a unit vector), got {v!r}")
     try:
         arr = np.array([float(x) for x in v])
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise _err(file, f"key {key!r} must hold 3 numbers, got {v!r}") from None
     if not np.all(np.isfinite(arr)):
         raise _err(file, f"key {key!r} has a non-finite component: {v!r}")
@@ -221,9 +220,19 @@ def _require(file, d, key, where=""):
     return d[key]
 
 
+def _finite_number(v) -> bool:
+    """A JSON number that is a finite float64 (not a bool, not an integer too large for a float)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return False
+    try:
+        return math.isfinite(float(v))
+    except OverflowError:
+        return False
+
+
 def _number(file, d, key, where=""):
     v = _require(file, d, key, where)
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+    if not _finite_number(v):
         raise _err(file, f"key {where + key!r} must be a finite number, got {v!r}")
     return float(v)
 
@@ -294,67 +303,187 @@ def validate_meta(meta, file="record.json") -> dict:
             raise _err(file, "key 'servo_axis' must name a table axis when mode is 'servo'")
         if kind == TDF:
             raise _err(file, "key 'mode': servo mode is supported for sdf-gyro and pendulous-accel only")
-    if servo is not None and servo not in seen:
+    if servo is not None and (not isinstance(servo, str) or servo not in seen):
         raise _err(file, f"key 'servo_axis' is {servo!r}; table axes are {sorted(seen)}")
     return meta
 
 
-def _parse_csv(csv_path: Path) -> tuple[list[str], np.ndarray]:
-    """Header and float matrix of a CSV, naming the row and column of the first bad cell."""
-    import pandas as pd
+NUMERIC_COLUMNS = ("time_s", "segment", "temperature_C", "current_mA", "current_x_mA", "current_y_mA")
 
+
+def must_be_numeric(column: str) -> bool:
+    """Columns of CONVENTIONS §5 (these must hold finite numbers); any other column is extra, kept and ignored."""
+    return (
+        column in NUMERIC_COLUMNS
+        or (column.startswith("angle_") and column.endswith("_deg"))
+        or (column.startswith("rate_") and column.endswith("_dps"))
+    )
+
+
+def _read_csv_bytes(csv_path: Path) -> bytes:
     try:
         with open(csv_path, "rb") as fh:
             raw = fh.read()
     except OSError as e:
-        raise _err(csv_path, f"cannot read: {e.strerror}") from None
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError as e:
-        raise _err(csv_path, f"is not UTF-8 (byte {e.start}); save it as UTF-8") from None
-    if not text.strip():
+        raise _err(csv_path, f"cannot read: {e.strerror} (a record is NAME.csv + NAME.json, both files)") from None
+    if not raw.isascii():
+        try:
+            raw.decode("utf-8")
+        except UnicodeDecodeError as e:
+            row = raw[: e.start].count(b"\n") + 1
+            raise _err(
+                csv_path, f"row {row} is not UTF-8 (byte {e.start}: 0x{raw[e.start]:02x}); save the file as UTF-8"
+            ) from None
+    if raw.startswith(b"\xef\xbb\xbf"):
+        raw = raw[3:]  # a UTF-8 byte-order mark is fine
+    if b"\x00" in raw[:65536]:
+        row = raw[: raw.index(b"\x00")].count(b"\n") + 1
+        raise _err(csv_path, f"row {row} holds a NUL byte: this is not a text file; records are UTF-8 CSV")
+    if not raw[:4096].strip() and not raw.strip():
         raise _err(csv_path, "is empty; a header row and at least one sample are required")
+    return raw
+
+
+def _csv_header(csv_path: Path, raw: bytes) -> list[str]:
+    import csv
+
+    end = raw.find(b"\n")
+    line = (raw if end < 0 else raw[:end]).decode("utf-8").rstrip("\r")
+    try:
+        header = [h.strip() for h in next(csv.reader([line]))] if line.strip() else []
+    except csv.Error as e:
+        raise _err(csv_path, f"row 1 (header) is not a comma-separated line ({e}); a stray carriage return?") from None
+    if not header:
+        raise _err(csv_path, "row 1 (header) is empty; it must name the columns (time_s, angle_<axis>_deg, …)")
+    if len(header) == 1:
+        for sep in (";", "\t", "|"):
+            if sep in header[0]:
+                raise _err(
+                    csv_path,
+                    f"row 1 (header) is one column {header[0][:60]!r}: the file looks {sep!r}-separated; "
+                    "records must be comma separated (CONVENTIONS §5)",
+                )
+    for j, h in enumerate(header):
+        if not h:
+            raise _err(csv_path, f"row 1 (header), column {j + 1} has no name; every column must be named")
+        if header.count(h) > 1:
+            k = header.index(h, j + 1)
+            raise _err(
+                csv_path,
+                f"row 1 (header) names column {h!r} twice (columns {j + 1} and {k + 1}); column names must be unique",
+            )
+    return header
+
+
+def _numbered_rows(csv_path, reader):
+    """(file row number, fields) of each CSV row, streamed; a malformed line is an error naming its row."""
+    import csv
+
+    while True:
+        try:
+            row = next(reader)
+        except StopIteration:
+            return
+        except csv.Error as e:
+            raise _err(
+                csv_path, f"row {reader.line_num} is not a valid CSV row ({e}); a stray carriage return or quote?"
+            ) from None
+        yield reader.line_num, row
+
+
+def _diagnose_csv(csv_path: Path, raw: bytes, header: list[str], strict: bool) -> None:
+    """Stream the rows and raise at the first row of the wrong length or the first bad numeric cell.
+
+    ``strict``: check every column (else only the columns of CONVENTIONS §5).
+    """
+    import csv
     import io
 
+    check = [j for j, h in enumerate(header) if strict or must_be_numeric(h)]
+    rows = _numbered_rows(csv_path, csv.reader(io.StringIO(raw.decode("utf-8")), skipinitialspace=True))
+    next(rows, None)  # the header
+    n = len(header)
+    for i, row in rows:
+        if not row:
+            continue
+        if len(row) < n:
+            raise _err(
+                csv_path,
+                f"row {i} has {len(row)} of {n} fields: column {header[len(row)]!r} is missing "
+                "(is the file truncated?); every row needs one value per header column",
+            )
+        if len(row) > n:
+            raise _err(csv_path, f"row {i} has {len(row)} fields but the header names {n} columns; "
+                                 "every row needs one value per header column")
+        for j in check:
+            v = row[j].strip()
+            if v == "":
+                raise _err(csv_path, f"row {i}, column {header[j]!r} is empty; a finite number is required")
+            try:
+                x = float(v)
+            except ValueError:
+                raise _err(
+                    csv_path, f"row {i}, column {header[j]!r} holds {v[:40]!r}, not a number; a finite number "
+                    "is required"
+                ) from None
+            if not math.isfinite(x):
+                raise _err(csv_path, f"row {i}, column {header[j]!r} holds {v!r}; values must be finite numbers")
+
+
+def _parse_csv(csv_path: Path) -> tuple[list[str], dict[str, np.ndarray]]:
+    """Header and columns of a record CSV, naming the row and column of the first bad cell.
+
+    Fast path: pandas' C parser straight to float64 (exact round trip). On any failure the rows are streamed
+    again to name the first bad row and column; extra columns that are not numeric are kept as text.
+    """
+    import io
+
+    import pandas as pd
+
+    raw = _read_csv_bytes(csv_path)
+    header = _csv_header(csv_path, raw)
+    kw = dict(skipinitialspace=True, names=header, header=0)
     try:
-        df = pd.read_csv(io.StringIO(text), dtype=str, keep_default_na=False, skipinitialspace=True)
-    except pd.errors.ParserError as e:
-        raise _err(csv_path, f"is not a valid comma-separated table: {e}") from None
-    except pd.errors.EmptyDataError:
-        raise _err(csv_path, "has no header row") from None
-    header = [str(c).strip() for c in df.columns]
-    dups = {h for h in header if header.count(h) > 1}
-    bad = [h for h in header if h.startswith("Unnamed:") or not h]
-    if bad:
-        raise _err(csv_path, "row 1 (header) has an empty column name")
-    if dups or any("." in h and h.rsplit(".", 1)[-1].isdigit() and h.rsplit(".", 1)[0] in header for h in header):
-        raise _err(csv_path, f"row 1 (header) repeats a column name: {sorted(dups) or header}")
-    if len(df) == 0:
-        raise _err(csv_path, "has a header but no samples")
-    values = df.to_numpy(dtype=str)
-    out = np.empty(values.shape, dtype=float)
-    for j, h in enumerate(header):
-        col = values[:, j]
+        df = pd.read_csv(io.BytesIO(raw), dtype=np.float64, na_filter=False, **kw)
+    except (ValueError, pd.errors.ParserError):
+        _diagnose_csv(csv_path, raw, header, strict=False)
+        dtypes = {h: (np.float64 if must_be_numeric(h) else str) for h in header}
         try:
-            out[:, j] = col.astype(float)
-        except ValueError:
-            for i, v in enumerate(col):
-                try:
-                    float(v)
-                except ValueError:
-                    what = "is empty" if v.strip() == "" else f"holds {v!r}, not a number"
-                    raise _err(csv_path, f"row {i + 2}, column {h!r} {what}") from None
-        bad = ~np.isfinite(out[:, j])
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
-            raise _err(csv_path, f"row {i + 2}, column {h!r} holds {values[i, j]!r}; values must be finite")
-    return header, out
+            df = pd.read_csv(io.BytesIO(raw), dtype=dtypes, keep_default_na=False, **kw)
+        except (ValueError, pd.errors.ParserError) as e:
+            raise _err(csv_path, f"is not a valid comma-separated table: {str(e).strip()}") from None
+    if len(df) == 0:
+        raise _err(csv_path, "has a header but no samples; at least one sample row is required")
+    cols = {}
+    for h in header:
+        col = df[h].to_numpy()
+        if col.dtype == np.float64 and must_be_numeric(h) and not np.all(np.isfinite(col)):
+            _diagnose_csv(csv_path, raw, header, strict=False)
+            i = int(np.flatnonzero(~np.isfinite(col))[0])
+            raise _err(csv_path, f"row {i + 2}, column {h!r} holds {col[i]!r}; values must be finite numbers")
+        cols[h] = col if col.dtype == np.float64 else col.astype(str)
+    return header, cols
+
+
+def _column_hint(columns, want: str) -> str:
+    """A hint when a required column seems present under another spelling (a unit in the name, other case)."""
+    import re
+
+    for c in columns:
+        base = re.sub(r"\s*[\[(].*$", "", c).strip()
+        if c != want and base == want:
+            return (f"; column {c!r} looks like {want!r} with a unit: units are fixed by CONVENTIONS §5, "
+                    f"so name it exactly {want!r}")
+        if c != want and c.lower() == want.lower():
+            return f"; column {c!r} differs only in case: name it exactly {want!r}"
+    return ""
 
 
 def validate_columns(meta: dict, columns: dict[str, np.ndarray], file="record.csv") -> None:
     """Check the CSV columns against the metadata (CONVENTIONS §5)."""
     if "time_s" not in columns:
-        raise _err(file, f"missing required column 'time_s'; columns are {list(columns)}")
+        hint = _column_hint(columns, "time_s")
+        raise _err(file, f"missing required column 'time_s'{hint}; columns are {list(columns)}")
     t = columns["time_s"]
     if len(t) > 1:
         dt = np.diff(t)
@@ -370,18 +499,50 @@ def validate_columns(meta: dict, columns: dict[str, np.ndarray], file="record.cs
     for a in names:
         if f"angle_{a}_deg" not in columns:
             hint = [c for c in columns if c.startswith("angle_")]
-            raise _err(file, f"missing required column 'angle_{a}_deg' for table axis {a!r}; angle columns: {hint}")
+            raise _err(file, f"missing required column 'angle_{a}_deg' for table axis {a!r}"
+                             f"{_column_hint(columns, f'angle_{a}_deg')}; angle columns: {hint}")
     kind = meta["instrument"]["kind"]
     if meta["mode"] == "rebalance":
         need = ("current_x_mA", "current_y_mA") if kind == TDF else ("current_mA",)
         for c in need:
             if c not in columns:
-                raise _err(file, f"missing required column {c!r} (rebalance mode, {kind})")
+                raise _err(file, f"missing required column {c!r} (rebalance mode, {kind}){_column_hint(columns, c)}")
     if "segment" in columns:
         seg = columns["segment"]
         if np.any(seg != np.round(seg)):
             i = int(np.flatnonzero(seg != np.round(seg))[0])
             raise _err(file, f"row {i + 2}, column 'segment' holds {seg[i]!r}; segment labels are integers")
+
+
+def _no_duplicate_keys(json_path):
+    def hook(pairs):
+        seen = set()
+        for k, _ in pairs:
+            if k in seen:
+                raise _err(json_path, f"key {k!r} appears twice in one object; each key must appear once")
+            seen.add(k)
+        return dict(pairs)
+
+    return hook
+
+
+def read_meta(json_path: Path) -> dict:
+    """The record JSON as a dict (UTF-8, a BOM allowed; duplicate keys are errors), not yet validated."""
+    try:
+        raw = json_path.read_bytes()
+    except OSError as e:
+        raise _err(json_path, f"cannot read: {e.strerror} (a record is NAME.csv + NAME.json, both files)") from None
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        line = raw[: e.start].count(b"\n") + 1
+        raise _err(json_path, f"is not UTF-8 (line {line}, byte {e.start}); save it as UTF-8") from None
+    if not text.strip():
+        raise _err(json_path, "is empty; a JSON object with the record's metadata (CONVENTIONS §5) is required")
+    try:
+        return json.loads(text, object_pairs_hook=_no_duplicate_keys(json_path))
+    except json.JSONDecodeError as e:
+        raise _err(json_path, f"is not valid JSON: {e.msg} at line {e.lineno}, column {e.colno}") from None
 
 
 def load_record(path: str | os.PathLike) -> Record:
@@ -390,17 +551,9 @@ def load_record(path: str | os.PathLike) -> Record:
     for p in (json_path, csv_path):
         if not p.exists():
             raise RecordError(f"{p}: no such file (a record is NAME.csv + NAME.json side by side)")
-    try:
-        text = json_path.read_bytes().decode("utf-8-sig")
-    except UnicodeDecodeError as e:
-        raise _err(json_path, f"is not UTF-8 (byte {e.start})") from None
-    try:
-        meta = json.loads(text)
-    except json.JSONDecodeError as e:
-        raise _err(json_path, f"is not valid JSON: {e.msg} at line {e.lineno}, column {e.colno}") from None
+    meta = read_meta(json_path)
     validate_meta(meta, json_path)
-    header, values = _parse_csv(csv_path)
-    columns = {h: values[:, j].copy() for j, h in enumerate(header)}
+    _, columns = _parse_csv(csv_path)
     validate_columns(meta, columns, csv_path)
     return Record(meta, columns, str(csv_path))
 
@@ -414,6 +567,8 @@ def load_records(paths) -> list[Record]:
         p = Path(p)
         if p.is_dir():
             stems = sorted({q.with_suffix("") for q in p.glob("*.json")} & {q.with_suffix("") for q in p.glob("*.csv")})
+            if not stems:
+                raise RecordError(f"{p}: directory holds no record (a record is NAME.csv + NAME.json side by side)")
             out.extend(load_record(s.with_suffix(".json")) for s in stems)
         else:
             out.append(load_record(p))
@@ -424,24 +579,50 @@ def load_records(paths) -> list[Record]:
     return out
 
 
-def _fmt(x: float) -> str:
+def _fmt(x) -> str:
+    if isinstance(x, str):  # an extra text column, kept as read
+        return x if not any(c in x for c in ',"\n\r') else '"' + x.replace('"', '""') + '"'
     return repr(float(x)) if x != 0 else "0"
+
+
+CSV_CHUNK_ROWS = 100_000
+
+
+def record_csv_chunks(record: Record, rows: int = CSV_CHUNK_ROWS):
+    """The CSV text of a record in pieces of ``rows`` rows (full float64 precision), header first."""
+    header = list(record.columns)
+    cols = [record.columns[h] for h in header]
+    yield ",".join(header) + "\n"
+    for s in range(0, record.n, rows):
+        part = zip(*(c[s : s + rows] for c in cols))
+        yield "\n".join(",".join(_fmt(v) for v in row) for row in part) + "\n"
 
 
 def record_csv_text(record: Record) -> str:
     """The CSV text of a record (full float64 precision)."""
-    header = list(record.columns)
-    cols = [record.columns[h] for h in header]
-    lines = [",".join(header)]
-    for row in zip(*cols):
-        lines.append(",".join(_fmt(v) for v in row))
-    return "\n".join(lines) + "\n"
+    return "".join(record_csv_chunks(record))
+
+
+def _write_temp(path: Path, pieces) -> str:
+    """Write text pieces to a temporary file beside ``path``; returns its name (the caller renames it)."""
+    import tempfile
+
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            for piece in pieces:
+                fh.write(piece.encode("utf-8"))
+    except BaseException:
+        os.unlink(tmp)
+        raise
+    return tmp
 
 
 def save_record(record: Record, directory: str | os.PathLike, force: bool = False) -> Path:
     """Write ``NAME.csv`` and ``NAME.json`` into ``directory`` atomically; returns the JSON path.
 
-    Refuses to overwrite existing files unless ``force``; validates before writing anything.
+    Refuses to overwrite existing files unless ``force``; validates before writing anything; a failure while
+    writing leaves no partial file behind.
     """
     d = Path(directory)
     d.mkdir(parents=True, exist_ok=True)
@@ -452,6 +633,17 @@ def save_record(record: Record, directory: str | os.PathLike, force: bool = Fals
         for p in (csv_path, json_path):
             if p.exists():
                 raise RecordError(f"{p}: exists; pass force=True (or --force) to overwrite")
-    atomic_write_text(csv_path, record_csv_text(record))
-    atomic_write_text(json_path, json.dumps(record.meta, indent=1) + "\n")
+    # both files go to temporary names first (the CSV streamed in chunks, so memory stays one chunk), then are
+    # renamed: a failure while writing leaves no partial file and never touches an existing record
+    temps = []
+    try:
+        temps.append(_write_temp(csv_path, record_csv_chunks(record)))
+        temps.append(_write_temp(json_path, [json.dumps(record.meta, indent=1) + "\n"]))
+        os.replace(temps[0], csv_path)
+        os.replace(temps[1], json_path)
+    except BaseException:
+        for t in temps:
+            if os.path.exists(t):
+                os.unlink(t)
+        raise
     return json_path

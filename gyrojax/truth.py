@@ -37,6 +37,15 @@ class Truth:
                 "noise": {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.noise.items()}}
 
 
+def _finite_number(v) -> bool:
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return False
+    try:
+        return bool(np.isfinite(float(v)))
+    except OverflowError:
+        return False
+
+
 def truth_from_dict(d, where: str = "truth") -> Truth:
     """Validate a truth dict; unknown names are errors naming the key."""
     if not isinstance(d, dict):
@@ -47,23 +56,45 @@ def truth_from_dict(d, where: str = "truth") -> Truth:
     idx = fx.coefficient_index()
     coeffs = {}
     setup_coeffs = {c for e in SETUP_SIZES for c in fx.get(e).coefficients}
+    for part in ("coefficients", "setup", "noise"):
+        if d.get(part) is not None and not isinstance(d[part], dict):
+            raise TruthError(f"{where}: key {part!r} must be an object of name: value, got {type(d[part]).__name__}")
     for k, v in (d.get("coefficients") or {}).items():
         if k not in idx:
-            raise TruthError(f"{where}: key 'coefficients.{k}' is not a coefficient name; valid: {', '.join(idx)}")
+            raise TruthError(
+                f"{where}: key {'coefficients.' + str(k)!r} is not a coefficient name; valid: {', '.join(idx)}"
+            )
         if k in setup_coeffs:
-            raise TruthError(f"{where}: key 'coefficients.{k}' is a set-up error; give it under 'setup'")
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
-            raise TruthError(f"{where}: key 'coefficients.{k}' must be a finite number, got {v!r}")
+            raise TruthError(f"{where}: key {'coefficients.' + str(k)!r} is a set-up error; give it under 'setup'")
+        if not _finite_number(v):
+            raise TruthError(f"{where}: key {'coefficients.' + str(k)!r} must be a finite number, got {v!r}")
         coeffs[k] = float(v)
     setup = {}
     for k, v in (d.get("setup") or {}).items():
         if k not in SETUP_SIZES:
-            raise TruthError(f"{where}: key 'setup.{k}' unknown; valid: {', '.join(SETUP_SIZES)}")
-        arr = np.atleast_1d(np.asarray(v, dtype=float))
+            raise TruthError(f"{where}: key {'setup.' + str(k)!r} unknown; valid: {', '.join(SETUP_SIZES)}")
+        try:
+            flat = v if isinstance(v, list) else [v]
+            if not all(_finite_number(x) for x in flat):
+                raise ValueError
+            arr = np.asarray(flat, dtype=float)
+        except (TypeError, ValueError, OverflowError):
+            arr = np.zeros(0)
         if arr.size != SETUP_SIZES[k] or not np.all(np.isfinite(arr)):
-            raise TruthError(f"{where}: key 'setup.{k}' needs {SETUP_SIZES[k]} finite number(s) in arcsec, got {v!r}")
+            raise TruthError(
+                f"{where}: key {'setup.' + str(k)!r} needs {SETUP_SIZES[k]} finite number(s) in arcsec, got {v!r}"
+            )
         setup[k] = tuple(float(x) for x in arr)
-    noise = validate_noise(d.get("noise"), f"{where}: noise")
+    for k, v in (d.get("noise") or {}).items():  # numbers only (validate_noise names the valid terms)
+        vals = v if isinstance(v, (list, tuple)) and k in ("gauss_markov", "bias_instability") else [v]
+        if not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in vals):
+            raise TruthError(f"{where}: key {'noise.' + str(k)!r} must hold numbers (CONVENTIONS §8 units), got {v!r}")
+    try:
+        noise = validate_noise(d.get("noise"), f"{where}: noise")
+    except TruthError:
+        raise
+    except (TypeError, ValueError, OverflowError) as e:
+        raise TruthError(f"{where}: key 'noise' is invalid ({e}); see CONVENTIONS §8") from None
     return Truth(coeffs, setup, noise)
 
 
@@ -73,6 +104,10 @@ def load_truth(path) -> Truth:
         d = json.loads(p.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise TruthError(f"{p}: no such file") from None
+    except IsADirectoryError:
+        raise TruthError(f"{p}: is a directory; a truth file is one JSON object (CONVENTIONS §8)") from None
+    except OSError as e:
+        raise TruthError(f"{p}: cannot read: {e.strerror}") from None
     except (UnicodeDecodeError, json.JSONDecodeError) as e:
         raise TruthError(f"{p}: not valid UTF-8 JSON ({e})") from None
     return truth_from_dict(d, str(p))
