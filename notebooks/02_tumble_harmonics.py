@@ -18,6 +18,7 @@
 # We compare that classical route with gyrojax's joint GLS fit.
 
 # %%
+import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import Image
 
@@ -79,8 +80,6 @@ for n, t, c, f, s in rows:
 # four records at once (CW and CCW) with a per-record noise model, and gives honest standard errors.
 
 # %%
-import matplotlib.pyplot as plt
-
 fig, ax = plt.subplots(figsize=(7, 3.4))
 x = np.arange(len(rows))
 ax.bar(x - 0.25, [r[1] for r in rows], 0.25, label="truth", color="0.6")
