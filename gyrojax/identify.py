@@ -28,9 +28,9 @@ import numpy as np
 from scipy import stats
 
 from . import effects as fx
-from .errors import ModelError
+from .errors import ModelError, RecordError
 from .io import atomic_write_text
-from .model import Model, RecordData, jacobian_jit, predict_jit, record_data
+from .model import Model, RecordData, check_servo, jacobian_jit, predict_jit, record_data
 from .records import Record
 from .whiten import ARNoise, first_difference_std, fit_noise, whiten
 
@@ -77,6 +77,16 @@ def measurement_times(record: Record, data: RecordData) -> np.ndarray:
     return t
 
 
+def _check_finite(record: Record) -> None:
+    """Records built in memory bypass the loader's checks: every value must still be finite."""
+    for k, v in record.columns.items():
+        bad = ~np.isfinite(np.asarray(v, dtype=float))
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise RecordError(f"{record.path or record.name}: row {i + 2}, column {k!r} holds {v[i]!r}; "
+                              "values must be finite")
+
+
 @dataclass
 class Campaign:
     """Records of one fit as arrays: ``data[i]``, ``labels[i]`` and ``times[i]`` per record."""
@@ -97,7 +107,11 @@ class Campaign:
         kinds = {r.kind for r in records}
         if len(kinds) > 1:
             raise ModelError(f"records of different instrument kinds cannot be fitted together: {sorted(kinds)}")
+        for r in records:
+            _check_finite(r)
         data = [record_data(r) for r in records]
+        for r, d in zip(records, data):
+            check_servo(d, r.path or r.name)
         labels = [measurement_labels(r, d) for r, d in zip(records, data)]
         times = [measurement_times(r, d) for r, d in zip(records, data)]
         return cls(records, data, labels, records[0].kind, times)
@@ -480,6 +494,11 @@ def fit(records, terms=None, *, kind: str | None = None, noise: str = "ar", allo
         scales = [max(float(np.std(r)), 1e-9 * _rms(r), 1e-15) for r, *_ in lin]
     rw, jw = _stack(lin, noises, scales)
     report = identifiability(jw, model)
+    if len(rw) - report["rank"] < 1:
+        raise ModelError(
+            f"{len(rw)} measurement(s) for {report['rank']} coefficient(s): no degrees of freedom are left to "
+            "estimate the noise, so no standard error can be stated; add samples or drop effects"
+        )
     _, cov = _solve(jw, rw)
     dof = max(len(rw) - report["rank"], 1)
     chi2 = float(rw @ rw)

@@ -316,6 +316,31 @@ def servo_rate(model: Model, theta, data: RecordData, setup: dict):
     return r, angles
 
 
+def servo_sensitivity(data: RecordData):
+    """∂ω_I/∂θ̇_s at each sample (dimensionless): how strongly turning the servo axis moves the input-axis rate.
+    Zero means the table cannot null the pickoff (IA perpendicular to the servo axis)."""
+    setup = {"delta": jnp.zeros(3), "encoder": jnp.zeros(4)}
+    angles = data.angles
+    still = jnp.zeros_like(data.rates)
+    unit = still.at[:, data.servo_axis].set(1.0)
+    w1, _ = _sensed_batch(data.axes, data.triad, data.latitude, data.gravity, angles, unit, setup["delta"])
+    w0, _ = _sensed_batch(data.axes, data.triad, data.latitude, data.gravity, angles, still, setup["delta"])
+    return (w1[:, 0] - w0[:, 0]) * units.DEG_PER_H
+
+
+def check_servo(data: RecordData, where: str) -> None:
+    """Refuse a servo record whose IA has (almost) no component along the servo axis (Hu 3-59 needs one)."""
+    if data.mode != "servo":
+        return
+    sens = np.abs(np.asarray(servo_sensitivity(data)))
+    if sens.size and float(sens.min()) < 1e-6:
+        i = int(np.argmin(sens))
+        raise ModelError(
+            f"{where}: in servo mode the IA must have a component along the servo axis; at sample {i} it has "
+            f"{sens[i]:.3g} (IA perpendicular to the servo axis: turning the table cannot null the pickoff)"
+        )
+
+
 def predict(model: Model, theta, data: RecordData):
     """Predicted measurement vector of a record (module doc), same shape as ``data.y``."""
     theta = jnp.asarray(theta, dtype=jnp.float64)

@@ -17,7 +17,7 @@ import numpy as np
 
 from . import effects as fx
 from . import frames, units
-from .model import Model, RecordData, encoder_error, predict, record_data, servo_rate
+from .model import Model, RecordData, check_servo, encoder_error, predict, record_data, servo_rate
 from .noise import random_drift
 from .plans import Plan, Run
 from .records import FORMAT, Record
@@ -193,6 +193,7 @@ def simulate_run(plan: Plan, run: Run, truth: Truth, key, t0: float = 0.0, dynam
     setup = _setup_dict(truth)
     enc = rec.encoder_axis_index
     if run.mode == "servo":
+        check_servo(data, f"plan {plan.name!r}, run {run.name!r}")
         s = rec.servo_axis_index
         drift = random_drift(key, t, truth.noise)
         start = jnp.deg2rad(ang[0, s])

@@ -160,15 +160,6 @@ def test_single_sample_record_is_a_gyrojax_error_or_finite(fixed_noisy):
     assert np.all(np.isfinite(res.theta))
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "identify.fit: with as many measurements as coefficients (zero degrees of freedom) dof is clipped to "
-        "max(n - rank, 1) = 1 and the residual is 0, so the standard error comes out 0.0: one sample of a "
-        "σ = 0.6 deg/h record gives D_F = -0.377 ± 0.0 deg/h. It should raise (no noise level can be estimated) "
-        "or report the std as undefined (NaN)."
-    ),
-)
 def test_zero_degrees_of_freedom_is_not_certainty(fixed_noisy):
     try:
         res = fit([_first(fixed_noisy[0], 1)], ["D_F"], noise="white")
@@ -177,15 +168,6 @@ def test_zero_degrees_of_freedom_is_not_certainty(fixed_noisy):
     assert not res.stds["D_F"] == 0.0, res.stds
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "identify.fit does not check that a Record built in memory (bypassing load_record) holds finite numbers: a NaN "
-        "in current_mA reaches numpy's SVD and escapes as numpy.linalg.LinAlgError('SVD did not converge') instead of "
-        "a gyrojax error naming the record, the row and the column. Fix: run records.validate_columns (or a finiteness "
-        "check) in Campaign.of."
-    ),
-)
 def test_nan_in_memory_record_is_announced(fixed_noisy):
     rec = fixed_noisy[0]
     cur = rec.columns["current_mA"].copy()
@@ -231,15 +213,6 @@ def test_every_sdf_effect_has_finite_regressors_from_rest_to_1000_dps():
         assert np.all(np.isfinite(np.asarray(jacobian_jit(m, theta, d)))), r.name
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "model.servo_rate / simulate: a servo record whose IA is perpendicular to the servo axis (so turning the table "
-        "cannot null the pickoff) makes the Newton step divide by dω_ind/dθ̇_s = 0; simulate returns NaN table angles "
-        "without a word. It should raise (e.g. validate_meta: in servo mode the IA must have a component along the "
-        "servo axis when that axis is the innermost one)."
-    ),
-)
 def test_servo_with_ia_perpendicular_to_the_servo_axis_is_announced():
     up, east, north = (0.0, 0.0, 1.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)
     seg = plans.Segment((0.0,), 10.0, 1.0)
