@@ -20,6 +20,7 @@ import numpy as np
 
 from . import units
 from .errors import PlanError
+from .io import is_finite_number
 
 PLAN_FORMAT = "gyrojax-plan-1"
 DEFAULT_LATITUDE = 39.98  # Beijing, the site of the example campaigns
@@ -354,22 +355,15 @@ def plan_to_json(plan: Plan) -> str:
     return json.dumps(d, indent=1)
 
 
-def _is_num(v) -> bool:
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        return False
-    try:
-        return math.isfinite(float(v))
-    except OverflowError:
-        return False
-
 
 def validate_plan(plan: Plan, where: str = "plan") -> Plan:
     """Check a plan's numbers and each run's geometry (as the record it will become); errors name the key."""
     from .records import FORMAT, RecordError, validate_meta
 
-    if not _is_num(plan.latitude_deg) or not -90.0 <= plan.latitude_deg <= 90.0:
+    if not is_finite_number(plan.latitude_deg) or not -90.0 <= plan.latitude_deg <= 90.0:
         raise PlanError(f"{where}: key 'latitude_deg' must be a number in [-90, 90], got {plan.latitude_deg!r}")
-    if plan.gravity_mps2 is not None and (not _is_num(plan.gravity_mps2) or not 9.7 <= plan.gravity_mps2 <= 9.9):
+    g = plan.gravity_mps2
+    if g is not None and (not is_finite_number(g) or not 9.7 <= g <= 9.9):
         raise PlanError(
             f"{where}: key 'gravity_mps2' must be null or a number in [9.7, 9.9], got {plan.gravity_mps2!r}"
         )
@@ -386,20 +380,20 @@ def validate_plan(plan: Plan, where: str = "plan") -> Plan:
                 v = getattr(seg, key)
                 if v is None and key != "start_deg":
                     continue
-                if not isinstance(v, (list, tuple)) or len(v) != k or not all(_is_num(x) for x in v):
+                if not isinstance(v, (list, tuple)) or len(v) != k or not all(is_finite_number(x) for x in v):
                     raise PlanError(f"{where}: key '{at}.{key}' needs {k} value(s), finite numbers (one per table "
                                     f"axis), got {v!r}")
             for key in ("duration_s", "dt_s"):
                 v = getattr(seg, key)
-                if not _is_num(v) or not v > 0:
+                if not is_finite_number(v) or not v > 0:
                     raise PlanError(f"{where}: key '{at}.{key}' must be a finite number > 0, got {v!r}")
-            if not _is_num(seg.frequency_hz):
+            if not is_finite_number(seg.frequency_hz):
                 raise PlanError(f"{where}: key '{at}.frequency_hz' must be a finite number, got {seg.frequency_hz!r}")
             total += max(1, round(seg.duration_s / seg.dt_s))
             if total > MAX_SAMPLES:
                 raise PlanError(f"{where}: key '{at}' asks for {seg.duration_s / seg.dt_s:.3g} samples; a plan may "
                                 f"have at most {MAX_SAMPLES:.0e} samples in all (shorten duration_s or raise dt_s)")
-        if not _is_num(run.gap_s) or run.gap_s < 0:
+        if not is_finite_number(run.gap_s) or run.gap_s < 0:
             raise PlanError(f"{where}: key 'runs[{i}].gap_s' must be a finite number >= 0, got {run.gap_s!r}")
         inst = run.instrument if isinstance(run.instrument, dict) else {}
         sf_key = "scale_factor_g_per_mA" if inst.get("kind") == "pendulous-accel" else "scale_factor_deg_per_h_per_mA"
@@ -433,7 +427,7 @@ def _list(where, v, path):
 def _number(where, v, path, default=None):
     if v is None and default is not None:
         return default
-    if not _is_num(v):
+    if not is_finite_number(v):
         raise PlanError(f"{where}: key {path!r} must be a finite number, got {v!r}")
     return float(v)
 
@@ -441,7 +435,7 @@ def _number(where, v, path, default=None):
 def _numbers(where, v, path):
     if v is None:
         return None
-    if not isinstance(v, list) or not all(_is_num(x) for x in v):
+    if not isinstance(v, list) or not all(is_finite_number(x) for x in v):
         raise PlanError(f"{where}: key {path!r} must be a list of finite numbers (one per table axis), got {v!r}")
     return tuple(float(x) for x in v)
 
@@ -464,7 +458,7 @@ def plan_from_dict(d: dict, where: str = "plan") -> Plan:
         for j, s in enumerate(_list(where, _need(where, r, "segments", at), at + "segments")):
             sat = f"{at}segments[{j}]."
             label = s.get("label") if isinstance(s, dict) else None
-            if label is not None and (not _is_num(label) or label != int(label)):
+            if label is not None and (not is_finite_number(label) or label != int(label)):
                 raise PlanError(f"{where}: key '{sat}label' must be an integer or null, got {label!r}")
             segs.append(Segment(
                 _numbers(where, _need(where, s, "start_deg", sat), sat + "start_deg"),
@@ -482,7 +476,8 @@ def plan_from_dict(d: dict, where: str = "plan") -> Plan:
         if not isinstance(name, str) or not name:
             raise PlanError(f"{where}: key '{at}name' must be a non-empty string, got {name!r}")
         temp = r.get("temperature_C")
-        if temp is not None and not (_is_num(temp) or (isinstance(temp, list) and all(_is_num(x) for x in temp))):
+        numbers = isinstance(temp, list) and all(is_finite_number(x) for x in temp)
+        if temp is not None and not (is_finite_number(temp) or numbers):
             raise PlanError(f"{where}: key '{at}temperature_C' must be null, a number or a list of numbers")
         runs.append(Run(name, tuple(axes), dict(inst), tuple(segs), r.get("mode", "rebalance"), r.get("servo_axis"),
                         _number(where, r.get("scale_factor"), at + "scale_factor", 17.171),
@@ -492,7 +487,7 @@ def plan_from_dict(d: dict, where: str = "plan") -> Plan:
     if not isinstance(name, str):
         raise PlanError(f"{where}: key 'name' must be a string, got {name!r}")
     lat = d.get("latitude_deg", DEFAULT_LATITUDE)
-    if not _is_num(lat):
+    if not is_finite_number(lat):
         raise PlanError(f"{where}: key 'latitude_deg' must be a finite number in [-90, 90], got {lat!r}")
     plan = Plan(name, tuple(runs), float(lat), d.get("gravity_mps2"), str(d.get("description", "")),
                 str(d.get("reference", "")), _number(where, d.get("gap_between_runs_s"), "gap_between_runs_s", 60.0))

@@ -18,6 +18,7 @@ import numpy as np
 
 from .effects import ACCEL, INSTRUMENT_KINDS, SDF, TDF
 from .errors import RecordError
+from .io import is_finite_number
 
 FORMAT = "gyrojax-record-1"
 AXIS_TOL = 1e-6
@@ -220,19 +221,10 @@ def _require(file, d, key, where=""):
     return d[key]
 
 
-def _finite_number(v) -> bool:
-    """A JSON number that is a finite float64 (not a bool, not an integer too large for a float)."""
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        return False
-    try:
-        return math.isfinite(float(v))
-    except OverflowError:
-        return False
-
 
 def _number(file, d, key, where=""):
     v = _require(file, d, key, where)
-    if not _finite_number(v):
+    if not is_finite_number(v):
         raise _err(file, f"key {where + key!r} must be a finite number, got {v!r}")
     return float(v)
 

@@ -10,6 +10,7 @@ import numpy as np
 
 from . import effects as fx
 from .errors import TruthError
+from .io import is_finite_number
 from .noise import validate_noise
 
 SETUP_SIZES = {"table_tilt": 2, "table_azimuth": 1, "encoder_harmonic": 4}
@@ -37,14 +38,6 @@ class Truth:
                 "noise": {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.noise.items()}}
 
 
-def _finite_number(v) -> bool:
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        return False
-    try:
-        return bool(np.isfinite(float(v)))
-    except OverflowError:
-        return False
-
 
 def truth_from_dict(d, where: str = "truth") -> Truth:
     """Validate a truth dict; unknown names are errors naming the key."""
@@ -66,7 +59,7 @@ def truth_from_dict(d, where: str = "truth") -> Truth:
             )
         if k in setup_coeffs:
             raise TruthError(f"{where}: key {'coefficients.' + str(k)!r} is a set-up error; give it under 'setup'")
-        if not _finite_number(v):
+        if not is_finite_number(v):
             raise TruthError(f"{where}: key {'coefficients.' + str(k)!r} must be a finite number, got {v!r}")
         coeffs[k] = float(v)
     setup = {}
@@ -75,7 +68,7 @@ def truth_from_dict(d, where: str = "truth") -> Truth:
             raise TruthError(f"{where}: key {'setup.' + str(k)!r} unknown; valid: {', '.join(SETUP_SIZES)}")
         try:
             flat = v if isinstance(v, list) else [v]
-            if not all(_finite_number(x) for x in flat):
+            if not all(is_finite_number(x) for x in flat):
                 raise ValueError
             arr = np.asarray(flat, dtype=float)
         except (TypeError, ValueError, OverflowError):
