@@ -36,7 +36,6 @@ from .identify import Campaign, FitResult, fit, linearize
 from .model import Model, jacobian, record_data
 from .whiten import ARNoise, GMNoise, fit_noise, profile_likelihood, whiten
 
-NUISANCE_TREND = False
 SLOW = ("bias_trend", "bias_temperature")
 """Candidates that vary slowly in time and so compete with long-memory drift for the same residual structure:
 they are tested by a profile likelihood ratio with the noise re-estimated under both hypotheses."""
@@ -161,8 +160,6 @@ def _stack_whitened(lin, noises):
 
 def _nuisance(t: np.ndarray) -> np.ndarray:
     """Per-record offset: structure that noise models must not absorb (see :func:`_noise_models`)."""
-    if NUISANCE_TREND:
-        return np.column_stack([np.ones_like(t), (t - t.mean()) / max(float(np.ptp(t)), 1e-9)])
     return np.ones((len(t), 1))
 
 
@@ -179,9 +176,8 @@ def _noise_models(lin, cols) -> list:
     n_rec = len(lin)
     blocks = []
     for i, ((r, j, _lab, t), s) in enumerate(zip(lin, scales)):
-        k = 1 + int(NUISANCE_TREND)
-        nu = np.zeros((len(r), k * n_rec))
-        nu[:, k * i : k * i + k] = _nuisance(t)
+        nu = np.zeros((len(r), n_rec))
+        nu[:, i : i + 1] = _nuisance(t)
         blocks.append(np.column_stack([j[:, cols] / s, nu]))
     r_all = np.concatenate([r / s for (r, *_), s in zip(lin, scales)])
     ub = _basis(np.concatenate(blocks, axis=0))
