@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import tempfile
@@ -36,3 +37,23 @@ def is_finite_number(v) -> bool:
         return math.isfinite(float(v))
     except OverflowError:
         return False
+
+
+def read_json_file(path, error: type, what: str):
+    """Parse a JSON file, turning every way it can be unreadable into ``error`` with a one-line message naming the
+    file: missing, a directory, unreadable, empty, not UTF-8, not JSON. ``what`` says what the file should hold."""
+    p = Path(path)
+    try:
+        raw = p.read_bytes()
+    except FileNotFoundError:
+        raise error(f"{p}: no such file") from None
+    except IsADirectoryError:
+        raise error(f"{p}: is a directory; {what} is one JSON file") from None
+    except OSError as e:
+        raise error(f"{p}: cannot read: {e.strerror}") from None
+    if not raw.strip():
+        raise error(f"{p}: is empty; {what} is a JSON object") from None
+    try:
+        return json.loads(raw.decode("utf-8-sig"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise error(f"{p}: not valid UTF-8 JSON ({e}); {what} is a JSON object") from None

@@ -116,6 +116,12 @@ def _lead_lag_gain(tau_lead, tau_lag, w):
     return abs((1j * w * tau_lead + 1) / (1j * w * tau_lag + 1))
 
 
+def _lead_lag_centred(wc: float, lead_ratio: float) -> tuple[float, float]:
+    """Lead-lag time constants whose zero and pole sit a factor √ratio either side of ω_c (maximum phase at ω_c)."""
+    r = math.sqrt(lead_ratio)
+    return r / wc, 1 / (r * wc)
+
+
 def default_rebalance(crossover_hz: float = 30.0, lead_ratio: float = 10.0, **overrides) -> RebalanceParams:
     """A plausible floated gyro (H = 0.01 N·m·s, H/C = 1, τ = 1 ms, Hu's 17.171 deg/h/mA) in a loop whose
     open-loop gain crosses 1 at ``crossover_hz`` with a lead-lag centred there (pole/zero ratio ``lead_ratio``)."""
@@ -135,8 +141,7 @@ def default_rebalance(crossover_hz: float = 30.0, lead_ratio: float = 10.0, **ov
         K_fw_y=50.0,
     )
     wc = 2 * math.pi * crossover_hz
-    r = math.sqrt(lead_ratio)
-    base["tau_lead"], base["tau_lag"] = r / wc, 1 / (r * wc)
+    base["tau_lead"], base["tau_lag"] = _lead_lag_centred(wc, lead_ratio)
     p = RebalanceParams(**base)
     k = abs(_float_tf(p, 1j * wc)) * p.K_pickoff * p.S_nom * _lead_lag_gain(p.tau_lead, p.tau_lag, wc)
     base["K_amp"] = 1.0 / k
@@ -417,8 +422,7 @@ def default_servo(crossover_hz: float = 40.0, lead_ratio: float = 10.0, **overri
         phi_axis=0.0,
     )
     wc = 2 * math.pi * crossover_hz
-    r = math.sqrt(lead_ratio)
-    base["tau_lead"], base["tau_lag"] = r / wc, 1 / (r * wc)
+    base["tau_lead"], base["tau_lag"] = _lead_lag_centred(wc, lead_ratio)
     p = ServoParams(**base)
     base["K_amp"] = 1.0 / abs(_servo_open_loop(p, 1j * wc))
     base.update(overrides)

@@ -42,7 +42,7 @@ from . import effects as fx
 from . import frames, units
 from . import plans as plans_mod
 from .errors import GyrojaxError
-from .io import atomic_write_bytes, atomic_write_text
+from .io import atomic_write_bytes, atomic_write_text, read_json_file
 from .model import Model, RecordData, indicated_output, predict, record_data
 from .noise import random_drift, validate_noise
 from .records import Record
@@ -219,14 +219,8 @@ def study_from_dict(d, where: str = "study") -> Study:
 
 
 def load_study(path) -> Study:
-    p = Path(path)
-    try:
-        d = json.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise StudyError(f"{p}: no such file") from None
-    except (UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise StudyError(f"{p}: not valid UTF-8 JSON ({e})") from None
-    return study_from_dict(d, str(p))
+    """Load and validate a study from a JSON file (errors name the file and the key)."""
+    return study_from_dict(read_json_file(path, StudyError, "a study"), str(path))
 
 
 # ---- the measurement model, written for batches of draws ---------------------------------------------------------

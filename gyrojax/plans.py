@@ -20,7 +20,7 @@ import numpy as np
 
 from . import units
 from .errors import PlanError
-from .io import is_finite_number
+from .io import is_finite_number, read_json_file
 
 PLAN_FORMAT = "gyrojax-plan-1"
 DEFAULT_LATITUDE = 39.98  # Beijing, the site of the example campaigns
@@ -495,21 +495,8 @@ def plan_from_dict(d: dict, where: str = "plan") -> Plan:
 
 
 def load_plan(path) -> Plan:
-    from pathlib import Path
-
-    p = Path(path)
-    try:
-        d = json.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise PlanError(f"{p}: no such file") from None
-    except IsADirectoryError:
-        raise PlanError(f"{p}: is a directory; a plan is one JSON file") from None
-    except OSError as e:
-        raise PlanError(f"{p}: cannot read: {e.strerror}") from None
-    except (UnicodeDecodeError, json.JSONDecodeError) as e:
-        what = "empty" if not p.read_bytes().strip() else "not a valid UTF-8 JSON plan"
-        raise PlanError(f"{p}: is {what} ({e}); a plan is a JSON object with format {PLAN_FORMAT!r}") from None
-    return plan_from_dict(d, str(p))
+    """Load and validate a plan from a JSON file (errors name the file and the key)."""
+    return plan_from_dict(read_json_file(path, PlanError, "a plan"), str(path))
 
 
 def with_dt(plan: Plan, dt_s: float) -> Plan:

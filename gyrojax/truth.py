@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from . import effects as fx
 from .errors import TruthError
-from .io import is_finite_number
+from .io import is_finite_number, read_json_file
 from .noise import validate_noise
 
 SETUP_SIZES = {"table_tilt": 2, "table_azimuth": 1, "encoder_harmonic": 4}
@@ -92,15 +90,5 @@ def truth_from_dict(d, where: str = "truth") -> Truth:
 
 
 def load_truth(path) -> Truth:
-    p = Path(path)
-    try:
-        d = json.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise TruthError(f"{p}: no such file") from None
-    except IsADirectoryError:
-        raise TruthError(f"{p}: is a directory; a truth file is one JSON object (CONVENTIONS §8)") from None
-    except OSError as e:
-        raise TruthError(f"{p}: cannot read: {e.strerror}") from None
-    except (UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise TruthError(f"{p}: not valid UTF-8 JSON ({e})") from None
-    return truth_from_dict(d, str(p))
+    """Load and validate a truth file (CONVENTIONS §8) from a JSON file (errors name the file and the key)."""
+    return truth_from_dict(read_json_file(path, TruthError, "a truth file (CONVENTIONS §8)"), str(path))
