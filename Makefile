@@ -4,7 +4,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint bench clean venv
+.PHONY: demo test lint docs bench clean venv
 
 $(PY):
 	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "need $(PYTHON) (or run: make PYTHON=python3 ...)"; exit 2; }
@@ -26,6 +26,9 @@ test: $(STAMP)
 lint: $(STAMP)
 	$(VENV)/bin/ruff check gyrojax tests benchmarks
 	$(VENV)/bin/ruff format --check gyrojax tests benchmarks
+
+docs: $(STAMP)
+	$(PY) -m gyrojax.apidoc docs/api.md
 
 bench: $(STAMP)
 	$(PY) -m pip install --quiet -e ".[test,bench]"

@@ -148,7 +148,10 @@ def edf_simple(n_phase, m, alpha):
 
 
 def local_slope(taus, avar, half_width_decades: float = 0.4) -> np.ndarray:
-    """Slope d ln σ² / d ln τ at each τ, by a straight-line fit over ±``half_width_decades``."""
+    """Slope d ln σ² / d ln τ (dimensionless) at each τ, by a straight-line fit over ±``half_width_decades``.
+
+    ``taus`` in s, ``avar`` in any units (the slope does not depend on them).
+    """
     lt, lv = np.log10(taus), np.log10(np.maximum(avar, 1e-300))
     out = np.zeros(len(lt))
     for i in range(len(lt)):
@@ -204,6 +207,7 @@ class AllanResult:
 
     @property
     def avar(self) -> np.ndarray:
+        """Allan variance σ²(τ), (deg/h)²."""
         return self.adev**2
 
     def with_alpha(self, alpha) -> "AllanResult":
@@ -288,7 +292,11 @@ def gauss_markov_avar(tau, sigma, t_c):
 
 
 def term_basis(name: str, tau) -> np.ndarray:
-    """σ²(τ) of each linear term per unit squared coefficient (see the module table)."""
+    """σ²(τ) in (deg/h)² of term ``name`` per unit squared coefficient (units of ``UNITS``), ``tau`` in s.
+
+    IEEE 952 C.1: quantisation 3Q²/τ² (Q in arcsec; 1 arcsec/s = 1 deg/h), white N²/τ, bias instability
+    (2 ln 2/π) B² ≈ 0.664² B², rate random walk K²τ/3, rate ramp R²τ²/2 (τ in h where the coefficient has h).
+    """
     tau = np.asarray(tau, float)
     if name == "quantization":
         return 3.0 / tau**2
@@ -341,9 +349,11 @@ class NoiseFit:
         return out
 
     def avar(self, taus) -> np.ndarray:
+        """Model Allan variance, (deg/h)², at ``taus`` (s): the sum of the included terms."""
         return sum(self.term_avar(taus).values(), np.zeros(np.shape(taus)))
 
     def adev(self, taus) -> np.ndarray:
+        """Model Allan deviation, deg/h, at ``taus`` (s)."""
         return np.sqrt(self.avar(taus))
 
     def terms_json(self) -> dict:
@@ -383,6 +393,8 @@ def fit_noise_model(
     taus, avar, edf, terms=TERMS, gauss_markov: bool = False, min_fraction: float = 0.1, min_snr: float = 3.0
 ) -> NoiseFit:
     """Fit the IEEE 952 terms to an Allan variance (weighted NNLS on σ², weights from the EDF).
+
+    ``taus`` in s, ``avar`` in (deg/h)², ``edf`` dimensionless; coefficients come back in ``UNITS``.
 
     ``terms``: linear terms to try (default all five). ``gauss_markov``: also fit a Gauss–Markov term (σ, T),
     T searched on a log grid over the τ range, then refined. Model selection: the weakest term is dropped
@@ -546,6 +558,7 @@ def plot_allan(res: AllanResult, fit: NoiseFit, path, title: str = "Allan deviat
 
 
 def cmd_noise(args) -> int:
+    """``gyrojax noise``: Allan deviation (deg/h against τ in s) and noise fit of static records; exit code."""
     from .records import load_records
 
     recs = load_records(args.records)

@@ -58,14 +58,17 @@ class ChunkedFit:
 
     @property
     def std(self) -> np.ndarray:
+        """Standard errors in coefficient order, report units (those of ``theta``)."""
         return np.sqrt(np.clip(np.diag(self.cov), 0.0, None))
 
     @property
     def values(self) -> dict:
+        """Estimates by coefficient name, report units (deg/h, deg/h/g, ppm, …)."""
         return dict(zip(self.model.coefficient_names, map(float, self.theta)))
 
     @property
     def stds(self) -> dict:
+        """Standard errors by coefficient name, report units."""
         return dict(zip(self.model.coefficient_names, map(float, self.std)))
 
 

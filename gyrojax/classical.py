@@ -26,7 +26,10 @@ OMEGA_E = units.OMEGA_IE_DEG_PER_H  # Earth rate, deg/h
 
 
 def fourier_design(angle_rad, freqs):
-    """Columns [1, cos f₁θ, sin f₁θ, cos f₂θ, sin f₂θ, …] for the (signed, non-zero) frequencies ``freqs`` (Hu 4-12)."""
+    """Columns [1, cos f₁θ, sin f₁θ, cos f₂θ, sin f₂θ, …] for the (signed, non-zero) frequencies ``freqs`` (Hu 4-12).
+
+    θ = ``angle_rad`` in rad; ``freqs`` are harmonic orders in cycles per revolution (dimensionless).
+    """
     th = np.asarray(angle_rad, dtype=float)
     cols = [np.ones_like(th)]
     for f in freqs:
@@ -42,6 +45,8 @@ def harmonic_fit(angle_rad, y, freqs, weight=None, interval_mean=False):
     trapezoid ½[φ(θ_k) + φ(θ_{k+1})], exact to O(Δθ²). For equally spaced angles over whole revolutions this
     equals Hu's discrete sums (4-20 to 4-22); least squares also serves uneven coverage (a servo run that does
     not close its revolution).
+
+    ``angle_rad`` in rad, ``freqs`` in cycles per revolution (dimensionless); coefficients in the same units as ``y``.
     """
     X = fourier_design(angle_rad, freqs)
     if interval_mean:
@@ -89,7 +94,7 @@ def tumble_harmonics(angle_rad, drift_deg_per_h, order=2, weight=None):
     """Harmonics {A0, A1, B1, …} of the drift in a tumble, by least squares in the table angle (Hu 3-14, 3-16).
 
     ``drift_deg_per_h`` is the indicated rate less the kinematic input (in the polar tumble the IA is normal to the
-    table axis and to the Earth's axis, so the input is zero).
+    table axis and to the Earth's axis, so the input is zero). ``angle_rad`` in rad; harmonics in deg/h.
     """
     return _as_dict(harmonic_fit(angle_rad, drift_deg_per_h, range(1, order + 1), weight), order)
 

@@ -50,6 +50,7 @@ def _terms(s: str | None) -> list[str]:
 
 
 def cmd_plans(args) -> int:
+    """``gyrojax plans``: print the built-in plans, one line each; exit code."""
     from .plans import BUILDERS
 
     for name, (_, doc) in BUILDERS.items():
@@ -71,6 +72,7 @@ def _plan_from_arg(arg: str, options: dict):
 
 
 def cmd_simulate(args) -> int:
+    """``gyrojax simulate``: build a plan, simulate it with a truth file, write the records; exit code."""
     from .records import record_paths, save_record
     from .simulate import simulate
     from .truth import Truth, load_truth
@@ -94,6 +96,7 @@ def cmd_simulate(args) -> int:
 
 
 def cmd_fit(args) -> int:
+    """``gyrojax fit``: fit named effects to records and print the coefficient table (report units); exit code."""
     from .identify import fit
     from .records import load_records
     from .report import fit_table
@@ -110,6 +113,7 @@ def cmd_fit(args) -> int:
 
 
 def cmd_diagnose(args) -> int:
+    """``gyrojax diagnose``: fit, then test every missing effect and print the verdict; exit code."""
     from .diagnose import diagnose
     from .records import load_records
     from .report import diagnosis_text
@@ -126,6 +130,7 @@ def cmd_diagnose(args) -> int:
 
 
 def cmd_demo(args) -> int:
+    """``gyrojax demo``: run the hidden-effect walkthrough into ``--out``; exit code."""
     from .demo import run_demo
 
     path = run_demo(args.out, force=args.force, quick=args.quick)
@@ -134,6 +139,7 @@ def cmd_demo(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``gyrojax`` command, with every sub-command (also those registered)."""
     p = _Parser(prog="gyrojax", description="Identify gyroscope error coefficients from turntable tests.")
     p.add_argument("--version", action="store_true", help="print the version and exit")
     sub = p.add_subparsers(dest="command", parser_class=_Parser)
@@ -184,6 +190,7 @@ _EXTRA_COMMANDS = []
 
 
 def register_command(adder):
+    """Decorator: ``adder(subparsers)`` adds a sub-command to the ``gyrojax`` parser; returns ``adder``."""
     _EXTRA_COMMANDS.append(adder)
     return adder
 
@@ -200,6 +207,7 @@ def _load_extras():
 
 
 def main(argv=None) -> int:
+    """Run the ``gyrojax`` command on ``argv`` (default ``sys.argv[1:]``); returns the exit code (0, 1 or 2)."""
     _load_extras()
     parser = build_parser()
     try:

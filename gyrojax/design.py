@@ -123,6 +123,8 @@ class Table:
 
     @classmethod
     def two_axis(cls, mount: dict | None = None, latitude_deg: float = plans.DEFAULT_LATITUDE) -> "Table":
+        """``plans.TWO_AXIS`` (trunnion East, platform Up) with ``mount`` (default ``plans.SKEW_MOUNT``), at
+        ``latitude_deg`` (deg)."""
         return cls.of(plans.TWO_AXIS, mount or plans.SKEW_MOUNT, latitude_deg)
 
     @classmethod
@@ -133,6 +135,8 @@ class Table:
 
     @classmethod
     def of(cls, axes, mount: dict, latitude_deg: float) -> "Table":
+        """A table of gimbal ``axes`` ((name, ENU unit vector), outermost first) and ``mount``, at ``latitude_deg``
+        (deg), built from a one-sample simulated record."""
         # a one-sample record made by the simulator gives the exact arrays fit() would see
         from .simulate import simulate
 
@@ -161,6 +165,8 @@ class Table:
 
 
 def check_static(model: Model) -> None:
+    """Raise ModelError if the model has an effect of ``TIME_EFFECTS`` (``bias_trend``, ``bias_temperature``): a
+    static-position design has no clock."""
     bad = [t for t in model.terms if t in TIME_EFFECTS]
     if bad:
         raise ModelError(f"static-position design cannot use time/temperature effects {bad}: they need a clock")
@@ -212,7 +218,11 @@ def _measurement_dt(d: RecordData, lab) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Criterion:
-    """A design criterion: ``kind`` in D, A, E, c, detect; ``vector`` (A weights or c), ``effect``, ``magnitude``."""
+    """A design criterion: ``kind`` in D, A, E, c, detect; ``vector`` (A weights or c), ``effect``, ``magnitude``.
+
+    ``magnitude`` is the detect effect's size in its coefficients' report units (deg/h/g², …); weights are
+    dimensionless.
+    """
 
     kind: str = "D"
     vector: tuple | None = None
@@ -270,6 +280,7 @@ class Criterion:
         raise ModelError(f"unknown criterion kind {self.kind!r}")
 
     def label(self) -> str:
+        """Short name of the criterion for reports: ``D``, ``A``, …, or ``detect:EFFECT``."""
         return self.kind if self.kind != "detect" else f"detect:{self.effect}"
 
 
@@ -334,9 +345,12 @@ class DesignResult:
     timing: dict = field(default_factory=dict)  # compile_s, run_s
 
     def plan(self, name: str = "designed", gap_s: float = 30.0) -> plans.Plan:
+        """The design as a plan (see :func:`design_plan`); ``gap_s`` in s between positions."""
         return design_plan(self, name, gap_s)
 
     def summary(self) -> dict:
+        """JSON-ready report: criterion, loss, convergence, timing (s), positions (angles in deg, dwell in s),
+        D/A/E and the Cramér–Rao std of every coefficient (report units)."""
         d = criterion_values(self.fisher, self.model)
         out = {
             "criterion": self.criterion.label(),
@@ -360,6 +374,8 @@ class DesignResult:
 
 
 def detect_noncentrality(model, crit: Criterion, table, angles_rad, dwell_s, noise, dt_s=1.0) -> float:
+    """Score-test noncentrality λ (dimensionless) of the criterion's effect at static positions ``angles_rad``
+    (rad) held ``dwell_s`` (s) each, sampled every ``dt_s`` (s); see :func:`noncentrality`."""
     full = crit.design_model(model)
     f = static_fisher(full, table, jnp.asarray(angles_rad), jnp.asarray(dwell_s), noise, dt_s)
     return float(noncentrality(f, model.size, jnp.asarray(crit.magnitude)))
@@ -385,6 +401,8 @@ def _check_detectable(model, crit, table, angles_rad, dwell_s, noise, dt_s) -> N
 
 
 def dwell_from_logits(z, total_s: float, min_fraction: float):
+    """Dwell times in s from unconstrained logits ``z``: each at least ``min_fraction`` of ``total_s`` (s),
+    summing to ``total_s`` (a softmax; keeps the optimiser's dwells positive)."""
     n = z.shape[-1]
     return total_s * (min_fraction + (1.0 - n * min_fraction) * jax.nn.softmax(z))
 
@@ -526,7 +544,8 @@ def design(
 
 
 def design_plan(res: DesignResult, name: str = "designed", gap_s: float = 30.0) -> plans.Plan:
-    """The designed positions as a :class:`gyrojax.plans.Plan` (one run; dwell rounded to whole samples)."""
+    """The designed positions as a :class:`gyrojax.plans.Plan` (one run; dwell in s rounded to whole samples,
+    ``gap_s`` in s between positions)."""
     t = res.table
     segs = []
     for i, (a, d) in enumerate(zip(res.angles_deg, res.dwell_s)):
@@ -552,6 +571,7 @@ def sweep_positions(terms, counts=(6, 8, 12, 16, 24), **kw) -> dict:
 
 
 def measured_seconds(plan: plans.Plan) -> float:
+    """Total measured time of a plan in s: the sum of its segments' durations (gaps excluded)."""
     return sum(s.duration_s for r in plan.runs for s in r.segments)
 
 
@@ -626,6 +646,8 @@ def figure(rows: list[dict], path=None):
 
 
 def cmd_design(args) -> int:
+    """``gyrojax design``: design a static plan (ARW in deg/√h, GM as σ deg/h and τ s, total dwell in h), write
+    the plan file to ``--out`` and print its comparison with the classical set; exit code."""
     from .cli import UsageError, _terms
 
     if args.table != "two-axis":

@@ -71,12 +71,18 @@ def moving_average_gain(omega, window_s):
 
 
 def moving_average_rate_noise_std(angle_noise_std, window_s):
-    """Standard deviation of the rate from two independent angle readings of std ε: √2·ε/ΔT (Hu 4-2)."""
+    """Standard deviation of the rate from two independent angle readings of std ε: √2·ε/ΔT (Hu 4-2).
+
+    ``window_s`` = ΔT in s; the result is in ``angle_noise_std``'s angle unit per s (arcsec → arcsec/s = deg/h).
+    """
     return jnp.sqrt(2.0) * angle_noise_std / window_s
 
 
 def moving_average_arw_std(arw, window_s):
-    """Rate-estimate std from white rate noise of ARW ``arw`` (angle unit/√s): N/√ΔT (noise bandwidth of 4-11)."""
+    """Rate-estimate std from white rate noise of ARW ``arw`` (angle unit/√s): N/√ΔT (noise bandwidth of 4-11).
+
+    ``window_s`` = ΔT in s; the result is in the same angle unit per s.
+    """
     return arw / jnp.sqrt(window_s)
 
 

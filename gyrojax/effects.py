@@ -74,6 +74,7 @@ class Effect:
 
     @property
     def size(self) -> int:
+        """Number of coefficients the effect carries."""
         return len(self.coefficients)
 
 

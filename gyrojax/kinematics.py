@@ -31,7 +31,7 @@ def chain(axes, angles):
     """Partial products of the gimbal chain.
 
     Returns ``(C, outer)`` where C = R(u_1,θ_1)…R(u_k,θ_k) and ``outer[i]`` = R(u_1,θ_1)…R(u_{i−1},θ_{i−1})
-    (identity for i = 0), shape (k, 3, 3).
+    (identity for i = 0), shape (k, 3, 3). ``axes`` (k, 3) unit vectors in L, ``angles`` (k,) in rad.
     """
     c = jnp.eye(3)
     outer = []
@@ -42,7 +42,7 @@ def chain(axes, angles):
 
 
 def platform_attitude(axes, angles):
-    """C(θ): platform coordinates → L coordinates."""
+    """C(θ): platform coordinates → L coordinates (CONVENTIONS §3); ``angles`` in rad, ``axes`` unit vectors in L."""
     return chain(axes, angles)[0]
 
 
@@ -53,7 +53,9 @@ def platform_rate(axes, angles, rates):
 
 
 def platform_state(axes, angles, rates, base=None):
-    """Attitude C and platform rate ω_LP in L, with an optional base misorientation.
+    """Attitude C and platform rate ω_LP in L (rad/s), with an optional base misorientation.
+
+    ``angles`` in rad, ``rates`` (angle rates) in rad/s, ``axes`` unit vectors in L.
 
     ``base`` is a 3×3 matrix premultiplying every table axis and the platform attitude (CONVENTIONS §6,
     ``table_tilt`` / ``table_azimuth``: base = I + [δ×]). Premultiplying each axis u_i → B u_i and the chain

@@ -24,7 +24,11 @@ from .model import Model, _setup_values, instrument_inputs, record_data
 
 def oscillation_plan(frequencies_hz, amplitude_deg: float = 0.05, cycles: float = 8.0, dt_s: float = 1e-3,
                      latitude_deg=plans.DEFAULT_LATITUDE) -> plans.Plan:
-    """A single-axis table about Up, IA up, oscillating at each frequency in turn (one segment per frequency)."""
+    """A single-axis table about Up, IA up, oscillating at each frequency in turn (one segment per frequency).
+
+    ``frequencies_hz`` in Hz, ``amplitude_deg`` in deg, ``cycles`` per frequency, ``dt_s`` in s; S_nom = 3600
+    deg/h/mA.
+    """
     segs = tuple(plans.Segment((0.0,), cycles / f, dt_s, amplitude_deg=(amplitude_deg,), frequency_hz=float(f), label=i)
                  for i, f in enumerate(frequencies_hz))
     run = plans.Run("oscillation", (("rate", plans.U),), plans.sdf_mount(plans.U, plans.N), segs, scale_factor=3600.0,
@@ -40,7 +44,10 @@ def _sine_fit(t, y, f):
 
 
 def measured_response(record, frequencies_hz, settle_cycles: float = 2.0) -> np.ndarray:
-    """Complex response (indicated / input-axis rate) at each segment's frequency, skipping the first cycles."""
+    """Complex response (indicated / input-axis rate) at each segment's frequency, skipping the first cycles.
+
+    Dimensionless (both rates in deg/h); ``frequencies_hz`` in Hz, ``settle_cycles`` cycles skipped per segment.
+    """
     d = record_data(record)
     x = instrument_inputs(d, _setup_values(Model(()), np.zeros(0)))
     w_in = np.asarray(x["w_I"])

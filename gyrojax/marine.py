@@ -72,13 +72,16 @@ def c_ned_to_qep(lat):
 
 
 def psi_rhs(psi, eps, omega=units.OMEGA_IE):
-    """ψ̇ = −[ω_ip×]ψ + ε with ω_ip = (0, 0, ω) in qep (003 eq. 2)."""
+    """ψ̇ = −[ω_ip×]ψ + ε with ω_ip = (0, 0, ω) in qep (003 eq. 2): ψ in rad, ε and ω in rad/s, ψ̇ in rad/s."""
     w = jnp.array([0.0, 0.0, omega])
     return -jnp.cross(w, psi) + eps
 
 
 def transition(dt, omega=units.OMEGA_IE):
-    """(Φ, B) with ψ(t_0 + Δ) = Φ ψ(t_0) + B ε for constant ε (003 eqs. 3 and 7)."""
+    """(Φ, B) with ψ(t_0 + Δ) = Φ ψ(t_0) + B ε for constant ε (003 eqs. 3 and 7).
+
+    ``dt`` = Δ in s, ``omega`` in rad/s; Φ is dimensionless, B in s (ψ in rad, ε in rad/s).
+    """
     c, s = jnp.cos(omega * dt), jnp.sin(omega * dt)
     z = jnp.zeros_like(c)
     phi = jnp.array([[c, s, z], [-s, c, z], [z, z, z + 1.0]])
@@ -88,7 +91,7 @@ def transition(dt, omega=units.OMEGA_IE):
 
 @jax.jit
 def psi_closed_form(psi0, eps, dt, omega=units.OMEGA_IE):
-    """ψ(t_0 + Δ) from ψ(t_0) and constant drift ε (003 eq. 3); ``dt`` may be an array (vmapped)."""
+    """ψ(t_0 + Δ) in rad from ψ(t_0) (rad) and constant drift ε (rad/s) (003 eq. 3); ``dt`` (s) may be an array."""
     psi0, eps = jnp.asarray(psi0, jnp.float64), jnp.asarray(eps, jnp.float64)
 
     def one(d):
@@ -100,7 +103,7 @@ def psi_closed_form(psi0, eps, dt, omega=units.OMEGA_IE):
 
 
 def observation_matrix(lat):
-    """Rows (δl, δL, φ_d) in terms of (ψ_q, ψ_e, ψ_p), 003 eq. 4."""
+    """Rows (δl, δL, φ_d) in terms of (ψ_q, ψ_e, ψ_p), 003 eq. 4; ``lat`` in rad, all angles in rad."""
     t, c = jnp.tan(lat), jnp.cos(lat)
     return jnp.array([[t, 0.0, -1.0], [0.0, 1.0, 0.0], [-1.0 / c, 0.0, 0.0]])
 
@@ -125,13 +128,19 @@ def fix_matrix(lat, times, omega=units.OMEGA_IE):
 
 @jax.jit
 def heading_row(lat, dt, omega=units.OMEGA_IE):
-    """The azimuth row φ_d at t_1 + Δ (003 eq. 4, third row) in the unknowns of :func:`fix_matrix`."""
+    """The azimuth row φ_d at t_1 + Δ (003 eq. 4, third row) in the unknowns of :func:`fix_matrix`.
+
+    ``lat`` in rad, ``dt`` = Δ in s, ``omega`` in rad/s.
+    """
     return _obs_rows(lat, dt, jnp.array([2]), omega)
 
 
 @jax.jit
 def fix_observations(lat, times, psi1, eps, omega=units.OMEGA_IE):
-    """Noise-free (δl, δL) at each fix time, stacked like :func:`fix_matrix` rows (003 eqs. 4, 5, 7, 9)."""
+    """Noise-free (δl, δL) in rad at each fix time, stacked like :func:`fix_matrix` rows (003 eqs. 4, 5, 7, 9).
+
+    ``lat`` and ``psi1`` in rad, ``times`` in s, ``eps`` and ``omega`` in rad/s.
+    """
     times = jnp.asarray(times, jnp.float64)
     psi = psi_closed_form(psi1, eps, times - times[0], omega)
     return (psi @ observation_matrix(lat)[:2].T).reshape(-1)
@@ -175,6 +184,8 @@ def velocity_reference_misalignment(dvn, gamma2, radius=EARTH_RADIUS_M, omega=un
     """Least-squares apparent misalignment (Ψ̄_x0, Ψ̄_y0) from δv_N samples (003 eqs. 12–13)::
 
     [Ψ̄_x0, Ψ̄_y0]ᵀ = [[Σcos²γ, ½Σsin2γ], [½Σsin2γ, Σsin²γ]]⁻¹ [−Σδv_N cosγ/(Rω), −Σδv_N sinγ/(Rω)]ᵀ
+
+    ``dvn`` in m/s, ``gamma2`` in rad, ``radius`` in m, ``omega`` in rad/s; Ψ̄ in rad.
     """
     c, s = jnp.cos(gamma2), jnp.sin(gamma2)
     n = jnp.array(
@@ -185,13 +196,19 @@ def velocity_reference_misalignment(dvn, gamma2, radius=EARTH_RADIUS_M, omega=un
 
 
 def drift_from_apparent_misalignment(psi_bar, t1, t2):
-    """Δε̂_1 = 2 Ψ̄ / (t_1 + t_2): the window mean of Δε·t over [t_1, t_2] is Δε (t_1 + t_2)/2 (003 eq. 14)."""
+    """Δε̂_1 = 2 Ψ̄ / (t_1 + t_2): the window mean of Δε·t over [t_1, t_2] is Δε (t_1 + t_2)/2 (003 eq. 14).
+
+    Ψ̄ in rad, t_1 and t_2 in s; Δε̂_1 in rad/s.
+    """
     return 2.0 * jnp.asarray(psi_bar) / (t1 + t2)
 
 
 @jax.jit
 def polar_drift_from_east_velocity(dve, gamma2, psi_bar, lat, radius=EARTH_RADIUS_M, omega=units.OMEGA_IE):
-    """Δε̂_2z = −1/((n+1) R cos L) Σ[δv_E + Rω sin L (Ψ̄_x sinγ − Ψ̄_y cosγ)] (003 eq. 15)."""
+    """Δε̂_2z = −1/((n+1) R cos L) Σ[δv_E + Rω sin L (Ψ̄_x sinγ − Ψ̄_y cosγ)] (003 eq. 15).
+
+    ``dve`` in m/s, ``gamma2``, ``psi_bar`` and ``lat`` in rad, ``radius`` in m, ``omega`` in rad/s; Δε̂_2z in rad/s.
+    """
     corr = radius * omega * jnp.sin(lat) * (psi_bar[0] * jnp.sin(gamma2) - psi_bar[1] * jnp.cos(gamma2))
     return -jnp.mean(dve + corr) / (radius * jnp.cos(lat))
 
@@ -203,6 +220,7 @@ def position_fix_corrections(d_lat, d_lon, gamma_c, t_c, lat):
     Δε̃_2z = [δL̃ tan L (1 + sin 2γ)/cos 2γ − δl̃] / t_c
 
     Singular at γ_2(t_c) = 45° (+k·180°), where the fix cannot see the common horizontal correction.
+    ``d_lat``, ``d_lon``, ``gamma_c`` and ``lat`` in rad, ``t_c`` in s; corrections in rad/s.
     """
     c, s = jnp.cos(gamma_c), jnp.sin(gamma_c)
     e1 = d_lat / ((c - s) * t_c)

@@ -84,6 +84,7 @@ class Study:
     solver: str = "cholesky"
 
     def to_dict(self) -> dict:
+        """The study as a JSON-ready dict (the study file format, ``STUDY_FORMAT``)."""
         d = asdict(self)
         d["terms"] = list(self.terms)
         d["noise"] = {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.noise.items()}
@@ -91,6 +92,7 @@ class Study:
         return d
 
     def to_json(self) -> str:
+        """The study file text (indented JSON of :meth:`to_dict`)."""
         return json.dumps(self.to_dict(), indent=1)
 
 
@@ -262,7 +264,7 @@ def fast_inputs(data: RecordData, setup: dict, trig=None) -> dict:
     building 3×3 matrices per sample, and the encoder correction θ = θ_read − h(θ_read) (Hu 5-51, first order as in
     :func:`gyrojax.model.true_angles`) turns (cos, sin) of the read angle by a small angle. ``trig``: optional
     per-axis (cos, sin) of ``data.angles`` (precomputed for a plan: then no transcendental is evaluated per draw).
-    Tested against ``instrument_inputs``.
+    Tested against ``instrument_inputs``. Units as there: rates in deg/h, specific forces in g.
     """
     e = data.encoder_axis
     k = data.axes.shape[0]
@@ -334,7 +336,7 @@ def fast_predict(model: Model, theta, data: RecordData, trig=None):
 
 
 def nominal_records(plan, kind: str | None = None) -> list[Record]:
-    """Noise-free records of a perfect instrument on ``plan``: its geometry and sample times."""
+    """Noise-free records of a perfect instrument on ``plan``: its geometry and sample times (s)."""
     from .simulate import simulate
 
     return simulate(plan, {}, seed=0)
@@ -342,7 +344,11 @@ def nominal_records(plan, kind: str | None = None) -> list[Record]:
 
 @dataclass
 class Pipeline:
-    """A study compiled to arrays: nominal records, models and prior vectors; :meth:`draw` is pure JAX."""
+    """A study compiled to arrays: nominal records, models and prior vectors; :meth:`draw` is pure JAX.
+
+    Priors and θ are in report units (deg/h, deg/h/g, ppm, …); ``noise`` as in truth files (CONVENTIONS §8);
+    ``dt_white`` the averaging interval (s) of white and quantisation noise per record.
+    """
 
     records: list
     data: tuple
@@ -361,13 +367,16 @@ class Pipeline:
 
     @property
     def n_measurements(self) -> int:
+        """Number of measurements of one draw, summed over the records."""
         return int(sum(float(np.asarray(d.weight).sum()) for d in self.data))
 
     def truth_index(self) -> np.ndarray:
+        """Position of every fitted coefficient in the truth model's θ (integer indices)."""
         names = self.truth_model.coefficient_names
         return np.array([names.index(c) for c in self.fit_model.coefficient_names])
 
     def draw_truth(self, key):
+        """A truth θ drawn from the priors (report units): uniform on [a, b] or normal with mean a, std b."""
         kz, ku = jax.random.split(key)
         p = self.truth_model.size
         z = jax.random.normal(kz, (p,))
@@ -559,7 +568,7 @@ def _progress(done: int, total: int, t0: float, stream) -> None:
 
 
 def batched_draws(pipe: Pipeline, devices=None):
-    """A jitted function of draw indices (n_dev, k) → per-draw results (n_dev, k, …).
+    """A jitted function of draw indices (n_dev, k) → per-draw results (n_dev, k, …), θ in report units.
 
     Axis 0 is sharded over a 1-D mesh of ``devices`` (default: all) with ``NamedSharding``; along axis 1 each
     device runs its draws one after another (``lax.map``), which keeps a draw's arrays in cache: on CPU this is
@@ -590,6 +599,7 @@ class StudyResult:
     run_s: float = 0.0
 
     def truth_of_fit(self) -> np.ndarray:
+        """Truth of the fitted coefficients only, (n, p_fit), report units, aligned with ``estimate``."""
         return self.truth[:, [self.truth_names.index(c) for c in self.fit_names]]
 
     def table(self):
@@ -660,7 +670,7 @@ def run_study(
 
 
 def draw_records(pipe: Pipeline, index: int) -> list[Record]:
-    """The records a draw stands for: read angles and indicated currents of each (rebalance) record."""
+    """The records a draw stands for: read angles (deg) and indicated currents (mA) of each (rebalance) record."""
     key = jax.random.fold_in(jax.random.PRNGKey(pipe.seed), index)
     if pipe._sim_jit is None:
         pipe._sim_jit = jax.jit(pipe.simulate_draw)
@@ -779,6 +789,7 @@ def plot_result(res: StudyResult, path) -> None:
 
 
 def cmd_mc(args) -> int:
+    """``gyrojax mc``: run a study file and write draws, summary and plot into ``--out``; exit code."""
     study = load_study(args.study)
     if args.draws is not None:
         if args.draws < 1:

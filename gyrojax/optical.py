@@ -91,6 +91,7 @@ def lockin_output(rate, lock_rate):
     """Mean RLG output with lock-in: sign(Ω)√(Ω² − Ω_L²) above the lock-in rate, 0 inside it (Adler equation).
 
     Gradient-safe: the square root never sees a negative argument, and the derivative inside the band is 0.
+    ``rate`` and ``lock_rate`` in any one rate unit (deg/h in the effect library); the output in the same units.
     """
     rate = jnp.asarray(rate, jnp.float64)
     d = rate**2 - jnp.asarray(lock_rate, jnp.float64) ** 2

@@ -67,6 +67,7 @@ class Run:
 
     @property
     def duration_s(self) -> float:
+        """Length of the run in s: its segments plus the gaps between them."""
         return sum(s.duration_s for s in self.segments) + self.gap_s * (len(self.segments) - 1)
 
 
@@ -84,6 +85,7 @@ class Plan:
 
     @property
     def duration_s(self) -> float:
+        """Length of the campaign in s: its runs plus the gaps between them."""
         return sum(r.duration_s for r in self.runs) + self.gap_between_runs_s * (len(self.runs) - 1)
 
 
@@ -93,7 +95,7 @@ E, N, U = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
 
 
 def polar_axis(latitude_deg: float) -> tuple[float, float, float]:
-    """Unit vector of the Earth's rotation axis in ENU: (0, cos φ, sin φ)."""
+    """Unit vector of the Earth's rotation axis in ENU: (0, cos φ, sin φ), φ = ``latitude_deg`` (deg)."""
     p = math.radians(latitude_deg)
     return (0.0, math.cos(p), math.sin(p))
 
@@ -108,11 +110,15 @@ def sdf_mount(ia, oa) -> dict:
 
 
 def tdf_mount(x, y) -> dict:
+    """TDF gyro instrument dict with spin axis Z = X × Y (CONVENTIONS §4); axes are unit vectors in platform
+    coordinates."""
     x, y = np.asarray(x, float), np.asarray(y, float)
     return {"kind": "tdf-gyro", "x": _clean(x), "y": _clean(y), "z": _clean(np.cross(x, y))}
 
 
 def accel_mount(ia, pa) -> dict:
+    """Pendulous accelerometer instrument dict with OA = IA × PA (CONVENTIONS §4); unit vectors in platform
+    coordinates."""
     ia, pa = np.asarray(ia, float), np.asarray(pa, float)
     return {"kind": "pendulous-accel", "ia": _clean(ia), "pa": _clean(pa), "oa": _clean(np.cross(ia, pa))}
 
@@ -251,7 +257,8 @@ def servo(orientation: str = "polar", hours: float = 24.0, dt_s: float = 1.0,
 
     ``orientation``: ``"polar"`` (IA along the polar servo axis, Hu 3-86 and Tables 3-2/3-3: the table turns
     once a sidereal day less the drift), ``"vertical"`` (IA up, Hu 3-60), ``"horizontal"`` (IA north, Hu 3-74),
-    the IA always along the servo axis.
+    the IA always along the servo axis. ``hours``: length of the record (h); ``dt_s``: sample interval (s);
+    ``latitude_deg`` in deg.
     """
     geo = {
         "polar": (polar_axis(latitude_deg), E),
@@ -274,7 +281,8 @@ def rate_ladder(rates_dps=(1, 2, 5, 10, 20, 50, 100), seconds: float = 60.0, dt_
     """Rate transfer test: ± rates about Up (Titterton §8.5.2; Hu ch. 3 appendix 1 for the torquer).
 
     Mountings: ``axial`` (IA up), ``O`` (IA tilted 45° toward OA), ``S`` (IA tilted 45° toward SA); together they
-    separate scale-factor error from IA misalignment.
+    separate scale-factor error from IA misalignment. ``rates_dps`` in deg/s, each held ``seconds`` (s) in both
+    directions, sampled every ``dt_s`` (s); ``scale_factor`` S_nom in deg/h/mA.
     """
     s = 1.0 / math.sqrt(2.0)
     mounts = {
@@ -295,7 +303,11 @@ def rate_ladder(rates_dps=(1, 2, 5, 10, 20, 50, 100), seconds: float = 60.0, dt_
 
 def tdf_tumble(revolutions: float = 2.0, earth_rates: float = 10.0, dt_s: float = 2.0,
                latitude_deg=DEFAULT_LATITUDE) -> Plan:
-    """TDF gyro tumble about a polar axis, spin axis along and then against the axis (Hu 3-22 to 3-37)."""
+    """TDF gyro tumble about a polar axis, spin axis along and then against the axis (Hu 3-22 to 3-37).
+
+    The table turns at ``earth_rates`` times Earth rate (dimensionless multiple of 15.04 deg/h) for
+    ``revolutions`` turns, sampled every ``dt_s`` (s); ``latitude_deg`` in deg.
+    """
     axis = polar_axis(latitude_deg)
     rate = earth_rates * units.OMEGA_IE_DEG_PER_H / 3600.0
     dur = revolutions * 360.0 / rate
@@ -350,6 +362,7 @@ def build(name: str, **options) -> Plan:
 
 
 def plan_to_json(plan: Plan) -> str:
+    """The plan file text (``PLAN_FORMAT``, indented JSON); units as in the field names (deg, s, deg/s, Hz)."""
     d = asdict(plan)
     d["format"] = PLAN_FORMAT
     return json.dumps(d, indent=1)

@@ -141,6 +141,7 @@ class ARMAModel:
 
     @property
     def order(self) -> tuple[int, int]:
+        """(p, q): the AR and MA orders."""
         return len(self.phi), len(self.theta)
 
     def information(self, criterion: str = "bic") -> float:

@@ -43,18 +43,22 @@ class Record:
     # ---- metadata views ------------------------------------------------------------------------------------
     @property
     def name(self) -> str:
+        """The record's name (the file stem)."""
         return self.meta["name"]
 
     @property
     def kind(self) -> str:
+        """Instrument kind (CONVENTIONS §5): ``sdf-gyro``, ``tdf-gyro``, ``pendulous-accel``, ``fog`` or ``rlg``."""
         return self.meta["instrument"]["kind"]
 
     @property
     def mode(self) -> str:
+        """``rebalance`` or ``servo`` (CONVENTIONS §4)."""
         return self.meta["mode"]
 
     @property
     def axis_names(self) -> list[str]:
+        """Table axis names, outermost first."""
         return [a["name"] for a in self.meta["table"]["axes"]]
 
     @property
@@ -70,10 +74,12 @@ class Record:
 
     @property
     def latitude_deg(self) -> float:
+        """Geodetic latitude of the site, deg."""
         return float(self.meta["site"]["latitude_deg"])
 
     @property
     def gravity_mps2(self) -> float:
+        """Local gravity magnitude at the site, m/s²."""
         return float(self.meta["site"]["gravity_mps2"])
 
     @property
@@ -84,6 +90,7 @@ class Record:
 
     @property
     def servo_axis_index(self) -> int | None:
+        """Index of the servo axis among the table axes (servo records), else None."""
         s = self.meta.get("servo_axis")
         return None if s is None else self.axis_names.index(s)
 
@@ -96,10 +103,12 @@ class Record:
     # ---- column views --------------------------------------------------------------------------------------
     @property
     def n(self) -> int:
+        """Number of samples."""
         return len(self.columns["time_s"])
 
     @property
     def time_s(self) -> np.ndarray:
+        """Sample times, s, shape (n,)."""
         return self.columns["time_s"]
 
     @property
@@ -142,6 +151,7 @@ class Record:
 
     @property
     def temperature_C(self) -> np.ndarray | None:
+        """Instrument temperature, °C, shape (n,); None when the record has no such column."""
         return self.columns.get("temperature_C")
 
     def to_pandas(self):

@@ -121,7 +121,8 @@ def _band(ax, x, r, sigma, bins=48, color="C1"):
 def residual_figure(res: FitResult, records, against: str = "auto", title: str | None = None):
     """Residuals of every record against one view (``"time"``, a table angle, ``"a_I"`` …) with ±3σ bands.
 
-    ``against="auto"`` picks the angle of the moving axis for tumbles and servo runs, else time.
+    ``against="auto"`` picks the angle of the moving axis for tumbles and servo runs, else time. Residuals in
+    deg/h (g for accelerometers), angles in deg modulo 360, time in h.
     """
     plt = _plt()
     n = len(res.residuals)
@@ -160,7 +161,8 @@ def residual_figure(res: FitResult, records, against: str = "auto", title: str |
 
 def harmonic_spectrum(res: FitResult, records, order: int = 4):
     """Amplitude of the residual's harmonics in the moving table angle (tumble and servo runs), per record,
-    with the 3σ detection level of a harmonic amplitude for white noise at the floor."""
+    with the 3σ detection level of a harmonic amplitude for white noise at the floor. Amplitudes in the residual's
+    units (deg/h for gyros); harmonics of order 1 … ``order`` per revolution."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(6.4, 3.2))
     ks = np.arange(1, order + 1)

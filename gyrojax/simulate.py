@@ -39,6 +39,8 @@ def truth_model(truth: Truth, kind: str) -> tuple[Model, np.ndarray]:
 
 
 def run_meta(plan: Plan, run: Run) -> dict:
+    """The record JSON (CONVENTIONS §5) of one run: site (latitude in deg, gravity in m/s², WGS-84 normal gravity
+    when the plan gives none), table axes, instrument, mode and nominal scale factor (deg/h/mA or g/mA)."""
     g = plan.gravity_mps2
     if g is None:
         g = float(frames.normal_gravity(np.deg2rad(plan.latitude_deg)))
@@ -121,7 +123,10 @@ def _servo_integrate(model, theta, data: RecordData, setup, start, drift_rate):
 
 
 def geometry_record(plan: Plan, run: Run, t0: float = 0.0) -> Record:
-    """A run's record with its table motion and zero current: the geometry that regressors and design need."""
+    """A run's record with its table motion and zero current (mA): the geometry that regressors and design need.
+
+    ``t0`` is the run's start on the campaign clock, s.
+    """
     return _run_columns(plan, run, t0)[0]
 
 
@@ -240,6 +245,7 @@ def simulate(plan: Plan, truth, key=None, seed: int = 0, dynamics: str = "quasi-
     through the analog capture loop (:mod:`gyrojax.loops`; ``loop`` = its ``RebalanceParams``, default
     ``default_rebalance()``): at low input frequency it reproduces the quasi-static balance equation, and it shows
     the loop's lag on oscillating or fast-changing tables. Servo runs are integrated in time either way.
+    Records carry CONVENTIONS §5 units: time in s, angles in deg, rates in deg/s, current in mA.
     """
     if dynamics not in ("quasi-static", "loop"):
         raise ValueError(f"dynamics must be 'quasi-static' or 'loop', got {dynamics!r}")

@@ -97,7 +97,10 @@ def two_slope_from_runs(k_b, tau_b, k_h, tau_h, k_d, tau_d, k_a, tau_a):
 
 
 def binned_model(cal_temps_c, cal_values):
-    """Piecewise-constant model: the value at the nearest calibration temperature (001 l.134, uncompensated case)."""
+    """Piecewise-constant model: the value at the nearest calibration temperature (001 l.134, uncompensated case).
+
+    ``cal_temps_c`` in °C; returns f(temperature_c in °C) in the same units as ``cal_values``.
+    """
     temps = jnp.asarray(cal_temps_c, jnp.float64)
     vals = jnp.asarray(cal_values, jnp.float64)
 

@@ -31,6 +31,7 @@ class Truth:
         return out
 
     def to_dict(self) -> dict:
+        """The truth as a JSON-ready dict (CONVENTIONS §8; coefficients in report units)."""
         return {"coefficients": dict(self.coefficients),
                 "setup": {k: (list(v) if np.ndim(v) else v) for k, v in self.setup.items()},
                 "noise": {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.noise.items()}}

@@ -28,14 +28,21 @@ OMEGA_IE_DEG_PER_H = OMEGA_IE / DEG_PER_H
 """Earth rate in deg/h (15.041067...)."""
 
 SECONDS_PER_HOUR = 3600.0
+"""Seconds in one hour (s/h)."""
 
 # WGS-84 ellipsoid and normal gravity (Somigliana), NIMA TR8350.2 §4.
 WGS84_A = 6378137.0
+"""WGS-84 semi-major axis, m."""
 WGS84_B = 6356752.3142
+"""WGS-84 semi-minor axis, m."""
 WGS84_E2 = 6.69437999014e-3
+"""WGS-84 first eccentricity squared (dimensionless)."""
 WGS84_GAMMA_E = 9.7803253359
+"""Normal gravity at the equator, m/s²."""
 WGS84_GAMMA_P = 9.8321849378
+"""Normal gravity at the poles, m/s²."""
 WGS84_K = (WGS84_B * WGS84_GAMMA_P) / (WGS84_A * WGS84_GAMMA_E) - 1.0
+"""Somigliana's constant k = b γ_p / (a γ_e) − 1 (dimensionless)."""
 
 
 def white_sigma_deg_per_h(arw_deg_per_rt_h: float, dt_s: float) -> float:
