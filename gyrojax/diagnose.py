@@ -59,6 +59,8 @@ class Candidate:
     log10_p: float = 0.0
 
     def to_json(self) -> dict:
+        """One entry of ``candidates`` in the diagnosis JSON (CONVENTIONS §7); ``rms_after_deg_per_h`` is in the
+        output unit (deg/h for gyros, g for accelerometers), ``estimate`` maps coefficient -> value and report unit."""
         return {
             "name": self.name,
             "statistic": float(self.statistic),
@@ -85,14 +87,17 @@ class Diagnosis:
 
     @property
     def top(self) -> Candidate | None:
+        """The highest-ranked candidate (possibly ``gauss_markov``), or None when nothing was tested."""
         return self.candidates[0] if self.candidates else None
 
     @property
     def residual_rms(self) -> float:
+        """RMS residual of the tested fit, output units (deg/h for gyros, g for accelerometers)."""
         return self.fit.residual_rms
 
     @property
     def noise_floor(self) -> float:
+        """White-noise level of the tested fit's residual, same units as :attr:`residual_rms`."""
         return self.fit.noise_floor
 
     def to_json(self) -> dict:
@@ -110,7 +115,11 @@ class Diagnosis:
 
 
 def candidate_effects(model: Model, campaign: Campaign) -> list[str]:
-    """Named effects absent from ``model`` that the records can carry (temperature only when it varies)."""
+    """Named effects absent from ``model`` that the records can carry.
+
+    ``bias_temperature`` is a candidate only when every record has ``temperature_C`` (°C) and it varies by more
+    than 1e-6 °C over the campaign; otherwise it would alias D_F.
+    """
     out = []
     temps = [r.temperature_C for r in campaign.records]
     has_temp = all(t is not None for t in temps) and np.ptp(np.concatenate(temps)) > 1e-6 if temps else False
@@ -273,12 +282,14 @@ def diagnose(records, terms=None, *, alpha: float = 0.01, candidates=None, resul
     Args:
       records: records of one instrument (any plans and modes), or a list of them.
       terms: the current model (effect names); default as :func:`gyrojax.identify.fit`.
-      alpha: family-wise significance level for the verdict.
+      alpha: family-wise significance level for the verdict (dimensionless).
       candidates: effect names to test (default: every named effect not in the model that the records can carry).
       result: a fit of ``terms`` to these records, if already at hand.
+      campaign: the records already built into a :class:`gyrojax.identify.Campaign`, if at hand.
       suggest_tests: name built-in plans that would separate aliased candidates.
 
-    Returns: a :class:`Diagnosis` with ``verdict`` ``"missing-effect"`` or ``"adequate"``.
+    Returns: a :class:`Diagnosis` with ``verdict`` ``"missing-effect"`` or ``"adequate"``; residuals and noise
+    floor in the output unit (deg/h for gyros, g for accelerometers), candidate estimates in report units.
     """
     camp = campaign or Campaign.of(records)
     res = result or fit(camp.records, terms, campaign=camp)

@@ -89,7 +89,8 @@ def _check_finite(record: Record) -> None:
 
 @dataclass
 class Campaign:
-    """Records of one fit as arrays: ``data[i]``, ``labels[i]`` and ``times[i]`` per record."""
+    """Records of one fit as arrays: ``data[i]`` (:class:`gyrojax.model.RecordData`), ``labels[i]`` (segment of each
+    measurement, −1 for none) and ``times[i]`` (time of each measurement, s) per record."""
 
     records: list
     data: list
@@ -99,6 +100,8 @@ class Campaign:
 
     @classmethod
     def of(cls, records) -> "Campaign":
+        """A campaign from one :class:`Record` or a list of records of one instrument kind; checks that every value
+        is finite and that servo records can null the pickoff (Hu 3-59)."""
         if isinstance(records, Record):
             records = [records]
         records = list(records)
@@ -118,11 +121,13 @@ class Campaign:
 
     @property
     def n_measurements(self) -> int:
+        """Number of measurements in all records (rows with a label ≥ 0)."""
         return int(sum((lab >= 0).sum() for lab in self.labels))
 
 
 def check_terms(model: Model, campaign: Campaign) -> None:
-    """Inputs a model needs that the records lack: temperature for ``bias_temperature``, rates for scale terms."""
+    """Refuse a model whose inputs the records lack: ``bias_temperature`` needs a ``temperature_C`` column (°C) that
+    varies, or it aliases D_F. Raises :class:`ModelError`."""
     if "bias_temperature" in model.terms:
         temps = []
         for r in campaign.records:
@@ -140,7 +145,9 @@ def check_terms(model: Model, campaign: Campaign) -> None:
 
 
 def linearize(model: Model, theta, campaign: Campaign):
-    """Per record (r, J, labels, times): residuals r = y − predict and Jacobians J, measurement rows only."""
+    """Per record (r, J, labels, times): residuals r = y − predict (output units: deg/h for gyros, g for
+    accelerometers), Jacobians J = ∂predict/∂θ (output units per report unit), segment labels and measurement
+    times (s); measurement rows only. ``theta`` in report units."""
     out = []
     th = jnp.asarray(theta, dtype=jnp.float64)
     for d, lab, t in zip(campaign.data, campaign.labels, campaign.times):
@@ -196,6 +203,8 @@ def identifiability(jw: np.ndarray, model: Model, tol: float = ALIAS_TOL) -> dic
 
 
 def alias_message(report: dict) -> str:
+    """The message of :class:`IdentifiabilityError` for a report of :func:`identifiability`: the alias groups, the
+    unexcited effects, the rank, and what to do about them."""
     parts = []
     for g in report["aliases"]:
         parts.append(" + ".join(g))
@@ -234,37 +243,45 @@ class FitResult:
     # -- views --
     @property
     def coefficient_names(self):
+        """Coefficient names in θ order (:attr:`gyrojax.model.Model.coefficient_names`)."""
         return self.model.coefficient_names
 
     @property
     def std(self) -> np.ndarray:
+        """Standard error of each coefficient, report units, θ order (NaN for an unseen direction)."""
         return np.sqrt(np.clip(np.diag(self.cov), 0.0, None))
 
     @property
     def values(self) -> dict:
+        """Coefficient name -> estimate, report units (:meth:`units`)."""
         return dict(zip(self.coefficient_names, map(float, self.theta)))
 
     @property
     def stds(self) -> dict:
+        """Coefficient name -> standard error, report units."""
         return dict(zip(self.coefficient_names, map(float, self.std)))
 
     @property
     def correlation(self) -> np.ndarray:
+        """Correlation matrix of the estimates (p, p), dimensionless."""
         s = self.std
         with np.errstate(invalid="ignore", divide="ignore"):
             return self.cov / np.outer(s, s)
 
     @property
     def t_statistics(self) -> np.ndarray:
+        """Estimate / standard error of each coefficient (dimensionless)."""
         with np.errstate(invalid="ignore", divide="ignore"):
             return self.theta / self.std
 
     @property
     def p_values(self) -> np.ndarray:
+        """Two-sided p-value of "coefficient = 0" from the normal distribution of its t statistic."""
         return 2 * stats.norm.sf(np.abs(self.t_statistics))
 
     @property
     def residual_rms(self) -> float:
+        """RMS of the raw residuals of all records, output units (deg/h for gyros, g for accelerometers)."""
         r = np.concatenate(self.residuals) if self.residuals else np.zeros(0)
         return float(np.sqrt(np.mean(r * r))) if r.size else float("nan")
 
@@ -279,6 +296,7 @@ class FitResult:
         return float(np.sqrt(acc / n)) if n else float("nan")
 
     def units(self) -> dict:
+        """Coefficient name -> report unit (``"deg/h"``, ``"deg/h/g"``, ``"ppm"``, ``"arcsec"`` …)."""
         return dict(zip(self.coefficient_names, self.model.coefficient_units))
 
     def to_json(self) -> dict:
@@ -312,6 +330,8 @@ class FitResult:
         }
 
     def save(self, path, force: bool = False) -> Path:
+        """Write :meth:`to_json` plus ``theta`` and ``cov`` (format ``gyrojax-fit-1``) to ``path`` atomically;
+        an existing file is an error unless ``force``. Returns the path."""
         p = Path(path)
         if p.exists() and not force:
             raise ModelError(f"{p}: exists; pass force=True (or --force) to overwrite")

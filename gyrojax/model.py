@@ -62,25 +62,32 @@ class Model:
 
     @property
     def effects(self) -> tuple[fx.Effect, ...]:
+        """The :class:`gyrojax.effects.Effect` objects of ``terms``, in order."""
         return tuple(fx.get(t) for t in self.terms)
 
     @property
     def coefficient_names(self) -> tuple[str, ...]:
+        """Coefficient names (CONVENTIONS §6) in θ order: the effects' coefficients, effect after effect."""
         return tuple(c for e in self.effects for c in e.coefficients)
 
     @property
     def coefficient_units(self) -> tuple[str, ...]:
+        """Report unit of each coefficient (``"deg/h"``, ``"deg/h/g"``, ``"ppm"``, ``"arcsec"`` …), θ order."""
         return tuple(u for e in self.effects for u in e.units)
 
     @property
     def size(self) -> int:
+        """Number of coefficients p (the length of θ)."""
         return len(self.coefficient_names)
 
     @property
     def is_linear(self) -> bool:
+        """True when the output is linear in every coefficient: one least-squares solve fits (built-in set-up
+        effects are the nonlinear ones)."""
         return all(e.linear for e in self.effects)
 
     def slices(self) -> dict[str, slice]:
+        """Effect name -> slice of θ holding that effect's coefficients."""
         out, i = {}, 0
         for e in self.effects:
             out[e.name] = slice(i, i + e.size)
@@ -96,12 +103,15 @@ class Model:
         return np.array([float(coefficients.get(c, 0.0)) for c in self.coefficient_names])
 
     def unpack(self, theta) -> dict:
+        """Coefficient name -> value (report units) from a flat θ; the inverse of :meth:`pack`."""
         return {c: float(v) for c, v in zip(self.coefficient_names, np.asarray(theta))}
 
     def extend(self, *terms) -> "Model":
+        """This model with effect (or coefficient) names appended; names already present are kept once."""
         return Model.of(self.terms + tuple(terms), self.kind)
 
     def without(self, *terms) -> "Model":
+        """This model with the effects named ``terms`` removed (effect names; unknown names are ignored)."""
         return Model(tuple(t for t in self.terms if t not in terms), self.kind)
 
 
@@ -135,7 +145,14 @@ def full_model_for_truth(coefficients: dict, kind: str, setup: dict | None = Non
 )
 @dataclass(frozen=True)
 class RecordData:
-    """A record as arrays (SI inside): what ``predict`` needs. Built by :func:`record_data`."""
+    """A record as arrays (SI inside): what ``predict`` needs. Built by :func:`record_data`.
+
+    Units: ``latitude`` rad, ``gravity`` m/s² (g_site), ``time_s`` s, ``angles`` (n, k) rad as read,
+    ``rates`` (n, k) rad/s, ``temperature`` (n,) °C (20 °C when the record has none), ``y`` deg/h for gyros and
+    g for accelerometers (servo: mean servo-axis rate per interval, deg/h), ``command`` deg/h (S_nom·i),
+    ``dt`` (n−1,) s; ``axes`` and ``triad`` are unit vectors, ``weight`` is 1 or 0. ``rates_derived`` is True when
+    the rates were differentiated from the angles, so the encoder error reaches them too (:func:`true_angles`).
+    """
 
     axes: jax.Array  # (k, 3) table axes in L at zero angles
     triad: jax.Array  # (3, 3) instrument axes in platform coordinates (rows)
@@ -224,7 +241,11 @@ def encoder_error(enc, angle):
 
 
 def true_angles(data: RecordData, setup: dict):
-    """Table angles and rates with the encoder error removed from the encoder axis (first order)."""
+    """Table angles (n, k) rad and rates (n, k) rad/s with the encoder error removed from the encoder axis.
+
+    First order in the readout error h(θ) of :func:`encoder_error` (Hu 5-51): θ_true = θ_read − h; the encoder axis's
+    rate is scaled by 1 − dh/dθ when it was derived from the angles (``rates_derived``), else left alone.
+    """
     e = data.encoder_axis
     h, dh = encoder_error(setup["encoder"], data.angles[:, e])
     angles = data.angles.at[:, e].add(-h)
@@ -252,7 +273,11 @@ _sensed_batch = jax.vmap(sensed, in_axes=(None, None, None, None, 0, 0, None))
 
 
 def instrument_inputs(data: RecordData, setup: dict, angles=None, rates=None) -> dict:
-    """The inputs dict of :mod:`gyrojax.effects` for every sample (module doc there)."""
+    """The inputs dict of :mod:`gyrojax.effects` for every sample (module doc there).
+
+    Rates ``w_*`` in deg/h, specific forces ``a_*`` in g, ``t_h`` in h, ``temperature_C`` in °C. ``angles`` (n, k)
+    rad and ``rates`` (n, k) rad/s replace the encoder-corrected table state of :func:`true_angles` when given.
+    """
     if angles is None:
         angles, rates = true_angles(data, setup)
     w, a = _sensed_batch(data.axes, data.triad, data.latitude, data.gravity, angles, rates, setup["delta"])

@@ -33,6 +33,7 @@ class ARNoise:
 
     @property
     def order(self) -> int:
+        """The AR order p (0: white noise)."""
         return len(self.phi)
 
     @property
@@ -135,7 +136,8 @@ def whiten(x: np.ndarray, labels: np.ndarray, noise, times: np.ndarray | None = 
 
 
 def first_difference_std(r: np.ndarray, labels: np.ndarray) -> float:
-    """High-frequency noise level: std of r from successive differences inside segments, √(mean Δr²/2).
+    """High-frequency noise level: std of r from successive differences inside segments, √(mean Δr²/2), in the
+    units of r (deg/h for gyro residuals, g for accelerometers).
 
     Equals σ for white noise; ignores slow structure (drifts, Gauss–Markov with long τ).
     """
@@ -153,8 +155,12 @@ def first_difference_std(r: np.ndarray, labels: np.ndarray) -> float:
 @dataclass(frozen=True)
 class GMNoise:
     """White noise (variance ``white_var``) plus a first-order Gauss–Markov process of stationary variance
-    ``gm_var`` and correlation time ``tau_s``. Whitened exactly by the Kalman filter's normalised innovations,
-    across the gaps between segments (the drift stays correlated while the table moves)."""
+    ``gm_var`` and correlation time ``tau_s`` (s). Whitened exactly by the Kalman filter's normalised innovations,
+    across the gaps between segments (the drift stays correlated while the table moves).
+
+    Variances are in the residual's unit squared ((deg/h)² for gyros, g² for accelerometers); between samples Δt
+    apart the GM state decays by φ = exp(−Δt/τ).
+    """
 
     tau_s: float
     gm_var: float
@@ -164,6 +170,7 @@ class GMNoise:
 
     @property
     def std(self) -> float:
+        """Stationary std of the residual, √(σ_g² + σ_w²), in the residual's unit."""
         return float(np.sqrt(self.gm_var + self.white_var))
 
     @property
@@ -173,6 +180,7 @@ class GMNoise:
 
     @property
     def variance_ratio(self) -> float:
+        """σ²/s² as for :class:`ARNoise` (dimensionless; 1 for white noise)."""
         return self.std**2 / self.innovation_std**2
 
 
@@ -204,7 +212,8 @@ _kalman_jit = None
 
 
 def kalman_whiten(x: np.ndarray, times: np.ndarray, nz: GMNoise, restart: np.ndarray | None = None):
-    """Exact GLS whitening under ``nz``: (whitened x, log S). ``restart`` marks rows that start a new series."""
+    """Exact GLS whitening under ``nz``: (whitened x, dimensionless; log S, S the innovation variance in x's unit
+    squared). ``times`` (s) give φ_k = exp(−Δt_k/τ); ``restart`` marks rows that start a new series."""
     import jax
 
     global _kalman_jit
@@ -224,7 +233,7 @@ def kalman_whiten(x: np.ndarray, times: np.ndarray, nz: GMNoise, restart: np.nda
 
 
 def series_restarts(labels: np.ndarray, times: np.ndarray) -> np.ndarray:
-    """Rows where an independent series starts: the first row, or time going backwards (stacked channels)."""
+    """Rows where an independent series starts: the first row, or ``times`` (s) not increasing (stacked channels)."""
     out = np.zeros(len(labels), dtype=bool)
     if len(labels):
         out[0] = True
@@ -233,7 +242,10 @@ def series_restarts(labels: np.ndarray, times: np.ndarray) -> np.ndarray:
 
 
 def gm_loglik(r: np.ndarray, labels: np.ndarray, times: np.ndarray, nz: GMNoise) -> tuple[float, int]:
-    """Exact Gaussian −2 log-likelihood (without the 2π term) of r under ``nz``, and the sample count."""
+    """Exact Gaussian −2 log-likelihood (without the 2π term) of r under ``nz``, and the sample count.
+
+    ``r`` and ``nz`` in the same units (e.g. deg/h and (deg/h)²), ``times`` in s, ``labels`` −1 for excluded rows.
+    """
     ok = labels >= 0
     w, logs = kalman_whiten(r[ok], times[ok], nz, series_restarts(labels[ok], times[ok]))
     return float(np.sum(logs) + w @ w), int(ok.sum())
@@ -241,7 +253,10 @@ def gm_loglik(r: np.ndarray, labels: np.ndarray, times: np.ndarray, nz: GMNoise)
 
 def gm_reml(r: np.ndarray, design: np.ndarray, labels: np.ndarray, times: np.ndarray, nz: GMNoise) -> float:
     """Restricted −2 log-likelihood of r under ``nz`` with the regressors ``design`` (n, p) estimated by GLS:
-    Σ log S_k + |ẽ|² + log det(J̃ᵀJ̃), with ẽ the whitened GLS residual and J̃ the whitened regressors."""
+    Σ log S_k + |ẽ|² + log det(J̃ᵀJ̃), with ẽ the whitened GLS residual and J̃ the whitened regressors.
+
+    ``r`` and ``nz`` in the same units (as :func:`gm_loglik`), ``times`` in s.
+    """
     ok = labels >= 0
     x = np.column_stack([r[ok], design[ok]])
     w, logs = kalman_whiten(x, times[ok], nz, series_restarts(labels[ok], times[ok]))
@@ -256,7 +271,10 @@ def gm_reml(r: np.ndarray, design: np.ndarray, labels: np.ndarray, times: np.nda
 
 
 def gm_profile(r: np.ndarray, design: np.ndarray, labels: np.ndarray, times: np.ndarray, nz: GMNoise) -> float:
-    """Profile −2 log-likelihood (without 2π) of r under ``nz`` with ``design`` estimated by GLS: Σ log S_k + |ẽ|²."""
+    """Profile −2 log-likelihood (without 2π) of r under ``nz`` with ``design`` estimated by GLS: Σ log S_k + |ẽ|².
+
+    ``r`` and ``nz`` in the same units (as :func:`gm_loglik`), ``times`` in s.
+    """
     ok = labels >= 0
     x = np.column_stack([r[ok], design[ok]])
     w, logs = kalman_whiten(x, times[ok], nz, series_restarts(labels[ok], times[ok]))
@@ -282,7 +300,10 @@ def profile_likelihood(r, design, labels, times, start: GMNoise | None = None) -
 def fit_gm(r: np.ndarray, labels: np.ndarray, times: np.ndarray, max_lag: int = 2000,
            design: np.ndarray | None = None) -> GMNoise | None:
     """White + Gauss–Markov model from the pooled autocovariance: γ_0 = σ_w² + σ_g², γ_k = σ_g² φ^k (k ≥ 1),
-    φ = exp(−Δt/τ) at the median step Δt."""
+    φ = exp(−Δt/τ) at the median step Δt (s, from ``times``), then refined by maximum likelihood (REML when
+    ``design`` is given), τ capped at the span / :data:`TAU_SPAN_FRACTION`. None when no segment has 8 samples or
+    the autocovariance fit gives no admissible split (0 < σ_g² < γ_0). Variances in the unit of ``r`` squared.
+    """
     from scipy.optimize import minimize_scalar
 
     bounds = segment_bounds(labels)
@@ -364,6 +385,9 @@ def fit_noise(r: np.ndarray, labels: np.ndarray, times: np.ndarray, p_max: int =
     model-selection criterion to notice can still dominate the error of a coefficient that depends on slow
     differences (position means), so dropping it would understate standard errors. When the drift is absent the
     likelihood drives its variance to ~0 and nothing is lost.
+
+    ``r`` in its own unit (deg/h for gyro residuals, g for accelerometers), ``times`` in s, ``design`` (n, p) the fit's
+    regressors. Returns an :class:`ARNoise` or a :class:`GMNoise`.
     """
     ar = fit_ar(r, labels, p_max)
     gm = fit_gm(r, labels, times, design=design)
