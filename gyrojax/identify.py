@@ -2,9 +2,10 @@
 
 The measurement model of every record (:func:`gyrojax.model.predict`) is linearised by ``jax.jacfwd``; the
 stacked system is solved by Gauss–Newton (one step when every effect is linear in its coefficients; damped
-steps for the set-up effects, which enter through the kinematics). Weights are per record: each record gets its own
-noise level, and with ``noise="ar"`` (the default) its own autoregressive noise model fitted to its residuals, so the
-fit is feasible GLS and standard errors stay honest under coloured drift (module :mod:`gyrojax.whiten`).
+steps for the set-up effects, which enter through the kinematics). With ``noise="ar"`` (the default) a white +
+Gauss–Markov (or AR) noise model is fitted by REML to the residuals of each group of records of one mode and sample
+interval, jointly (:func:`campaign_noise`), so the fit is feasible GLS and standard errors stay honest under coloured
+drift, also when the drift is slower than one position (module :mod:`gyrojax.whiten`).
 
 Before any number is reported the plan's identifiability is checked: the singular values of the column-normalised,
 whitened regressor matrix give the rank, the condition number and the groups of effects the plan cannot tell apart
@@ -32,7 +33,7 @@ from .errors import ModelError, RecordError
 from .io import atomic_write_text
 from .model import Model, RecordData, check_servo, jacobian_jit, predict_jit, record_data
 from .records import Record
-from .whiten import ARNoise, first_difference_std, fit_noise, whiten
+from .whiten import FIT_TAU_SPAN_FRACTION, ARNoise, first_difference_std, fit_noise, whiten
 
 ALIAS_TOL = 1e-7  # singular value / largest below this: a direction the plan cannot see
 DEFAULT_TERMS = {
@@ -430,6 +431,46 @@ def _stack(lin, noises, scales):
     return np.concatenate(rows_r), np.concatenate(rows_j, axis=0)
 
 
+def noise_groups(campaign: Campaign) -> list[list[int]]:
+    """Indices of the records that share one noise model: same mode and sample interval (s). One instrument's
+    drift is one random process, whatever the position; a servo record's interval means, or another sample
+    interval, see it through a different filter."""
+    groups: dict[tuple, list[int]] = {}
+    for i, (rec, t) in enumerate(zip(campaign.records, campaign.times)):
+        dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+        groups.setdefault((rec.mode, round(dt, 9)), []).append(i)
+    return list(groups.values())
+
+
+def campaign_noise(lin, campaign: Campaign) -> list:
+    """Noise model of every record, fitted jointly over each :func:`noise_groups` group: the residuals of the
+    group's records stacked as independent series (each restarts), REML with the fit's regressors of all of them.
+
+    Pooling matters for campaigns of many short records (the 8-position test): a Gauss–Markov drift slower than a
+    position shows only in the scatter of the position means, which per-record noise fits cannot see; the joint
+    REML does, so the GLS standard errors stay honest (``benchmarks/bench_coverage.py``).
+
+    ``lin`` as from :func:`linearize` (residuals in the output unit, deg/h or g; times in s). Returns one
+    :class:`~gyrojax.whiten.GMNoise` or :class:`~gyrojax.whiten.ARNoise` per record (variances in the output unit
+    squared, τ in s); records of one group share the same object.
+    """
+    noises = [None] * len(lin)
+    for idx in noise_groups(campaign):
+        rs, js, labs, ts, off = [], [], [], [], 0
+        for i in idx:
+            r, j, lab, t = lin[i]
+            rs.append(r)
+            js.append(j)
+            labs.append(lab + off)
+            ts.append(t - t[0] if len(t) else t)  # each record a fresh series (time steps back at its start)
+            off += int(lab.max()) + 1 if len(lab) else 0
+        nz = fit_noise(np.concatenate(rs), np.concatenate(labs), np.concatenate(ts), design=np.concatenate(js),
+                       tau_span_fraction=FIT_TAU_SPAN_FRACTION, neutral_start=True)
+        for i in idx:
+            noises[i] = nz
+    return noises
+
+
 def _rms(r) -> float:
     return float(np.sqrt(np.mean(r * r))) if len(r) else 0.0
 
@@ -464,7 +505,8 @@ def fit(records, terms=None, *, kind: str | None = None, noise: str = "ar", allo
     Args:
       records: a :class:`Record`, or a list of records of one instrument kind (any plans, mountings, modes).
       terms: effect names (or coefficient names); default: D_F, D_I, D_O, D_S for an SDF gyro.
-      noise: ``"ar"`` (GLS with an AR noise model per record, default) or ``"white"`` (WLS, one σ per record).
+      noise: ``"ar"`` (GLS with a white + Gauss–Markov or AR noise model per group of records, :func:`campaign_noise`;
+        default) or ``"white"`` (WLS, one σ per record).
       allow_aliases: return a minimum-norm fit instead of raising when the plan cannot separate some effects
         (those coefficients then have no finite standard error).
       theta0: starting coefficients (report units) for the nonlinear set-up effects.
@@ -502,7 +544,7 @@ def fit(records, terms=None, *, kind: str | None = None, noise: str = "ar", allo
             break
     # noise model and GLS pass
     if noise == "ar":
-        noises = [fit_noise(r, lab, t, design=j) for r, j, lab, t in lin]
+        noises = campaign_noise(lin, camp)
         for _ in range(3 if not model.is_linear else 1):
             rw, jw = _stack(lin, noises, scales)
             step, _ = _solve(jw, rw)

@@ -19,8 +19,14 @@ from scipy.signal import lfilter
 
 P_MAX = 20
 TAU_SPAN_FRACTION = 8.0
-"""Gauss–Markov correlation times are capped at the record span / 8: structure slower than that cannot be told from
-a deterministic trend within the record, and is left to ``bias_trend`` (and the diagnosis) rather than to noise."""
+"""In the diagnosis, Gauss–Markov correlation times are capped at the record span / 8: structure slower than that
+cannot be told from a deterministic trend within the record, and is left to ``bias_trend`` (and the diagnosis)
+rather than to noise."""
+FIT_TAU_SPAN_FRACTION = 1.0
+"""In the fit (:func:`gyrojax.identify.fit`), τ may reach the record span: the noise model is then pooled over the
+records of the campaign and its REML sees the scatter of the position means too, so slow drift is estimated rather
+than assumed away (with the diagnosis' cap, 8-position standard errors under GM drift of τ = 300 s in 10-min
+positions came out 2.5× too small)."""
 
 
 @dataclass(frozen=True)
@@ -241,6 +247,15 @@ def series_restarts(labels: np.ndarray, times: np.ndarray) -> np.ndarray:
     return out
 
 
+def series_span(times: np.ndarray, restart: np.ndarray) -> float:
+    """Longest time span (s) of the independent series in ``times`` (each starts where ``restart`` is set)."""
+    if not len(times):
+        return 1.0
+    starts = np.flatnonzero(restart)
+    ends = np.append(starts[1:], len(times))
+    return float(max(np.ptp(times[s:e]) for s, e in zip(starts, ends))) or 1.0
+
+
 def gm_loglik(r: np.ndarray, labels: np.ndarray, times: np.ndarray, nz: GMNoise) -> tuple[float, int]:
     """Exact Gaussian −2 log-likelihood (without the 2π term) of r under ``nz``, and the sample count.
 
@@ -298,11 +313,15 @@ def profile_likelihood(r, design, labels, times, start: GMNoise | None = None) -
 
 
 def fit_gm(r: np.ndarray, labels: np.ndarray, times: np.ndarray, max_lag: int = 2000,
-           design: np.ndarray | None = None) -> GMNoise | None:
+           design: np.ndarray | None = None, tau_span_fraction: float = TAU_SPAN_FRACTION,
+           neutral_start: bool = False) -> GMNoise | None:
     """White + Gauss–Markov model from the pooled autocovariance: γ_0 = σ_w² + σ_g², γ_k = σ_g² φ^k (k ≥ 1),
     φ = exp(−Δt/τ) at the median step Δt (s, from ``times``), then refined by maximum likelihood (REML when
-    ``design`` is given), τ capped at the span / :data:`TAU_SPAN_FRACTION`. None when no segment has 8 samples or
-    the autocovariance fit gives no admissible split (0 < σ_g² < γ_0). Variances in the unit of ``r`` squared.
+    ``design`` is given), τ capped at the span / ``tau_span_fraction`` (span: the longest series; stacked series
+    restart where time goes back). None when no segment has 8 samples, the residual is zero, or the
+    autocovariance gives no admissible split (0 < σ_g² < γ_0) — unless ``neutral_start``, when the likelihood then
+    starts from a neutral split instead (the fit's choice; the diagnosis keeps such residuals for its candidates).
+    Variances in the unit of ``r`` squared.
     """
     from scipy.optimize import minimize_scalar
 
@@ -332,13 +351,17 @@ def fit_gm(r: np.ndarray, labels: np.ndarray, times: np.ndarray, max_lag: int = 
     sol = minimize_scalar(loss, bounds=(np.log(1e-7), np.log(0.999)), method="bounded")
     phi = float(1.0 - np.exp(sol.x))
     a = amp(phi)
-    if a <= 0 or a >= g0:
+    if 0 < a < g0:
+        start = GMNoise(-dt0 / np.log(phi), a, g0 - a)
+    elif neutral_start:  # no admissible split by moments: let the likelihood decide from a neutral one
+        start = GMNoise(10 * dt0, 0.1 * g0, 0.9 * g0)
+    else:
         return None
-    start = GMNoise(-dt0 / np.log(phi), a, g0 - a)
-    return _gm_mle(r, labels, times, start, design)
+    return _gm_mle(r, labels, times, start, design, tau_span_fraction=tau_span_fraction)
 
 
-def _gm_mle(r, labels, times, start: GMNoise, design=None, profile: bool = False, grid: bool = True) -> GMNoise:
+def _gm_mle(r, labels, times, start: GMNoise, design=None, profile: bool = False, grid: bool = True,
+            tau_span_fraction: float = TAU_SPAN_FRACTION) -> GMNoise:
     # grid=False: a coarser grid of starts (the profile likelihood ratio refits twice per slow candidate)
     """Refine a white + Gauss–Markov model by maximising the exact (Kalman) likelihood — restricted (REML) when the
     regressors of the fit are given, so that the drift the fitted coefficients absorbed is not lost from σ_g².
@@ -349,8 +372,7 @@ def _gm_mle(r, labels, times, start: GMNoise, design=None, profile: bool = False
     from scipy.optimize import minimize
 
     ok = labels >= 0
-    span = float(np.ptp(times[ok])) if ok.any() else 1.0
-    tau_max = max(span / TAU_SPAN_FRACTION, 1e-9)
+    tau_max = max(series_span(times[ok], series_restarts(labels[ok], times[ok])) / tau_span_fraction, 1e-9)
 
     def unpack(u):
         return GMNoise(min(float(np.exp(u[0])), tau_max), float(np.exp(u[1])), float(np.exp(u[2])))
@@ -377,7 +399,8 @@ def _gm_mle(r, labels, times, start: GMNoise, design=None, profile: bool = False
 
 
 def fit_noise(r: np.ndarray, labels: np.ndarray, times: np.ndarray, p_max: int = P_MAX,
-              design: np.ndarray | None = None):
+              design: np.ndarray | None = None, tau_span_fraction: float = TAU_SPAN_FRACTION,
+              neutral_start: bool = False):
     """The noise model of a residual: white + Gauss–Markov (maximum likelihood), unless an AR(p ≥ 1) model is
     better by BIC.
 
@@ -390,7 +413,7 @@ def fit_noise(r: np.ndarray, labels: np.ndarray, times: np.ndarray, p_max: int =
     regressors. Returns an :class:`ARNoise` or a :class:`GMNoise`.
     """
     ar = fit_ar(r, labels, p_max)
-    gm = fit_gm(r, labels, times, design=design)
+    gm = fit_gm(r, labels, times, design=design, tau_span_fraction=tau_span_fraction, neutral_start=neutral_start)
     if gm is None or ar.innovation_std <= 0:
         return ar
     if ar.order == 0:
