@@ -9,6 +9,7 @@ the balance equation (Hu 3-59). Deterministic for a given key.
 from __future__ import annotations
 
 import copy
+import functools
 from dataclasses import replace
 
 import jax
@@ -17,7 +18,18 @@ import numpy as np
 
 from . import effects as fx
 from . import frames, units
-from .model import Model, RecordData, check_servo, encoder_error, predict, record_data, servo_rate
+from .errors import PlanError
+from .model import (
+    Model,
+    RecordData,
+    _setup_values,
+    check_servo,
+    encoder_error,
+    instrument_inputs,
+    predict,
+    record_data,
+    servo_rate,
+)
 from .noise import random_drift
 from .plans import Plan, Run
 from .records import FORMAT, Record
@@ -163,6 +175,73 @@ def _run_columns(plan: Plan, run: Run, t0: float):
 LOOP_MAX_STEP_S = 0.5
 """Longest step of the loop's exact discretisation (the matrix exponential of a stiff loop over seconds overflows)."""
 
+LOOP_KINDS = {fx.SDF: "RebalanceParams", fx.FOG: "RebalanceParams", fx.RLG: "RebalanceParams",
+              fx.ACCEL: "RebalanceParams", fx.TDF: "TDFParams"}
+"""The parameter type of the capture loop that ``simulate(dynamics="loop")`` runs each instrument kind through."""
+
+
+def loop_params(loop, kind: str, where: str = "simulate"):
+    """The loop parameters a run of instrument ``kind`` goes through with ``dynamics="loop"``.
+
+    ``loop`` is None (defaults: ``loops.default_rebalance()``, ``tdfloop.default_tdf()``), one parameter object
+    (``RebalanceParams`` for sdf-gyro, fog, rlg and pendulous-accel runs, ``TDFParams`` for tdf-gyro runs) or a dict
+    {instrument kind: parameters} for plans that mix kinds (kinds left out take the defaults). A parameter object of
+    the wrong type for the kind raises :class:`PlanError` naming the run and the kind.
+    """
+    from .loops import RebalanceParams, default_rebalance
+    from .tdfloop import TDFParams, default_tdf
+
+    want = TDFParams if kind == fx.TDF else RebalanceParams
+    if kind not in LOOP_KINDS:
+        raise PlanError(f"{where}: no capture-loop model for instrument kind {kind!r}; "
+                        f"dynamics='loop' covers {sorted(LOOP_KINDS)}")
+    if isinstance(loop, dict):
+        unknown = sorted(set(loop) - set(LOOP_KINDS))
+        if unknown:
+            raise PlanError(f"{where}: loop dict has unknown instrument kind(s) {unknown}; valid: {sorted(LOOP_KINDS)}")
+        loop = loop.get(kind)
+    if loop is None:
+        return default_tdf() if kind == fx.TDF else default_rebalance()
+    if not isinstance(loop, want):
+        raise PlanError(
+            f"{where}: a {kind} run needs loop={want.__name__} (gyrojax."
+            f"{'tdfloop' if kind == fx.TDF else 'loops'}), got {type(loop).__name__}; for a plan mixing instrument "
+            f"kinds pass a dict {{kind: parameters}}"
+        )
+    return loop
+
+
+@functools.cache
+def _sdf_rate_jit():
+    """``loops.loop_indicated_rate`` compiled once per input length (the hold step is traced)."""
+    from .loops import loop_indicated_rate
+
+    return jax.jit(loop_indicated_rate)
+
+
+@functools.cache
+def _tdf_rates_jit():
+    """``tdfloop.tdf_indicated_rates`` compiled once per input length (the hold step is traced)."""
+    from .tdfloop import tdf_indicated_rates
+
+    return jax.jit(tdf_indicated_rates)
+
+
+def _hold_blocks(rec: Record):
+    """(sample indices, hold step s, sub-steps per sample) of each continuous segment with two samples or more.
+
+    Each sample's input is held for the segment's median interval, split into ``m`` equal sub-steps of at most
+    LOOP_MAX_STEP_S; the loop starts each segment at the equilibrium of its first input (the table moved unlogged
+    in between, CONVENTIONS §5)."""
+    seg, t = rec.segment_id, rec.time_s
+    for sid in np.unique(seg):
+        idx = np.flatnonzero(seg == sid)
+        if len(idx) < 2:
+            continue
+        dt = float(np.median(np.diff(t[idx])))
+        m = max(1, int(np.ceil(dt / LOOP_MAX_STEP_S)))  # a long hold is the same hold repeated in shorter steps
+        yield idx, dt / m, m
+
 
 def _through_loop(ind: np.ndarray, rec: Record, loop) -> np.ndarray:
     """Pass a quasi-static indicated rate through the rebalance loop's dynamics, continuous segment by segment
@@ -170,27 +249,33 @@ def _through_loop(ind: np.ndarray, rec: Record, loop) -> np.ndarray:
     model's (``sf_error`` …), so the loop's are zeroed here to count them once."""
     import dataclasses
 
-    from .loops import loop_indicated_rate
-
     params = dataclasses.replace(loop, E_SF=0.0, E_A=0.0, E_2=0.0)
     out = np.array(ind, dtype=float)
-    seg = rec.segment_id
-    t = rec.time_s
-    for sid in np.unique(seg):
-        idx = np.flatnonzero(seg == sid)
-        if len(idx) < 2:
-            continue
-        dt = float(np.median(np.diff(t[idx])))
-        m = max(1, int(np.ceil(dt / LOOP_MAX_STEP_S)))  # a long hold is the same hold repeated in shorter steps
+    for idx, h, m in _hold_blocks(rec):
         held = np.repeat(out[idx], m)
-        out[idx] = np.asarray(loop_indicated_rate(params, held, dt / m))[m - 1 :: m]
+        out[idx] = np.asarray(_sdf_rate_jit()(params, held, h))[m - 1 :: m]
+    return out
+
+
+def _through_tdf_loop(omega: np.ndarray, sensed: np.ndarray, rec: Record, params) -> np.ndarray:
+    """Both TDF channels (n, 2) through the DTG capture loops (:mod:`gyrojax.tdfloop`), segment by segment as
+    :func:`_through_loop`: the case rate ``omega`` (n, 2) about X, Y (deg/h) enters as the rate input, the rest of
+    the quasi-static sensed rate ``sensed`` − ``omega`` (drift coefficients and random drift, deg/h) as the drift
+    torque; each reading is the loop's S_nom·i at the end of the sample's hold (Hu 3-94, 5-64 to 5-68). The
+    loop's torquer errors (E_SF_X, E_SF_Y, μ_XY, μ_YX) are kept: no TDF effect models them."""
+    out = np.array(sensed, dtype=float)
+    drift = out - omega
+    for idx, h, m in _hold_blocks(rec):
+        w, d = np.repeat(omega[idx], m, axis=0), np.repeat(drift[idx], m, axis=0)
+        out[idx] = np.asarray(_tdf_rates_jit()(params, w, h, d))[m - 1 :: m]
     return out
 
 
 def simulate_run(plan: Plan, run: Run, truth: Truth, key, t0: float = 0.0, dynamics: str = "quasi-static",
                  loop=None) -> Record:
-    """One record of a plan (see module doc)."""
+    """One record of a plan (see :func:`simulate`; ``t0``: the run's start on the campaign clock, s)."""
     kind = run.instrument["kind"]
+    where = f"plan {plan.name!r}, run {run.name!r}"
     rec, meta, cols, t, ang = _run_columns(plan, run, t0)
     model, theta = truth_model(truth, kind)
     theta = jnp.asarray(theta)
@@ -198,7 +283,7 @@ def simulate_run(plan: Plan, run: Run, truth: Truth, key, t0: float = 0.0, dynam
     setup = _setup_dict(truth)
     enc = rec.encoder_axis_index
     if run.mode == "servo":
-        check_servo(data, f"plan {plan.name!r}, run {run.name!r}")
+        check_servo(data, where)
         s = rec.servo_axis_index
         drift = random_drift(key, t, truth.noise)
         start = jnp.deg2rad(ang[0, s])
@@ -207,6 +292,7 @@ def simulate_run(plan: Plan, run: Run, truth: Truth, key, t0: float = 0.0, dynam
         cols[f"angle_{run.axes[s][0]}_deg"] = np.rad2deg(read)
         cols[f"rate_{run.axes[s][0]}_dps"] = np.rad2deg(np.gradient(true_s, t))
         return Record(meta, cols)
+    params = loop_params(loop, kind, where) if dynamics == "loop" else None
     # rebalance: read angle on the encoder axis carries h(θ_true)
     h = np.asarray(encoder_error(setup["encoder"], jnp.deg2rad(jnp.asarray(ang[:, enc])))[0])
     cols[f"angle_{run.axes[enc][0]}_deg"] = ang[:, enc] + np.rad2deg(h)
@@ -215,13 +301,17 @@ def simulate_run(plan: Plan, run: Run, truth: Truth, key, t0: float = 0.0, dynam
     if kind == fx.TDF:
         k1, k2 = jax.random.split(key)
         n = len(t)
-        cols["current_x_mA"] = (ind[:n] + np.asarray(random_drift(k1, t, truth.noise))) / run.scale_factor
-        cols["current_y_mA"] = (ind[n:] + np.asarray(random_drift(k2, t, truth.noise))) / run.scale_factor
+        sensed = np.stack([ind[:n] + np.asarray(random_drift(k1, t, truth.noise)),
+                           ind[n:] + np.asarray(random_drift(k2, t, truth.noise))], axis=1)
+        if params is not None:
+            x = instrument_inputs(data, _setup_values(model, theta))
+            omega = np.stack([np.asarray(x["w_X"]), np.asarray(x["w_Y"])], axis=1)
+            sensed = _through_tdf_loop(omega, sensed, Record(meta, cols), params)
+        cols["current_x_mA"] = sensed[:, 0] / run.scale_factor
+        cols["current_y_mA"] = sensed[:, 1] / run.scale_factor
     else:
-        if dynamics == "loop" and kind in (fx.SDF, fx.FOG, fx.RLG):
-            from .loops import default_rebalance
-
-            ind = _through_loop(ind, Record(meta, cols), loop if loop is not None else default_rebalance())
+        if params is not None:
+            ind = _through_loop(ind, Record(meta, cols), params)
         noise = np.asarray(random_drift(key, t, truth.noise))
         if kind == fx.ACCEL:
             noise = noise * 0.0  # accelerometer noise: white in g is not part of the gyro noise names
@@ -241,11 +331,30 @@ def simulate(plan: Plan, truth, key=None, seed: int = 0, dynamics: str = "quasi-
     """Simulate every run of ``plan`` with ``truth`` (a :class:`Truth` or a truth dict) into records.
 
     Runs follow each other on one campaign clock. Each run draws its noise from ``fold_in(key, run index)``,
-    so a run's noise does not depend on the others. ``dynamics="loop"`` passes the indicated rate of rebalance runs
-    through the analog capture loop (:mod:`gyrojax.loops`; ``loop`` = its ``RebalanceParams``, default
-    ``default_rebalance()``): at low input frequency it reproduces the quasi-static balance equation, and it shows
-    the loop's lag on oscillating or fast-changing tables. Servo runs are integrated in time either way.
-    Records carry CONVENTIONS §5 units: time in s, angles in deg, rates in deg/s, current in mA.
+    so a run's noise does not depend on the others. Records carry CONVENTIONS §5 units: time in s, angles in deg,
+    rates in deg/s, current in mA.
+
+    ``dynamics="quasi-static"`` (default) writes the balance equation sample by sample. ``dynamics="loop"`` passes
+    what the instrument senses through its capture loop, continuous segment by segment (each sample held for its
+    interval, the loop starting each segment at equilibrium), and records the loop's torquer current at the end of
+    each hold; at the plans' low input frequencies it reproduces the quasi-static record within the loop's static
+    error, and it shows the loop's lag on oscillating or fast-changing tables. ``loop`` chooses the loop per kind:
+
+    - ``sdf-gyro``, ``fog``, ``rlg``: the analog rebalance loop (:mod:`gyrojax.loops`, Hu 2-50 to 2-56), ``loop`` a
+      ``RebalanceParams`` (default ``default_rebalance()``); the torquer's E_SF, E_A, E_2 are the truth's effects,
+      so the loop's own are zeroed. fog and rlg have no loop model of their own: they get this one as a stand-in
+      with unit DC gain and the loop's bandwidth.
+    - ``tdf-gyro``: both channels through the DTG capture loops (:mod:`gyrojax.tdfloop`), ``loop`` a ``TDFParams``
+      (default ``default_tdf()``): the case rate about X, Y is the rate input, the truth's drift terms and random
+      drift the drift torque. A constant input reads S⁻¹(ω + d) (``tdf_static_matrix``); the loop's torquer
+      errors E_SF_X, E_SF_Y, μ_XY, μ_YX are kept (no TDF effect carries them).
+    - ``pendulous-accel``: the pendulum obeys the float's equation with pendulosity·a in place of H·ω (Hu 3-38),
+      so its indicated output (g) goes through the rebalance loop of ``loop`` (a ``RebalanceParams``) as a rate
+      would: same closed-loop transfer, unit DC gain.
+
+    A plan that mixes kinds takes a dict {kind: parameters} (kinds left out get the defaults). A parameter object
+    of the wrong type for a run's kind raises :class:`~gyrojax.errors.PlanError` naming the run and the kind.
+    Servo runs are integrated in time (the table's balance, Hu 3-59) either way.
     """
     if dynamics not in ("quasi-static", "loop"):
         raise ValueError(f"dynamics must be 'quasi-static' or 'loop', got {dynamics!r}")
