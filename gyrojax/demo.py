@@ -17,8 +17,10 @@ import base64
 import json
 import math
 import shutil
+import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -68,12 +70,19 @@ def _pick(diag) -> tuple[str, list]:
     return ranked[0], top.aliases
 
 
-def run_demo(out="demo-report", force: bool = False, quick: bool = False, seed: int = 7) -> Path:
+def _say(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
+
+
+def run_demo(out="demo-report", force: bool = False, quick: bool = False, seed: int = 7,
+             progress: Callable[[str], None] | None = _say) -> Path:
     """Run the walkthrough and write the report into ``out``; returns the path of ``report.md``.
 
     Refuses to replace an existing ``out`` without ``force``; the report is written to a temporary folder and
-    moved into place only when complete.
+    moved into place only when complete. ``progress`` receives one line per step (model, residual RMS and floor in
+    deg/h, verdict, elapsed s) and the report's path at the end (default: printed to stderr; ``None``: silent).
     """
+    say = progress or (lambda line: None)
     out = Path(out)
     if out.exists() and not force:
         raise GyrojaxError(f"{out}: exists; pass --force to replace it")
@@ -81,6 +90,8 @@ def run_demo(out="demo-report", force: bool = False, quick: bool = False, seed: 
     plan = plans.tumble(revolutions=1.0 if quick else 2.0, dt_s=10.0 if quick else 2.0)
     records = simulate(plan, TRUTH, seed=seed)
     camp = Campaign.of(records)
+    say(f"gyrojax demo: polar tumble, {len(records)} records × {records[0].n} samples; fitting from "
+        f"{', '.join(START_TERMS)} until the verdict is adequate (the first step includes compilation)")
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent if str(out.parent) else "."))
     try:
         for r in records:
@@ -107,12 +118,16 @@ def run_demo(out="demo-report", force: bool = False, quick: bool = False, seed: 
                     f"Residual RMS **{res.residual_rms:.5f} deg/h** against a white-noise floor of "
                     f"{res.noise_floor:.5f} deg/h. Verdict: **{d.verdict}**.", ""]
             text += [f"![{n}]({n})" for n in names] + [""]
-            text += ["```", report.diagnosis_text(d), "```", ""]
+            add, aliases = _pick(d) if d.verdict != "adequate" else (None, [])
+            text += ["```", report.diagnosis_text(d, add=add), "```", ""]
+            step_line = (f"step {k}: {short}, residual RMS {res.residual_rms:.4f} deg/h "
+                         f"(floor {res.noise_floor:.4f}), {d.verdict}")
             if d.verdict == "adequate":
+                say(f"{step_line} ({time.time() - t0:.0f} s)")
                 text.append("The model is adequate: nothing the library names is left in the residual beyond noise.")
                 sections.append("\n".join(text))
                 break
-            add, aliases = _pick(d)
+            say(f"{step_line} → add {add} ({time.time() - t0:.0f} s)")
             why = STORY.get(add, f"the data ask for {add}.")
             text.append(f"**Add `{add}`**: {why}")
             if aliases:
@@ -170,6 +185,7 @@ def run_demo(out="demo-report", force: bool = False, quick: bool = False, seed: 
             shutil.rmtree(old)
         else:
             tmp.rename(out)
+        say(f"report: {out / 'report.html'} (also report.md, figures, records/) after {time.time() - t0:.0f} s")
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise

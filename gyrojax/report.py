@@ -1,7 +1,8 @@
 """Readable reports: coefficient tables and diagnosis summaries (text), residual views (figures).
 
-Every number carries its unit. Figures use matplotlib's Agg backend and are returned as Figure objects or saved to
-PNG; nothing here changes a result.
+Every number carries its unit. Figures are plain ``matplotlib.figure.Figure`` objects, made without pyplot, so the
+library never switches the caller's backend: they display as PNG in a notebook (``_repr_png_``) and save headless
+through Agg. Nothing here changes a result.
 """
 
 from __future__ import annotations
@@ -9,6 +10,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.ticker import NullFormatter, ScalarFormatter
 
 from .identify import FitResult
 
@@ -44,8 +48,12 @@ def fit_table(res: FitResult) -> str:
     return "\n".join(lines)
 
 
-def diagnosis_text(d) -> str:
-    """Verdict, residual against floor, and the ranked candidates with their aliases."""
+def diagnosis_text(d, add: str | None = None) -> str:
+    """Verdict, residual against floor, and the ranked candidates with their aliases.
+
+    ``add``: the effect the caller will add, when it picks an alias of the top candidate (the plan cannot tell them
+    apart, so either explains the residual equally); default the top candidate itself.
+    """
     lines = [f"verdict: {d.verdict}   (family-wise α = {d.alpha})",
              f"model: {', '.join(d.fit.model.terms)}",
              f"residual RMS {d.residual_rms:.6g} deg/h; white-noise floor {d.noise_floor:.6g} deg/h"]
@@ -59,21 +67,36 @@ def diagnosis_text(d) -> str:
         lines.append("not excited by this plan: " + ", ".join(d.unexcited))
     top = d.top
     if d.verdict == "missing-effect" and top is not None:
-        terms = ",".join(d.fit.model.terms + (top.name,))
-        lines.append(f"→ add {top.name!r} and refit (gyrojax fit … --terms {terms})")
+        name = add or top.name
+        terms = ",".join(d.fit.model.terms + (name,))
+        if name != top.name:
+            why = (f"an alias of the top candidate {top.name!r}: this plan cannot tell them apart"
+                   if name in top.aliases else f"chosen instead of the top candidate {top.name!r}")
+            lines.append(f"→ add {name!r} ({why}) and refit (gyrojax fit … --terms {terms})")
+        else:
+            lines.append(f"→ add {name!r} and refit (gyrojax fit … --terms {terms})")
     return "\n".join(lines)
 
 
 # ---- residual views (matplotlib) --------------------------------------------------------------------------------
 
 
-def _plt():
-    import matplotlib
+class _Figure(Figure):
+    """A pyplot-free figure that shows itself as PNG in IPython/Jupyter whatever the backend."""
 
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
+    def _repr_png_(self) -> bytes:
+        import io
 
-    return plt
+        buf = io.BytesIO()
+        FigureCanvasAgg(self).print_png(buf)
+        return buf.getvalue()
+
+
+def _figure(nrows: int = 1, ncols: int = 1, figsize=(6.4, 3.2), **kw):
+    """A new figure and its axes (like ``pyplot.subplots``, without pyplot's global state or backend)."""
+    fig = _Figure(figsize=figsize)
+    FigureCanvasAgg(fig)
+    return fig, fig.subplots(nrows, ncols, **kw)
 
 
 def measurement_inputs(record) -> dict:
@@ -124,11 +147,10 @@ def residual_figure(res: FitResult, records, against: str = "auto", title: str |
     ``against="auto"`` picks the angle of the moving axis for tumbles and servo runs, else time. Residuals in
     deg/h (g for accelerometers), angles in deg modulo 360, time in h.
     """
-    plt = _plt()
     n = len(res.residuals)
     cols = min(n, 4)
     rows = int(np.ceil(n / cols))
-    fig, axes = plt.subplots(rows, cols, figsize=(3.6 * cols + 0.6, 2.8 * rows + 0.6), squeeze=False, sharey=True)
+    fig, axes = _figure(rows, cols, figsize=(3.6 * cols + 0.6, 2.8 * rows + 0.6), squeeze=False, sharey=True)
     sigma = res.noise_floor
     for k, (rec, r) in enumerate(zip(records, res.residuals)):
         ax = axes[k // cols][k % cols]
@@ -142,7 +164,7 @@ def residual_figure(res: FitResult, records, against: str = "auto", title: str |
         x = np.asarray(view.get(key, view["time_h"]))[: len(r)]
         if key.startswith("angle"):
             x = np.mod(x, 360.0)
-        ax.plot(x, r, ".", ms=1.2, alpha=0.35, color="C0", rasterized=True)
+        ax.plot(x, r, ".", ms=1.2, alpha=0.35, color="C0", rasterized=True, label="residual")
         _band(ax, x, r, sigma)
         ax.axhline(0, color="k", lw=0.6)
         ax.set_title(rec.name, fontsize=9)
@@ -152,6 +174,7 @@ def residual_figure(res: FitResult, records, against: str = "auto", title: str |
         ax.tick_params(labelsize=7)
     for k in range(n, rows * cols):
         axes[k // cols][k % cols].axis("off")
+    axes[0][0].legend(fontsize=7, loc="upper right", markerscale=6)
     lim = max(6 * sigma, np.percentile(np.abs(np.concatenate(res.residuals)), 99.5))
     axes[0][0].set_ylim(-lim, lim)
     fig.suptitle(title or f"residuals of {', '.join(res.model.terms)}", fontsize=10)
@@ -163,8 +186,7 @@ def harmonic_spectrum(res: FitResult, records, order: int = 4):
     """Amplitude of the residual's harmonics in the moving table angle (tumble and servo runs), per record,
     with the 3σ detection level of a harmonic amplitude for white noise at the floor. Amplitudes in the residual's
     units (deg/h for gyros); harmonics of order 1 … ``order`` per revolution."""
-    plt = _plt()
-    fig, ax = plt.subplots(figsize=(6.4, 3.2))
+    fig, ax = _figure(figsize=(6.4, 3.2))
     ks = np.arange(1, order + 1)
     width = 0.8 / max(len(records), 1)
     floor = res.noise_floor
@@ -181,7 +203,9 @@ def harmonic_spectrum(res: FitResult, records, order: int = 4):
         level = 3 * floor * np.sqrt(2.0 / len(r))
         ax.axhline(level, color="0.4", ls="--", lw=0.8)
     ax.set_xticks(ks, [f"{k}θ" for k in ks])
-    ax.set_ylabel("amplitude (deg/h)")
+    ax.set_xlabel("harmonic of the moving table angle θ (cycles per revolution)")
+    ax.set_ylabel("residual amplitude (deg/h)")
+    ax.set_ylim(bottom=0)
     ax.set_title("harmonics of the residual in table angle (dashed: 3σ for white noise)", fontsize=9)
     ax.legend(fontsize=7)
     fig.tight_layout()
@@ -193,17 +217,24 @@ def error_falling_figure(steps, title="the error falls as the missing effects ar
 
     ``steps``: list of (label, residual_rms, noise_floor).
     """
-    plt = _plt()
-    fig, ax = plt.subplots(figsize=(7.2, 3.6))
+    fig, ax = _figure(figsize=(7.2, 3.6))
     labels = [s[0] for s in steps]
     rms = np.array([s[1] for s in steps])
     floor = np.array([s[2] for s in steps])
     x = np.arange(len(steps))
-    ax.semilogy(x, rms, "o-", color="C3", lw=2, label="residual RMS")
-    ax.semilogy(x, floor, "s--", color="0.3", lw=1, label="white-noise floor")
+    ax.plot(x, rms, "o-", color="C3", lw=2, label="residual RMS")
+    ax.plot(x, floor, "s--", color="0.3", lw=1, label="white-noise floor")
     ax.fill_between(x, floor, floor * 1.1, color="C2", alpha=0.25, label="within 10 % of the floor")
+    lo, hi = float(np.min(np.r_[rms, floor])), float(np.max(np.r_[rms, floor]))
+    if lo > 0 and hi / lo >= 10:  # a log axis only when the range spans a decade; plain numbers on its ticks
+        ax.set_yscale("log")
+        ax.yaxis.set_major_formatter(ScalarFormatter())
+        ax.yaxis.set_minor_formatter(NullFormatter())
+    else:
+        ax.set_ylim(0, 1.08 * hi)
     ax.set_xticks(x, labels, rotation=12, fontsize=8, ha="right")
-    ax.set_ylabel("deg/h")
+    ax.set_xlabel("model (each step adds the effect the diagnosis asks for)")
+    ax.set_ylabel("residual RMS (deg/h)")
     ax.set_title(title, fontsize=10)
     ax.legend(fontsize=8)
     fig.tight_layout()
@@ -212,16 +243,17 @@ def error_falling_figure(steps, title="the error falls as the missing effects ar
 
 def candidates_figure(d, top: int = 10):
     """Evidence for each candidate: −log10 of the Holm-adjusted p-value, with the α line."""
-    plt = _plt()
     cands = [c for c in d.candidates if c.df > 0][:top]
-    fig, ax = plt.subplots(figsize=(6.4, 0.32 * len(cands) + 1.2))
+    fig, ax = _figure(figsize=(6.4, 0.32 * len(cands) + 1.2))
     m = max(len([c for c in d.candidates if c.df > 0]), 1)
-    vals = [min(-(c.log10_p + np.log10(m)), 300) for c in cands]
+    vals = [float(np.clip(-(c.log10_p + np.log10(m)), 0, 300)) for c in cands]
     colors = ["C3" if v > -np.log10(d.alpha) else "0.6" for v in vals]
     ax.barh([c.name for c in cands][::-1], vals[::-1], color=colors[::-1])
     ax.axvline(-np.log10(d.alpha), color="k", ls="--", lw=0.8, label=f"α = {d.alpha}")
     ax.set_xscale("symlog", linthresh=10)
+    ax.set_xlim(0, max(max(vals, default=1.0), -np.log10(d.alpha)) * 1.5)  # evidence ≥ 0: no empty negative side
     ax.set_xlabel("evidence: −log10 p (Holm-adjusted)")
+    ax.set_ylabel("candidate effect")
     ax.set_title(f"candidates for the missing effect (model: {', '.join(d.fit.model.terms)})", fontsize=9)
     ax.legend(fontsize=7)
     fig.tight_layout()
@@ -229,12 +261,11 @@ def candidates_figure(d, top: int = 10):
 
 
 def save(fig, path) -> None:
-    """Save a figure to PNG atomically."""
+    """Save a figure to PNG atomically (110 dpi); works headless, never touches pyplot."""
     import io
 
     from .io import atomic_write_bytes
 
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)
-    _plt().close(fig)
     atomic_write_bytes(path, buf.getvalue())
