@@ -5,12 +5,15 @@ plan can separate (alias groups of the noise-free regressors reduced greedily, :
 24-position plan uses the 9-term model, D_OO dropped). Printed per coefficient: mean of (θ̂ − θ)/σ̂ and the fraction
 of draws with |θ̂ − θ| ≤ 2σ̂ (0.9545 for an honest σ̂; binomial sd √(0.9545·0.0455/n)).
 
-* white noise: the fast JAX path (:mod:`gyrojax.montecarlo`, white least squares) on every draw;
-* coloured noise (white + Gauss–Markov): the same fast path (whose white σ̂ is not meant to be honest there), and the
-  GLS fit of :func:`gyrojax.identify.fit` (AR / Gauss–Markov whitening, numpy) on fewer draws, written as records
-  (servo plans: simulated by :func:`gyrojax.simulate.simulate` with the draw's truth).
+Noises: white; white + Gauss–Markov with τ = 60 s; white + Gauss–Markov with τ = 300 s (as slow as a position, so
+seen mostly in the scatter of the position means). Two fits on each:
 
-    python -m benchmarks.bench_coverage [--draws 500] [--gls-draws 100] [--plans 24,tumble]
+* the fast JAX path (:mod:`gyrojax.montecarlo`, white least squares; its σ̂ is honest under white noise only);
+* the GLS fit of :func:`gyrojax.identify.fit` (white + Gauss–Markov / AR noise model by REML, pooled over the
+  campaign's records), with the draws written as records (servo plans: simulated by
+  :func:`gyrojax.simulate.simulate` with the draw's truth).
+
+    python -m benchmarks.bench_coverage [--draws 500] [--gls-draws 500] [--plans 8-position,tumble] [--noises gm300]
 """
 
 from __future__ import annotations
@@ -38,6 +41,9 @@ PLANS = {
 }
 WHITE = {"white": 0.01}
 COLOURED = {"white": 0.01, "gauss_markov": [0.3, 60.0]}
+SLOW = {"white": 0.001, "gauss_markov": [0.05, 300.0]}  # drift as slow as a position: seen only between positions
+NOISES = {"white": WHITE, "gm60": COLOURED, "gm300": SLOW}
+NOISE_LABELS = {"white": "white", "gm60": "white+GM(0.3 deg/h, 60 s)", "gm300": "white+GM(0.05 deg/h, 300 s)"}
 
 
 def _row(label, names, z):
@@ -71,8 +77,9 @@ def gls_z(pipe, st, plan, n):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--draws", type=int, default=500)
-    ap.add_argument("--gls-draws", type=int, default=100)
+    ap.add_argument("--gls-draws", type=int, default=500)
     ap.add_argument("--plans", default=",".join(PLANS))
+    ap.add_argument("--noises", default=",".join(NOISES), help="white, gm60, gm300")
     args = ap.parse_args(argv)
     for name in args.plans.split(","):
         builder, opts, cand = PLANS[name]
@@ -83,7 +90,8 @@ def main(argv=None):
             f"\n== {name}: {builder} {opts}; fitted {', '.join(terms)}; dropped (aliased/unexcited) "
             f"{', '.join(dropped) or '-'}"
         )
-        for noise_name, noise in (("white", WHITE), ("white+GM(0.3 deg/h, 60 s)", COLOURED)):
+        for key in args.noises.split(","):
+            noise_name, noise = NOISE_LABELS[key], NOISES[key]
             st = mc.Study(
                 plan=builder,
                 plan_options=opts,
@@ -102,7 +110,7 @@ def main(argv=None):
                 pipe.fit_model.coefficient_names,
                 z,
             )
-            if noise is COLOURED and args.gls_draws:
+            if args.gls_draws:
                 t = time.perf_counter()
                 zg = gls_z(pipe, st, plan, args.gls_draws)
                 _row(

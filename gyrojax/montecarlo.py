@@ -14,6 +14,13 @@ size, the chunking or the number of devices):
    θ̂ = (JᵀJ)⁻¹Jᵀr, σ̂² = |r − Jθ̂|²/(m − p), cov = σ̂²(JᵀJ)⁻¹. Models with set-up effects take three
    Gauss–Newton steps.
 
+**Static plans** (every record a sequence of fixed positions, no rate, no time- or temperature-dependent effect):
+the inputs, and so the signal and the regressors, are constant on each run of samples at one position. Each draw
+then evaluates the models once per run and the noise, still drawn sample by sample, enters through its per-run sums
+Σe and Σe² only: Jᵀr = Σ_runs j (n d + Σe), |r|² = Σ_runs (n d² + 2 d Σe + Σe²) with d the run's signal minus
+prediction — the same numbers as the sample-level fit, to rounding, at the cost of drawing the noise
+(:func:`constant_runs`).
+
 The white-noise standard error is exact for white noise; under coloured drift it is not, and
 :func:`draw_records` writes a draw as records so the GLS fit of :func:`gyrojax.identify.fit` can be checked on it.
 
@@ -362,6 +369,7 @@ class Pipeline:
     solver: str = "cholesky"
     seed: int = 0
     trig: tuple = ()  # per record, per axis (cos, sin) of the nominal angles
+    runs: tuple | None = None  # static plans: per record (run index of every sample, first sample of every run)
     _sim_jit: object = field(default=None, repr=False)
     _compiled: dict = field(default_factory=dict, repr=False)  # (devices, chunk) → compiled chunk function
 
@@ -399,13 +407,18 @@ class Pipeline:
             return nu[1:] * data.weight
         return nu
 
-    def read_data(self, theta_true, i: int):
+    def read_data(self, theta_true, i: int, reduced: bool = False):
         """Record ``i`` as read with the truth's encoder error, θ_read = θ + h(θ) on the encoder axis (Hu 5-51):
-        (data, per-axis (cos, sin) of the read angles or None for servo records)."""
+        (data, per-axis (cos, sin) of the read angles or None for servo records). ``reduced``: one row per run
+        of :attr:`runs` (static plans)."""
         data = self.data[i]
         if data.mode == "servo":
             return data, None
         trig = list(self.trig[i])
+        if reduced:
+            first = self.runs[i][1]
+            data = _rows(data, first)
+            trig = [(c[first], sn[first]) for c, sn in trig]
         if "encoder_harmonic" not in self.truth_model.terms:
             return data, trig
         enc = theta_true[self.truth_model.slices()["encoder_harmonic"]] * units.ARCSEC
@@ -466,12 +479,100 @@ class Pipeline:
         std = jnp.sqrt(s2 * jnp.diag(ninv))
         return theta, std, jnp.sqrt(jnp.sum(res * res) / m)
 
+    def simulate_draw_reduced(self, key):
+        """:meth:`simulate_draw` for static plans: (θ_true, [(signal, n, Σe, Σe²) per run, per record], [read data
+        per run]). The noise e is drawn per sample with the keys of :meth:`simulate_draw`; weights as there."""
+        kt, kn = jax.random.split(key)
+        theta = self.draw_truth(kt)
+        parts, reads = [], []
+        for i, d in enumerate(self.data):
+            rd, trig = self.read_data(theta, i, reduced=True)
+            idx, first = self.runs[i]
+            e = self.record_noise(kn, i, d) * d.weight
+            n_runs = len(first)
+            sums = [jax.ops.segment_sum(v, idx, n_runs, indices_are_sorted=True) for v in (d.weight, e, e * e)]
+            parts.append((self._predict(self.truth_model, theta, rd, trig), *sums))
+            reads.append((rd, trig))
+        return theta, parts, reads
+
+    def solve_reduced(self, parts, reads):
+        """:meth:`solve` from per-run sums (module doc): the same (θ̂, std, rms) to rounding."""
+        model = self.fit_model
+        p = model.size
+        steps = 1 if model.is_linear else 3
+        sig, nw, s1, s2 = (jnp.concatenate(v) for v in zip(*parts))
+        if model.is_linear:
+            nominal = setup_values(model, jnp.zeros(p))
+            xs = [fast_inputs(rd, nominal, trig) for rd, trig in reads]
+
+            def pred(th):
+                return jnp.concatenate([indicated_output(model, th, x, rd.kind) for x, (rd, _) in zip(xs, reads)])
+        else:
+
+            def pred(th):
+                return jnp.concatenate([self._predict(model, th, rd, trig) for rd, trig in reads])
+
+        theta = jnp.zeros(p)
+        for _ in range(steps):
+            d = sig - pred(theta)
+            jt = jax.vmap(lambda v, th=theta: jax.jvp(pred, (th,), (v,))[1])(jnp.eye(p))
+            sc = jnp.sqrt(jnp.sum(nw * jt * jt, axis=1))
+            sc = jnp.where(sc > 0, sc, 1.0)
+            z = jt / sc[:, None]
+            c = jax.scipy.linalg.cho_factor((z * nw) @ z.T)
+            step = jax.scipy.linalg.cho_solve(c, z @ (nw * d + s1)) / sc
+            ninv = jax.scipy.linalg.cho_solve(c, jnp.eye(p)) / jnp.outer(sc, sc)
+            theta = theta + step
+        dres = d - step @ jt
+        rss = jnp.sum(nw * dres * dres + 2.0 * dres * s1 + s2)
+        m = jnp.sum(nw)
+        std = jnp.sqrt(rss / (m - p) * jnp.diag(ninv))
+        return theta, std, jnp.sqrt(rss / m)
+
     def draw(self, index):
         """One draw by index: dict of truth (truth model θ), estimate, std (fit model) and residual rms."""
         key = jax.random.fold_in(jax.random.PRNGKey(self.seed), index)
-        theta, ys, reads = self.simulate_draw(key)
-        est, std, rms = self.solve(ys, reads)
+        if self.runs is not None:
+            theta, parts, reads = self.simulate_draw_reduced(key)
+            est, std, rms = self.solve_reduced(parts, reads)
+        else:
+            theta, ys, reads = self.simulate_draw(key)
+            est, std, rms = self.solve(ys, reads)
         return {"truth": theta, "estimate": est, "std": std, "rms": rms}
+
+
+def _rows(data: RecordData, rows) -> RecordData:
+    """``data`` at the sample indices ``rows`` (rebalance records; ``dt`` then spans the kept rows)."""
+    t = data.time_s[rows]
+    return replace(data, time_s=t, angles=data.angles[rows], rates=data.rates[rows],
+                   temperature=data.temperature[rows], y=data.y[rows], weight=data.weight[rows],
+                   command=data.command[rows], dt=jnp.diff(t))
+
+
+def constant_runs(data, models, seed: int = 0):
+    """Per record data (run index of every sample, first sample of every run) when every record is a sequence of
+    fixed positions on which the ``models``' predictions cannot change, else None.
+
+    A run is a maximal stretch of consecutive samples with the same angles (rad), zero rates and the same
+    temperature (°C) in a single-output rebalance record; the models must not depend on time (checked by
+    predicting at random coefficients, in report units, with the clock shifted by one hour).
+    """
+    out = []
+    rng = np.random.default_rng(seed)
+    for d in data:
+        if d.mode != "rebalance" or d.kind == fx.TDF or np.any(np.asarray(d.rates) != 0):
+            return None
+        a = np.column_stack([np.asarray(d.angles), np.asarray(d.temperature)])
+        change = np.r_[True, np.any(a[1:] != a[:-1], axis=1)]
+        idx = np.cumsum(change) - 1
+        first = np.flatnonzero(change)
+        later = replace(d, time_s=d.time_s + units.SECONDS_PER_HOUR)
+        for m in models:
+            th = jnp.asarray(rng.normal(0.0, 1.0, m.size))
+            if not np.allclose(fast_predict(m, th, d), fast_predict(m, th, later), rtol=1e-13, atol=0.0):
+                return None
+        out.append((jnp.asarray(idx, dtype=jnp.int32), jnp.asarray(first)))
+    return tuple(out)
 
 
 def _lstsq(jt, r, solver: str):
@@ -515,8 +616,9 @@ def build_pipeline(study: Study, plan=None, records=None) -> Pipeline:
     data = tuple(record_data(r) for r in recs)
     dtw = tuple(float(np.median(np.diff(np.asarray(r.time_s)))) if r.n > 1 else 1.0 for r in recs)
     trig = tuple(tuple((jnp.asarray(np.cos(a)), jnp.asarray(np.sin(a))) for a in np.asarray(d.angles).T) for d in data)
+    runs = constant_runs(data, (fit_model, truth_model))
     return Pipeline(
-        recs, data, fit_model, truth_model, uni, a, b, dict(study.noise), dtw, study.solver, study.seed, trig
+        recs, data, fit_model, truth_model, uni, a, b, dict(study.noise), dtw, study.solver, study.seed, trig, runs
     )
 
 
