@@ -33,7 +33,17 @@ from .errors import ModelError, RecordError
 from .io import atomic_write_text
 from .model import Model, RecordData, check_servo, jacobian_jit, predict_jit, record_data
 from .records import Record
-from .whiten import FIT_TAU_SPAN_FRACTION, ARNoise, first_difference_std, fit_noise, whiten
+from .whiten import (
+    FIT_TAU_SPAN_FRACTION,
+    ARNoise,
+    GMNoise,
+    first_difference_std,
+    fit_noise,
+    gm_reml,
+    series_restarts,
+    series_span,
+    whiten,
+)
 
 ALIAS_TOL = 1e-7  # singular value / largest below this: a direction the plan cannot see
 DEFAULT_TERMS = {
@@ -240,6 +250,7 @@ class FitResult:
     chi2_whitened: float = float("nan")
     dof: int = 0
     inputs: list = field(default_factory=list)
+    dof_eff: np.ndarray | None = None  # Satterthwaite degrees of freedom of each variance (None: not estimated)
 
     # -- views --
     @property
@@ -309,6 +320,9 @@ class FitResult:
                                     self.t_statistics, self.p_values):
             coeffs[c] = {"value": float(v), "std": _num(s), "unit": u, "t": _num(t), "p_value": _num(p),
                          "significant": bool(p < 0.05) if np.isfinite(p) else False}
+        if self.dof_eff is not None:
+            for c, nu in zip(self.coefficient_names, self.dof_eff):
+                coeffs[c]["dof_eff"] = _num(nu)
         corr = self.correlation
         return {
             "terms": list(self.model.terms),
@@ -398,7 +412,12 @@ def result_from_json(d: dict) -> FitResult:
     return FitResult(model, np.asarray(d["theta"]), np.asarray(d["cov"]), [], [],
                      [r["name"] for r in d["records"]], [r.get("path") for r in d["records"]],
                      [ARNoise(np.zeros(0), 1.0, 1.0) for _ in d["records"]], d.get("identifiability", {}),
-                     d["n_samples"], inputs=d.get("inputs", []))
+                     d["n_samples"], inputs=d.get("inputs", []), dof_eff=_dof_eff_of(d))
+
+
+def _dof_eff_of(d: dict):
+    nus = [d["coefficients"].get(c, {}).get("dof_eff") for c in d.get("coefficients", {})]
+    return None if not nus or any(v is None for v in nus) else np.array(nus, dtype=float)
 
 
 def _hash_inputs(records) -> list:
@@ -456,19 +475,93 @@ def campaign_noise(lin, campaign: Campaign) -> list:
     """
     noises = [None] * len(lin)
     for idx in noise_groups(campaign):
-        rs, js, labs, ts, off = [], [], [], [], 0
-        for i in idx:
-            r, j, lab, t = lin[i]
-            rs.append(r)
-            js.append(j)
-            labs.append(lab + off)
-            ts.append(t - t[0] if len(t) else t)  # each record a fresh series (time steps back at its start)
-            off += int(lab.max()) + 1 if len(lab) else 0
-        nz = fit_noise(np.concatenate(rs), np.concatenate(labs), np.concatenate(ts), design=np.concatenate(js),
-                       tau_span_fraction=FIT_TAU_SPAN_FRACTION, neutral_start=True)
+        r, j, lab, t = group_series(lin, idx)
+        nz = fit_noise(r, lab, t, design=j, tau_span_fraction=FIT_TAU_SPAN_FRACTION, neutral_start=True)
         for i in idx:
             noises[i] = nz
     return noises
+
+
+def group_series(lin, idx):
+    """(r, J, labels, times) of the records ``idx`` of ``lin`` stacked as independent series: labels kept apart,
+    each record's clock (s) restarted at 0, so that the noise model restarts at each record."""
+    rs, js, labs, ts, off = [], [], [], [], 0
+    for i in idx:
+        r, j, lab, t = lin[i]
+        rs.append(r)
+        js.append(j)
+        labs.append(lab + off)
+        ts.append(t - t[0] if len(t) else t)
+        off += int(lab.max()) + 1 if len(lab) else 0
+    return tuple(np.concatenate(v) for v in (rs, js, labs, ts))
+
+
+# ---- small-sample correction ------------------------------------------------------------------------------------
+
+INTERVAL_LEVEL = 0.97725
+"""P(Z ≤ 2): standard errors are widened so that θ̂ ± 2σ keeps this one-sided level under Student's t."""
+
+
+def satterthwaite_dof(lin, campaign: Campaign, noises, scales, step: float = 0.05) -> np.ndarray:
+    """Effective degrees of freedom ν_k of each coefficient's GLS variance V_k when the Gauss–Markov noise
+    parameters are estimated (Satterthwaite 1946, as Giesbrecht & Burns 1985 apply it to REML fits):
+    ν_k = 2 V_k² / Var(V̂_k), Var(V̂_k) ≈ ∇V_kᵀ I⁻¹ ∇V_k, with I the REML information of each group's
+    (log τ, log σ_g², log σ_w²) and ∇V_k by central differences (``step`` in the log-parameters).
+
+    Drift slower than a position is seen only in the scatter of the position means: an 8-position test leaves a
+    handful of such degrees of freedom, and a plug-in σ̂ then covers ±2σ in ~0.88 of the cases, not 0.954.
+    A τ at its cap is held fixed. Records with an AR or white model add nothing (their ν is large).
+    Returns ν (dimensionless, ≥ 1; ``inf`` where no noise parameter was estimated).
+    """
+    def variances(nz_list):
+        rw, jw = _stack(lin, nz_list, scales)
+        return np.diag(_solve(jw, rw)[1])
+
+    v0 = variances(noises)
+    var_v = np.zeros_like(v0)
+    for idx in noise_groups(campaign):
+        nz = noises[idx[0]]
+        if not isinstance(nz, GMNoise) or nz.gm_var <= 0 or nz.white_var <= 0:
+            continue
+        r, j, lab, t = group_series(lin, idx)
+        tau_max = series_span(t, series_restarts(lab, t)) / FIT_TAU_SPAN_FRACTION
+        u0 = np.log([nz.tau_s, nz.gm_var, nz.white_var])
+        free = [1, 2] if nz.tau_s >= 0.999 * tau_max else [0, 1, 2]
+        basis = np.eye(3)[free] * step
+
+        def reml(u):
+            return gm_reml(r, j, lab, t, GMNoise(*np.exp(u)))
+
+        f0 = reml(u0)
+        k = len(free)
+        hess = np.zeros((k, k))
+        for a in range(k):
+            hess[a, a] = (reml(u0 + basis[a]) - 2 * f0 + reml(u0 - basis[a])) / step**2
+            for b in range(a):
+                ea, eb = basis[a], basis[b]
+                hess[a, b] = hess[b, a] = (reml(u0 + ea + eb) - reml(u0 + ea - eb) - reml(u0 - ea + eb)
+                                           + reml(u0 - ea - eb)) / (4 * step * step)
+        w, vec = np.linalg.eigh(hess)  # −2 log L_R: information = hess / 2
+        w = np.maximum(w, 1e-9 * max(float(w.max()), 1e-300))
+        cov_u = 2.0 * (vec / w) @ vec.T
+        grad = np.zeros((len(v0), k))
+        for a in range(k):
+            for sign in (1.0, -1.0):
+                moved = GMNoise(*np.exp(u0 + sign * basis[a]))
+                grad[:, a] += sign * variances([moved if i in idx else nz_i for i, nz_i in enumerate(noises)])
+        grad /= 2 * step
+        var_v += np.einsum("ka,ab,kb->k", grad, cov_u, grad)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        nu = np.where(var_v > 0, 2.0 * v0**2 / var_v, np.inf)
+    return np.maximum(np.nan_to_num(nu, nan=np.inf), 1.0)
+
+
+def small_sample_factor(nu) -> np.ndarray:
+    """t_ν / z at :data:`INTERVAL_LEVEL` (dimensionless, ≥ 1; 1 for ν = ∞): the widening of a standard error
+    whose variance has ν effective degrees of freedom."""
+    nu = np.asarray(nu, dtype=float)
+    z = stats.norm.ppf(INTERVAL_LEVEL)
+    return np.where(np.isfinite(nu), stats.t.ppf(INTERVAL_LEVEL, np.where(np.isfinite(nu), nu, 1.0)) / z, 1.0)
 
 
 def _rms(r) -> float:
@@ -565,6 +658,11 @@ def fit(records, terms=None, *, kind: str | None = None, noise: str = "ar", allo
     dof = max(len(rw) - report["rank"], 1)
     chi2 = float(rw @ rw)
     cov = cov * chi2 / dof  # the noise levels were estimated: scale by the pooled reduced χ² of the whitened fit
+    dof_eff = None
+    if noise == "ar" and any(isinstance(nz, GMNoise) for nz in noises):
+        dof_eff = satterthwaite_dof(lin, camp, noises, scales)
+        g = small_sample_factor(dof_eff)
+        cov = cov * np.outer(g, g)  # Student-t widening: θ̂ ± 2σ keeps its coverage when ν is small
     noise_models = [nz if nz is not None else ARNoise(np.zeros(0), s, s) for nz, s in zip(noises, scales)]
     return FitResult(
         model=model,
@@ -582,4 +680,5 @@ def fit(records, terms=None, *, kind: str | None = None, noise: str = "ar", allo
         chi2_whitened=chi2,
         dof=dof,
         inputs=_hash_inputs(camp.records),
+        dof_eff=dof_eff,
     )

@@ -659,12 +659,20 @@ def auto_chunk(pipe: Pipeline, n_devices: int = 1, budget_bytes: float = 1.5e9) 
     return max(n_devices, (c // n_devices) * n_devices)
 
 
-def _progress(done: int, total: int, t0: float, stream) -> None:
+def _progress(done: int, total: int, t0: float, stream, last: list) -> None:
+    """Progress bar on ``stream``: redrawn in place on a terminal at most 10 times a second, and written as a new
+    line at most every 10 s elsewhere (log files), always at the end."""
+    now = time.perf_counter()
+    tty = getattr(stream, "isatty", lambda: False)()
+    if done < total and now - last[0] < (0.1 if tty else 10.0):
+        return
+    last[0] = now
     frac = done / total
     bar = "#" * int(30 * frac)
     rate = done / max(time.perf_counter() - t0, 1e-9)
-    stream.write(f"\r[{bar:<30s}] {done}/{total} draws  {rate:,.0f} draws/s")
-    if done == total:
+    head = "\r" if tty else ""
+    stream.write(f"{head}[{bar:<30s}] {done}/{total} draws  {rate:,.0f} draws/s")
+    if done == total or not tty:
         stream.write("\n")
     stream.flush()
 
@@ -745,13 +753,14 @@ def run_study(
         compiled = pipe._compiled[cache_key] = f.lower(idx0).compile()
     compile_s = time.perf_counter() - t0
     t1 = time.perf_counter()
+    last = [-math.inf]
     for s in range(0, n, chunk):
         idx = np.arange(start + s, start + s + chunk, dtype=np.int64)  # the last chunk is padded, then trimmed
         out = compiled(jax.device_put(idx.reshape(ndev, per), sh))
         k = min(chunk, n - s)
         outs.append({key: np.asarray(v).reshape((chunk,) + v.shape[2:])[:k] for key, v in out.items()})
         if progress:
-            _progress(s + k, n, t1, stream)
+            _progress(s + k, n, t1, stream, last)
     run_s = time.perf_counter() - t1
     cat = {key: np.concatenate([o[key] for o in outs]) for key in outs[0]} if outs else None
     return StudyResult(
