@@ -444,6 +444,18 @@ class Pipeline:
             return predict(model, theta, data)
         return indicated_output(model, theta, fast_inputs(data, setup_values(model, theta), trig), data.kind)
 
+    def _fit_prediction(self, reads):
+        """θ ↦ the fit model's prediction on the read data, all records concatenated (output units)."""
+        model = self.fit_model
+        if model.is_linear and all(rd.mode != "servo" for rd, _ in reads):
+            # the inputs do not depend on θ: compute them once, differentiate the balance equation only
+            nominal = setup_values(model, jnp.zeros(model.size))
+            xs = [fast_inputs(rd, nominal, trig) for rd, trig in reads]
+            return lambda th: jnp.concatenate(
+                [indicated_output(model, th, x, rd.kind) for x, (rd, _) in zip(xs, reads)]
+            )
+        return lambda th: jnp.concatenate([self._predict(model, th, rd, trig) for rd, trig in reads])
+
     def solve(self, ys, reads):
         """Least squares of the fit model on the read data (module doc): (θ̂, std, rms)."""
         model = self.fit_model
@@ -452,17 +464,7 @@ class Pipeline:
         w = jnp.concatenate([d.weight for d in self.data])
         y = jnp.concatenate(ys)
 
-        if model.is_linear and all(rd.mode != "servo" for rd, _ in reads):
-            # the inputs do not depend on θ: compute them once, differentiate the balance equation only
-            nominal = setup_values(model, jnp.zeros(p))
-            xs = [fast_inputs(rd, nominal, trig) for rd, trig in reads]
-
-            def pred(th):
-                return jnp.concatenate([indicated_output(model, th, x, rd.kind) for x, (rd, _) in zip(xs, reads)])
-        else:
-
-            def pred(th):
-                return jnp.concatenate([self._predict(model, th, rd, trig) for rd, trig in reads])
+        pred = self._fit_prediction(reads)
 
         def lin(th):  # residual and regressors, Jᵀ as (p, m): one forward-mode pass per coefficient
             jt = jax.vmap(lambda v: jax.jvp(pred, (th,), (v,))[1])(jnp.eye(p))
@@ -501,16 +503,7 @@ class Pipeline:
         p = model.size
         steps = 1 if model.is_linear else 3
         sig, nw, s1, s2 = (jnp.concatenate(v) for v in zip(*parts))
-        if model.is_linear:
-            nominal = setup_values(model, jnp.zeros(p))
-            xs = [fast_inputs(rd, nominal, trig) for rd, trig in reads]
-
-            def pred(th):
-                return jnp.concatenate([indicated_output(model, th, x, rd.kind) for x, (rd, _) in zip(xs, reads)])
-        else:
-
-            def pred(th):
-                return jnp.concatenate([self._predict(model, th, rd, trig) for rd, trig in reads])
+        pred = self._fit_prediction(reads)
 
         theta = jnp.zeros(p)
         for _ in range(steps):
