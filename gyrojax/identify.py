@@ -468,8 +468,9 @@ def campaign_noise(lin, campaign: Campaign) -> list:
 
     Pooling matters for campaigns of many short records (the 8-position test): a Gauss–Markov drift slower than a
     position shows only in the scatter of the position means, which per-record noise fits cannot see; the joint
-    REML does, so the GLS standard errors stay honest (``benchmarks/bench_coverage.py``). A drift the REML cannot
-    tell from white noise is dropped (:data:`WHITE_LR_CRITICAL`).
+    REML does, so the GLS standard errors stay honest (``benchmarks/bench_coverage.py``). White + Gauss–Markov is
+    preferred to AR(p) whenever it can be fitted (``prefer_gm``), and a drift the REML cannot tell from white noise
+    is dropped (:data:`WHITE_LR_CRITICAL`).
 
     ``lin`` as from :func:`linearize` (residuals in the output unit, deg/h or g; times in s). Returns one
     :class:`~gyrojax.whiten.GMNoise` or :class:`~gyrojax.whiten.ARNoise` per record (variances in the output unit
@@ -478,7 +479,8 @@ def campaign_noise(lin, campaign: Campaign) -> list:
     noises = [None] * len(lin)
     for idx in noise_groups(campaign):
         r, j, lab, t = group_series(lin, idx)
-        nz = fit_noise(r, lab, t, design=j, tau_span_fraction=FIT_TAU_SPAN_FRACTION, neutral_start=True)
+        nz = fit_noise(r, lab, t, design=j, tau_span_fraction=FIT_TAU_SPAN_FRACTION, neutral_start=True,
+                       prefer_gm=True)
         if isinstance(nz, GMNoise):
             nz = _white_unless_drift(r, j, lab, t, nz)
         for i in idx:

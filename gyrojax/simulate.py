@@ -134,6 +134,10 @@ def _servo_integrate(model, theta, data: RecordData, setup, start, drift_rate):
     return jnp.concatenate([jnp.atleast_1d(start), rest])
 
 
+_servo_integrate_jit = jax.jit(_servo_integrate, static_argnums=0)
+"""Compiled once per model and record shape: a Monte Carlo of servo runs must not compile (and map code) per call."""
+
+
 def geometry_record(plan: Plan, run: Run, t0: float = 0.0) -> Record:
     """A run's record with its table motion and zero current (mA): the geometry that regressors and design need.
 
@@ -287,7 +291,7 @@ def simulate_run(plan: Plan, run: Run, truth: Truth, key, t0: float = 0.0, dynam
         s = rec.servo_axis_index
         drift = random_drift(key, t, truth.noise)
         start = jnp.deg2rad(ang[0, s])
-        true_s = np.asarray(_servo_integrate(model, theta, data, setup, start, drift))
+        true_s = np.asarray(_servo_integrate_jit(model, theta, data, setup, start, drift))
         read = true_s + (np.asarray(encoder_error(setup["encoder"], jnp.asarray(true_s))[0]) if s == enc else 0.0)
         cols[f"angle_{run.axes[s][0]}_deg"] = np.rad2deg(read)
         cols[f"rate_{run.axes[s][0]}_dps"] = np.rad2deg(np.gradient(true_s, t))

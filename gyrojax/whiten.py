@@ -421,7 +421,7 @@ def _gm_mle(r, labels, times, start: GMNoise, design=None, profile: bool = False
 
 def fit_noise(r: np.ndarray, labels: np.ndarray, times: np.ndarray, p_max: int = P_MAX,
               design: np.ndarray | None = None, tau_span_fraction: float = TAU_SPAN_FRACTION,
-              neutral_start: bool = False):
+              neutral_start: bool = False, prefer_gm: bool = False):
     """The noise model of a residual: white + Gauss–Markov (maximum likelihood), unless an AR(p ≥ 1) model is
     better by BIC.
 
@@ -430,11 +430,16 @@ def fit_noise(r: np.ndarray, labels: np.ndarray, times: np.ndarray, p_max: int =
     differences (position means), so dropping it would understate standard errors. When the drift is absent the
     likelihood drives its variance to ~0 and nothing is lost.
 
+    ``prefer_gm``: the GM model whenever it can be fitted (the fit's choice: an AR(2–3) preferred by BIC to GM drift
+    on a 2-hour servo record understated the long-run variance, ±2σ coverage 0.90 against 0.967 with GM).
+
     ``r`` in its own unit (deg/h for gyro residuals, g for accelerometers), ``times`` in s, ``design`` (n, p) the fit's
     regressors. Returns an :class:`ARNoise` or a :class:`GMNoise`.
     """
-    ar = fit_ar(r, labels, p_max)
     gm = fit_gm(r, labels, times, design=design, tau_span_fraction=tau_span_fraction, neutral_start=neutral_start)
+    if prefer_gm and gm is not None:
+        return gm
+    ar = fit_ar(r, labels, p_max)
     if gm is None or ar.innovation_std <= 0:
         return ar
     if ar.order == 0:

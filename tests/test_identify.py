@@ -93,19 +93,26 @@ def test_json_follows_conventions(example_campaigns):
 
 @pytest.mark.parametrize("noise", [{"white": 0.0008}, {"white": 0.0008, "gauss_markov": [0.006, 400.0]}])
 def test_coverage_small_monte_carlo(noise):
-    """Stated standard errors are honest: normalised errors of 40 draws have unit variance within the χ² band.
+    """Stated standard errors are honest (40 draws × 5 coefficients = 200 normalised errors).
 
     The 500-draw study of every plan is in benchmarks/bench_coverage.py; this is its quick guard in the suite.
-    With 40 draws × 5 coefficients = 200 normalised errors, the sample variance of a unit normal lies in
-    [0.75, 1.30] with probability ≈ 0.99 (χ²₂₀₀ quantiles), allowing for the correlation between coefficients.
+    White noise: the sample variance of a unit normal lies in [0.75, 1.30] with probability ≈ 0.99 (χ²₂₀₀
+    quantiles), allowing for the correlation between coefficients. Gauss–Markov drift slower than a position: the
+    standard errors are Student-t widened at small effective dof (D_F here: ν ≈ 2–9), so z is not unit-variance by
+    design; its ±2σ coverage is checked instead (0.9545 ± 0.05, about 3 binomial sd of 200).
     """
     truth = {"coefficients": {"D_F": 0.3, "D_I": 0.5, "D_O": -0.2, "D_S": 0.1, "D_IS": 0.04}, "noise": noise}
     terms = list(truth["coefficients"])
-    z = []
+    z, widened = [], 0
     plan = plans.multiposition(24, minutes=4, dt_s=2)
     for seed in range(40):
         res = fit(simulate(plan, truth, seed=seed), terms)
         z.extend((res.theta - res.model.pack(truth["coefficients"])) / res.std)
+        widened += res.dof_eff is not None
     z = np.asarray(z)
     assert abs(z.mean()) < 0.3
-    assert 0.75 < z.var() < 1.30, z.var()
+    if "gauss_markov" in noise:
+        assert widened > 30
+        assert abs(np.mean(np.abs(z) <= 2.0) - 0.9545) < 0.05, np.mean(np.abs(z) <= 2.0)
+    else:  # a drift model survives the white-noise LR test in ~5 % of white campaigns, by its level
+        assert widened <= 8 and 0.75 < z.var() < 1.30, (widened, z.var())
