@@ -13,8 +13,10 @@ from pathlib import Path
 import allantools
 import numpy as np
 
-from gyrojax import allan, plans, save_record, simulate
-from gyrojax.cli import main
+from gyrojax import save_record, simulate
+from gyrojax.cli.app import main
+from gyrojax.data import plans
+from gyrojax.noise import allan
 
 
 def best_of(f, k=3):

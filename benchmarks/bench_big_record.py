@@ -9,7 +9,7 @@ its peak resident memory (``resource.getrusage(RUSAGE_SELF).ru_maxrss``) is its 
 
 * ``standard``: ``load_record`` + ``identify.fit(..., noise="white")`` (whole record in memory), run under an
   address-space cap (``--mem-cap-gb``) so that a path that does not fit fails instead of swapping the machine;
-* ``chunked``: ``gyrojax.bigfit.fit_chunked`` (streams the CSV, accumulates JᵀJ, Jᵀr, rᵀr).
+* ``chunked``: ``gyrojax.inference.bigfit.fit_chunked`` (streams the CSV, accumulates JᵀJ, Jᵀr, rᵀr).
 
 The target is a peak under 4 GB.
 """
@@ -48,9 +48,9 @@ def peak_rss_gb() -> float:
 def write_record(directory: Path, n: int, seed: int = 0) -> Path:
     import numpy as np
 
-    from gyrojax import plans
-    from gyrojax.records import Record, save_record
-    from gyrojax.simulate import simulate
+    from gyrojax.data import plans
+    from gyrojax.data.records import Record, save_record
+    from gyrojax.simulation.simulator import simulate
 
     axis = plans.polar_axis(plans.DEFAULT_LATITUDE)
     tile = min(n, TILE)
@@ -77,15 +77,15 @@ def run_fit(path: str, how: str) -> dict:
     """Load and fit in this process (the subprocess side); returns timings and peak memory."""
     t0 = time.perf_counter()
     if how == "standard":
-        from gyrojax.identify import fit
-        from gyrojax.records import load_record
+        from gyrojax.data.records import load_record
+        from gyrojax.inference.identify import fit
 
         rec = load_record(path)
         t1 = time.perf_counter()
         res = fit([rec], TERMS, noise="white")
         values, stds = res.values, res.stds
     else:
-        from gyrojax.bigfit import fit_chunked
+        from gyrojax.inference.bigfit import fit_chunked
 
         t1 = t0
         res = fit_chunked(path, TERMS)

@@ -9,9 +9,9 @@ Noises: white; white + Gauss–Markov with τ = 60 s; white + Gauss–Markov wit
 seen mostly in the scatter of the position means). Two fits on each:
 
 * the fast JAX path (:mod:`gyrojax.montecarlo`, white least squares; its σ̂ is honest under white noise only);
-* the GLS fit of :func:`gyrojax.identify.fit` (white + Gauss–Markov / AR noise model by REML, pooled over the
+* the GLS fit of :func:`gyrojax.inference.identify.fit` (white + Gauss–Markov / AR noise model by REML, pooled over the
   campaign's records), with the draws written as records (servo plans: simulated by
-  :func:`gyrojax.simulate.simulate` with the draw's truth).
+  :func:`gyrojax.simulation.simulator.simulate` with the draw's truth).
 
     python -m benchmarks.bench_coverage [--draws 500] [--gls-draws 500] [--plans 8-position,tumble] [--noises gm300]
 """
@@ -23,9 +23,10 @@ import time
 
 import numpy as np
 
-from gyrojax import identify, plans
-from gyrojax import montecarlo as mc
-from gyrojax.simulate import simulate
+from gyrojax.data import plans
+from gyrojax.inference import identify
+from gyrojax.montecarlo import study as mc
+from gyrojax.simulation.simulator import simulate
 
 CANDIDATES = ["D_F", "D_I", "D_O", "D_S", "D_II", "D_SS", "D_IO", "D_IS", "D_OS", "D_OO"]
 PLANS = {

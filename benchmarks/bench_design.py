@@ -12,12 +12,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from gyrojax import design as D
-from gyrojax import plans
-from gyrojax.identify import Campaign, linearize
-from gyrojax.model import Model
-from gyrojax.noise import random_drift
-from gyrojax.simulate import simulate
+from gyrojax.data import plans
+from gyrojax.inference.identify import Campaign, linearize
+from gyrojax.noise.processes import random_drift
+from gyrojax.physics.model import Model
+from gyrojax.planning import optimal as D
+from gyrojax.simulation.simulator import simulate
 
 ARW = 0.01
 NOISE = D.Noise(ARW)

@@ -1,6 +1,6 @@
 """Speed of the table-servo loop: a 24 h servo test at a 1 kHz loop rate for a batch of 16 gyros.
 
-The loop is ``gyrojax.loops.servo_state_space`` (5 states, 3 inputs: base rate, gyro torque-equivalent rate,
+The loop is ``gyrojax.dynamics.loops.servo_state_space`` (5 states, 3 inputs: base rate, gyro torque-equivalent rate,
 table disturbance torque), discretised once per gyro with the exact ZOH. Inputs: Earth rate along a polar axis,
 a constant drift plus white rate noise, and M_DC + G·m·cos φ·sin θ_nom + white torque noise (Hu 5-36/5-37) with
 the unbalance taken at the nominal table angle (linear time-invariant loop, so every implementation steps the
@@ -26,8 +26,9 @@ import jax.numpy as jnp
 import numpy as np
 import scipy.signal as sig
 
-from gyrojax import loops, units
-from gyrojax.discretize import zoh
+from gyrojax import units
+from gyrojax.dynamics import loops
+from gyrojax.dynamics.discretize import zoh
 
 DT = 1e-3
 N_GYRO = 16

@@ -13,7 +13,7 @@ draw's normal variates (the floor of any Monte Carlo of this size), and peak mem
 chunked run.
 
 The plan is static, so the pipeline reduces each draw to per-position sums of the per-sample noise
-(:func:`gyrojax.montecarlo.constant_runs`; the same estimates to rounding). The sample-level JAX path, which
+(:func:`gyrojax.montecarlo.study.constant_runs`; the same estimates to rounding). The sample-level JAX path, which
 evaluates the kinematics and regressors at every sample as numpy does, is timed beside it for comparison.
 """
 
@@ -41,8 +41,8 @@ if "jax" not in sys.modules:
         os.environ.get("XLA_FLAGS", "") + f" --xla_force_host_platform_device_count={_devices_from_argv()}"
     ).strip()
 
-from gyrojax import montecarlo as mc  # noqa: E402
 from gyrojax import units  # noqa: E402
+from gyrojax.montecarlo import study as mc  # noqa: E402
 
 NINE = list(mc.SDF_NINE_TERMS)
 
@@ -208,7 +208,7 @@ def main(argv=None):
     )
     import jax.numpy as jnp
 
-    from gyrojax.model import jacobian_jit
+    from gyrojax.physics.model import jacobian_jit
 
     jx = np.asarray(jacobian_jit(pipe.fit_model, jnp.zeros(9), pipe.data[0]))
     _, a0 = ref.inputs(ref.ang, np.zeros(3))

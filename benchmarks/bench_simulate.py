@@ -11,7 +11,8 @@ import time
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from gyrojax import plans, simulate, units
+from gyrojax import simulate, units
+from gyrojax.data import plans
 
 TRUTH = {"coefficients": {"D_F": 0.4, "D_I": 0.6, "D_S": -0.3, "D_IS": 0.05}, "noise": {"white": 0.001}}
 

@@ -12,7 +12,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from gyrojax import allan, noise
+from gyrojax.noise import allan
+from gyrojax.noise import processes as noise
 
 N0, B0, K0, n = 0.001, 0.05, 0.5, 36000
 steps = jnp.ones(n)

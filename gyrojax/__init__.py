@@ -3,24 +3,147 @@
 The gyro error model, turntable kinematics and loops are pure, jitted JAX functions (float64), so that
 identification and test-plan design are gradient-based and Monte Carlo studies are one ``vmap`` away.
 Units and names follow CONVENTIONS (deg/h, deg/h/g, ppm, arcsec at the surface; SI inside).
+
+The package is a tree that follows the data flow::
+
+    physics/     frames, kinematics, effect registry + built-ins, the measurement model
+    data/        records, truth files, plans (schema + builders), file I/O
+    simulation/  records from a plan and a truth (quasi-static or through the loops)
+    noise/       noise description and processes, whitening / REML, Allan variance, AR analysis
+    inference/   fit (GLS, honest σ), big records, diagnosis of missing effects
+    planning/    test-plan design by Fisher information
+    montecarlo/  studies over many simulated gyros
+    dynamics/    ZOH discretisation, rebalance / servo / TDF loops, loop-aware fits
+    seeds/       the source books' closed forms and systems
+    report/      tables, text and figures (the only library package that draws)
+    cli/         the ``gyrojax`` command (the only package that parses arguments)
+
+and ``import gyrojax as gj`` gives the flat API: ``gj.simulate``, ``gj.load_records``, ``gj.fit``,
+``gj.diagnose``, ``gj.add_and_refit``, ``gj.design``, ``gj.run_study`` … (loaded on first use, so that
+``import gyrojax`` stays fast).
 """
+
+import importlib
 
 import jax
 
-jax.config.update("jax_enable_x64", True)
+jax.config.update("jax_enable_x64", True)  # the one place: drifts of 1e-4 deg/h beside rates of 1e5 deg/h
 
-from . import effects, frames, kinematics, noise, plans, units  # noqa: E402
-from .effects import Effect, register  # noqa: E402
-from .errors import GyrojaxError, ModelError, PlanError, RecordError, TruthError  # noqa: E402
-from .model import Model, predict, record_data  # noqa: E402
-from .records import Record, load_record, load_records, save_record  # noqa: E402
-from .simulate import simulate  # noqa: E402
-from .truth import Truth, load_truth, truth_from_dict  # noqa: E402
+from gyrojax.errors import (  # noqa: E402
+    GyrojaxError,
+    ModelError,
+    PlanError,
+    RecordError,
+    TruthError,
+    UnknownNameError,
+)
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
+
+_FLAT = {
+    # modules
+    "effects": "gyrojax.physics.effects",
+    "frames": "gyrojax.physics.frames",
+    "kinematics": "gyrojax.physics.kinematics",
+    "plans": "gyrojax.data.plans",
+    "noise": "gyrojax.noise",
+    "units": "gyrojax.units",
+    "report": "gyrojax.report",
+    # physics
+    "Effect": "gyrojax.physics.registry:Effect",
+    "register": "gyrojax.physics.registry:register",
+    "Model": "gyrojax.physics.model:Model",
+    "predict": "gyrojax.physics.model:predict",
+    "record_data": "gyrojax.physics.model:record_data",
+    # data
+    "Record": "gyrojax.data.records:Record",
+    "load_record": "gyrojax.data.records:load_record",
+    "load_records": "gyrojax.data.records:load_records",
+    "save_record": "gyrojax.data.records:save_record",
+    "Truth": "gyrojax.data.truth:Truth",
+    "load_truth": "gyrojax.data.truth:load_truth",
+    "truth_from_dict": "gyrojax.data.truth:truth_from_dict",
+    "Plan": "gyrojax.data.plans:Plan",
+    "load_plan": "gyrojax.data.plans:load_plan",
+    # simulation
+    "simulate": "gyrojax.simulation.simulator:simulate",
+    # inference
+    "Campaign": "gyrojax.inference.identify:Campaign",
+    "FitResult": "gyrojax.inference.identify:FitResult",
+    "fit": "gyrojax.inference.identify:fit",
+    "Diagnosis": "gyrojax.inference.diagnose:Diagnosis",
+    "diagnose": "gyrojax.inference.diagnose:diagnose",
+    "add_and_refit": "gyrojax.inference.diagnose:add_and_refit",
+    "fit_chunked": "gyrojax.inference.bigfit:fit_chunked",
+    # noise
+    "allan": "gyrojax.noise.allan:allan",
+    # planning
+    "design": "gyrojax.planning.optimal:design",
+    "compare_plans": "gyrojax.planning.optimal:compare",
+    # Monte Carlo
+    "Study": "gyrojax.montecarlo.study:Study",
+    "load_study": "gyrojax.montecarlo.study:load_study",
+    "run_study": "gyrojax.montecarlo.study:run_study",
+}
 
 __all__ = [
-    "Effect", "GyrojaxError", "Model", "ModelError", "PlanError", "Record", "RecordError", "Truth", "TruthError",
-    "effects", "frames", "kinematics", "load_record", "load_records", "load_truth", "noise", "plans", "predict",
-    "record_data", "register", "save_record", "simulate", "truth_from_dict", "units", "__version__",
+    "Campaign",
+    "Diagnosis",
+    "Effect",
+    "FitResult",
+    "GyrojaxError",
+    "Model",
+    "ModelError",
+    "Plan",
+    "PlanError",
+    "Record",
+    "RecordError",
+    "Study",
+    "Truth",
+    "TruthError",
+    "UnknownNameError",
+    "__version__",
+    "add_and_refit",
+    "allan",
+    "compare_plans",
+    "design",
+    "diagnose",
+    "effects",
+    "fit",
+    "fit_chunked",
+    "frames",
+    "kinematics",
+    "load_plan",
+    "load_record",
+    "load_records",
+    "load_study",
+    "load_truth",
+    "noise",
+    "plans",
+    "predict",
+    "record_data",
+    "register",
+    "report",
+    "run_study",
+    "save_record",
+    "simulate",
+    "truth_from_dict",
+    "units",
 ]
+
+
+def __getattr__(name: str):
+    """Load a name of the flat API on first use (PEP 562)."""
+    target = _FLAT.get(name)
+    if target is None:
+        raise AttributeError(f"module 'gyrojax' has no attribute {name!r}")
+    module, _, attr = target.partition(":")
+    value = importlib.import_module(module)
+    if attr:
+        value = getattr(value, attr)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return __all__

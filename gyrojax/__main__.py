@@ -1,5 +1,5 @@
 """``python -m gyrojax`` is the ``gyrojax`` command."""
 
-from .cli import main
+from gyrojax.cli.app import main
 
 raise SystemExit(main())

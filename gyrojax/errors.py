@@ -20,3 +20,10 @@ class TruthError(GyrojaxError, ValueError):
 
 class ModelError(GyrojaxError, ValueError):
     """An effect list is invalid for an instrument, or a plan cannot identify a model."""
+
+
+class UnknownNameError(ModelError, KeyError):
+    """An effect or coefficient name that is not registered (a ``KeyError`` too, for dict-like callers)."""
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return str(self.args[0]) if self.args else ""

@@ -45,8 +45,8 @@ from IPython.display import Image
 
 import gyrojax as gj
 from gyrojax import report
-from gyrojax.diagnose import add_and_refit, diagnose
-from gyrojax.identify import fit
+from gyrojax.inference.diagnose import add_and_refit, diagnose
+from gyrojax.inference.identify import fit
 
 plan = gj.plans.tumble(revolutions=1, dt_s=10)  # small plan: 1 revolution, one sample every 10 s
 truth = {

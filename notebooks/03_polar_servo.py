@@ -24,7 +24,7 @@ from IPython.display import Image
 
 import gyrojax as gj
 from gyrojax import report
-from gyrojax.identify import fit
+from gyrojax.inference.identify import fit
 
 plan = gj.plans.servo("polar", hours=2, dt_s=10)
 truth = {"coefficients": {"D_F": 0.5, "D_O": 0.3, "D_S": -0.4}, "noise": {"white": 0.001}}

@@ -15,15 +15,16 @@
 # residuals then showed a **2θ harmonic**: the float is anisoelastic, so a g²-term is needed (Hu 2-48). With it
 # added, a second 2θ harmonic, 45° away (a cos 2θ next to the sin 2θ), remained — the compliance axes are not the
 # gyro axes, and the **secondary compliance term** D_IS explains it (Hu 2-49). We replay this with the demo's
-# hidden truth (`gyrojax.demo.TRUTH`), looking at the residual's harmonic spectrum at each step.
+# hidden truth (`gyrojax.report.demo.TRUTH`), looking at the residual's harmonic spectrum at each step.
 
 # %%
 from IPython.display import Image
 
 import gyrojax as gj
-from gyrojax import demo, report
-from gyrojax.diagnose import diagnose
-from gyrojax.identify import Campaign, fit
+from gyrojax.report import demo
+from gyrojax import report
+from gyrojax.inference.diagnose import diagnose
+from gyrojax.inference.identify import Campaign, fit
 
 print("hidden truth:", demo.TRUTH["coefficients"])
 plan = gj.plans.tumble(revolutions=1, dt_s=10)

@@ -12,7 +12,7 @@
 # # 05 · Designing a test plan
 #
 # The Fisher information F = Jᵀ Σ⁻¹ J of a plan comes from the same measurement model the fit uses; its inverse is
-# the Cramér–Rao bound on the coefficients. `gyrojax.design.design` moves the positions of a static plan on a
+# the Cramér–Rao bound on the coefficients. `gyrojax.planning.optimal.design` moves the positions of a static plan on a
 # two-axis table (and their dwell times) by gradient descent to minimise a criterion — here D-optimality,
 # −log det F. We compare a designed 24-position plan with the classical 24-position set, then check the bound by a
 # quick Monte Carlo of the designed plan.
@@ -23,8 +23,8 @@ import numpy as np
 from IPython.display import Image
 
 import gyrojax as gj
-from gyrojax import design
-from gyrojax.identify import fit
+from gyrojax.planning import optimal as design
+from gyrojax.inference.identify import fit
 
 terms = ["D_F", "D_I", "D_O", "D_S", "D_IS", "D_IO", "D_OS"]
 res = design.design(terms, n_positions=24, hours=0.8, criterion="D", starts=2, adam_steps=200, lbfgs_steps=10)

@@ -11,7 +11,7 @@
 # %% [markdown]
 # # 06 · A vectorised Monte Carlo study
 #
-# The measurement model `gyrojax.model.predict(model, θ, data)` is a pure JAX function of the coefficients, so a
+# The measurement model `gyrojax.physics.model.predict(model, θ, data)` is a pure JAX function of the coefficients, so a
 # batch of gyros is one `jax.vmap`. Here: 2000 simulated gyros drawn from a prior, each measured on the same
 # polar tumble record with white noise, each estimated by least squares — all in a few vectorised lines. We check
 # the spread of the estimates against the Cramér–Rao bound σ²(JᵀJ)⁻¹ and the coverage of ±2σ intervals.
@@ -25,7 +25,7 @@ import numpy as np
 from IPython.display import Image
 
 import gyrojax as gj
-from gyrojax.model import Model, predict, record_data
+from gyrojax.physics.model import Model, predict, record_data
 
 rec = gj.simulate(gj.plans.tumble(revolutions=1, dt_s=10, flip=False), {"coefficients": {}}, seed=0)[0]
 data = record_data(rec)

@@ -14,7 +14,7 @@
 # Two things sit between the gyro's physics and a drift record: the **torque-rebalance loop** that turns the float
 # angle into a torquer current (Hu 2-50 to 2-63), and the **random drift** that limits every coefficient. We look at
 # the loop's frequency and step response (`gyrojax.loops`) and then at the Allan deviation of a static record
-# (`gyrojax.allan`, IEEE 952) next to the noise terms the fit itself estimates.
+# (`gyrojax.noise.allan`, IEEE 952) next to the noise terms the fit itself estimates.
 
 # %%
 import matplotlib.pyplot as plt
@@ -22,8 +22,9 @@ import numpy as np
 from IPython.display import Image
 
 import gyrojax as gj
-from gyrojax import allan, loops
-from gyrojax.identify import fit
+from gyrojax.noise import allan
+from gyrojax.dynamics import loops
+from gyrojax.inference.identify import fit
 
 p = loops.default_rebalance(crossover_hz=30.0)
 f_hz = np.logspace(-1, 3, 200)

@@ -25,9 +25,10 @@ from IPython.display import Image
 from scipy.integrate import solve_ivp
 
 import gyrojax as gj
-from gyrojax import drift_processing as dp
-from gyrojax import marine, system, thermal, units
-from gyrojax.identify import fit
+from gyrojax.seeds import drift_processing as dp
+from gyrojax.seeds import marine, system, thermal
+from gyrojax import units
+from gyrojax.inference.identify import fit
 
 rng = np.random.default_rng(9)
 

@@ -1,21 +1,17 @@
 import json
 from pathlib import Path
 
-import jax
 import pytest
 
-jax.config.update("jax_enable_x64", True)
+import gyrojax  # noqa: F401  (x64 is switched on by the package, once)
 
-SHARED = Path(__file__).resolve().parents[1].parent / "shared"
-EXAMPLES = SHARED / "examples"
-
-
-def examples_available() -> bool:
-    return (EXAMPLES / "examples.json").exists()
+DATA = Path(__file__).resolve().parent / "data"
+EXAMPLES = DATA / "examples"
+"""Campaigns written by an independent tool, vendored (tests/data/README.md)."""
+IMUCAL = DATA / "imucal"
+"""A real MEMS-IMU session and imucal's calibration of it (MIT), vendored."""
 
 
 @pytest.fixture(scope="session")
 def example_campaigns():
-    if not examples_available():
-        pytest.skip(f"shared examples not found at {EXAMPLES}")
     return json.loads((EXAMPLES / "examples.json").read_text())

@@ -86,12 +86,17 @@ def write_campaign(folder, runs, truth, lat_deg=45.5, g_site=9.8063, noise_white
                 vals.append(f"{temp:.4f}")
             lines.append(",".join(vals))
         (folder / f"{run['name']}.csv").write_text("\n".join(lines) + "\n")
-        meta = {"format": "gyrojax-record-1", "name": run["name"],
-                "site": {"latitude_deg": lat_deg, "gravity_mps2": g_site},
-                "table": {"axes": [{"name": a, "axis_enu": list(map(float, u))} for a, u in run["axes"]]},
-                "instrument": {"kind": "sdf-gyro", "ia": ia.tolist(), "oa": oa.tolist(), "sa": sa.tolist()},
-                "mode": "rebalance", "scale_factor_deg_per_h_per_mA": sf, "servo_axis": None,
-                "writer": "tests/independent_writer.py"}
+        meta = {
+            "format": "gyrojax-record-1",
+            "name": run["name"],
+            "site": {"latitude_deg": lat_deg, "gravity_mps2": g_site},
+            "table": {"axes": [{"name": a, "axis_enu": list(map(float, u))} for a, u in run["axes"]]},
+            "instrument": {"kind": "sdf-gyro", "ia": ia.tolist(), "oa": oa.tolist(), "sa": sa.tolist()},
+            "mode": "rebalance",
+            "scale_factor_deg_per_h_per_mA": sf,
+            "servo_axis": None,
+            "writer": "tests/independent_writer.py",
+        }
         (folder / f"{run['name']}.json").write_text(json.dumps(meta))
         out.append(folder / f"{run['name']}.json")
     return out

@@ -17,7 +17,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import integrate
 
-from gyrojax import allan, noise
+from gyrojax.noise import allan
+from gyrojax.noise import processes as noise
 
 
 def _gm_series(rng, n, phi, sigma):

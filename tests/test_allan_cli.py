@@ -4,10 +4,10 @@ import json
 
 import pytest
 
-from gyrojax import plans
-from gyrojax.cli import main
-from gyrojax.records import save_record
-from gyrojax.simulate import simulate
+from gyrojax.cli.app import main
+from gyrojax.data import plans
+from gyrojax.data.records import save_record
+from gyrojax.simulation.simulator import simulate
 
 
 @pytest.fixture(scope="module")
@@ -59,7 +59,7 @@ def test_noise_pools_records(tmp_path, capsys):
     import allantools
     import numpy as np
 
-    from gyrojax.records import load_records
+    from gyrojax.data.records import load_records
 
     p = plans.fixed_position(hours=0.5)
     p = dataclasses.replace(p, runs=(p.runs[0], dataclasses.replace(p.runs[0], name="fixed-b")))

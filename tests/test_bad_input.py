@@ -20,13 +20,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gyrojax import cli, plans
+from gyrojax.cli import app as cli
+from gyrojax.data import plans
+from gyrojax.data.plans import load_plan, plan_to_json
+from gyrojax.data.records import load_record, load_records, save_record
+from gyrojax.data.truth import load_truth
 from gyrojax.errors import GyrojaxError, ModelError, PlanError, RecordError, TruthError
-from gyrojax.identify import fit
-from gyrojax.plans import load_plan, plan_to_json
-from gyrojax.records import load_record, load_records, save_record
-from gyrojax.simulate import simulate
-from gyrojax.truth import load_truth
+from gyrojax.inference.identify import fit
+from gyrojax.simulation.simulator import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 NAME = "fixed"  # the run name of plans.fixed_position
@@ -683,8 +684,7 @@ def test_cli_bad_files_in_process(tmp_path, capsys):
 
 
 def test_cli_extra_commands_with_bad_files(tmp_path, capsys):
-    """Sub-commands other modules register (``noise``, ``design``, ``mc`` …), where present, given bad files."""
-    cli._load_extras()
+    """The other sub-commands (``noise``, ``design``, ``mc`` …) given bad files."""
     parser = cli.build_parser()
     sub = next(a for a in parser._actions if a.dest == "command")
     known = {"plans", "simulate", "fit", "diagnose", "demo"}
@@ -711,6 +711,79 @@ def test_cli_usage_errors(capsys):
         assert cli.main(argv) == 2, argv
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and "Traceback" not in err, (argv, err)
+
+
+@pytest.mark.parametrize(
+    "argv, expect",
+    [
+        (["--criterion", "detect:NO_SUCH"], "NO_SUCH"),
+        (["--criterion", "A:D_F=x"], "'x'"),
+        (["--criterion", "detect:D_OO=big"], "'big'"),
+        (["--criterion", "Q"], "criterion"),
+        (["--criterion", "c:NOPE=1"], "NOPE"),
+        (["--gm", "0.1"], "--gm"),
+        (["--gm", "0.1,abc"], "--gm"),
+        (["--gm", "-1,100"], "--gm"),
+        (["--terms", "D_F,NO_SUCH"], "NO_SUCH"),
+        (["--positions", "0"], "--positions"),
+        (["--hours", "-1"], "--hours"),
+        (["--hours", "nan"], "--hours"),
+        (["--arw", "0"], "--arw"),
+        (["--dt", "inf"], "--dt"),
+        (["--starts", "0"], "--starts"),
+        (["--adam-steps", "-3"], "--adam-steps"),
+        (["--table", "three-axis"], "--table"),
+        (["--positions", "many"], "--positions"),
+    ],
+)
+def test_cli_design_bad_options(tmp_path, capsys, argv, expect):
+    out = tmp_path / "plan.json"
+    rc = cli.main(["design", "--out", str(out), "--adam-steps", "2", "--lbfgs-steps", "0", "--starts", "1", *argv])
+    err = capsys.readouterr().err
+    assert rc == 2, (argv, err)
+    assert err.startswith("gyrojax: error: ") and err.count("\n") == 1 and "Traceback" not in err, (argv, err)
+    assert expect in err, (argv, err)
+    assert "np.float64" not in err
+    assert not out.exists()
+
+
+def test_cli_design_refuses_to_overwrite(tmp_path, capsys):
+    out = tmp_path / "plan.json"
+    out.write_text("precious")
+    rc = cli.main(["design", "--out", str(out), "--positions", "6", "--terms", "D_F,D_I"])
+    assert rc == 2 and "--force" in capsys.readouterr().err
+    assert out.read_text() == "precious"
+
+
+@pytest.mark.parametrize(
+    "argv, expect",
+    [
+        (["mc", "STUDY", "--out", "OUT", "--draws", "0"], "--draws"),
+        (["mc", "STUDY", "--out", "OUT", "--draws", "many"], "--draws"),
+        (["mc", "MISSING", "--out", "OUT"], "MISSING"),
+        (["noise", "MISSING"], "MISSING"),
+        (["noise", "REC", "--plot", "EXISTING"], "--force"),
+        (["noise", "REC", "--bogus"], "--bogus"),
+    ],
+)
+def test_cli_mc_and_noise_bad_options(valid_dir, tmp_path, capsys, argv, expect):
+    study = tmp_path / "study.json"
+    study.write_text(json.dumps({"plan": "eight-position", "terms": ["D_F"], "priors": {"D_F": 0.1}, "draws": 2}))
+    existing = tmp_path / "existing.png"
+    existing.write_bytes(b"png")
+    subst = {
+        "STUDY": str(study),
+        "OUT": str(tmp_path / "out"),
+        "MISSING": str(tmp_path / "missing.json"),
+        "REC": str(valid_dir / f"{NAME}.json"),
+        "EXISTING": str(existing),
+    }
+    rc = cli.main([subst.get(a, a) for a in argv])
+    err = capsys.readouterr().err
+    assert rc == 2, (argv, err)
+    assert err.count("\n") == 1 and "Traceback" not in err, (argv, err)
+    assert expect.replace("MISSING", "missing.json") in err, (argv, err)
+    assert existing.read_bytes() == b"png"
 
 
 def test_cli_diagnose_alpha_out_of_range(valid_dir, capsys):

@@ -1,4 +1,5 @@
-"""Hu's classical closed forms (ch. 3) against simulated noise-free records, the book's tables and the shared examples.
+"""Hu's classical closed forms (ch. 3) against simulated noise-free records, the book's tables and the independent
+example campaigns.
 
 The formulas of the book are transcribed here independently of gyrojax.classical (in the book's own symbols, then
 converted with CONVENTIONS §2: D_x(book) = −D_I, D_y = −D_O, D_z = −D_S, g_book = −a). Where a printed formula is
@@ -12,12 +13,14 @@ import math
 import numpy as np
 import pytest
 
-from gyrojax import classical, plans, units
-from gyrojax.plans import Plan, Run, Segment, sdf_mount
+from gyrojax import units
+from gyrojax.data import plans
+from gyrojax.data.plans import Plan, Run, Segment, sdf_mount
+from gyrojax.seeds import classical
 
-from .conftest import EXAMPLES, examples_available
+from .conftest import EXAMPLES
 
-sim = importlib.import_module("gyrojax.simulate")
+sim = importlib.import_module("gyrojax.simulation.simulator")
 
 LAT = plans.DEFAULT_LATITUDE
 PHI = math.radians(LAT)
@@ -147,8 +150,7 @@ def test_fourier_sums_equal_least_squares_on_indexed_tumble():
     assert abs(sums["A3"]) < TIGHT and abs(sums["B3"]) < TIGHT
 
 
-@pytest.mark.skipif(not examples_available(), reason="shared examples not present")
-def test_tumble_coefficients_on_shared_examples(example_campaigns):
+def test_tumble_coefficients_on_independent_examples(example_campaigns):
     """The independent example tumble (authoritative for signs) fitted by Hu's harmonic method."""
     camp = next(c for c in example_campaigns if c["id"] == "example-tumble")
     truth = camp["truth"]

@@ -10,13 +10,13 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from gyrojax import design as D
-from gyrojax import plans
+from gyrojax.data import plans
 from gyrojax.errors import ModelError
-from gyrojax.identify import Campaign, linearize
-from gyrojax.model import Model, record_data
-from gyrojax.noise import gauss_markov, random_drift, white
-from gyrojax.simulate import simulate
+from gyrojax.inference.identify import Campaign, linearize
+from gyrojax.noise.processes import gauss_markov, random_drift, white
+from gyrojax.physics.model import Model, record_data
+from gyrojax.planning import optimal as D
+from gyrojax.simulation.simulator import simulate
 
 ARW = 0.01  # deg/√h
 NOISE = D.Noise(ARW)
@@ -166,7 +166,7 @@ def test_detect_design_raises_noncentrality(d24):
 
 
 def test_cli_design_writes_a_runnable_plan(tmp_path, capsys):
-    from gyrojax.cli import main
+    from gyrojax.cli.app import main
 
     out = tmp_path / "plan.json"
     # the same configuration as the N = 8 design above: the compiled optimiser is reused

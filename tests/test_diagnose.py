@@ -1,13 +1,15 @@
 """Diagnosis: on campaigns with one effect hidden from the model, the top candidate is the hidden effect (or one of
 the aliases it names), null campaigns are 'adequate' (white and coloured noise), and adding the top candidate brings
-the residual RMS within 10 % of the noise floor. Campaigns come from three sources: gyrojax's simulator, the shared
-examples written by an independent tool (a term dropped from their model), and tests/independent_writer.py."""
+the residual RMS within 10 % of the noise floor. Campaigns come from three sources: gyrojax's simulator, the
+vendored example campaigns written by an independent tool (tests/data/examples, a term dropped from their model),
+and tests/independent_writer.py."""
 
 import numpy as np
 import pytest
 
-from gyrojax import load_record, load_records, plans, simulate
-from gyrojax.diagnose import add_and_refit, diagnose, holm
+from gyrojax import load_record, load_records, simulate
+from gyrojax.data import plans
+from gyrojax.inference.diagnose import add_and_refit, diagnose, holm
 
 from . import independent_writer as iw
 from .conftest import EXAMPLES
@@ -30,18 +32,43 @@ def _check_hidden(records, terms, hidden):
 
 CASES = {
     # name: (plan, extra truth, model, noise, setup, temperature)
-    "D_O (g-sensitive)": (lambda: plans.multiposition(24, minutes=3, dt_s=2), {"D_O": -0.2}, ["D_F", "D_I", "D_S"],
-                          {"white": 0.0008}, None),
+    "D_O (g-sensitive)": (
+        lambda: plans.multiposition(24, minutes=3, dt_s=2),
+        {"D_O": -0.2},
+        ["D_F", "D_I", "D_S"],
+        {"white": 0.0008},
+        None,
+    ),
     "D_IS (g²)": (lambda: plans.tumble(revolutions=1, dt_s=10), {"D_IS": 0.05}, DRIFT4, {"white": 0.0005}, None),
-    "sf_asymmetry": (lambda: plans.rate_ladder(seconds=20, dt_s=0.2), {"E_SF": 100, "E_A": 60}, LADDER_MODEL,
-                     {"white": 0.003}, None),
-    "sf_quadratic": (lambda: plans.rate_ladder(seconds=20, dt_s=0.2), {"E_SF": 100, "E_2": 3.0}, LADDER_MODEL,
-                     {"white": 0.003}, None),
-    "ia_misalignment": (lambda: plans.rate_ladder(seconds=20, dt_s=0.2), {"E_SF": 100, "M_O": 40, "M_S": -30},
-                        ["D_F", "sf_error"], {"white": 0.003}, None),
+    "sf_asymmetry": (
+        lambda: plans.rate_ladder(seconds=20, dt_s=0.2),
+        {"E_SF": 100, "E_A": 60},
+        LADDER_MODEL,
+        {"white": 0.003},
+        None,
+    ),
+    "sf_quadratic": (
+        lambda: plans.rate_ladder(seconds=20, dt_s=0.2),
+        {"E_SF": 100, "E_2": 3.0},
+        LADDER_MODEL,
+        {"white": 0.003},
+        None,
+    ),
+    "ia_misalignment": (
+        lambda: plans.rate_ladder(seconds=20, dt_s=0.2),
+        {"E_SF": 100, "M_O": 40, "M_S": -30},
+        ["D_F", "sf_error"],
+        {"white": 0.003},
+        None,
+    ),
     "bias_trend": (lambda: plans.multiposition(24, minutes=3, dt_s=2), {"D_T": 0.03}, DRIFT4, {"white": 0.0008}, None),
-    "table_tilt": (lambda: plans.multiposition(24, minutes=3, dt_s=2), {}, DRIFT4, {"white": 0.0003},
-                   {"table_tilt": [150.0, -90.0]}),
+    "table_tilt": (
+        lambda: plans.multiposition(24, minutes=3, dt_s=2),
+        {},
+        DRIFT4,
+        {"white": 0.0003},
+        {"table_tilt": [150.0, -90.0]},
+    ),
 }
 
 
@@ -58,14 +85,18 @@ def test_hidden_effect_found_added_and_error_falls(name):
 def test_hidden_temperature_sensitivity():
     plan = plans.multiposition(24, minutes=3, dt_s=2)
     run = plan.runs[0]
-    warm = plans.Plan(plan.name, (plans.Run(run.name, run.axes, run.instrument, run.segments,
-                                            temperature_C=(22.0, 4.0, 5400.0)),), plan.latitude_deg)
+    warm = plans.Plan(
+        plan.name,
+        (plans.Run(run.name, run.axes, run.instrument, run.segments, temperature_C=(22.0, 4.0, 5400.0)),),
+        plan.latitude_deg,
+    )
     truth = {"coefficients": {**BASE, "D_TEMP": 0.01}, "noise": {"white": 0.0008}}
     _check_hidden(simulate(warm, truth, seed=5), DRIFT4, "bias_temperature")
 
 
-@pytest.mark.parametrize("noise", [{"white": 0.0008}, {"white": 0.0008, "gauss_markov": [0.01, 300.0]}],
-                         ids=["white", "gauss-markov"])
+@pytest.mark.parametrize(
+    "noise", [{"white": 0.0008}, {"white": 0.0008, "gauss_markov": [0.01, 300.0]}], ids=["white", "gauss-markov"]
+)
 def test_null_campaigns_are_adequate(noise):
     for seed in (1, 2):
         recs = simulate(plans.multiposition(24, minutes=4, dt_s=2), {"coefficients": BASE, "noise": noise}, seed=seed)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from gyrojax import drift_processing as dp
+from gyrojax.seeds import drift_processing as dp
 
 
 @pytest.mark.parametrize("omega, n", [(0.05, 20), (0.3, 10), (1.1, 8), (2.0, 31)])

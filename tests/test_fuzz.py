@@ -19,12 +19,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from gyrojax import cli, plans
+from gyrojax.cli import app as cli
+from gyrojax.data import plans
+from gyrojax.data.plans import load_plan, plan_to_json
+from gyrojax.data.records import load_record, save_record
+from gyrojax.data.truth import load_truth
 from gyrojax.errors import GyrojaxError
-from gyrojax.plans import load_plan, plan_to_json
-from gyrojax.records import load_record, save_record
-from gyrojax.simulate import simulate
-from gyrojax.truth import load_truth
+from gyrojax.simulation.simulator import simulate
 
 NAME = "fixed"
 # GYROJAX_FUZZ_EXAMPLES=2000 for a long, randomised hunt; the default run is short and reproducible

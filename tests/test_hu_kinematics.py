@@ -3,7 +3,7 @@
 For every mounting the book describes, the table geometry and the instrument triad are set up from the book's
 *text* (the OCR of seed 002 has lost every figure, so "see Fig. 3-10" cannot be read; each set-up below quotes
 the sentence it comes from), the book's printed components are transcribed in a small numpy function named
-after the equation, converted to CONVENTIONS signs, and compared with :func:`gyrojax.model.sensed` at many
+after the equation, converted to CONVENTIONS signs, and compared with :func:`gyrojax.physics.model.sensed` at many
 table angles and two latitudes (one of them southern, so sin φ < 0 is exercised) to ~1e-12.
 
 Sign conversion (CONVENTIONS §2, "Book sign note"): Hu writes the components of the *gravity* vector, positive
@@ -41,7 +41,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from gyrojax import kinematics, model, records, units
+from gyrojax import units
+from gyrojax.data import records
+from gyrojax.physics import kinematics, model
 
 G_SITE = 9.80155  # local gravity used in every check (Hu's "g"), m/s²
 LATITUDES = (np.deg2rad(39.98), np.deg2rad(-33.87))

@@ -6,8 +6,9 @@ import json
 import numpy as np
 import pytest
 
-from gyrojax import load_record, plans, simulate
-from gyrojax.identify import IdentifiabilityError, fit, load_result, result_from_json
+from gyrojax import load_record, simulate
+from gyrojax.data import plans
+from gyrojax.inference.identify import IdentifiabilityError, fit, load_result, result_from_json
 
 from .conftest import EXAMPLES
 
@@ -44,8 +45,19 @@ def test_aliased_plan_names_the_groups(example_campaigns):
 
 
 def test_noise_free_round_trip_is_exact():
-    truth = {"coefficients": {"D_F": 0.42, "D_I": 0.61, "D_O": -0.2, "D_S": 0.3, "D_IS": 0.052, "D_IO": -0.01,
-                              "D_II": 0.02, "D_OS": 0.007, "D_SS": -0.015}}
+    truth = {
+        "coefficients": {
+            "D_F": 0.42,
+            "D_I": 0.61,
+            "D_O": -0.2,
+            "D_S": 0.3,
+            "D_IS": 0.052,
+            "D_IO": -0.01,
+            "D_II": 0.02,
+            "D_OS": 0.007,
+            "D_SS": -0.015,
+        }
+    }
     recs = simulate(plans.multiposition(24, minutes=1, dt_s=10), truth)
     res = fit(recs, list(truth["coefficients"]), noise="white")
     for c, v in truth["coefficients"].items():

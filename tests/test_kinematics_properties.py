@@ -21,7 +21,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from gyrojax import frames, kinematics, model, units
+from gyrojax import units
+from gyrojax.physics import frames, kinematics, model
 
 SETTINGS = settings(max_examples=30, deadline=None, derandomize=True)
 

@@ -7,17 +7,16 @@ import numpy as np
 import pytest
 
 from gyrojax import simulate
-from gyrojax.identify import fit
-from gyrojax.loopfit import fit_loop, measured_response, model_response, oscillation_plan, quasi_static_bias
-from gyrojax.loops import default_rebalance
+from gyrojax.dynamics.loopfit import fit_loop, measured_response, model_response, oscillation_plan, quasi_static_bias
+from gyrojax.dynamics.loops import default_rebalance
+from gyrojax.inference.identify import fit
 
 FREQS = (1.0, 4.0, 10.0, 20.0, 40.0)
 DT = 5e-4
 
 
 def _record(params):
-    return simulate(oscillation_plan(FREQS, dt_s=DT), {"coefficients": {"D_F": 0.5}}, dynamics="loop",
-                    loop=params)[0]
+    return simulate(oscillation_plan(FREQS, dt_s=DT), {"coefficients": {"D_F": 0.5}}, dynamics="loop", loop=params)[0]
 
 
 def test_measured_response_matches_the_loop_transfer_function():
@@ -46,7 +45,6 @@ def test_quasi_static_fit_is_biased_where_the_loop_rolls_off():
     p = default_rebalance()
     bias = quasi_static_bias(p, FREQS, DT)
     assert abs(bias[0]) < abs(bias[-1])
-    rec = simulate(oscillation_plan((FREQS[-2],), dt_s=DT), {"coefficients": {"D_F": 0.5}}, dynamics="loop",
-                   loop=p)[0]
+    rec = simulate(oscillation_plan((FREQS[-2],), dt_s=DT), {"coefficients": {"D_F": 0.5}}, dynamics="loop", loop=p)[0]
     res = fit(rec, ["D_F", "sf_error"], noise="white")
     assert res.values["E_SF"] == pytest.approx(bias[-2], rel=0.05, abs=200.0)

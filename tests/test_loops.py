@@ -19,8 +19,9 @@ import numpy as np
 import pytest
 import scipy.signal as sig
 
-from gyrojax import loops, units
-from gyrojax.discretize import zoh
+from gyrojax import units
+from gyrojax.dynamics import loops
+from gyrojax.dynamics.discretize import zoh
 
 DT = 1e-3
 
@@ -382,11 +383,15 @@ def test_servo_disturbance_response_5_15_and_stiffness_gradient():
 def test_simulate_with_loop_dynamics_matches_quasi_static_at_low_frequency():
     """Every rebalance plan runs through the loop; at the plans' (low) input frequencies the loop output equals
     the quasi-static balance equation within the loop's static error (Hu 3-55, 5-64 to 5-67)."""
-    from gyrojax import plans, simulate
+    from gyrojax import simulate
+    from gyrojax.data import plans
 
     truth = {"coefficients": {"D_F": 0.4, "D_I": 0.6, "E_SF": 120.0}}
-    for plan in (plans.multiposition(8, minutes=0.5, dt_s=1.0), plans.rate_ladder(rates_dps=(5, 50), seconds=4),
-                 plans.tumble(revolutions=0.1, dt_s=10.0)):
+    for plan in (
+        plans.multiposition(8, minutes=0.5, dt_s=1.0),
+        plans.rate_ladder(rates_dps=(5, 50), seconds=4),
+        plans.tumble(revolutions=0.1, dt_s=10.0),
+    ):
         qs = simulate(plan, truth)
         lp = simulate(plan, truth, dynamics="loop")
         for a, b in zip(qs, lp):

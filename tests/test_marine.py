@@ -13,7 +13,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
-from gyrojax import marine, units
+from gyrojax import units
+from gyrojax.seeds import marine
 
 W = units.OMEGA_IE
 LAT = np.deg2rad(31.0)

@@ -17,9 +17,11 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from gyrojax import cli, identify, plans
-from gyrojax import montecarlo as mc
-from gyrojax.model import predict, predict_jit
+from gyrojax.cli import app as cli
+from gyrojax.data import plans
+from gyrojax.inference import identify
+from gyrojax.montecarlo import study as mc
+from gyrojax.physics.model import predict, predict_jit
 
 ROOT = Path(__file__).resolve().parents[1]
 NINE = list(mc.SDF_NINE_TERMS)
@@ -148,7 +150,7 @@ def test_chunking_does_not_change_draws_and_white_coverage(white_pipe):
 
 SUBPROCESS = textwrap.dedent("""
     import json, numpy as np, jax
-    from gyrojax import montecarlo as mc
+    from gyrojax.montecarlo import study as mc
     assert len(jax.devices()) == 4, jax.devices()
     st = mc.Study(plan="multiposition", plan_options={"n": 8, "minutes": 1, "dt_s": 5}, terms=["D_F", "D_I", "D_O"],
                   priors={"D_F": {"normal": [0, 1]}, "D_I": {"uniform": [-1, 1]}, "D_O": 0.3},

@@ -13,11 +13,11 @@ import math
 import numpy as np
 import pytest
 
-from gyrojax import plans
+from gyrojax.data import plans
+from gyrojax.data.records import Record
 from gyrojax.errors import GyrojaxError
-from gyrojax.identify import IdentifiabilityError, fit
-from gyrojax.records import Record
-from gyrojax.simulate import simulate
+from gyrojax.inference.identify import IdentifiabilityError, fit
+from gyrojax.simulation.simulator import simulate
 
 LADDER_TRUTH = {"D_F": 1e-5, "E_SF": 150.0, "M_O": 120.0, "M_S": -80.0}
 
@@ -199,8 +199,8 @@ def test_every_sdf_effect_has_finite_regressors_from_rest_to_1000_dps():
     (including the nonlinear set-up ones): the Jacobian is finite."""
     import jax.numpy as jnp
 
-    from gyrojax import effects as fx
-    from gyrojax.model import Model, jacobian_jit, predict_jit, record_data
+    from gyrojax.physics import effects as fx
+    from gyrojax.physics.model import Model, jacobian_jit, predict_jit, record_data
 
     recs = simulate(plans.rate_ladder(rates_dps=(0, 1000), seconds=2, dt_s=0.5), {"coefficients": {"D_F": 1e-5}})
     terms = tuple(n for n in fx.names() if fx.SDF in fx.get(n).kinds)

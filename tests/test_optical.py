@@ -10,10 +10,12 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from gyrojax import effects, optical, units
-from gyrojax.model import Model, predict, record_data
-from gyrojax.plans import rate_ladder
-from gyrojax.simulate import simulate
+from gyrojax import units
+from gyrojax.data.plans import rate_ladder
+from gyrojax.physics import effects
+from gyrojax.physics.model import Model, predict, record_data
+from gyrojax.seeds import optical
+from gyrojax.simulation.simulator import simulate
 
 ARCSEC = units.ARCSEC
 

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from gyrojax import effects as fx
 from gyrojax import units
-from gyrojax.physical import G0_CGS, PhysicalSDF, drift_coefficients, physical_from_drift
+from gyrojax.physics import effects as fx
+from gyrojax.seeds.physical import G0_CGS, PhysicalSDF, drift_coefficients, physical_from_drift
 
 RNG = np.random.default_rng(0)
 
@@ -23,8 +23,16 @@ def hu_2_24(p: PhysicalSDF, sf):
     lx, _ly, lz = p.l
     sx, sy, sz = sf
     m = p.m
-    return (p.M_F0 - m * lx * sz + m * lz * sx + m**2 * kzy * sx * sy - m**2 * kxy * sy * sz
-            + m**2 * (kzz - kxx) * sx * sz + m**2 * kzx * sx**2 - m**2 * kxz * sz**2)
+    return (
+        p.M_F0
+        - m * lx * sz
+        + m * lz * sx
+        + m**2 * kzy * sx * sy
+        - m**2 * kxy * sy * sz
+        + m**2 * (kzz - kxx) * sx * sz
+        + m**2 * kzx * sx**2
+        - m**2 * kxz * sz**2
+    )
 
 
 def test_vector_form_matches_hu_2_24():

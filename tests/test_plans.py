@@ -7,12 +7,25 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from gyrojax import load_record, plans, save_record, simulate, units
+from gyrojax import load_record, save_record, simulate, units
+from gyrojax.data import plans
+from gyrojax.data.plans import load_plan, plan_to_json
 from gyrojax.errors import PlanError
-from gyrojax.plans import load_plan, plan_to_json
 
-TRUTH = {"D_F": 0.42, "D_I": 0.61, "D_O": -0.17, "D_S": 0.3, "D_II": 0.02, "D_SS": -0.015, "D_IS": 0.052,
-         "D_IO": -0.01, "D_OS": 0.007, "E_SF": 150.0, "M_O": 120.0, "M_S": -60.0}
+TRUTH = {
+    "D_F": 0.42,
+    "D_I": 0.61,
+    "D_O": -0.17,
+    "D_S": 0.3,
+    "D_II": 0.02,
+    "D_SS": -0.015,
+    "D_IS": 0.052,
+    "D_IO": -0.01,
+    "D_OS": 0.007,
+    "E_SF": 150.0,
+    "M_O": 120.0,
+    "M_S": -60.0,
+}
 TDF_TRUTH = {"DX_F": 0.3, "DX_X": 0.2, "DX_Z": -0.1, "DX_XZ": 0.02, "DY_F": -0.2, "DY_Y": 0.15, "DY_YZ": 0.01}
 ACC_TRUTH = {"K_0": 1e-4, "K_1": 1.0002, "K_2": 2e-5, "K_3": -1e-5, "K_IP": 3e-5, "K_IO": -2e-5}
 
@@ -38,9 +51,20 @@ def _sdf_expected(rec):
     wi, wo, ws = w.T
     ai, ao, as_ = a.T
     t = TRUTH
-    return (wi + t["D_F"] + t["D_I"] * ai + t["D_O"] * ao + t["D_S"] * as_ + t["D_II"] * ai**2 + t["D_SS"] * as_**2
-            + t["D_IS"] * ai * as_ + t["D_IO"] * ai * ao + t["D_OS"] * ao * as_ + t["E_SF"] * 1e-6 * wi
-            + (t["M_O"] * wo + t["M_S"] * ws) * units.ARCSEC)
+    return (
+        wi
+        + t["D_F"]
+        + t["D_I"] * ai
+        + t["D_O"] * ao
+        + t["D_S"] * as_
+        + t["D_II"] * ai**2
+        + t["D_SS"] * as_**2
+        + t["D_IS"] * ai * as_
+        + t["D_IO"] * ai * ao
+        + t["D_OS"] * ao * as_
+        + t["E_SF"] * 1e-6 * wi
+        + (t["M_O"] * wo + t["M_S"] * ws) * units.ARCSEC
+    )
 
 
 SMALL = {

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from scipy import linalg, signal
 
-from gyrojax import noise
-from gyrojax import randomdrift as rd
+from gyrojax.noise import processes as noise
+from gyrojax.noise import randomdrift as rd
 
 
 def _arma(rng, n, phi=(), theta=(), burn=2000):

@@ -5,8 +5,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from gyrojax import model, records, units
-from gyrojax.records import load_record
+from gyrojax import units
+from gyrojax.data import records
+from gyrojax.data.records import load_record
+from gyrojax.physics import model
 
 from .conftest import EXAMPLES
 

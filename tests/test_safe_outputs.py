@@ -12,12 +12,13 @@ import numpy as np
 import pytest
 
 import gyrojax
-from gyrojax import cli, plans, records
-from gyrojax.bigfit import fit_chunked
+from gyrojax.cli import app as cli
+from gyrojax.data import plans, records
+from gyrojax.data.records import load_record, save_record
 from gyrojax.errors import GyrojaxError, ModelError, RecordError
-from gyrojax.identify import IdentifiabilityError, fit
-from gyrojax.records import load_record, save_record
-from gyrojax.simulate import simulate
+from gyrojax.inference.bigfit import fit_chunked
+from gyrojax.inference.identify import IdentifiabilityError, fit
+from gyrojax.simulation.simulator import simulate
 
 NAME = "ccw-up"  # the run of a one-run polar tumble
 

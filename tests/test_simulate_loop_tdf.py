@@ -11,13 +11,23 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from gyrojax import loops, plans, simulate, tdfloop, units
+from gyrojax import simulate, units
+from gyrojax.data import plans
+from gyrojax.dynamics import loops, tdfloop
 from gyrojax.errors import PlanError
-from gyrojax.identify import fit
+from gyrojax.inference.identify import fit
 
 DPH = units.DEG_PER_H
-EIGHT_TERMS = {"DX_F": 0.3, "DY_F": -0.2, "DX_X": 0.5, "DY_Y": -0.4, "DX_Y": 0.1, "DY_X": 0.15, "DX_Z": 0.25,
-               "DY_Z": -0.3}
+EIGHT_TERMS = {
+    "DX_F": 0.3,
+    "DY_F": -0.2,
+    "DX_X": 0.5,
+    "DY_Y": -0.4,
+    "DX_Y": 0.1,
+    "DY_X": 0.15,
+    "DX_Z": 0.25,
+    "DY_Z": -0.3,
+}
 TUMBLE_TERMS = {"DX_F": 0.3, "DY_F": -0.2, "DX_X": 0.5, "DY_Y": -0.4, "DX_Z": 0.25, "DY_Z": -0.3, "DX_XZ": 0.05}
 TUMBLE_DT = 360.0 / (10.0 * units.OMEGA_IE_DEG_PER_H / 3600.0) / 60.0  # 60 samples a turn, as eight-position's runs
 # a deliberately poor loop: 20 % mistuning, torquer SF errors and cross-coupling, so S − I ≈ 1e-3 is visible
@@ -59,8 +69,10 @@ def _hand_quasi_static(rec, coeffs):
 def cases():
     """(plan, truth coefficients, quasi-static records, poor-loop records, default-loop records) per plan."""
     out = {}
-    for name, opts, coeffs in (("eight-position", dict(kind="tdf-gyro", minutes=1.0), EIGHT_TERMS),
-                               ("tdf-tumble", dict(revolutions=1.0, dt_s=TUMBLE_DT), TUMBLE_TERMS)):
+    for name, opts, coeffs in (
+        ("eight-position", dict(kind="tdf-gyro", minutes=1.0), EIGHT_TERMS),
+        ("tdf-tumble", dict(revolutions=1.0, dt_s=TUMBLE_DT), TUMBLE_TERMS),
+    ):
         plan = plans.build(name, **opts)
         truth = {"coefficients": coeffs}
         qs = simulate(plan, truth)

@@ -9,7 +9,8 @@ import jax
 import numpy as np
 import pytest
 
-from gyrojax import system, units
+from gyrojax import units
+from gyrojax.seeds import system
 
 LAT = np.deg2rad(45.0)
 

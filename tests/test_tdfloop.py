@@ -10,8 +10,9 @@ import pytest
 import scipy.linalg as sl
 import scipy.signal as sig
 
-from gyrojax import tdfloop, units
-from gyrojax.discretize import zoh
+from gyrojax import units
+from gyrojax.dynamics import tdfloop
+from gyrojax.dynamics.discretize import zoh
 
 DPH = units.DEG_PER_H
 DT = 1e-3

@@ -8,7 +8,9 @@ K_tex1 prints k_ax,b (read k_ax,h); the minus signs of S_x01/S_x04 are lost at l
 import numpy as np
 import pytest
 
-from gyrojax import plans, simulate, system, thermal, units
+from gyrojax import simulate, units
+from gyrojax.data import plans
+from gyrojax.seeds import system, thermal
 
 
 def _paper_s0(k_room, t_room, k_h, t_h, k_d, t_d):

@@ -1,0 +1,216 @@
+"""The ``gyrojax`` command line: the parser of every sub-command, start-up and error handling.
+
+Exit codes: 0 success; 2 usage or input error (one line on stderr, no traceback); 1 internal error.
+Every sub-command that writes files refuses to overwrite without ``--force`` and writes atomically.
+Start-up imports only argparse: each command imports the part of the library it needs when it runs
+(:mod:`gyrojax.cli.commands`), so ``gyrojax --help`` and bad-usage errors answer at once.
+
+Compiled XLA code is kept across processes in JAX's persistent compilation cache, under the user's cache
+directory (``$XDG_CACHE_HOME/gyrojax/jax`` or ``~/.cache/gyrojax/jax``); ``GYROJAX_NO_CACHE=1`` turns it off and
+``GYROJAX_CACHE_DIR`` moves it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+
+from gyrojax.errors import GyrojaxError
+
+
+class UsageError(GyrojaxError):
+    """Bad command-line arguments."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # argparse would print usage and exit 2; keep it to one line
+        raise UsageError(f"{self.prog}: {message}")
+
+
+def parse_options(pairs) -> dict:
+    """``["NAME=VALUE", …]`` → ``{name: value}`` (values parsed as JSON where they are JSON; ``-`` → ``_``)."""
+    out = {}
+    for p in pairs or []:
+        if "=" not in p:
+            raise UsageError(f"plan option {p!r} must look like NAME=VALUE")
+        k, v = p.split("=", 1)
+        try:
+            value = json.loads(v)
+        except json.JSONDecodeError:
+            value = v
+        out[k.replace("-", "_")] = value
+    return out
+
+
+def parse_terms(s: str | None) -> list[str]:
+    """A comma-separated list of effect names → list (empty for ``None``)."""
+    if s is None:
+        return []
+    return [t.strip() for t in s.split(",") if t.strip()]
+
+
+def parse_gm(text: str | None, option: str = "--gm") -> tuple[float, float] | None:
+    """``"sigma_deg_per_h,tau_s"`` → (σ, τ), both finite and positive; :class:`UsageError` naming the option."""
+    if text is None:
+        return None
+    parts = text.split(",")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        sigma, tau = (float(x) for x in parts)
+    except ValueError:
+        raise UsageError(f"{option} {text!r}: expected 'sigma_deg_per_h,tau_s', e.g. 0.05,300") from None
+    if not (sigma > 0 and tau > 0 and sigma < float("inf") and tau < float("inf")):
+        raise UsageError(f"{option} {text!r}: sigma and tau must be finite and positive")
+    return sigma, tau
+
+
+def _command(name: str):
+    """A lazy handler: imports :mod:`gyrojax.cli.commands` only when the sub-command runs."""
+
+    def run(args) -> int:
+        from gyrojax.cli import commands
+
+        return getattr(commands, f"cmd_{name}")(args)
+
+    return run
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``gyrojax`` command, with every sub-command."""
+    p = _Parser(prog="gyrojax", description="Identify gyroscope error coefficients from turntable tests.")
+    p.add_argument("--version", action="store_true", help="print the version and exit")
+    sub = p.add_subparsers(dest="command", parser_class=_Parser)
+
+    s = sub.add_parser("plans", help="list the built-in test plans")
+    s.set_defaults(func=_command("plans"))
+
+    s = sub.add_parser("simulate", help="simulate a plan into records (CONVENTIONS §5)")
+    s.add_argument("plan", help="built-in plan name (see `gyrojax plans`) or a plan JSON file")
+    s.add_argument("--truth", help="truth JSON (CONVENTIONS §8); default: a perfect gyro")
+    s.add_argument("--out", required=True, help="output directory")
+    s.add_argument("--seed", type=int, default=0)
+    s.add_argument("--option", "-o", action="append", metavar="NAME=VALUE", help="plan builder option")
+    s.add_argument(
+        "--dynamics",
+        choices=("quasi-static", "loop"),
+        default="quasi-static",
+        help="quasi-static balance equation, or through the instrument's loop (rebalance, TDF capture, float)",
+    )
+    s.add_argument("--force", action="store_true", help="overwrite existing records")
+    s.add_argument("--json", action="store_true")
+    s.set_defaults(func=_command("simulate"))
+
+    s = sub.add_parser("fit", help="fit named effects to records (CONVENTIONS §7)")
+    s.add_argument("records", nargs="+", help="record files (.csv or .json) or directories")
+    s.add_argument("--terms", help="comma-separated effect names (CONVENTIONS §6)")
+    s.add_argument("--json", action="store_true")
+    s.add_argument("--save", help="write the result as JSON to this path")
+    s.add_argument("--force", action="store_true")
+    s.set_defaults(func=_command("fit"))
+
+    s = sub.add_parser("diagnose", help="rank the effects the model is missing (CONVENTIONS §7)")
+    s.add_argument("records", nargs="+")
+    s.add_argument("--terms", help="comma-separated effect names of the current model")
+    s.add_argument("--alpha", type=float, default=0.01, help="family-wise significance level (default 0.01)")
+    s.add_argument("--json", action="store_true")
+    s.set_defaults(func=_command("diagnose"))
+
+    s = sub.add_parser("noise", help="Allan deviation and IEEE 952 noise fit of static records")
+    s.add_argument("records", nargs="+", help="static SDF record files (.csv or .json) or directories")
+    s.add_argument("--json", action="store_true")
+    s.add_argument("--plot", metavar="PNG", help="write a log-log Allan plot with the fitted terms")
+    s.add_argument("--gauss-markov", action="store_true", help="also fit a Gauss-Markov term (sigma, tau)")
+    s.add_argument("--force", action="store_true", help="overwrite the plot file")
+    s.set_defaults(func=_command("noise"))
+
+    s = sub.add_parser("design", help="design a static multi-position plan by gradients (D/A/E/c/detect)")
+    s.add_argument("--terms", help="comma-separated effect names (default: the 9-term SDF model, D_OO left out)")
+    s.add_argument("--table", default="two-axis", choices=("two-axis",))
+    s.add_argument("--positions", type=int, default=24)
+    s.add_argument("--hours", type=float, default=4.0, help="total dwell time")
+    s.add_argument("--criterion", default="D", help="D | A | E | c:COEF=w,... | detect:NAME[=magnitude]")
+    s.add_argument("--arw", type=float, default=0.01, help="angle random walk, deg/√h")
+    s.add_argument("--gm", help="Gauss–Markov drift 'sigma_deg_per_h,tau_s'")
+    s.add_argument("--dt", type=float, default=1.0, help="sample interval, s")
+    s.add_argument("--starts", type=int, default=8)
+    s.add_argument("--seed", type=int, default=0)
+    s.add_argument("--adam-steps", type=int, default=600)
+    s.add_argument("--lbfgs-steps", type=int, default=40)
+    s.add_argument("--out", required=True, help="the plan JSON to write")
+    s.add_argument("--force", action="store_true", help="overwrite an existing plan file")
+    s.add_argument("--json", action="store_true")
+    s.set_defaults(func=_command("design"))
+
+    s = sub.add_parser("mc", help="Monte Carlo study: simulate and fit many gyros (docs/montecarlo.md)")
+    s.add_argument("study", help="study JSON (gyrojax.montecarlo.study.Study)")
+    s.add_argument("--out", required=True, help="output directory")
+    s.add_argument("--draws", type=int, help="override the study's number of draws")
+    s.add_argument("--json", action="store_true")
+    s.add_argument("--force", action="store_true", help="overwrite existing results")
+    s.set_defaults(func=_command("mc"))
+
+    s = sub.add_parser("demo", help="the hidden-effect walkthrough: simulate, fit, diagnose, add, refit, report")
+    s.add_argument("--out", default="demo-report")
+    s.add_argument("--force", action="store_true")
+    s.add_argument("--quick", action="store_true", help="shorter records (for tests)")
+    s.set_defaults(func=_command("demo"))
+    return p
+
+
+def cache_dir() -> str | None:
+    """Where the CLI keeps JAX's persistent compilation cache, or ``None`` when ``GYROJAX_NO_CACHE`` is set."""
+    if os.environ.get("GYROJAX_NO_CACHE", "").strip() not in ("", "0"):
+        return None
+    if os.environ.get("GYROJAX_CACHE_DIR"):
+        return os.environ["GYROJAX_CACHE_DIR"]
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(base, "gyrojax", "jax")
+
+
+def enable_compilation_cache() -> None:
+    """Turn on JAX's persistent compilation cache at :func:`cache_dir` (nothing when it is switched off)."""
+    path = cache_dir()
+    if path is None:
+        return
+    import jax
+
+    jax.config.update("jax_compilation_cache_dir", path)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
+    jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
+
+
+def main(argv=None) -> int:
+    """Run the ``gyrojax`` command on ``argv`` (default ``sys.argv[1:]``); returns the exit code (0, 1 or 2)."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+        if args.version:
+            from gyrojax import __version__
+
+            print(__version__)
+            return 0
+        if not getattr(args, "command", None):
+            parser.print_help()
+            return 0
+        enable_compilation_cache()
+        return args.func(args)
+    except GyrojaxError as e:
+        print(f"gyrojax: error: {e}".replace("\n", " "), file=sys.stderr)
+        return 2
+    except BrokenPipeError:
+        return 0
+    except OSError as e:  # a file the user named cannot be written or read: an input error, not a crash
+        where = f"{e.filename}: " if e.filename else ""
+        print(f"gyrojax: error: {where}{e.strerror or e}".replace("\n", " "), file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("gyrojax: interrupted", file=sys.stderr)
+        return 1
+    except Exception as e:  # an internal error: say what it was, briefly; GYROJAX_DEBUG=1 for the traceback
+        if os.environ.get("GYROJAX_DEBUG"):
+            raise
+        print(f"gyrojax: internal error: {type(e).__name__}: {e}".replace("\n", " "), file=sys.stderr)
+        return 1

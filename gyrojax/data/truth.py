@@ -1,0 +1,96 @@
+"""Truth files: what a simulation is told is true (CONVENTIONS §8)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gyrojax.data.io import is_finite_number, read_json_file
+from gyrojax.errors import TruthError
+from gyrojax.noise.processes import validate_noise
+from gyrojax.physics import effects as fx
+
+SETUP_SIZES = {"table_tilt": 2, "table_azimuth": 1, "encoder_harmonic": 4}
+
+
+@dataclass(frozen=True)
+class Truth:
+    """Coefficients (report units, by coefficient name), set-up errors (by set-up effect name) and noise."""
+
+    coefficients: dict = field(default_factory=dict)
+    setup: dict = field(default_factory=dict)
+    noise: dict = field(default_factory=dict)
+
+    def all_coefficients(self) -> dict:
+        """Instrument and set-up coefficients together, by coefficient name."""
+        out = dict(self.coefficients)
+        for name, vals in self.setup.items():
+            for c, v in zip(fx.get(name).coefficients, np.atleast_1d(vals)):
+                out[c] = float(v)
+        return out
+
+    def to_dict(self) -> dict:
+        """The truth as a JSON-ready dict (CONVENTIONS §8; coefficients in report units)."""
+        return {
+            "coefficients": dict(self.coefficients),
+            "setup": {k: (list(v) if np.ndim(v) else v) for k, v in self.setup.items()},
+            "noise": {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.noise.items()},
+        }
+
+
+def truth_from_dict(d, where: str = "truth") -> Truth:
+    """Validate a truth dict; unknown names are errors naming the key."""
+    if not isinstance(d, dict):
+        raise TruthError(f"{where}: the top level must be an object")
+    for k in d:
+        if k not in ("coefficients", "setup", "noise"):
+            raise TruthError(f"{where}: unknown key {k!r}; valid: 'coefficients', 'setup', 'noise'")
+    idx = fx.coefficient_index()
+    coeffs = {}
+    setup_coeffs = {c for e in SETUP_SIZES for c in fx.get(e).coefficients}
+    for part in ("coefficients", "setup", "noise"):
+        if d.get(part) is not None and not isinstance(d[part], dict):
+            raise TruthError(f"{where}: key {part!r} must be an object of name: value, got {type(d[part]).__name__}")
+    for k, v in (d.get("coefficients") or {}).items():
+        if k not in idx:
+            raise TruthError(
+                f"{where}: key {'coefficients.' + str(k)!r} is not a coefficient name; valid: {', '.join(idx)}"
+            )
+        if k in setup_coeffs:
+            raise TruthError(f"{where}: key {'coefficients.' + str(k)!r} is a set-up error; give it under 'setup'")
+        if not is_finite_number(v):
+            raise TruthError(f"{where}: key {'coefficients.' + str(k)!r} must be a finite number, got {v!r}")
+        coeffs[k] = float(v)
+    setup = {}
+    for k, v in (d.get("setup") or {}).items():
+        if k not in SETUP_SIZES:
+            raise TruthError(f"{where}: key {'setup.' + str(k)!r} unknown; valid: {', '.join(SETUP_SIZES)}")
+        try:
+            flat = v if isinstance(v, list) else [v]
+            if not all(is_finite_number(x) for x in flat):
+                raise ValueError
+            arr = np.asarray(flat, dtype=float)
+        except (TypeError, ValueError, OverflowError):
+            arr = np.zeros(0)
+        if arr.size != SETUP_SIZES[k] or not np.all(np.isfinite(arr)):
+            raise TruthError(
+                f"{where}: key {'setup.' + str(k)!r} needs {SETUP_SIZES[k]} finite number(s) in arcsec, got {v!r}"
+            )
+        setup[k] = tuple(float(x) for x in arr)
+    for k, v in (d.get("noise") or {}).items():  # numbers only (validate_noise names the valid terms)
+        vals = v if isinstance(v, (list, tuple)) and k in ("gauss_markov", "bias_instability") else [v]
+        if not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in vals):
+            raise TruthError(f"{where}: key {'noise.' + str(k)!r} must hold numbers (CONVENTIONS §8 units), got {v!r}")
+    try:
+        noise = validate_noise(d.get("noise"), f"{where}: noise")
+    except TruthError:
+        raise
+    except (TypeError, ValueError, OverflowError) as e:
+        raise TruthError(f"{where}: key 'noise' is invalid ({e}); see CONVENTIONS §8") from None
+    return Truth(coeffs, setup, noise)
+
+
+def load_truth(path) -> Truth:
+    """Load and validate a truth file (CONVENTIONS §8) from a JSON file (errors name the file and the key)."""
+    return truth_from_dict(read_json_file(path, TruthError, "a truth file (CONVENTIONS §8)"), str(path))

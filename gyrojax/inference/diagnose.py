@@ -1,0 +1,504 @@
+"""Diagnosis: see where the model fails and learn which named effect is missing.
+
+For every named effect the model lacks (CONVENTIONS §6) and the plan excites, a **score (Lagrange-multiplier)
+test** at the current fit: one Jacobian of the model extended by all candidates, evaluated at (θ̂, 0), no refit per
+candidate. With the current regressors J₀ and a candidate's regressors X, both whitened,
+
+    X⊥ = X − P₀ X,    S = r̃ᵀ X⊥ (X⊥ᵀ X⊥)⁺ X⊥ᵀ r̃ / σ̃²  ~  χ²(rank X⊥)   under "the effect is absent",
+
+where P₀ projects on the columns of J₀ and σ̃² is the residual variance of the *saturated* fit (all candidates in):
+estimated where a missing effect cannot inflate it. The noise model (AR per record, :mod:`gyrojax.whiten`) is also
+estimated from the saturated residual, so a hidden deterministic effect is not mistaken for colour, and colour is not
+mistaken for an effect. p-values are adjusted for testing every candidate at once (Holm's step-down procedure);
+the verdict is ``missing-effect`` when any adjusted p-value is below α.
+
+A candidate whose X⊥ vanishes is indistinguishable from the model in this plan; two candidates whose X⊥ are
+collinear are **aliases** of each other in this plan, and :func:`separating_plans` names built-in plans that
+would tell them apart. Residual colour that no candidate explains is reported as ``gauss_markov``, never as a
+deterministic effect (CONVENTIONS §6).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from functools import lru_cache
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from scipy import stats
+
+from gyrojax.errors import ModelError
+from gyrojax.inference.identify import Campaign, FitResult, fit, linearize
+from gyrojax.noise.whiten import ARNoise, GMNoise, fit_noise, profile_likelihood, whiten
+from gyrojax.physics import effects as fx
+from gyrojax.physics.model import Model, jacobian, record_data
+
+SLOW = ("bias_trend", "bias_temperature")
+"""Candidates that vary slowly in time and so compete with long-memory drift for the same residual structure:
+they are tested by a profile likelihood ratio with the noise re-estimated under both hypotheses."""
+COLLINEAR = 0.999  # canonical correlation above which two candidates are aliases in this plan
+UNSEEN = 1e-6  # |X⊥| / |X| below which a candidate is indistinguishable from the model
+
+
+@dataclass
+class Candidate:
+    """One effect the model lacks, with the evidence for it."""
+
+    name: str
+    statistic: float
+    df: int
+    p_value: float
+    p_adjusted: float
+    aliases: list
+    rms_after: float
+    estimate: dict = field(default_factory=dict)
+    separated_by: list = field(default_factory=list)
+    log10_p: float = 0.0
+
+    def to_json(self) -> dict:
+        """One entry of ``candidates`` in the diagnosis JSON (CONVENTIONS §7); ``rms_after_deg_per_h`` is in the
+        output unit (deg/h for gyros, g for accelerometers), ``estimate`` maps coefficient -> value and report unit."""
+        return {
+            "name": self.name,
+            "statistic": float(self.statistic),
+            "df": int(self.df),
+            "p_value": float(self.p_value),
+            "p_adjusted": float(self.p_adjusted),
+            "log10_p": float(self.log10_p),
+            "aliases": list(self.aliases),
+            "rms_after_deg_per_h": float(self.rms_after),
+            "estimate": self.estimate,
+            "separated_by": list(self.separated_by),
+        }
+
+
+@dataclass
+class Diagnosis:
+    """Verdict, ranked candidates and the fit they were tested against."""
+
+    verdict: str
+    fit: FitResult
+    candidates: list
+    alpha: float
+    unexcited: list = field(default_factory=list)
+
+    @property
+    def top(self) -> Candidate | None:
+        """The highest-ranked candidate (possibly ``gauss_markov``), or None when nothing was tested."""
+        return self.candidates[0] if self.candidates else None
+
+    @property
+    def residual_rms(self) -> float:
+        """RMS residual of the tested fit, output units (deg/h for gyros, g for accelerometers)."""
+        return self.fit.residual_rms
+
+    @property
+    def noise_floor(self) -> float:
+        """White-noise level of the tested fit's residual, same units as :attr:`residual_rms`."""
+        return self.fit.noise_floor
+
+    def to_json(self) -> dict:
+        """The JSON of CONVENTIONS §7 (``gyrojax diagnose --json``), with extra keys tools may ignore."""
+        return {
+            "verdict": self.verdict,
+            "residual_rms_deg_per_h": self.residual_rms,
+            "noise_floor_deg_per_h": self.noise_floor,
+            "candidates": [c.to_json() for c in self.candidates],
+            "terms": list(self.fit.model.terms),
+            "alpha": self.alpha,
+            "not_excited": list(self.unexcited),
+            "fit": self.fit.to_json(),
+        }
+
+
+def candidate_effects(model: Model, campaign: Campaign) -> list[str]:
+    """Named effects absent from ``model`` that the records can carry.
+
+    ``bias_temperature`` is a candidate only when every record has ``temperature_C`` (°C) and it varies by more
+    than 1e-6 °C over the campaign; otherwise it would alias D_F.
+    """
+    out = []
+    temps = [r.temperature_C for r in campaign.records]
+    has_temp = all(t is not None for t in temps) and np.ptp(np.concatenate(temps)) > 1e-6 if temps else False
+    for name in fx.names(model.kind):
+        if name in model.terms:
+            continue
+        if name == "bias_temperature" and not has_temp:
+            continue
+        out.append(name)
+    return out
+
+
+def holm(p: np.ndarray) -> np.ndarray:
+    """Holm–Bonferroni adjusted p-values (family-wise error control for many candidates)."""
+    m = len(p)
+    if m == 0:
+        return p
+    order = np.argsort(p)
+    adj = np.empty(m)
+    running = 0.0
+    for rank, i in enumerate(order):
+        running = max(running, min(1.0, (m - rank) * p[i]))
+        adj[i] = running
+    return adj
+
+
+def _basis(a: np.ndarray, tol: float = 1e-9) -> np.ndarray:
+    """Orthonormal basis of the column space of ``a`` (rank-tolerant)."""
+    if a.shape[1] == 0:
+        return np.zeros((a.shape[0], 0))
+    norms = np.sqrt((a * a).sum(axis=0))
+    z = a / np.where(norms > 0, norms, 1.0)
+    u, s, _ = np.linalg.svd(z, full_matrices=False)
+    if s.size == 0 or s[0] == 0:
+        return np.zeros((a.shape[0], 0))
+    return u[:, s > tol * s[0]]
+
+
+def _stack_whitened(lin, noises):
+    rows_r, rows_j = [], []
+    for (r, j, lab, t), nz in zip(lin, noises):
+        w, _ = whiten(np.column_stack([r, j]), lab, nz, t)
+        rows_r.append(w[:, 0])
+        rows_j.append(w[:, 1:])
+    return np.concatenate(rows_r), np.concatenate(rows_j, axis=0)
+
+
+def _nuisance(t: np.ndarray) -> np.ndarray:
+    """Per-record offset: structure that noise models must not absorb (see :func:`_noise_models`)."""
+    return np.ones((len(t), 1))
+
+
+def _noise_models(lin, cols) -> list:
+    """Per-record noise model from the residual left after projecting on the regressor columns ``cols`` and on a
+    per-record offset.
+
+    A misspecified model leaves deterministic structure in its residual; the slowest kind (a record-wide offset, as
+    a flipped mounting gives an omitted D_O) would otherwise pass for long-memory noise and hide the very effect
+    under test. It is a nuisance regressor only here; REML keeps the noise estimate unbiased when it is absent.
+    Slower-than-the-record drift is kept apart from noise by the cap on τ
+    (:data:`gyrojax.noise.whiten.TAU_SPAN_FRACTION`).
+    """
+    scales = [max(np.sqrt(np.mean(r * r)), 1e-300) for r, *_ in lin]
+    n_rec = len(lin)
+    blocks = []
+    for i, ((r, j, _lab, t), s) in enumerate(zip(lin, scales)):
+        nu = np.zeros((len(r), n_rec))
+        nu[:, i : i + 1] = _nuisance(t)
+        blocks.append(np.column_stack([j[:, cols] / s, nu]))
+    r_all = np.concatenate([r / s for (r, *_), s in zip(lin, scales)])
+    ub = _basis(np.concatenate(blocks, axis=0))
+    res = r_all - ub @ (ub.T @ r_all)
+    out, i0 = [], 0
+    for (r, j, lab, t), s in zip(lin, scales):
+        n = len(r)
+        design = np.column_stack([j[:, cols], _nuisance(t)])
+        nz = fit_noise(res[i0 : i0 + n] * s, lab, t, design=design)
+        out.append(nz if nz.innovation_std > 0 else ARNoise(np.zeros(0), s, s))
+        i0 += n
+    return out
+
+
+def _score(lin, noises, model: Model, full: Model, cand, p0: int, rms_now: float):
+    """Score statistic, p-value, estimate and residual-after of every candidate (module doc)."""
+    sl = full.slices()
+    rw, jw = _stack_whitened(lin, noises)
+    j0 = jw[:, :p0]
+    u0 = _basis(j0)
+    r_perp = rw - u0 @ (u0.T @ rw)
+    dof = max(len(rw) - u0.shape[1], 1)
+    sigma2 = float(r_perp @ r_perp) / dof
+    r_raw = np.concatenate([r for r, *_ in lin])
+    j_raw = np.concatenate([j for _, j, *_ in lin], axis=0)
+    n_raw = len(r_raw)
+    tested, perps, unexcited = [], {}, []
+    for c in cand:
+        cols = sl[c]
+        x = jw[:, cols]
+        xn = float(np.sqrt((x * x).sum()))
+        xr = j_raw[:, cols]
+        if xn == 0.0 or float(np.abs(xr).max()) == 0.0:
+            unexcited.append(c)
+            continue
+        xp = x - u0 @ (u0.T @ x)
+        rel = float(np.sqrt((xp * xp).sum())) / xn
+        if rel < UNSEEN:
+            b_model, *_ = np.linalg.lstsq(j0, x, rcond=None)
+            weight = np.abs(b_model).max(axis=1) * np.sqrt((j0 * j0).sum(axis=0))
+            idx = np.flatnonzero(weight > 1e-3 * weight.max())
+            aliases = sorted({fx.effect_of_coefficient(model.coefficient_names[k]) for k in idx}, key=model.terms.index)
+            tested.append(Candidate(c, 0.0, 0, 1.0, 1.0, aliases, rms_now))
+            continue
+        uc = _basis(xp, tol=1e-7)
+        proj = uc.T @ r_perp
+        stat = float(proj @ proj) / sigma2
+        df = uc.shape[1]
+        logp = float(stats.chi2.logsf(stat, df))
+        # the candidate's coefficients if it were added (whitened LS), and the raw residual it would leave
+        beta, *_ = np.linalg.lstsq(xp, r_perp, rcond=None)
+        b_model = np.linalg.lstsq(j0, x, rcond=None)[0] if p0 else np.zeros((0, x.shape[1]))
+        delta = (xr - j_raw[:, :p0] @ b_model) @ beta
+        rms_after = float(np.sqrt(np.mean((r_raw - delta) ** 2))) if n_raw else float("nan")
+        est = {
+            name: {"value": float(v), "unit": u} for name, v, u in zip(fx.get(c).coefficients, beta, fx.get(c).units)
+        }
+        tested.append(Candidate(c, stat, df, math.exp(logp), 1.0, [], rms_after, est, log10_p=logp / math.log(10)))
+        perps[c] = uc
+    return tested, perps, unexcited
+
+
+def _slow_lr(c: Candidate, lin, full: Model, p0: int, noises) -> None:
+    """Replace the score statistic of a slow candidate by the profile likelihood ratio, record by record.
+
+    For each record, −2 log L of [model] and of [model + candidate] (coefficients per record, noise white + GM
+    maximised in each case, τ capped as everywhere); LR = Σ difference ~ χ²(Σ added rank) when the effect is
+    absent. A trend that GM noise could mimic is then judged by how much better the data fit with it as a
+    deterministic term than with the drift re-estimated to explain it.
+    """
+    cols_c = np.arange(full.size)[full.slices()[c.name]]
+    stat, df = 0.0, 0
+    for (r, j, lab, t), nz in zip(lin, noises):
+        base = np.column_stack([j[:, :p0], np.ones(len(r))])
+        alt = np.column_stack([base, j[:, cols_c]])
+        rank0 = np.linalg.matrix_rank(base / np.maximum(np.abs(base).max(axis=0), 1e-300))
+        rank1 = np.linalg.matrix_rank(alt / np.maximum(np.abs(alt).max(axis=0), 1e-300))
+        if rank1 <= rank0:
+            continue
+        start = nz if isinstance(nz, GMNoise) else None
+        l0 = profile_likelihood(r, base, lab, t, start)
+        l1 = profile_likelihood(r, alt, lab, t, start)
+        stat += max(l0 - l1, 0.0)
+        df += rank1 - rank0
+    if df:
+        logp = float(stats.chi2.logsf(stat, df))
+        c.statistic, c.df, c.p_value, c.log10_p = stat, df, math.exp(logp), logp / math.log(10)
+
+
+def diagnose(
+    records,
+    terms=None,
+    *,
+    alpha: float = 0.01,
+    candidates=None,
+    result: FitResult | None = None,
+    campaign: Campaign | None = None,
+    suggest_tests: bool = True,
+) -> Diagnosis:
+    """Rank the effects the model ``terms`` is missing, from the data of ``records``.
+
+    Args:
+      records: records of one instrument (any plans and modes), or a list of them.
+      terms: the current model (effect names); default as :func:`gyrojax.inference.identify.fit`.
+      alpha: family-wise significance level for the verdict (dimensionless).
+      candidates: effect names to test (default: every named effect not in the model that the records can carry).
+      result: a fit of ``terms`` to these records, if already at hand.
+      campaign: the records already built into a :class:`gyrojax.inference.identify.Campaign`, if at hand.
+      suggest_tests: name built-in plans that would separate aliased candidates.
+
+    Returns: a :class:`Diagnosis` with ``verdict`` ``"missing-effect"`` or ``"adequate"``; residuals and noise
+    floor in the output unit (deg/h for gyros, g for accelerometers), candidate estimates in report units.
+    """
+    camp = campaign or Campaign.of(records)
+    res = result or fit(camp.records, terms, campaign=camp)
+    model = res.model
+    cand = list(candidates) if candidates is not None else candidate_effects(model, camp)
+    for c in cand:
+        if c not in fx.names(model.kind):
+            raise ModelError(f"unknown candidate effect {c!r} for a {model.kind}")
+    full = Model(model.terms + tuple(c for c in cand if c not in model.terms), model.kind)
+    theta_full = np.concatenate([res.theta, np.zeros(full.size - model.size)])
+    lin = linearize(full, theta_full, camp)
+    p0 = model.size
+    sl = full.slices()
+
+    # noise model by forward selection: from the current residual, re-estimated after adding the most
+    # significant candidate (so that a strong missing effect does not pass for coloured noise, and a plan whose
+    # candidates span every position cannot soak the drift's low-frequency power into a saturated fit)
+    extra: list[str] = []
+    for _round in range(4):
+        cols = np.concatenate([np.arange(p0)] + [np.arange(full.size)[sl[c]] for c in extra]).astype(int)
+        noises = _noise_models(lin, cols)
+        tested, perps, unexcited = _score(lin, noises, model, full, cand, p0, res.residual_rms)
+        live = [c for c in tested if c.df > 0]
+        if not live:
+            break
+        best = min(live, key=lambda c: (c.log10_p, -c.statistic))
+        if best.log10_p + math.log10(len(live)) >= math.log10(alpha) or best.name in extra:
+            break
+        extra.append(best.name)
+
+    # slow candidates: likelihood ratio with the Gauss–Markov noise re-estimated with and without the candidate
+    if any(isinstance(nz, GMNoise) for nz in noises):
+        for c in tested:
+            if c.name in SLOW and c.df > 0:
+                _slow_lr(c, lin, full, p0, noises)
+
+    # aliases between candidates: collinear projected regressors
+    names_t = [c.name for c in tested if c.name in perps]
+    for i, a in enumerate(names_t):
+        for b in names_t[i + 1 :]:
+            s = np.linalg.svd(perps[a].T @ perps[b], compute_uv=False)
+            if s.size and s[0] > COLLINEAR:
+                ca = next(c for c in tested if c.name == a)
+                cb = next(c for c in tested if c.name == b)
+                ca.aliases.append(b)
+                cb.aliases.append(a)
+
+    # multiple comparisons: Holm over the candidates actually tested
+    live = [c for c in tested if c.df > 0]
+    adj = holm(np.array([c.p_value for c in live]))
+    m = len(live)
+    for c, a in zip(live, adj):
+        c.p_adjusted = float(a)
+    # rank by evidence (log p, so that underflowed p-values still order)
+    tested.sort(key=lambda c: (c.log10_p if c.df > 0 else 0.0, -c.statistic))
+    significant = [c for c in live if c.log10_p + math.log10(max(m, 1)) < math.log10(alpha)]
+    verdict = "missing-effect" if significant else "adequate"
+
+    # colour that no deterministic effect explains: report it as gauss_markov
+    gm = _colour_candidate(res, noises, lin, alpha)
+    if gm is not None:
+        if significant:
+            tested.insert(len(significant), gm)
+        else:
+            tested.insert(0, gm)
+
+    if suggest_tests:
+        for c in tested[:5]:
+            if c.aliases and c.name in perps:
+                group = (c.name,) + tuple(a for a in c.aliases if a in fx.names())
+                c.separated_by = separating_plans(model.kind, group)
+    return Diagnosis(verdict, res, tested, alpha, unexcited)
+
+
+def _colour_candidate(res: FitResult, noises, lin, alpha) -> Candidate | None:
+    """Likelihood-ratio test of the AR noise model against white noise, pooled over records."""
+    stat, df, rms_acc, n_acc = 0.0, 0, 0.0, 0
+    for nz, (r, *_) in zip(noises, lin):
+        n = len(r)
+        if nz.order and nz.innovation_std > 0:
+            stat += n * math.log(max(nz.variance_ratio, 1.0))
+            df += 2 if nz.order == "gm" else nz.order
+        rms_acc += nz.innovation_std**2 * n
+        n_acc += n
+    if df == 0:
+        return None
+    logp = float(stats.chi2.logsf(stat, df))
+    p = math.exp(logp)
+    if p >= alpha:
+        return None
+    return Candidate(
+        "gauss_markov",
+        stat,
+        df,
+        p,
+        p,
+        [],
+        float(math.sqrt(rms_acc / max(n_acc, 1))),
+        {"ar_order": {"value": df, "unit": "-"}},
+        log10_p=logp / math.log(10),
+    )
+
+
+# ---- which test would separate aliased effects ------------------------------------------------------------------
+
+
+@lru_cache(maxsize=4)
+def _plan_jacobians(kind: str):
+    """Regressors of every named effect in a few short built-in plans (computed once per process)."""
+    from gyrojax.data import plans
+    from gyrojax.simulation.simulator import plan_records
+
+    options = {
+        "multiposition-24": lambda: plans.multiposition(24, minutes=1.0, dt_s=6.0),
+        "tumble (flipped, CW/CCW)": lambda: plans.tumble(revolutions=1.0, dt_s=60.0),
+        "two-axis-tumble 5:1": lambda: plans.two_axis_tumble(5, 1, revolutions=1.0, dt_s=60.0),
+        "rate-ladder": lambda: plans.rate_ladder(seconds=5.0, dt_s=1.0),
+        "eight-position": lambda: plans.eight_position(minutes=1.0, dt_s=6.0),
+    }
+    model = Model(tuple(n for n in fx.names(kind) if n != "bias_temperature"), kind)
+    runs, owner = [], []
+    for name, build in options.items():
+        for rec in plan_records(build()):
+            runs.append(rec)
+            owner.append(name)
+    # one compile for all: every run padded to two table axes (a still dummy axis outermost) and one length
+    n_max = max(r.n for r in runs)
+    padded, lengths = [], []
+    for rec in runs:
+        d = record_data(rec)
+        n = rec.n
+        pad = lambda a: np.concatenate([a, np.repeat(a[-1:], n_max - n, axis=0)], axis=0)  # noqa: E731
+        angles, rates, axes = np.asarray(d.angles), np.asarray(d.rates), np.asarray(d.axes)
+        if axes.shape[0] == 1:
+            angles = np.column_stack([np.zeros(n), angles])
+            rates = np.column_stack([np.zeros(n), rates])
+            axes = np.vstack([[0.0, 0.0, 1.0], axes])
+        padded.append(
+            dataclasses.replace(
+                d,
+                axes=axes,
+                angles=pad(angles),
+                rates=pad(rates),
+                time_s=pad(np.asarray(d.time_s)),
+                temperature=pad(np.asarray(d.temperature)),
+                y=pad(np.asarray(d.y)),
+                weight=pad(np.asarray(d.weight)),
+                command=pad(np.asarray(d.command)),
+                dt=np.zeros(n_max - 1),
+                triad=np.asarray(d.triad),
+                latitude=np.asarray(d.latitude),
+                gravity=np.asarray(d.gravity),
+                encoder_axis=1,
+            )
+        )
+        lengths.append(n)
+    batch = jax.tree_util.tree_map(lambda *xs: np.stack(xs), *padded)
+    jac = jax.jit(jax.vmap(lambda d: jacobian(model, jnp.zeros(model.size), d)))(batch)
+    out: dict = {}
+    for name, n, j in zip(owner, lengths, np.asarray(jac)):
+        out.setdefault(name, []).append(j[:n])
+    return model, {k: np.concatenate(v, axis=0) for k, v in out.items()}
+
+
+def separating_plans(kind: str, effects: tuple) -> list:
+    """Built-in plans in which the regressors of ``effects`` (with D_F) are not collinear: the extra test to run."""
+    if kind != fx.SDF:
+        return []
+    model, jacs = _plan_jacobians(kind)
+    sl = model.slices()
+    names = tuple(dict.fromkeys(("D_F",) + tuple(effects)))
+    if any(n not in sl for n in names):
+        return []
+    cols = np.concatenate([np.arange(model.size)[sl[n]] for n in names])
+    out = []
+    for plan, j in jacs.items():
+        sub = j[:, cols]
+        norms = np.sqrt((sub * sub).sum(axis=0))
+        if np.any(norms == 0):
+            continue
+        s = np.linalg.svd(sub / norms, compute_uv=False)
+        if s[-1] > 1e-3 * s[0]:
+            out.append(plan)
+    return out
+
+
+def add_and_refit(records, terms, effect: str | None = None, *, diagnosis: Diagnosis | None = None, **kw):
+    """Add ``effect`` (default: the top deterministic candidate) to ``terms``, refit, and diagnose again.
+
+    Returns ``(new_terms, new_fit, new_diagnosis, added)``.
+    """
+    camp = Campaign.of(records) if not isinstance(records, Campaign) else records
+    d = diagnosis or diagnose(camp.records, terms, campaign=camp, **kw)
+    if effect is None:
+        det = [c for c in d.candidates if c.name != "gauss_markov" and c.df > 0]
+        if not det:
+            raise ModelError("no deterministic candidate to add; the model is adequate for these records")
+        effect = det[0].name
+    new_terms = tuple(d.fit.model.terms) + (effect,)
+    new_fit = fit(camp.records, new_terms, campaign=camp, allow_aliases=False)
+    new_d = diagnose(camp.records, new_terms, campaign=camp, result=new_fit, **kw)
+    return new_terms, new_fit, new_d, effect

@@ -1,0 +1,3 @@
+"""Random drift: the noise description and its processes (:mod:`~gyrojax.noise.processes`), whitening and REML
+noise models for the fits (:mod:`~gyrojax.noise.whiten`), Allan variance and the IEEE 952 fit
+(:mod:`~gyrojax.noise.allan`), AR/ARMA analysis of drift series (:mod:`~gyrojax.noise.randomdrift`)."""

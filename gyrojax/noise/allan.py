@@ -1,0 +1,519 @@
+"""Allan variance analysis of random drift (IEEE Std 952-1997, annex C; NIST SP 1065).
+
+**Overlapping Allan variance.** A rate series y_k (deg/h) sampled every τ0 s integrates to the angle
+θ_0 = 0, θ_{k+1} = θ_k + (y_k − ȳ)·τ0 (deg/h·s). For τ = m·τ0 the overlapping estimate is
+
+    σ²(τ) = Σ_{i=0}^{M−1} (θ_{i+2m} − 2θ_{i+m} + θ_i)² / (2 τ² M),    M = n + 1 − 2m,
+
+(NIST SP 1065 eq. 11), O(n) per τ from the cumulative sum; it equals ``allantools.oadev`` on frequency data.
+
+**Confidence intervals.** σ̂²·ν/σ² is approximately χ²(ν) with the equivalent degrees of freedom ν of the
+overlapping estimator; ν follows the simple approximations of NIST SP 1065 Table 5 (Lesage–Audoin,
+Howe–Allan–Barnes) for the noise type of each τ, identified from the local log-log slope of σ²(τ).
+
+**Noise model** (IEEE 952 annex C, τ in s, σ² in (deg/h)²):
+
+==================  ====================  =====================================  =================
+term                coefficient (unit)    Allan variance                         slope of σ(τ)
+==================  ====================  =====================================  =================
+``quantization``    Q (arcsec)            3 Q² / τ²          (1 arcsec/s = 1 deg/h) −1
+``white``           N (deg/√h)            N² / τ_h = 3600 N² / τ                 −1/2
+``bias_instability`` B (deg/h)            (2 ln 2 / π) B²    (flicker floor)      0
+``random_walk``     K (deg/h/√h)          K² τ_h / 3 = K² τ / 10800              +1/2
+``rate_ramp``       R (deg/h/h)           R² τ_h² / 2 = R² τ² / (2·3600²)        +1
+``gauss_markov``    σ (deg/h), T (s)      (2σ²T/τ)[1 − (T/2τ)(3 − 4e^{−τ/T} + e^{−2τ/T})]
+==================  ====================  =====================================  =================
+
+The fit is a weighted non-negative least squares on the variance scale, weights ν/(2σ⁴) from the χ² law
+(iterated with the model's σ² in place of the noisy estimate); terms that never carry a given fraction of
+the model, or are not significant, are dropped and the rest refitted. ``NoiseFit.term_adev`` gives each
+term's own Allan curve (the GMWM-style view).
+
+Command line: ``gyrojax noise RECORD... [--json] [--plot PNG]`` on static records.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from scipy import optimize, stats
+
+from gyrojax.errors import GyrojaxError
+from gyrojax.units import SECONDS_PER_HOUR
+
+ONE_SIGMA = math.erf(1.0 / math.sqrt(2.0))
+"""Confidence level of ±1σ (0.6827)."""
+
+BI_FACTOR = 2.0 * math.log(2.0) / math.pi
+"""σ² of the flicker floor per B² (IEEE 952 C.1: σ = 0.664 B)."""
+
+TERMS = ("quantization", "white", "bias_instability", "random_walk", "rate_ramp")
+UNITS = {
+    "quantization": "arcsec",
+    "white": "deg/sqrt(h)",
+    "bias_instability": "deg/h",
+    "random_walk": "deg/h/sqrt(h)",
+    "rate_ramp": "deg/h/h",
+    "gauss_markov": ["deg/h", "s"],
+}
+
+
+TERM_ALPHA = {"quantization": 2, "white": 0, "bias_instability": -1, "random_walk": -2, "rate_ramp": -2}
+"""Rate-PSD exponent α of each term (S ∝ f^α; quantisation is white angle noise)."""
+
+
+class AllanError(GyrojaxError, ValueError):
+    """Bad input to the Allan analysis (too few samples, non-uniform sampling, moving table, ...)."""
+
+
+# ---- overlapping Allan variance ---------------------------------------------------------------------------------
+
+
+def angle_series(rate, tau0):
+    """θ_0 = 0, θ_{k+1} = θ_k + (y_k − ȳ)τ0: the integrated rate (deg/h·s), length n + 1 (mean removed)."""
+    rate = jnp.asarray(rate, dtype=jnp.float64)
+    return jnp.concatenate([jnp.zeros(1), jnp.cumsum((rate - jnp.mean(rate)) * tau0)])
+
+
+@jax.jit
+def _second_difference_sums(theta, ms):
+    """For each m: (Σ_i (θ_{i+2m} − 2θ_{i+m} + θ_i)², M = max(len(θ) − 2m, 0)); fixed shapes, O(n) per m."""
+    n1 = theta.shape[0]
+    idx = jnp.arange(n1)
+
+    def one(m):
+        count = jnp.maximum(n1 - 2 * m, 0)
+        valid = idx < count
+        d = theta[jnp.minimum(idx + 2 * m, n1 - 1)] - 2.0 * theta[jnp.minimum(idx + m, n1 - 1)] + theta
+        return jnp.sum(jnp.where(valid, d * d, 0.0)), count
+
+    return jax.lax.map(one, ms)
+
+
+def overlapping_avar(rate, tau0, m_list):
+    """Overlapping Allan variance ((deg/h)²) and the number of second differences M at τ = m·τ0.
+
+    ``rate`` (n,) deg/h; ``tau0`` s; ``m_list`` integers ≥ 1 (M = n + 1 − 2m must be ≥ 1). Jit-compiled.
+    """
+    ms = jnp.asarray(m_list, dtype=jnp.int64)
+    s, count = _second_difference_sums(angle_series(rate, tau0), ms)
+    tau = ms * tau0
+    return s / (2.0 * tau * tau * jnp.maximum(count, 1)), count
+
+
+def overlapping_adev(rate, tau0, m_list):
+    """Overlapping Allan deviation (deg/h) of a rate series (deg/h) sampled at ``tau0`` s, at τ = m·τ0."""
+    avar, _ = overlapping_avar(rate, tau0, m_list)
+    return jnp.sqrt(avar)
+
+
+def default_m_list(n: int, per_decade: int = 10, max_fraction: float = 1.0 / 3.0) -> np.ndarray:
+    """Log-spaced averaging factors 1 ≤ m ≤ n·max_fraction, ``per_decade`` per decade, unique integers."""
+    m_max = max(1, int(n * max_fraction))
+    k = int(math.floor(per_decade * math.log10(m_max))) + 1
+    return np.unique(np.round(np.logspace(0, math.log10(m_max), max(k, 1))).astype(np.int64))
+
+
+# ---- equivalent degrees of freedom and confidence intervals -----------------------------------------------------
+
+ALPHA_OF_SLOPE = {-2: 2, -1: 0, 0: -1, 1: -2, 2: -2}
+"""Power-law exponent α of the rate PSD (S ∝ f^α) for each integer slope μ of σ²(τ) ∝ τ^μ (μ = −α − 1 for
+α ≤ 1; quantisation is white angle noise, α = 2; a rate ramp takes the random-walk formula)."""
+
+
+def edf_simple(n_phase, m, alpha):
+    """Equivalent degrees of freedom of the overlapping Allan variance (NIST SP 1065 Table 5).
+
+    ``n_phase`` angle samples (n + 1 for n rates), averaging factor ``m``, noise exponent ``alpha`` ∈ {2, 1, 0,
+    −1, −2}. Elementwise over numpy arrays.
+    """
+    N = np.asarray(n_phase, dtype=float)
+    m = np.asarray(m, dtype=float)
+    alpha = np.asarray(alpha)
+    N, m, alpha = np.broadcast_arrays(N, m, alpha)
+    with np.errstate(all="ignore"):
+        wpm = (N + 1) * (N - 2 * m) / (2 * (N - m))
+        fpm = np.exp(np.sqrt(np.log((N - 1) / (2 * m)) * np.log((2 * m + 1) * (N - 1) / 4)))
+        wfm = (3 * (N - 1) / (2 * m) - 2 * (N - 2) / N) * (4 * m * m / (4 * m * m + 5))
+        ffm = np.where(m == 1, 2 * (N - 2) / (2.3 * N - 4.9), 5 * N * N / (4 * m * (N + 3 * m)))
+        rwfm = (N - 2) / m * ((N - 1) ** 2 - 3 * m * (N - 1) + 4 * m * m) / (N - 3) ** 2
+    out = np.select([alpha == 2, alpha == 1, alpha == 0, alpha == -1, alpha == -2], [wpm, fpm, wfm, ffm, rwfm], N - 1)
+    return out
+
+
+def local_slope(taus, avar, half_width_decades: float = 0.4) -> np.ndarray:
+    """Slope d ln σ² / d ln τ (dimensionless) at each τ, by a straight-line fit over ±``half_width_decades``.
+
+    ``taus`` in s, ``avar`` in any units (the slope does not depend on them).
+    """
+    lt, lv = np.log10(taus), np.log10(np.maximum(avar, 1e-300))
+    out = np.zeros(len(lt))
+    for i in range(len(lt)):
+        sel = np.abs(lt - lt[i]) <= half_width_decades
+        if sel.sum() < 2:
+            sel = np.argsort(np.abs(lt - lt[i]))[:2]
+        x, y = lt[sel], lv[sel]
+        out[i] = np.polyfit(x, y, 1)[0] if np.ptp(x) > 0 else 0.0
+    return out
+
+
+def noise_alpha(taus, avar) -> np.ndarray:
+    """Dominant power-law noise exponent α at each τ, from the rounded local slope μ of σ²(τ), μ ≥ −1.
+
+    Slopes below −1 (quantisation) are taken as white rate noise (α = 0): a random dip of σ² at a long τ must
+    not be read as white angle noise, whose EDF does not fall with m (the white-rate EDF is the conservative
+    choice there). :func:`analyze` refines α from the fitted model.
+    """
+    mu = np.clip(np.round(local_slope(taus, avar)), -1, 2).astype(int)
+    return np.array([ALPHA_OF_SLOPE[int(u)] for u in mu])
+
+
+def confidence_interval(adev, edf, ci: float = ONE_SIGMA):
+    """Chi-square interval of an Allan deviation with ``edf`` degrees of freedom (NIST SP 1065 eq. 45).
+
+    σ²_low = ν σ̂² / χ²_{(1+ci)/2}(ν),  σ²_high = ν σ̂² / χ²_{(1−ci)/2}(ν); returns (low, high) deviations.
+    """
+    adev, edf = np.asarray(adev, float), np.maximum(np.asarray(edf, float), 1e-3)
+    lo_q, hi_q = (1.0 - ci) / 2.0, (1.0 + ci) / 2.0
+    low = adev * np.sqrt(edf / stats.chi2.ppf(hi_q, edf))
+    high = adev * np.sqrt(edf / stats.chi2.ppf(lo_q, edf))
+    return low, high
+
+
+@dataclass
+class AllanResult:
+    """Overlapping Allan deviation with its confidence interval (deviations in deg/h, τ in s).
+
+    ``m`` averaging factors, ``count`` second differences used, ``lengths`` the samples of each pooled segment,
+    ``alpha`` the noise exponent assumed for the EDF at each τ.
+    """
+
+    taus_s: np.ndarray
+    adev: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    edf: np.ndarray
+    alpha: np.ndarray
+    m: np.ndarray
+    count: np.ndarray
+    lengths: tuple
+    ci: float = ONE_SIGMA
+
+    @property
+    def avar(self) -> np.ndarray:
+        """Allan variance σ²(τ), (deg/h)²."""
+        return self.adev**2
+
+    def with_alpha(self, alpha) -> "AllanResult":
+        """The same estimate with the degrees of freedom and intervals recomputed for noise exponents ``alpha``."""
+        alpha = np.broadcast_to(np.asarray(alpha, dtype=int), self.taus_s.shape).copy()
+        edf = pooled_edf(self.lengths, self.m, alpha)
+        low, high = confidence_interval(self.adev, edf, self.ci)
+        return replace(self, low=low, high=high, edf=edf, alpha=alpha)
+
+
+def pooled_edf(lengths, m, alpha) -> np.ndarray:
+    """EDF of the pooled estimate: the sum over segments (n samples each, long enough for m) of the Table 5
+    values; at least 1."""
+    m = np.asarray(m)
+    edf = np.zeros(len(m))
+    for n in lengths:
+        ok = 2 * m <= n - 1
+        edf[ok] += edf_simple(n + 1, m[ok], np.asarray(alpha)[ok])
+    return np.maximum(edf, 1.0)
+
+
+def allan(segments, tau0: float, m_list=None, ci: float = ONE_SIGMA, alpha=None) -> AllanResult:
+    """Overlapping Allan deviation of one rate series or of several independent ones (deg/h, sampled at τ0 s).
+
+    Several segments (e.g. records, or the continuous pieces of one record) are pooled: σ²(τ) = Σ_j S_j /
+    (2τ² Σ_j M_j) over the segments long enough for that τ, and their degrees of freedom add. ``alpha``: the
+    noise exponent of each τ for the EDF (default: identified from the local slope, :func:`noise_alpha`).
+    """
+    if isinstance(segments, (np.ndarray, jnp.ndarray)) and np.ndim(segments) == 1:
+        segments = [segments]
+    segments = [np.asarray(s, dtype=float) for s in segments]
+    if not segments or tau0 <= 0 or not np.isfinite(tau0):
+        raise AllanError(f"need at least one rate series and tau0 > 0 (got {len(segments)} series, tau0={tau0})")
+    for j, s in enumerate(segments):
+        if s.ndim != 1 or not np.all(np.isfinite(s)):
+            raise AllanError(f"rate series {j} must be a finite 1-D array")
+    n_max = max(len(s) for s in segments)
+    if n_max < 4:
+        raise AllanError(f"need at least 4 samples for an Allan deviation, got {n_max}")
+    m = default_m_list(n_max) if m_list is None else np.unique(np.asarray(m_list, dtype=np.int64))
+    if m.size == 0 or m.min() < 1:
+        raise AllanError("averaging factors m must be integers >= 1")
+    m = m[2 * m <= n_max - 1]
+    if m.size == 0:
+        raise AllanError(f"no averaging factor fits in {n_max} samples (need 2m <= n - 1)")
+    sums = np.zeros(len(m))
+    counts = np.zeros(len(m))
+    for s in segments:
+        ok = 2 * m <= len(s) - 1
+        if not ok.any():
+            continue
+        avar_j, c_j = overlapping_avar(s, tau0, m[ok])
+        c_j = np.asarray(c_j, dtype=float)
+        sums[ok] += np.asarray(avar_j) * 2.0 * (m[ok] * tau0) ** 2 * c_j
+        counts[ok] += c_j
+    taus = m * tau0
+    avar = sums / (2.0 * taus**2 * counts)
+    level = max(float(np.max(np.abs(s))) for s in segments)
+    if not np.sqrt(np.max(avar)) > 1e-12 * level:
+        raise AllanError("the Allan variance is zero at every tau (to rounding): the rate series is constant")
+    adev = np.sqrt(avar)
+    out = AllanResult(
+        taus, adev, adev, adev, np.ones(len(m)), np.zeros(len(m), int), m, counts, tuple(len(s) for s in segments), ci
+    )
+    return out.with_alpha(noise_alpha(taus, avar) if alpha is None else alpha)
+
+
+# ---- noise model ------------------------------------------------------------------------------------------------
+
+
+def gauss_markov_avar(tau, sigma, t_c):
+    """Allan variance ((deg/h)²) of a first-order Gauss–Markov rate of std σ (deg/h), correlation time T (s).
+
+    σ²(τ) = (2σ²T/τ)[1 − (T/2τ)(3 − 4e^{−τ/T} + e^{−2τ/T})]: → 2σ²τ/(3T) (random-walk-like) for τ ≪ T,
+    → 2σ²T/τ (white) for τ ≫ T, peak 0.3811σ² at τ = 1.8923T. Series form for τ/T < 1e-3 (no cancellation).
+    """
+    x = np.asarray(tau, float) / t_c
+    with np.errstate(all="ignore"):
+        big = (2.0 / x) * (1.0 - (3.0 - 4.0 * np.exp(-x) + np.exp(-2.0 * x)) / (2.0 * x))
+    small = 2.0 * x / 3.0 - x * x / 2.0 + 7.0 * x**3 / 30.0
+    return sigma**2 * np.where(x < 1e-3, small, big)
+
+
+def term_basis(name: str, tau) -> np.ndarray:
+    """σ²(τ) in (deg/h)² of term ``name`` per unit squared coefficient (units of ``UNITS``), ``tau`` in s.
+
+    IEEE 952 C.1: quantisation 3Q²/τ² (Q in arcsec; 1 arcsec/s = 1 deg/h), white N²/τ, bias instability
+    (2 ln 2/π) B² ≈ 0.664² B², rate random walk K²τ/3, rate ramp R²τ²/2 (τ in h where the coefficient has h).
+    """
+    tau = np.asarray(tau, float)
+    if name == "quantization":
+        return 3.0 / tau**2
+    if name == "white":
+        return SECONDS_PER_HOUR / tau
+    if name == "bias_instability":
+        return np.full_like(tau, BI_FACTOR)
+    if name == "random_walk":
+        return tau / (3.0 * SECONDS_PER_HOUR)
+    if name == "rate_ramp":
+        return tau**2 / (2.0 * SECONDS_PER_HOUR**2)
+    raise AllanError(f"unknown noise term {name!r}; valid: {', '.join(TERMS)}, gauss_markov")
+
+
+@dataclass
+class NoiseFit:
+    """Fitted noise coefficients: linear terms by name in their units (``UNITS``), ``gauss_markov`` (σ, T)."""
+
+    values: dict
+    gauss_markov: tuple | None
+    included: tuple
+    std: dict = field(default_factory=dict)
+
+    def term_avar(self, taus) -> dict:
+        """Each included term's own Allan variance curve ((deg/h)²) on ``taus`` (s)."""
+        out = {k: self.values[k] ** 2 * term_basis(k, taus) for k in self.included if k != "gauss_markov"}
+        if self.gauss_markov is not None:
+            out["gauss_markov"] = gauss_markov_avar(taus, *self.gauss_markov)
+        return out
+
+    def term_adev(self, taus) -> dict:
+        """Each term's own Allan deviation curve (deg/h): the GMWM-style decomposition."""
+        return {k: np.sqrt(v) for k, v in self.term_avar(taus).items()}
+
+    def dominant_alpha(self, taus) -> np.ndarray:
+        """Noise exponent α of the term that carries most of the model σ² at each τ (for the EDF)."""
+        curves = self.term_avar(taus)
+        if not curves:
+            return np.zeros(np.shape(taus), int)
+        names = list(curves)
+        dom = np.argmax(np.stack([curves[k] for k in names]), axis=0)
+        out = np.zeros(np.shape(taus), int)
+        for i, k in enumerate(names):
+            if k == "gauss_markov":
+                mu = np.clip(np.round(local_slope(taus, curves[k])), -1, 2).astype(int)
+                a = np.array([ALPHA_OF_SLOPE[int(u)] for u in mu])
+            else:
+                a = TERM_ALPHA[k]
+            out = np.where(dom == i, a, out)
+        return out
+
+    def avar(self, taus) -> np.ndarray:
+        """Model Allan variance, (deg/h)², at ``taus`` (s): the sum of the included terms."""
+        return sum(self.term_avar(taus).values(), np.zeros(np.shape(taus)))
+
+    def adev(self, taus) -> np.ndarray:
+        """Model Allan deviation, deg/h, at ``taus`` (s)."""
+        return np.sqrt(self.avar(taus))
+
+    def terms_json(self) -> dict:
+        """The ``terms`` object of ``gyrojax noise --json``: value and unit of each named term (0 if dropped)."""
+        out = {
+            k: {"value": float(self.values.get(k, 0.0)), "unit": UNITS[k]}
+            for k in ("white", "bias_instability", "random_walk", "quantization")
+        }
+        gm = None if self.gauss_markov is None else [float(self.gauss_markov[0]), float(self.gauss_markov[1])]
+        out["gauss_markov"] = {"value": gm, "unit": UNITS["gauss_markov"]}
+        return out
+
+
+def _wnnls(basis, avar, edf, n_iter=6):
+    """Weighted NNLS of σ² on the columns of ``basis`` with weights ν/(2 σ_model⁴), iterated; (coef, cov, sse)."""
+    scale = np.linalg.norm(basis, axis=0)
+    scale[scale == 0] = 1.0
+    A = basis / scale
+    model = avar.copy()
+    for _ in range(n_iter):
+        w = np.sqrt(edf / 2.0) / np.maximum(model, 1e-3 * np.maximum(avar, avar.max() * 1e-12))
+        c, _ = optimize.nnls(A * w[:, None], avar * w)
+        new = A @ c
+        if np.allclose(new, model, rtol=1e-6):
+            break
+        model = np.where(new > 0, new, avar)
+    Aw = A * w[:, None]
+    r = (avar - A @ c) * w
+    try:
+        cov = np.linalg.pinv(Aw.T @ Aw) / scale[:, None] / scale[None, :]
+    except np.linalg.LinAlgError:
+        cov = np.full((len(c), len(c)), np.inf)
+    return c / scale, cov, float(r @ r)
+
+
+def fit_noise_model(
+    taus, avar, edf, terms=TERMS, gauss_markov: bool = False, min_fraction: float = 0.1, min_snr: float = 3.0
+) -> NoiseFit:
+    """Fit the IEEE 952 terms to an Allan variance (weighted NNLS on σ², weights from the EDF).
+
+    ``taus`` in s, ``avar`` in (deg/h)², ``edf`` dimensionless; coefficients come back in ``UNITS``.
+
+    ``terms``: linear terms to try (default all five). ``gauss_markov``: also fit a Gauss–Markov term (σ, T),
+    T searched on a log grid over the τ range, then refined. Model selection: the weakest term is dropped
+    (and the rest refitted) while some term's share of the model σ² never reaches ``min_fraction`` at any τ,
+    or its σ² contribution never rises ``min_snr`` times above the standard error of the estimate,
+    σ²_model·√(2/ν), at any τ (so the last few τ, with ν ≈ 1–3, cannot admit a term on their own).
+    """
+    taus, avar, edf = (np.asarray(a, float) for a in (taus, avar, edf))
+    if taus.shape != avar.shape or taus.shape != edf.shape or taus.size < 2:
+        raise AllanError("taus, avar and edf must be 1-D arrays of the same length >= 2")
+    if not (np.all(np.isfinite(avar)) and np.all(avar >= 0) and np.any(avar > 0) and np.all(edf > 0)):
+        raise AllanError("avar must be finite, >= 0 and not all zero; edf must be > 0")
+    names = [t for t in terms]
+    for t in names:
+        term_basis(t, taus[:1])
+    use_gm = bool(gauss_markov)
+    gm_grid = np.geomspace(taus.min() / 2.0, taus.max() * 2.0, 24)
+
+    def solve(names, use_gm):
+        cols = [term_basis(t, taus) for t in names]
+        if not use_gm:
+            c, cov, sse = _wnnls(np.stack(cols, axis=1), avar, edf)
+            return c, cov, sse, None
+
+        def for_t(log_t):
+            B = np.stack([*cols, gauss_markov_avar(taus, 1.0, math.exp(log_t))], axis=1)
+            return _wnnls(B, avar, edf)
+
+        sses = [for_t(math.log(t))[2] for t in gm_grid]
+        k = int(np.argmin(sses))
+        lo, hi = math.log(gm_grid[max(k - 1, 0)]), math.log(gm_grid[min(k + 1, len(gm_grid) - 1)])
+        res = optimize.minimize_scalar(lambda lt: for_t(lt)[2], bounds=(lo, hi), method="bounded")
+        t_best = math.exp(res.x) if res.fun <= sses[k] else gm_grid[k]
+        c, cov, sse = for_t(math.log(t_best))
+        return c[:-1], cov, sse, (math.sqrt(max(c[-1], 0.0)), t_best)
+
+    while True:
+        c, cov, sse, gm = solve(names, use_gm)
+        contrib = [c[i] * term_basis(t, taus) for i, t in enumerate(names)]
+        if gm is not None:
+            contrib.append(gauss_markov_avar(taus, *gm))
+        total = np.maximum(sum(contrib), 1e-300)
+        share = [float(np.max(ci / total)) for ci in contrib]
+        snr = [float(np.max(ci / (total * np.sqrt(2.0 / edf)))) for ci in contrib]
+        se = np.sqrt(np.maximum(np.diag(cov), 0.0))
+        weak = [i for i in range(len(contrib)) if share[i] < min_fraction or snr[i] < min_snr]
+        if not weak or len(contrib) == 1:
+            break
+        worst = min(weak, key=lambda i: share[i])
+        if worst == len(names):
+            use_gm = False
+        else:
+            names.pop(worst)
+    values = {t: math.sqrt(max(c[i], 0.0)) for i, t in enumerate(names)}
+    std = {t: (se[i] / (2 * values[t]) if values[t] > 0 else float("inf")) for i, t in enumerate(names)}
+    included = tuple(names) + (("gauss_markov",) if gm is not None else ())
+    return NoiseFit(values, gm, included, std)
+
+
+def analyze(segments, tau0: float, m_list=None, gauss_markov: bool = False, **fit_kw):
+    """Allan deviation and noise-model fit of rate series (deg/h) at τ0 s: returns (AllanResult, NoiseFit).
+
+    The fit runs twice: first with the EDF of the slope-identified noise types, then with those of the noise
+    type the first fit finds dominant at each τ (the returned intervals use the latter).
+    """
+    res = allan(segments, tau0, m_list)
+    fit = fit_noise_model(res.taus_s, res.avar, res.edf, gauss_markov=gauss_markov, **fit_kw)
+    # second pass: degrees of freedom for the noise type the first fit finds at each τ
+    res = res.with_alpha(fit.dominant_alpha(res.taus_s))
+    return res, fit_noise_model(res.taus_s, res.avar, res.edf, gauss_markov=gauss_markov, **fit_kw)
+
+
+# ---- records and the command line -------------------------------------------------------------------------------
+
+
+def static_rate_segments(records, rate_tol_dps: float = 1e-9):
+    """The indicated rate (deg/h) of static SDF records, split into continuous segments; and the common τ0 (s).
+
+    Raises :class:`AllanError` for a non-SDF record, a moving table, or sample intervals that differ.
+    """
+    segs, tau0 = [], None
+    for r in records:
+        if r.kind != "sdf-gyro":
+            raise AllanError(f"{r.name}: the noise analysis takes SDF gyro records, this one is {r.kind!r}")
+        if r.mode != "rebalance":
+            raise AllanError(f"{r.name}: the noise analysis needs a rebalance-mode record, this one is {r.mode!r}")
+        moving = np.abs(r.rates_dps) > rate_tol_dps
+        if moving.any():
+            row, col = np.argwhere(moving)[0]
+            raise AllanError(
+                f"{r.name}: table axis {r.axis_names[col]!r} moves at row {row + 1} "
+                f"({r.rates_dps[row, col]:g} deg/s); the noise analysis needs static records"
+            )
+        sid, y, t = r.segment_id, r.indicated, r.time_s
+        for s in np.unique(sid):
+            sel = sid == s
+            if sel.sum() < 4:
+                continue
+            dt = np.diff(t[sel])
+            d = float(np.median(dt))
+            if np.max(np.abs(dt - d)) > 1e-6 * d:
+                raise AllanError(
+                    f"{r.name}: non-uniform sampling in segment {int(s)} (steps {dt.min():g} to "
+                    f"{dt.max():g} s); the Allan variance needs a constant sample interval"
+                )
+            if tau0 is None:
+                tau0 = d
+            elif abs(d - tau0) > 1e-6 * tau0:
+                raise AllanError(f"{r.name}: sample interval {d:g} s differs from {tau0:g} s of the other records")
+            segs.append(np.asarray(y[sel], float))
+    if not segs:
+        raise AllanError("no continuous static segment with at least 4 samples in the records")
+    return segs, tau0
+
+
+def noise_json(res: AllanResult, fit: NoiseFit) -> dict:
+    """The JSON object printed by ``gyrojax noise --json``."""
+    return {
+        "taus_s": [float(x) for x in res.taus_s],
+        "adev_deg_per_h": [float(x) for x in res.adev],
+        "adev_low": [float(x) for x in res.low],
+        "adev_high": [float(x) for x in res.high],
+        "terms": fit.terms_json(),
+    }

@@ -1,0 +1,397 @@
+"""The measurement model: one path from coefficients to what a record measured.
+
+``predict(model, theta, data)`` gives, for every measurement of a record, what the instrument would have
+indicated. Simulation, fitting, diagnosis and design all call it; regressors are its ``jax.jacfwd`` in θ.
+
+Measurements (``RecordData.y``):
+
+* **rebalance** (SDF gyro, accelerometer): the indicated output S_nom·i at each sample (deg/h or g);
+  TDF gyros stack channel X then channel Y.
+* **servo**: the mean servo-axis rate over each sample interval, Δθ_read/Δt (deg/h), inside continuous segments.
+  The model integrates the balance equation over the interval (trapezoid of the rate that keeps the pickoff at
+  null, Hu 3-59), so the angle record keeps its full precision: the increments sum to the whole angle, and white
+  rate noise gives independent increments.
+
+θ is the flat vector of the model's coefficients in report units (deg/h, deg/h/g, ppm, arcsec …), in the order
+of ``Model.coefficient_names``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import partial
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from gyrojax import units
+from gyrojax.data.records import Record
+from gyrojax.errors import ModelError
+from gyrojax.physics import effects as fx
+from gyrojax.physics import frames, kinematics
+
+
+@dataclass(frozen=True)
+class Model:
+    """An ordered set of named effects for one instrument kind."""
+
+    terms: tuple[str, ...]
+    kind: str = fx.SDF
+
+    def __post_init__(self):
+        seen = set()
+        for t in self.terms:
+            e = fx.get(t)
+            if self.kind not in e.kinds:
+                raise ModelError(f"effect {t!r} does not apply to a {self.kind} (it applies to {e.kinds})")
+            if t in seen:
+                raise ModelError(f"effect {t!r} is listed twice")
+            seen.add(t)
+
+    @classmethod
+    def of(cls, terms, kind: str = fx.SDF) -> "Model":
+        """A model from effect names or coefficient names (``"E_SF"`` is taken as ``"sf_error"``)."""
+        out = []
+        for t in terms:
+            name = t if t in fx.names() else _effect_of(t)
+            if name not in out:
+                out.append(name)
+        return cls(tuple(out), kind)
+
+    @property
+    def effects(self) -> tuple[fx.Effect, ...]:
+        """The :class:`gyrojax.physics.effects.Effect` objects of ``terms``, in order."""
+        return tuple(fx.get(t) for t in self.terms)
+
+    @property
+    def coefficient_names(self) -> tuple[str, ...]:
+        """Coefficient names (CONVENTIONS §6) in θ order: the effects' coefficients, effect after effect."""
+        return tuple(c for e in self.effects for c in e.coefficients)
+
+    @property
+    def coefficient_units(self) -> tuple[str, ...]:
+        """Report unit of each coefficient (``"deg/h"``, ``"deg/h/g"``, ``"ppm"``, ``"arcsec"`` …), θ order."""
+        return tuple(u for e in self.effects for u in e.units)
+
+    @property
+    def size(self) -> int:
+        """Number of coefficients p (the length of θ)."""
+        return len(self.coefficient_names)
+
+    @property
+    def is_linear(self) -> bool:
+        """True when the output is linear in every coefficient: one least-squares solve fits (built-in set-up
+        effects are the nonlinear ones)."""
+        return all(e.linear for e in self.effects)
+
+    def slices(self) -> dict[str, slice]:
+        """Effect name -> slice of θ holding that effect's coefficients."""
+        out, i = {}, 0
+        for e in self.effects:
+            out[e.name] = slice(i, i + e.size)
+            i += e.size
+        return out
+
+    def pack(self, coefficients: dict) -> np.ndarray:
+        """Flat θ from a dict of coefficient values (absent ones are zero; unknown ones are errors)."""
+        idx = fx.coefficient_index()
+        for k in coefficients:
+            if k not in idx:
+                raise ModelError(f"unknown coefficient {k!r}; valid: {', '.join(idx)}")
+        return np.array([float(coefficients.get(c, 0.0)) for c in self.coefficient_names])
+
+    def unpack(self, theta) -> dict:
+        """Coefficient name -> value (report units) from a flat θ; the inverse of :meth:`pack`."""
+        return {c: float(v) for c, v in zip(self.coefficient_names, np.asarray(theta))}
+
+    def extend(self, *terms) -> "Model":
+        """This model with effect (or coefficient) names appended; names already present are kept once."""
+        return Model.of(self.terms + tuple(terms), self.kind)
+
+    def without(self, *terms) -> "Model":
+        """This model with the effects named ``terms`` removed (effect names; unknown names are ignored)."""
+        return Model(tuple(t for t in self.terms if t not in terms), self.kind)
+
+
+def _effect_of(name: str) -> str:
+    try:
+        return fx.effect_of_coefficient(name)
+    except KeyError:
+        raise ModelError(f"unknown effect {name!r}; valid names: {', '.join(fx.names())}") from None
+
+
+def full_model_for_truth(coefficients: dict, kind: str, setup: dict | None = None) -> Model:
+    """The smallest model holding every non-zero coefficient of a truth (and every set-up effect given)."""
+    terms = []
+    for c, v in coefficients.items():
+        if v != 0.0:
+            terms.append(_effect_of(c))
+    for k, v in (setup or {}).items():
+        if np.any(np.asarray(v) != 0):
+            terms.append(k)
+    return Model.of(terms, kind)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+
+
+@partial(
+    jax.tree_util.register_dataclass,
+    data_fields=[
+        "axes",
+        "triad",
+        "latitude",
+        "gravity",
+        "time_s",
+        "angles",
+        "rates",
+        "temperature",
+        "y",
+        "weight",
+        "command",
+        "dt",
+    ],
+    meta_fields=["kind", "mode", "servo_axis", "encoder_axis", "rates_derived"],
+)
+@dataclass(frozen=True)
+class RecordData:
+    """A record as arrays (SI inside): what ``predict`` needs. Built by :func:`record_data`.
+
+    Units: ``latitude`` rad, ``gravity`` m/s² (g_site), ``time_s`` s, ``angles`` (n, k) rad as read,
+    ``rates`` (n, k) rad/s, ``temperature`` (n,) °C (20 °C when the record has none), ``y`` deg/h for gyros and
+    g for accelerometers (servo: mean servo-axis rate per interval, deg/h), ``command`` deg/h (S_nom·i),
+    ``dt`` (n−1,) s; ``axes`` and ``triad`` are unit vectors, ``weight`` is 1 or 0. ``rates_derived`` is True when
+    the rates were differentiated from the angles, so the encoder error reaches them too (:func:`true_angles`).
+    """
+
+    axes: jax.Array  # (k, 3) table axes in L at zero angles
+    triad: jax.Array  # (3, 3) instrument axes in platform coordinates (rows)
+    latitude: jax.Array  # rad
+    gravity: jax.Array  # m/s²
+    time_s: jax.Array  # (n,)
+    angles: jax.Array  # (n, k) rad, as read
+    rates: jax.Array  # (n, k) rad/s (servo axis: ignored, solved for)
+    temperature: jax.Array  # (n,) °C (20 when absent)
+    y: jax.Array  # measurements (see module doc)
+    weight: jax.Array  # 1 for a valid measurement, 0 for a masked one (servo intervals across segments)
+    command: jax.Array  # (n,) indicated output of the commanded current in servo mode, deg/h (S_nom·i)
+    dt: jax.Array  # (n−1,) sample intervals, s
+    kind: str = fx.SDF
+    mode: str = "rebalance"
+    servo_axis: int | None = None
+    encoder_axis: int = 0
+    rates_derived: bool = False
+
+
+def record_data(record: Record) -> RecordData:
+    """Arrays of a record, converted to SI, with its measurement vector (module doc)."""
+    angles = np.deg2rad(record.angles_deg)
+    rates = np.deg2rad(record.rates_dps)
+    t = np.asarray(record.time_s, dtype=float)
+    temp = record.temperature_C
+    temp = np.full(record.n, 20.0) if temp is None else np.asarray(temp, dtype=float)
+    dt = np.diff(t)
+    if record.mode == "servo":
+        s = record.servo_axis_index
+        seg = record.segment_id
+        same = np.diff(seg) == 0
+        y = np.where(same, np.diff(angles[:, s]) / np.where(dt > 0, dt, 1.0), 0.0) / units.DEG_PER_H
+        weight = same.astype(float)
+        command = record.indicated
+    else:
+        ind = record.indicated
+        y = ind.T.reshape(-1) if record.kind == fx.TDF else ind
+        weight = np.ones_like(y)
+        command = np.zeros(record.n)
+    return RecordData(
+        axes=jnp.asarray(record.axes_enu),
+        triad=jnp.asarray(record.triad),
+        latitude=jnp.asarray(np.deg2rad(record.latitude_deg)),
+        gravity=jnp.asarray(record.gravity_mps2),
+        time_s=jnp.asarray(t),
+        angles=jnp.asarray(angles),
+        rates=jnp.asarray(rates),
+        temperature=jnp.asarray(temp),
+        y=jnp.asarray(y, dtype=jnp.float64),
+        weight=jnp.asarray(weight),
+        command=jnp.asarray(command, dtype=jnp.float64),
+        dt=jnp.asarray(dt),
+        kind=record.kind,
+        mode=record.mode,
+        servo_axis=record.servo_axis_index,
+        encoder_axis=record.encoder_axis_index,
+        rates_derived=bool(record.rates_derived),
+    )
+
+
+# ---- the physics of one sample set ----------------------------------------------------------------------------
+
+
+def _setup_values(model: Model, theta) -> dict:
+    """Set-up effect coefficients (rad) from θ; zero for set-up effects not in the model."""
+    sl = model.slices()
+
+    def take(name, n):
+        if name in sl:
+            return theta[sl[name]] * units.ARCSEC
+        return jnp.zeros(n)
+
+    tilt = take("table_tilt", 2)
+    az = take("table_azimuth", 1)
+    enc = take("encoder_harmonic", 4)
+    return {"delta": jnp.concatenate([tilt, az]), "encoder": enc}
+
+
+def encoder_error(enc, angle):
+    """Angle readout error h(θ) = c1 cos θ + s1 sin θ + c2 cos 2θ + s2 sin 2θ (rad), and dh/dθ (Hu 5-51)."""
+    c1, s1, c2, s2 = enc[0], enc[1], enc[2], enc[3]
+    h = c1 * jnp.cos(angle) + s1 * jnp.sin(angle) + c2 * jnp.cos(2 * angle) + s2 * jnp.sin(2 * angle)
+    dh = -c1 * jnp.sin(angle) + s1 * jnp.cos(angle) - 2 * c2 * jnp.sin(2 * angle) + 2 * s2 * jnp.cos(2 * angle)
+    return h, dh
+
+
+def true_angles(data: RecordData, setup: dict):
+    """Table angles (n, k) rad and rates (n, k) rad/s with the encoder error removed from the encoder axis.
+
+    First order in the readout error h(θ) of :func:`encoder_error` (Hu 5-51): θ_true = θ_read − h; the encoder axis's
+    rate is scaled by 1 − dh/dθ when it was derived from the angles (``rates_derived``), else left alone.
+    """
+    e = data.encoder_axis
+    h, dh = encoder_error(setup["encoder"], data.angles[:, e])
+    angles = data.angles.at[:, e].add(-h)
+    rates = data.rates
+    if data.rates_derived:
+        rates = rates.at[:, e].multiply(1.0 - dh)
+    return angles, rates
+
+
+def sensed(axes, triad, latitude, gravity, angles, rates, delta):
+    """Inertial rate (deg/h) and specific force (g) along the three instrument axes, for one sample.
+
+    ω_IP = Ω + ω_LP and f = (0, 0, g) in L, projected on C·axis (CONVENTIONS §3–§4).
+    """
+    base = jnp.eye(3) + kinematics.skew(delta)
+    c, w_lp = kinematics.platform_state(axes, angles, rates, base)
+    w_ip = frames.earth_rate_enu(latitude) + w_lp
+    f = frames.specific_force_enu(gravity)
+    w_p = c.T @ w_ip
+    f_p = c.T @ f
+    return triad @ w_p / units.DEG_PER_H, triad @ f_p / units.G0
+
+
+_sensed_batch = jax.vmap(sensed, in_axes=(None, None, None, None, 0, 0, None))
+
+
+def instrument_inputs(data: RecordData, setup: dict, angles=None, rates=None) -> dict:
+    """The inputs dict of :mod:`gyrojax.effects` for every sample (module doc there).
+
+    Rates ``w_*`` in deg/h, specific forces ``a_*`` in g, ``t_h`` in h, ``temperature_C`` in °C. ``angles`` (n, k)
+    rad and ``rates`` (n, k) rad/s replace the encoder-corrected table state of :func:`true_angles` when given.
+    """
+    if angles is None:
+        angles, rates = true_angles(data, setup)
+    w, a = _sensed_batch(data.axes, data.triad, data.latitude, data.gravity, angles, rates, setup["delta"])
+    x = {"t_h": data.time_s / units.SECONDS_PER_HOUR, "temperature_C": data.temperature}
+    if data.kind == fx.TDF:
+        x.update(w_X=w[:, 0], w_Y=w[:, 1], w_Z=w[:, 2], a_X=a[:, 0], a_Y=a[:, 1], a_Z=a[:, 2])
+    elif data.kind == fx.ACCEL:
+        x.update(w_I=w[:, 0], w_P=w[:, 1], w_O=w[:, 2], a_I=a[:, 0], a_P=a[:, 1], a_O=a[:, 2])
+    else:
+        x.update(w_I=w[:, 0], w_O=w[:, 1], w_S=w[:, 2], a_I=a[:, 0], a_O=a[:, 1], a_S=a[:, 2])
+    return x
+
+
+def indicated_output(model: Model, theta, x: dict, kind: str):
+    """The balance equation: what the instrument indicates for inputs ``x`` (CONVENTIONS §4).
+
+    SDF: ω_ind = ω_I + Σ effects (deg/h). TDF: channels X then Y stacked. Accelerometer: Σ effects (g; the
+    K_1 a_I term is an effect like the others, Hu 3-38).
+    """
+    if kind == fx.TDF:
+        n = x["w_X"].shape[0]
+        ones, zeros = jnp.ones(n), jnp.zeros(n)
+        x = {k: jnp.concatenate([v, v]) for k, v in x.items()}
+        x["channel_is_X"] = jnp.concatenate([ones, zeros])
+        x["channel_is_Y"] = jnp.concatenate([zeros, ones])
+        base = x["channel_is_X"] * x["w_X"] + x["channel_is_Y"] * x["w_Y"]
+    elif kind == fx.ACCEL:
+        base = jnp.zeros_like(x["a_I"])
+    else:
+        base = x["w_I"]
+    out = base
+    sl = model.slices()
+    for e in model.effects:
+        if e.contribution is not None:
+            out = out + e.contribution(x, theta[sl[e.name]])
+    return out
+
+
+def servo_rate(model: Model, theta, data: RecordData, setup: dict):
+    """Rate of the servo axis (rad/s) that keeps the pickoff at null at each sample (Hu 3-59, general mounting).
+
+    Solves ω_ind(θ̇_s) = S_nom·i by Newton's method (exact in one step when the model is linear in ω; two more
+    steps settle |ω_I| and ω_I² terms).
+    """
+    angles, rates = true_angles(data, setup)
+    s = data.servo_axis
+
+    def residual(r):
+        x = instrument_inputs(data, setup, angles, rates.at[:, s].set(r))
+        return indicated_output(model, theta, x, data.kind) - data.command
+
+    r = jnp.zeros(data.time_s.shape[0])
+    nonlinear_in_rate = not all(e.linear_in_rate for e in model.effects)
+    for _ in range(3 if nonlinear_in_rate else 1):
+        f, df = jax.jvp(residual, (r,), (jnp.ones_like(r),))
+        r = r - f / df
+    return r, angles
+
+
+def servo_sensitivity(data: RecordData):
+    """∂ω_I/∂θ̇_s at each sample (dimensionless): how strongly turning the servo axis moves the input-axis rate.
+    Zero means the table cannot null the pickoff (IA perpendicular to the servo axis)."""
+    setup = {"delta": jnp.zeros(3), "encoder": jnp.zeros(4)}
+    angles = data.angles
+    still = jnp.zeros_like(data.rates)
+    unit = still.at[:, data.servo_axis].set(1.0)
+    w1, _ = _sensed_batch(data.axes, data.triad, data.latitude, data.gravity, angles, unit, setup["delta"])
+    w0, _ = _sensed_batch(data.axes, data.triad, data.latitude, data.gravity, angles, still, setup["delta"])
+    return (w1[:, 0] - w0[:, 0]) * units.DEG_PER_H
+
+
+def check_servo(data: RecordData, where: str) -> None:
+    """Refuse a servo record whose IA has (almost) no component along the servo axis (Hu 3-59 needs one)."""
+    if data.mode != "servo":
+        return
+    sens = np.abs(np.asarray(servo_sensitivity(data)))
+    if sens.size and float(sens.min()) < 1e-6:
+        i = int(np.argmin(sens))
+        raise ModelError(
+            f"{where}: in servo mode the IA must have a component along the servo axis; at sample {i} it has "
+            f"{sens[i]:.3g} (IA perpendicular to the servo axis: turning the table cannot null the pickoff)"
+        )
+
+
+def predict(model: Model, theta, data: RecordData):
+    """Predicted measurement vector of a record (module doc), same shape as ``data.y``."""
+    theta = jnp.asarray(theta, dtype=jnp.float64)
+    setup = _setup_values(model, theta)
+    if data.mode == "servo":
+        r, _ = servo_rate(model, theta, data, setup)
+        s = data.servo_axis
+        h, _ = encoder_error(setup["encoder"], data.angles[:, data.encoder_axis])
+        mean_rate = 0.5 * (r[1:] + r[:-1])
+        dh = (h[1:] - h[:-1]) / data.dt if data.encoder_axis == s else 0.0
+        return (mean_rate + dh) / units.DEG_PER_H * data.weight
+    x = instrument_inputs(data, setup)
+    return indicated_output(model, theta, x, data.kind)
+
+
+def jacobian(model: Model, theta, data: RecordData):
+    """Regressors: ∂ predict / ∂θ, shape (m, p), by forward-mode autodiff (never derived by hand)."""
+    return jax.jacfwd(lambda th: predict(model, th, data))(jnp.asarray(theta, dtype=jnp.float64))
+
+
+predict_jit = jax.jit(predict, static_argnums=0)
+jacobian_jit = jax.jit(jacobian, static_argnums=0)

@@ -1,0 +1,348 @@
+"""Readable reports: coefficient tables and diagnosis summaries (text), residual views (figures).
+
+Every number carries its unit. Figures are plain ``matplotlib.figure.Figure`` objects, made without pyplot, so the
+library never switches the caller's backend: they display as PNG in a notebook (``_repr_png_``) and save headless
+through Agg. Nothing here changes a result.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.ticker import NullFormatter, ScalarFormatter
+
+from gyrojax.inference.identify import FitResult
+
+
+def _fmt(v: float, s: float | None = None) -> str:
+    if s is None or not np.isfinite(s):
+        return f"{v: .6g}"
+    if s == 0:
+        return f"{v: .6g} ± 0"
+    digits = max(0, 2 - int(math.floor(math.log10(abs(s))))) if s > 0 else 6
+    digits = min(digits, 10)
+    return f"{v: .{digits}f} ± {s:.2g}"
+
+
+def fit_table(res: FitResult) -> str:
+    """Coefficient table: name, value ± std, unit, t statistic and significance (CIGTF style)."""
+    lines = [f"fit of {', '.join(res.model.terms)} to {len(res.record_names)} record(s), {res.n_samples} samples"]
+    lines.append(f"{'coefficient':14s} {'value ± std':>28s}  {'unit':12s} {'t':>9s}  significant")
+    for c, v, s, u, t, p in zip(
+        res.coefficient_names, res.theta, res.std, res.model.coefficient_units, res.t_statistics, res.p_values
+    ):
+        sig = "yes" if np.isfinite(p) and p < 0.05 else ("—" if not np.isfinite(p) else "no")
+        lines.append(f"{c:14s} {_fmt(v, s):>28s}  {u:12s} {t:9.2f}  {sig}")
+    lines.append(f"residual RMS {res.residual_rms:.6g} deg/h; white-noise floor {res.noise_floor:.6g} deg/h")
+    idf = res.identifiability
+    cond = idf.get("condition", float("nan"))
+    lines.append(f"condition number {cond:.3g}; rank {idf.get('rank')} of {idf.get('size')}")
+    for name, nz in zip(res.record_names, res.noise):
+        if getattr(nz, "order", 0) == "gm":
+            lines.append(
+                f"  noise {name}: white {math.sqrt(nz.white_var):.3g} + Gauss–Markov "
+                f"{math.sqrt(nz.gm_var):.3g} deg/h, τ {nz.tau_s:.3g} s"
+            )
+        elif nz.order:
+            lines.append(f"  noise {name}: AR({nz.order}), innovation std {nz.innovation_std:.3g} deg/h")
+    return "\n".join(lines)
+
+
+def diagnosis_text(d, add: str | None = None) -> str:
+    """Verdict, residual against floor, and the ranked candidates with their aliases.
+
+    ``add``: the effect the caller will add, when it picks an alias of the top candidate (the plan cannot tell them
+    apart, so either explains the residual equally); default the top candidate itself.
+    """
+    lines = [
+        f"verdict: {d.verdict}   (family-wise α = {d.alpha})",
+        f"model: {', '.join(d.fit.model.terms)}",
+        f"residual RMS {d.residual_rms:.6g} deg/h; white-noise floor {d.noise_floor:.6g} deg/h",
+    ]
+    lines.append(f"{'candidate':18s} {'statistic':>12s} {'df':>3s} {'p (Holm)':>10s} {'RMS after':>12s}  aliases")
+    for c in d.candidates[:12]:
+        al = ", ".join(c.aliases) if c.aliases else ""
+        if c.separated_by:
+            al += f"  (separate with: {'; '.join(c.separated_by[:3])})"
+        lines.append(f"{c.name:18s} {c.statistic:12.4g} {c.df:3d} {c.p_adjusted:10.3g} {c.rms_after:12.6g}  {al}")
+    if d.unexcited:
+        lines.append("not excited by this plan: " + ", ".join(d.unexcited))
+    top = d.top
+    if d.verdict == "missing-effect" and top is not None:
+        name = add or top.name
+        terms = ",".join(d.fit.model.terms + (name,))
+        if name != top.name:
+            why = (
+                f"an alias of the top candidate {top.name!r}: this plan cannot tell them apart"
+                if name in top.aliases
+                else f"chosen instead of the top candidate {top.name!r}"
+            )
+            lines.append(f"→ add {name!r} ({why}) and refit (gyrojax fit … --terms {terms})")
+        else:
+            lines.append(f"→ add {name!r} and refit (gyrojax fit … --terms {terms})")
+    return "\n".join(lines)
+
+
+# ---- residual views (matplotlib) --------------------------------------------------------------------------------
+
+
+class _Figure(Figure):
+    """A pyplot-free figure that shows itself as PNG in IPython/Jupyter whatever the backend."""
+
+    def _repr_png_(self) -> bytes:
+        import io
+
+        buf = io.BytesIO()
+        FigureCanvasAgg(self).print_png(buf)
+        return buf.getvalue()
+
+
+def _figure(nrows: int = 1, ncols: int = 1, figsize=(6.4, 3.2), **kw):
+    """A new figure and its axes (like ``pyplot.subplots``, without pyplot's global state or backend)."""
+    fig = _Figure(figsize=figsize)
+    FigureCanvasAgg(fig)
+    return fig, fig.subplots(nrows, ncols, **kw)
+
+
+def measurement_inputs(record) -> dict:
+    """Per-measurement views of a record for plotting: time (h), table angles (deg), a_I/a_O/a_S (g), ω_I (deg/h),
+    temperature, segment. Servo intervals are placed at their first sample."""
+    import jax.numpy as jnp
+
+    from gyrojax.physics.model import Model, _setup_values, instrument_inputs, record_data
+
+    d = record_data(record)
+    x = instrument_inputs(d, _setup_values(Model((), d.kind), jnp.zeros(0)))
+    n = record.n
+    view = {"time_h": record.time_s / 3600.0, "segment": record.segment_id}
+    for i, a in enumerate(record.axis_names):
+        view[f"angle {a} (deg)"] = record.angles_deg[:, i]
+    keys = ("a_I", "a_O", "a_S", "w_I") if record.kind != "tdf-gyro" else ("a_X", "a_Y", "a_Z", "w_X")
+    for k in keys:
+        if k in x:
+            view[k] = np.asarray(x[k])[:n]
+    if record.temperature_C is not None:
+        view["temperature (°C)"] = record.temperature_C
+    if record.mode == "servo":
+        view = {k: v[:-1] for k, v in view.items()}
+        view["segment"] = view["segment"].copy()
+    if record.kind == "tdf-gyro":
+        view = {k: np.concatenate([v, v]) for k, v in view.items()}
+    return view
+
+
+def _band(ax, x, r, sigma, bins=48, color="C1"):
+    """Binned mean of r against x with its ±3σ band (σ of a bin mean from the white-noise floor)."""
+    if len(x) < 2 or np.ptp(x) == 0:
+        return
+    edges = np.linspace(np.min(x), np.max(x), bins + 1)
+    idx = np.clip(np.digitize(x, edges) - 1, 0, bins - 1)
+    cnt = np.bincount(idx, minlength=bins)
+    mean = np.bincount(idx, weights=r, minlength=bins) / np.maximum(cnt, 1)
+    mid = 0.5 * (edges[1:] + edges[:-1])
+    ok = cnt > 0
+    half = 3 * sigma / np.sqrt(np.maximum(cnt, 1))
+    ax.plot(mid[ok], mean[ok], color=color, lw=1.6, label="binned mean")
+    ax.fill_between(mid[ok], -half[ok], half[ok], color="0.6", alpha=0.35, label="±3σ of a bin mean")
+
+
+def residual_figure(res: FitResult, records, against: str = "auto", title: str | None = None):
+    """Residuals of every record against one view (``"time"``, a table angle, ``"a_I"`` …) with ±3σ bands.
+
+    ``against="auto"`` picks the angle of the moving axis for tumbles and servo runs, else time. Residuals in
+    deg/h (g for accelerometers), angles in deg modulo 360, time in h.
+    """
+    n = len(res.residuals)
+    cols = min(n, 4)
+    rows = int(np.ceil(n / cols))
+    fig, axes = _figure(rows, cols, figsize=(3.6 * cols + 0.6, 2.8 * rows + 0.6), squeeze=False, sharey=True)
+    sigma = res.noise_floor
+    for k, (rec, r) in enumerate(zip(records, res.residuals)):
+        ax = axes[k // cols][k % cols]
+        view = measurement_inputs(rec)
+        key = against
+        if against == "auto":
+            moving = [a for i, a in enumerate(rec.axis_names) if np.ptp(rec.angles_deg[:, i]) > 90]
+            key = f"angle {moving[-1]} (deg)" if moving else "time_h"
+        elif against == "time":
+            key = "time_h"
+        x = np.asarray(view.get(key, view["time_h"]))[: len(r)]
+        if key.startswith("angle"):
+            x = np.mod(x, 360.0)
+        ax.plot(x, r, ".", ms=1.2, alpha=0.35, color="C0", rasterized=True, label="residual")
+        _band(ax, x, r, sigma)
+        ax.axhline(0, color="k", lw=0.6)
+        ax.set_title(rec.name, fontsize=9)
+        ax.set_xlabel(key.replace("time_h", "time (h)"), fontsize=8)
+        if k % cols == 0:
+            ax.set_ylabel("residual (deg/h)", fontsize=8)
+        ax.tick_params(labelsize=7)
+    for k in range(n, rows * cols):
+        axes[k // cols][k % cols].axis("off")
+    axes[0][0].legend(fontsize=7, loc="upper right", markerscale=6)
+    lim = max(6 * sigma, np.percentile(np.abs(np.concatenate(res.residuals)), 99.5))
+    axes[0][0].set_ylim(-lim, lim)
+    fig.suptitle(title or f"residuals of {', '.join(res.model.terms)}", fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def harmonic_spectrum(res: FitResult, records, order: int = 4):
+    """Amplitude of the residual's harmonics in the moving table angle (tumble and servo runs), per record,
+    with the 3σ detection level of a harmonic amplitude for white noise at the floor. Amplitudes in the residual's
+    units (deg/h for gyros); harmonics of order 1 … ``order`` per revolution."""
+    fig, ax = _figure(figsize=(6.4, 3.2))
+    ks = np.arange(1, order + 1)
+    width = 0.8 / max(len(records), 1)
+    floor = res.noise_floor
+    for j, (rec, r) in enumerate(zip(records, res.residuals)):
+        moving = [i for i in range(len(rec.axis_names)) if np.ptp(rec.angles_deg[:, i]) > 90]
+        if not moving:
+            continue
+        th = np.deg2rad(rec.angles_deg[: len(r), moving[-1]])
+        cols = [np.ones_like(th)] + [f(k * th) for k in ks for f in (np.cos, np.sin)]
+        a = np.column_stack(cols)
+        coef, *_ = np.linalg.lstsq(a, r, rcond=None)
+        amp = np.hypot(coef[1::2], coef[2::2])
+        ax.bar(ks + (j - len(records) / 2) * width, amp, width, label=rec.name)
+        level = 3 * floor * np.sqrt(2.0 / len(r))
+        ax.axhline(level, color="0.4", ls="--", lw=0.8)
+    ax.set_xticks(ks, [f"{k}θ" for k in ks])
+    ax.set_xlabel("harmonic of the moving table angle θ (cycles per revolution)")
+    ax.set_ylabel("residual amplitude (deg/h)")
+    ax.set_ylim(bottom=0)
+    ax.set_title("harmonics of the residual in table angle (dashed: 3σ for white noise)", fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+def error_falling_figure(steps, title="the error falls as the missing effects are added"):
+    """Residual RMS of each model in the loop against the white-noise floor (the demo's headline figure).
+
+    ``steps``: list of (label, residual_rms, noise_floor).
+    """
+    fig, ax = _figure(figsize=(7.2, 3.6))
+    labels = [s[0] for s in steps]
+    rms = np.array([s[1] for s in steps])
+    floor = np.array([s[2] for s in steps])
+    x = np.arange(len(steps))
+    ax.plot(x, rms, "o-", color="C3", lw=2, label="residual RMS")
+    ax.plot(x, floor, "s--", color="0.3", lw=1, label="white-noise floor")
+    ax.fill_between(x, floor, floor * 1.1, color="C2", alpha=0.25, label="within 10 % of the floor")
+    lo, hi = float(np.min(np.r_[rms, floor])), float(np.max(np.r_[rms, floor]))
+    if lo > 0 and hi / lo >= 10:  # a log axis only when the range spans a decade; plain numbers on its ticks
+        ax.set_yscale("log")
+        ax.yaxis.set_major_formatter(ScalarFormatter())
+        ax.yaxis.set_minor_formatter(NullFormatter())
+    else:
+        ax.set_ylim(0, 1.08 * hi)
+    ax.set_xticks(x, labels, rotation=12, fontsize=8, ha="right")
+    ax.set_xlabel("model (each step adds the effect the diagnosis asks for)")
+    ax.set_ylabel("residual RMS (deg/h)")
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def candidates_figure(d, top: int = 10):
+    """Evidence for each candidate: −log10 of the Holm-adjusted p-value, with the α line."""
+    cands = [c for c in d.candidates if c.df > 0][:top]
+    fig, ax = _figure(figsize=(6.4, 0.32 * len(cands) + 1.2))
+    m = max(len([c for c in d.candidates if c.df > 0]), 1)
+    vals = [float(np.clip(-(c.log10_p + np.log10(m)), 0, 300)) for c in cands]
+    colors = ["C3" if v > -np.log10(d.alpha) else "0.6" for v in vals]
+    ax.barh([c.name for c in cands][::-1], vals[::-1], color=colors[::-1])
+    ax.axvline(-np.log10(d.alpha), color="k", ls="--", lw=0.8, label=f"α = {d.alpha}")
+    ax.set_xscale("symlog", linthresh=10)
+    ax.set_xlim(0, max(max(vals, default=1.0), -np.log10(d.alpha)) * 1.5)  # evidence ≥ 0: no empty negative side
+    ax.set_xlabel("evidence: −log10 p (Holm-adjusted)")
+    ax.set_ylabel("candidate effect")
+    ax.set_title(f"candidates for the missing effect (model: {', '.join(d.fit.model.terms)})", fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+def save(fig, path) -> None:
+    """Save a figure to PNG atomically (110 dpi); works headless, never touches pyplot."""
+    import io
+
+    from gyrojax.data.io import atomic_write_bytes
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    atomic_write_bytes(path, buf.getvalue())
+
+
+# ---- figures of the noise, design and Monte Carlo studies ---------------------------------------------------------
+
+
+def allan_figure(res, fit, title: str = "Allan deviation"):
+    """Log-log Allan deviation (deg/h against τ in s) with its ±1σ interval, the fitted total and each fitted
+    term drawn separately (IEEE 952 annex C); ``res`` an :class:`gyrojax.noise.allan.AllanResult`, ``fit`` its
+    :class:`gyrojax.noise.allan.NoiseFit`. Returns the figure."""
+    fig, ax = _figure(figsize=(7, 5))
+    yerr = np.stack([res.adev - res.low, res.high - res.adev])
+    ax.errorbar(res.taus_s, res.adev, yerr=yerr, fmt="o", ms=3, color="k", label="overlapping ADEV (±1σ)")
+    tt = np.geomspace(res.taus_s.min(), res.taus_s.max(), 200)
+    for name, curve in fit.term_adev(tt).items():
+        ax.loglog(tt, curve, "--", label=name)
+    ax.loglog(tt, fit.adev(tt), "-", color="C3", lw=1.5, label="fitted total")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("averaging time τ (s)")
+    ax.set_ylabel("Allan deviation (deg/h)")
+    ax.set_title(title)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def design_figure(rows: list[dict]):
+    """Bar chart of the Cramér–Rao standard deviations (report units, log scale) of each coefficient per plan;
+    ``rows`` as from :func:`gyrojax.planning.optimal.compare`. Returns the figure."""
+    names = list(rows[0]["std"])
+    fig, ax = _figure(figsize=(10, 4))
+    w = 0.8 / len(rows)
+    for i, r in enumerate(rows):
+        v = np.array([r["std"][c] for c in names])
+        v = np.where(np.isfinite(v), v, np.nan)
+        ax.bar(np.arange(len(names)) + i * w, v, w, label=r["plan"])
+    ax.set_yscale("log")
+    ax.set_xticks(np.arange(len(names)) + 0.4, names)
+    ax.set_ylabel("Cramér–Rao std (report units)")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+def montecarlo_figure(res, summary):
+    """Histogram of the normalised errors (θ̂−θ)/σ̂ (dimensionless) against N(0,1), and ±1σ/±2σ coverage per
+    coefficient; ``res`` a :class:`gyrojax.montecarlo.study.StudyResult`, ``summary`` its summary table. Returns
+    the figure."""
+    z = (res.estimate - res.truth_of_fit()) / res.std
+    s = summary
+    fig, (a1, a2) = _figure(1, 2, figsize=(11, 4))
+    grid = np.linspace(-4, 4, 200)
+    a1.hist(np.clip(z.ravel(), -4.5, 4.5), bins=60, range=(-4.5, 4.5), density=True, alpha=0.6, label="all coeffs")
+    a1.plot(grid, np.exp(-0.5 * grid**2) / np.sqrt(2 * np.pi), "k-", label="N(0,1)")
+    a1.set_xlabel("(estimate − truth) / std")
+    a1.legend()
+    x = np.arange(len(s))
+    a2.bar(x - 0.2, s["cover_1sigma"], 0.4, label="±1σ")
+    a2.bar(x + 0.2, s["cover_2sigma"], 0.4, label="±2σ")
+    a2.axhline(0.6827, color="C0", ls="--", lw=0.8)
+    a2.axhline(0.9545, color="C1", ls="--", lw=0.8)
+    a2.set_xticks(x, s["coefficient"], rotation=60)
+    a2.set_ylim(0, 1.05)
+    a2.set_ylabel("coverage")
+    a2.legend(loc="lower right")
+    fig.suptitle(f"{res.study.plan}: {len(res.draw)} draws")
+    fig.tight_layout()
+    return fig
