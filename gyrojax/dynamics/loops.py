@@ -122,17 +122,26 @@ def _lead_lag_centred(wc: float, lead_ratio: float) -> tuple[float, float]:
     return r / wc, 1 / (r * wc)
 
 
+FLOATED_GYRO = dict(H=1e-2, I_float=1e-5, C_damp=1e-2, K_pickoff=10.0, K_amp=1.0, tau_lead=0.0, tau_lag=0.0)
+"""The floated gyro of the default loops: H (N·m·s), float inertia (kg·m²), damping C (N·m·s), pickoff gain (V/rad),
+amplifier gain and lead-lag time constants (s) before tuning."""
+
+
+def _tuned(params_type, base: dict, wc: float, lead_ratio: float, open_loop_gain, overrides: dict):
+    """``params_type`` with a lead-lag centred at ω_c (rad/s) and the amplifier gain that makes the open-loop gain
+    ``open_loop_gain(p)`` (dimensionless) one at ω_c; then ``overrides`` applied."""
+    base = dict(base)
+    base["tau_lead"], base["tau_lag"] = _lead_lag_centred(wc, lead_ratio)
+    base["K_amp"] = 1.0 / open_loop_gain(params_type(**base))
+    base.update(overrides)
+    return params_type(**{k: float(v) for k, v in base.items()})
+
+
 def default_rebalance(crossover_hz: float = 30.0, lead_ratio: float = 10.0, **overrides) -> RebalanceParams:
     """A plausible floated gyro (H = 0.01 N·m·s, H/C = 1, τ = 1 ms, Hu's 17.171 deg/h/mA) in a loop whose
     open-loop gain crosses 1 at ``crossover_hz`` with a lead-lag centred there (pole/zero ratio ``lead_ratio``)."""
     base = dict(
-        H=1e-2,
-        I_float=1e-5,
-        C_damp=1e-2,
-        K_pickoff=10.0,
-        K_amp=1.0,
-        tau_lead=0.0,
-        tau_lag=0.0,
+        **FLOATED_GYRO,
         S_nom=17.171,
         E_SF=0.0,
         E_A=0.0,
@@ -141,12 +150,11 @@ def default_rebalance(crossover_hz: float = 30.0, lead_ratio: float = 10.0, **ov
         K_fw_y=50.0,
     )
     wc = 2 * math.pi * crossover_hz
-    base["tau_lead"], base["tau_lag"] = _lead_lag_centred(wc, lead_ratio)
-    p = RebalanceParams(**base)
-    k = abs(_float_tf(p, 1j * wc)) * p.K_pickoff * p.S_nom * _lead_lag_gain(p.tau_lead, p.tau_lag, wc)
-    base["K_amp"] = 1.0 / k
-    base.update(overrides)
-    return RebalanceParams(**{k: float(v) for k, v in base.items()})
+
+    def gain(p):
+        return abs(_float_tf(p, 1j * wc)) * p.K_pickoff * p.S_nom * _lead_lag_gain(p.tau_lead, p.tau_lag, wc)
+
+    return _tuned(RebalanceParams, base, wc, lead_ratio, gain, overrides)
 
 
 def torquer_rate(p: RebalanceParams, u):
@@ -406,13 +414,7 @@ def _servo_open_loop(p, s):
 def default_servo(crossover_hz: float = 40.0, lead_ratio: float = 10.0, **overrides) -> ServoParams:
     """The gyro of ``default_rebalance`` on a 5 kg·m² air-bearing table, loop crossover at ``crossover_hz``."""
     base = dict(
-        H=1e-2,
-        I_float=1e-5,
-        C_damp=1e-2,
-        K_pickoff=10.0,
-        K_amp=1.0,
-        tau_lead=0.0,
-        tau_lag=0.0,
+        **FLOATED_GYRO,
         J_table=5.0,
         K_motor=1.0,
         K_emf=0.1,
@@ -422,11 +424,7 @@ def default_servo(crossover_hz: float = 40.0, lead_ratio: float = 10.0, **overri
         phi_axis=0.0,
     )
     wc = 2 * math.pi * crossover_hz
-    base["tau_lead"], base["tau_lag"] = _lead_lag_centred(wc, lead_ratio)
-    p = ServoParams(**base)
-    base["K_amp"] = 1.0 / abs(_servo_open_loop(p, 1j * wc))
-    base.update(overrides)
-    return ServoParams(**{k: float(v) for k, v in base.items()})
+    return _tuned(ServoParams, base, wc, lead_ratio, lambda p: abs(_servo_open_loop(p, 1j * wc)), overrides)
 
 
 def servo_stiffness(p: ServoParams):
