@@ -11,8 +11,9 @@ fit, r̃ᵀ(I − P₀)r̃ / ν with ν = n − rank J₀ degrees of freedom: th
 χ²(k) for long records and does not overstate significance for short ones (the same small-sample logic as the
 fit's Student-t p-values). The noise model of the whitening (AR per record, :mod:`gyrojax.noise.whiten`) is
 estimated from the residual of the *saturated* fit (all candidates in), where a missing effect cannot inflate it, so a
-hidden deterministic effect is not mistaken for colour, and colour is not mistaken for an effect. p-values are adjusted for testing every candidate at once (Holm's step-down procedure);
-the verdict is ``missing-effect`` when any adjusted p-value is below α.
+hidden deterministic effect is not mistaken for colour, and colour is not mistaken for an effect. p-values are
+adjusted for testing every candidate at once (Holm's step-down procedure); the verdict is ``missing-effect`` when any
+adjusted p-value is below α.
 
 A candidate whose X⊥ vanishes is indistinguishable from the model in this plan; two candidates whose X⊥ are
 collinear are **aliases** of each other in this plan, and :func:`separating_plans` names built-in plans that
