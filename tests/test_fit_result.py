@@ -11,6 +11,7 @@ import pytest
 from scipy import stats
 
 from gyrojax.data import plans
+from gyrojax.data.records import save_record
 from gyrojax.errors import ConvergenceWarning, FormatError
 from gyrojax.inference.identify import (
     INTERVAL_LEVEL,
@@ -146,3 +147,22 @@ def test_p_values_use_the_t_widening_of_the_standard_errors():
     res = FitResult(model, theta, np.eye(3), [], [], [], [], [], {}, 100, dof=5)
     np.testing.assert_allclose(res.p_values, 2 * stats.t.sf(2.0, 5), rtol=1e-12)
     assert res.p_values[0] > 2 * stats.norm.sf(2.0)
+
+
+def test_error_messages_print_plain_numbers(rlg_ladder, tmp_path):
+    """Messages show numbers as a person writes them (27.3, nan), never as ``np.float64(27.3)``."""
+    rec = rlg_ladder[0]
+    cur = rec.columns["current_mA"].copy()
+    cur[3] = np.nan
+    msgs = []
+    with pytest.raises(Exception) as e:
+        fit([rec.with_columns(current_mA=cur)], ["D_F"])
+    msgs.append(str(e.value))
+    t = rec.columns["time_s"].copy()
+    t[5] = t[4]
+    with pytest.raises(Exception) as e:
+        save_record(rec.with_columns(time_s=t), tmp_path)
+    msgs.append(str(e.value))
+    assert "holds nan" in msgs[0] and "previous row's 2.0 (got 2.0)" in msgs[1]
+    for m in msgs:
+        assert "np.float64" not in m and "np.int64" not in m, m

@@ -102,7 +102,7 @@ def _check_finite(record: Record) -> None:
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
             raise RecordError(
-                f"{record.path or record.name}: row {i + 2}, column {k!r} holds {v[i]!r}; values must be finite"
+                f"{record.path or record.name}: row {i + 2}, column {k!r} holds {float(v[i])}; values must be finite"
             )
 
 
