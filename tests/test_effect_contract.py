@@ -110,7 +110,9 @@ def _contribution(effect, kind):
     if effect.setup:
         data = _geometry(kind)
         base = predict(Model((), kind), jnp.zeros(0), data)
-        return lambda x, c: predict(Model((effect.name,), kind), c, data) - base
+        model = Model((effect.name,), kind)
+        # jitted once: op-by-op dispatch of the kinematics under vmap/grad is what would make this test slow
+        return jax.jit(lambda x, c: predict(model, c, data) - base)
     model, none = Model((effect.name,), kind), Model((), kind)
     return lambda x, c: indicated_output(model, c, x, kind) - indicated_output(none, jnp.zeros(0), x, kind)
 

@@ -327,6 +327,8 @@ def must_be_numeric(column: str) -> bool:
 
 
 def read_csv_bytes(csv_path: Path) -> bytes:
+    """The bytes of a record's CSV file; :class:`~gyrojax.errors.RecordError` naming the file when it cannot be
+    read."""
     try:
         with open(csv_path, "rb") as fh:
             raw = fh.read()
@@ -351,6 +353,8 @@ def read_csv_bytes(csv_path: Path) -> bytes:
 
 
 def parse_csv_header(csv_path: Path, raw: bytes) -> list[str]:
+    """Column names of the first row of ``raw`` (a record CSV); :class:`~gyrojax.errors.RecordError` naming the file
+    and what is wrong (empty header, wrong separator, unnamed or duplicate columns)."""
     import csv
 
     end = raw.find(b"\n")
