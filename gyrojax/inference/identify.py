@@ -251,7 +251,7 @@ class FitResult:
     labels: list
     record_names: list
     record_paths: list
-    noise: list  # ARNoise per record
+    noise: list  # noise model of each record (GMNoise or ARNoise; the records of one noise group share one)
     identifiability: dict
     n_samples: int
     iterations: int = 1

@@ -274,7 +274,7 @@ _sensed_batch = jax.vmap(sensed, in_axes=(None, None, None, None, 0, 0, None))
 
 
 def instrument_inputs(data: RecordData, setup: dict, angles=None, rates=None) -> dict:
-    """The inputs dict of :mod:`gyrojax.effects` for every sample (module doc there).
+    """The inputs dict of :mod:`gyrojax.physics.effects` for every sample (module doc there).
 
     Rates ``w_*`` in deg/h, specific forces ``a_*`` in g, ``t_h`` in h, ``temperature_C`` in °C. ``angles`` (n, k)
     rad and ``rates`` (n, k) rad/s replace the encoder-corrected table state of :func:`true_angles` when given.
