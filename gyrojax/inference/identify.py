@@ -336,7 +336,8 @@ class FitResult:
         return dict(zip(self.coefficient_names, self.model.coefficient_units))
 
     def to_json(self) -> dict:
-        """The JSON of CONVENTIONS §7 (``gyrojax fit --json``), with extra keys that tools may ignore."""
+        """The JSON of CONVENTIONS §7 (``gyrojax fit --json``), with extra keys that tools may ignore; ``fit.converged``
+        is false, with ``fit.reason``, when the nonlinear or the noise-model step stopped before converging."""
         from gyrojax import __version__
 
         coeffs = {}
