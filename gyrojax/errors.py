@@ -27,3 +27,12 @@ class UnknownNameError(ModelError, KeyError):
 
     def __str__(self) -> str:  # KeyError would quote the message
         return str(self.args[0]) if self.args else ""
+
+
+class FormatError(GyrojaxError, ValueError):
+    """A saved file (fit result, study) is not of the format or version this gyrojax reads."""
+
+
+class ConvergenceWarning(UserWarning):
+    """An iterative step of a fit (the nonlinear set-up terms, the noise model) stopped before it converged: the
+    numbers are reported, but the result says ``"converged": false`` and why."""

@@ -51,3 +51,23 @@ def white_sigma_deg_per_h(arw_deg_per_rt_h: float, dt_s: float) -> float:
     σ = N·60/√Δt, since √h = 60 √s (IEEE 952, annex C: σ²(τ) = N²/τ).
     """
     return arw_deg_per_rt_h * 60.0 / math.sqrt(dt_s)
+
+
+REPORT_UNITS = frozenset(
+    {
+        "deg/h",  # drift, bias (CONVENTIONS §6: D_F; §1 angular rate)
+        "deg/h/g",  # g-sensitive drift (D_I, D_O, D_S)
+        "deg/h/g²",  # g²-sensitive drift (D_II … D_OS)
+        "deg/h/h",  # drift trend (D_T)
+        "deg/h/°C",  # temperature sensitivity (D_TEMP)
+        "ppm",  # scale-factor errors (E_SF, E_A)
+        "ppm/(deg/s)",  # scale-factor nonlinearity (E_2)
+        "arcsec",  # small angles: misalignment, table set-up, encoder harmonics
+        "g",  # accelerometer bias (K_0)
+        "g/g",  # accelerometer scale factor (K_1)
+        "g/g²",  # accelerometer second order and cross-coupling (K_2, K_IP, K_IO)
+        "g/g³",  # accelerometer third order (K_3)
+    }
+)
+"""The coefficient report units the conventions know (CONVENTIONS §1 and §6); an effect's ``units`` are drawn from
+this set (the effect contract suite checks it), so that every report and file speaks one vocabulary."""

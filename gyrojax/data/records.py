@@ -326,7 +326,9 @@ def must_be_numeric(column: str) -> bool:
     )
 
 
-def _read_csv_bytes(csv_path: Path) -> bytes:
+def read_csv_bytes(csv_path: Path) -> bytes:
+    """The bytes of a record's CSV file; :class:`~gyrojax.errors.RecordError` naming the file when it cannot be
+    read."""
     try:
         with open(csv_path, "rb") as fh:
             raw = fh.read()
@@ -350,7 +352,9 @@ def _read_csv_bytes(csv_path: Path) -> bytes:
     return raw
 
 
-def _csv_header(csv_path: Path, raw: bytes) -> list[str]:
+def parse_csv_header(csv_path: Path, raw: bytes) -> list[str]:
+    """Column names of the first row of ``raw`` (a record CSV); :class:`~gyrojax.errors.RecordError` naming the file
+    and what is wrong (empty header, wrong separator, unnamed or duplicate columns)."""
     import csv
 
     end = raw.find(b"\n")
@@ -397,7 +401,7 @@ def _numbered_rows(csv_path, reader):
         yield reader.line_num, row
 
 
-def _diagnose_csv(csv_path: Path, raw: bytes, header: list[str], strict: bool) -> None:
+def diagnose_csv(csv_path: Path, raw: bytes, header: list[str], strict: bool) -> None:
     """Stream the rows and raise at the first row of the wrong length or the first bad numeric cell.
 
     ``strict``: check every column (else only the columns of CONVENTIONS §5).
@@ -449,13 +453,13 @@ def _parse_csv(csv_path: Path) -> tuple[list[str], dict[str, np.ndarray]]:
 
     import pandas as pd
 
-    raw = _read_csv_bytes(csv_path)
-    header = _csv_header(csv_path, raw)
+    raw = read_csv_bytes(csv_path)
+    header = parse_csv_header(csv_path, raw)
     kw = dict(skipinitialspace=True, names=header, header=0)
     try:
         df = pd.read_csv(io.BytesIO(raw), dtype=np.float64, na_filter=False, **kw)
     except (ValueError, pd.errors.ParserError):
-        _diagnose_csv(csv_path, raw, header, strict=False)
+        diagnose_csv(csv_path, raw, header, strict=False)
         dtypes = {h: (np.float64 if must_be_numeric(h) else str) for h in header}
         try:
             df = pd.read_csv(io.BytesIO(raw), dtype=dtypes, keep_default_na=False, **kw)
@@ -467,9 +471,9 @@ def _parse_csv(csv_path: Path) -> tuple[list[str], dict[str, np.ndarray]]:
     for h in header:
         col = df[h].to_numpy()
         if col.dtype == np.float64 and must_be_numeric(h) and not np.all(np.isfinite(col)):
-            _diagnose_csv(csv_path, raw, header, strict=False)
+            diagnose_csv(csv_path, raw, header, strict=False)
             i = int(np.flatnonzero(~np.isfinite(col))[0])
-            raise _err(csv_path, f"row {i + 2}, column {h!r} holds {col[i]!r}; values must be finite numbers")
+            raise _err(csv_path, f"row {i + 2}, column {h!r} holds {float(col[i])}; values must be finite numbers")
         cols[h] = col if col.dtype == np.float64 else col.astype(str)
     return header, cols
 
@@ -503,7 +507,7 @@ def validate_columns(meta: dict, columns: dict[str, np.ndarray], file="record.cs
             what = "repeats" if dt[i] == 0 else "decreases from"
             raise _err(
                 file,
-                f"row {i + 3}, column 'time_s': time {what} the previous row's {t[i]!r} (got {t[i + 1]!r}); "
+                f"row {i + 3}, column 'time_s': time {what} the previous row's {float(t[i])} (got {float(t[i + 1])}); "
                 "times must be strictly increasing",
             )
     names = [a["name"] for a in meta["table"]["axes"]]
@@ -525,7 +529,7 @@ def validate_columns(meta: dict, columns: dict[str, np.ndarray], file="record.cs
         seg = columns["segment"]
         if np.any(seg != np.round(seg)):
             i = int(np.flatnonzero(seg != np.round(seg))[0])
-            raise _err(file, f"row {i + 2}, column 'segment' holds {seg[i]!r}; segment labels are integers")
+            raise _err(file, f"row {i + 2}, column 'segment' holds {float(seg[i])}; segment labels are integers")
 
 
 def _no_duplicate_keys(json_path):
@@ -610,11 +614,6 @@ def record_csv_chunks(record: Record, rows: int = CSV_CHUNK_ROWS):
     for s in range(0, record.n, rows):
         part = zip(*(c[s : s + rows] for c in cols))
         yield "\n".join(",".join(_fmt(v) for v in row) for row in part) + "\n"
-
-
-def record_csv_text(record: Record) -> str:
-    """The CSV text of a record (full float64 precision)."""
-    return "".join(record_csv_chunks(record))
 
 
 def _write_temp(path: Path, pieces) -> str:

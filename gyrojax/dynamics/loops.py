@@ -57,7 +57,7 @@ __all__ = [
 ]
 
 
-def _pytree(cls):
+def array_pytree(cls):
     """Register a frozen dataclass whose fields are all array leaves."""
     cls = dataclasses.dataclass(frozen=True)(cls)
     names = [f.name for f in dataclasses.fields(cls)]
@@ -72,7 +72,7 @@ def _pytree(cls):
 # ---------------------------------------------------------------------------------------------------------------
 
 
-@_pytree
+@array_pytree
 class RebalanceParams:
     """Physical parameters of an SDF floated gyro in an analog rebalance loop (all floats or arrays).
 
@@ -116,7 +116,7 @@ def _lead_lag_gain(tau_lead, tau_lag, w):
     return abs((1j * w * tau_lead + 1) / (1j * w * tau_lag + 1))
 
 
-def _lead_lag_centred(wc: float, lead_ratio: float) -> tuple[float, float]:
+def lead_lag_centred(wc: float, lead_ratio: float) -> tuple[float, float]:
     """Lead-lag time constants whose zero and pole sit a factor √ratio either side of ω_c (maximum phase at ω_c)."""
     r = math.sqrt(lead_ratio)
     return r / wc, 1 / (r * wc)
@@ -131,7 +131,7 @@ def _tuned(params_type, base: dict, wc: float, lead_ratio: float, open_loop_gain
     """``params_type`` with a lead-lag centred at ω_c (rad/s) and the amplifier gain that makes the open-loop gain
     ``open_loop_gain(p)`` (dimensionless) one at ω_c; then ``overrides`` applied."""
     base = dict(base)
-    base["tau_lead"], base["tau_lag"] = _lead_lag_centred(wc, lead_ratio)
+    base["tau_lead"], base["tau_lag"] = lead_lag_centred(wc, lead_ratio)
     base["K_amp"] = 1.0 / open_loop_gain(params_type(**base))
     base.update(overrides)
     return params_type(**{k: float(v) for k, v in base.items()})
@@ -283,7 +283,7 @@ def loop_indicated_rate(params: RebalanceParams, omega_I_deg_per_h, dt: float, t
 # ---------------------------------------------------------------------------------------------------------------
 
 
-@_pytree
+@array_pytree
 class PulseParams:
     """Binary pulse-width-modulated rebalance loop (Hu 5-69 to 5-76) around the float of ``RebalanceParams``.
 
@@ -371,7 +371,7 @@ def simulate_pulse(pp: PulseParams, omega_in_deg_per_h, t_s: float, m_per_period
 # ---------------------------------------------------------------------------------------------------------------
 
 
-@_pytree
+@array_pytree
 class ServoParams:
     """Single-axis table servo slaved to the pickoff of an untorqued (or command-torqued) SDF gyro, IA ∥ axis.
 

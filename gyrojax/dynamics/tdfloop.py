@@ -57,7 +57,7 @@ import numpy as np
 
 from gyrojax import units
 from gyrojax.dynamics.discretize import zoh
-from gyrojax.dynamics.loops import _lead_lag_centred, _pytree
+from gyrojax.dynamics.loops import array_pytree, lead_lag_centred
 
 DPH = units.DEG_PER_H
 
@@ -73,7 +73,7 @@ __all__ = [
 ]
 
 
-@_pytree
+@array_pytree
 class TDFParams:
     """Physical parameters of a DTG and its two capture loops (floats or arrays; vmap over a leading axis).
 
@@ -142,7 +142,7 @@ def tdf_static_matrix(p: TDFParams):
 def _open_loop_gain(crossover_hz, lead_ratio):
     """k·DPH (1/s) that puts the precession loop k·DPH·L(s)/s at unit gain at the crossover."""
     wc = 2 * math.pi * crossover_hz
-    tl, tg = _lead_lag_centred(wc, lead_ratio)
+    tl, tg = lead_lag_centred(wc, lead_ratio)
     return wc / abs((1j * wc * tl + 1) / (1j * wc * tg + 1)), tl, tg
 
 

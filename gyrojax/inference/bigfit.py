@@ -28,17 +28,16 @@ import numpy as np
 
 from gyrojax.data.records import (
     Record,
-    _csv_header,
-    _diagnose_csv,
-    _err,
-    _read_csv_bytes,
+    diagnose_csv,
     must_be_numeric,
+    parse_csv_header,
+    read_csv_bytes,
     read_meta,
     record_paths,
     validate_columns,
     validate_meta,
 )
-from gyrojax.errors import GyrojaxError, ModelError
+from gyrojax.errors import GyrojaxError, ModelError, RecordError
 from gyrojax.inference.identify import DEFAULT_TERMS, IdentifiabilityError, alias_message, identifiability
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model, jacobian_jit, predict_jit, record_data
@@ -77,13 +76,14 @@ def _check_chunk(meta, cols, csv_path, offset: int, prev_t: float | None):
     for h, c in cols.items():
         if must_be_numeric(h) and not np.all(np.isfinite(c)):
             i = int(np.flatnonzero(~np.isfinite(c))[0])
-            raise _err(csv_path, f"row {offset + i + 2}, column {h!r} holds {c[i]!r}; values must be finite numbers")
+            raise RecordError(
+                f"{csv_path}: row {offset + i + 2}, column {h!r} holds {float(c[i])}; values must be finite numbers"
+            )
     t = cols["time_s"]
     if prev_t is not None and t[0] <= prev_t:
-        raise _err(
-            csv_path,
-            f"row {offset + 2}, column 'time_s': time {t[0]!r} does not exceed the previous row's "
-            f"{prev_t!r}; times must be strictly increasing",
+        raise RecordError(
+            f"{csv_path}: row {offset + 2}, column 'time_s': time {float(t[0])} does not exceed the previous row's "
+            f"{float(prev_t)}; times must be strictly increasing"
         )
     try:
         validate_columns(meta, cols, csv_path)
@@ -128,7 +128,7 @@ def fit_chunked(path, terms=None, chunk_rows: int = 200_000, allow_aliases: bool
     csv_path, json_path = record_paths(path)
     for p in (json_path, csv_path):
         if not p.exists():
-            raise _err(p, "no such file (a record is NAME.csv + NAME.json side by side)")
+            raise RecordError(f"{p}: no such file (a record is NAME.csv + NAME.json side by side)")
     meta = validate_meta(read_meta(json_path), json_path)
     kind = meta["instrument"]["kind"]
     if meta["mode"] != "rebalance" or kind == fx.TDF:
@@ -144,7 +144,7 @@ def fit_chunked(path, terms=None, chunk_rows: int = 200_000, allow_aliases: bool
         )
     with open(csv_path, "rb") as fh:
         head = fh.read(1 << 16)
-    header = _csv_header(csv_path, head if b"\n" in head else _read_csv_bytes(csv_path))
+    header = parse_csv_header(csv_path, head if b"\n" in head else read_csv_bytes(csv_path))
     if "bias_temperature" in model.terms and "temperature_C" not in header:
         raise ModelError(f"{csv_path}: effect 'bias_temperature' needs column 'temperature_C', which is absent")
     axes = [a["name"] for a in meta["table"]["axes"]]
@@ -194,11 +194,11 @@ def fit_chunked(path, terms=None, chunk_rows: int = 200_000, allow_aliases: bool
     except GyrojaxError:
         raise
     except (ValueError, pd.errors.ParserError) as e:
-        raw = _read_csv_bytes(csv_path)  # name the first bad row and column of the whole file
-        _diagnose_csv(csv_path, raw, header, strict=False)
-        raise _err(csv_path, f"is not a valid comma-separated table: {str(e).strip()}") from None
+        raw = read_csv_bytes(csv_path)  # name the first bad row and column of the whole file
+        diagnose_csv(csv_path, raw, header, strict=False)
+        raise RecordError(f"{csv_path}: is not a valid comma-separated table: {str(e).strip()}") from None
     if n == 0:
-        raise _err(csv_path, "has a header but no samples; at least one sample row is required")
+        raise RecordError(f"{csv_path}: has a header but no samples; at least one sample row is required")
     if "bias_temperature" in model.terms and temp_hi - temp_lo < 1e-6:
         raise ModelError(
             f"{csv_path}: effect 'bias_temperature' cannot be fitted: column 'temperature_C' is "

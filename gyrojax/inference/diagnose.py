@@ -4,13 +4,16 @@ For every named effect the model lacks (CONVENTIONS §6) and the plan excites, a
 test** at the current fit: one Jacobian of the model extended by all candidates, evaluated at (θ̂, 0), no refit per
 candidate. With the current regressors J₀ and a candidate's regressors X, both whitened,
 
-    X⊥ = X − P₀ X,    S = r̃ᵀ X⊥ (X⊥ᵀ X⊥)⁺ X⊥ᵀ r̃ / σ̃²  ~  χ²(rank X⊥)   under "the effect is absent",
+    X⊥ = X − P₀ X,    S = r̃ᵀ X⊥ (X⊥ᵀ X⊥)⁺ X⊥ᵀ r̃ / σ̃²,   S / k  ~  F(k, ν)   under "the effect is absent",
 
-where P₀ projects on the columns of J₀ and σ̃² is the residual variance of the *saturated* fit (all candidates in):
-estimated where a missing effect cannot inflate it. The noise model (AR per record, :mod:`gyrojax.whiten`) is also
-estimated from the saturated residual, so a hidden deterministic effect is not mistaken for colour, and colour is not
-mistaken for an effect. p-values are adjusted for testing every candidate at once (Holm's step-down procedure);
-the verdict is ``missing-effect`` when any adjusted p-value is below α.
+where P₀ projects on the columns of J₀, k = rank X⊥, and σ̃² is the variance of the whitened residual of the current
+fit, r̃ᵀ(I − P₀)r̃ / ν with ν = n − rank J₀ degrees of freedom: the p-value is that of F(k, ν), which tends to
+χ²(k) for long records and does not overstate significance for short ones (the same small-sample logic as the
+fit's Student-t p-values). The noise model of the whitening (AR per record, :mod:`gyrojax.noise.whiten`) is
+estimated from the residual of the *saturated* fit (all candidates in), where a missing effect cannot inflate it, so a
+hidden deterministic effect is not mistaken for colour, and colour is not mistaken for an effect. p-values are
+adjusted for testing every candidate at once (Holm's step-down procedure); the verdict is ``missing-effect`` when any
+adjusted p-value is below α.
 
 A candidate whose X⊥ vanishes is indistinguishable from the model in this plan; two candidates whose X⊥ are
 collinear are **aliases** of each other in this plan, and :func:`separating_plans` names built-in plans that
@@ -236,7 +239,7 @@ def _score(lin, noises, model: Model, full: Model, cand, p0: int, rms_now: float
         proj = uc.T @ r_perp
         stat = float(proj @ proj) / sigma2
         df = uc.shape[1]
-        logp = float(stats.chi2.logsf(stat, df))
+        logp = float(stats.f.logsf(stat / df, df, dof))  # σ̃² estimated with dof degrees of freedom (module doc)
         # the candidate's coefficients if it were added (whitened LS), and the raw residual it would leave
         beta, *_ = np.linalg.lstsq(xp, r_perp, rcond=None)
         b_model = np.linalg.lstsq(j0, x, rcond=None)[0] if p0 else np.zeros((0, x.shape[1]))

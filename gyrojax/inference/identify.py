@@ -1,11 +1,15 @@
 """Identification: joint fits of named effects to one or many records, with honest uncertainties.
 
 The measurement model of every record (:func:`gyrojax.physics.model.predict`) is linearised by ``jax.jacfwd``; the
-stacked system is solved by Gauss–Newton (one step when every effect is linear in its coefficients; damped
-steps for the set-up effects, which enter through the kinematics). With ``noise="ar"`` (the default) a white +
-Gauss–Markov (or AR) noise model is fitted by REML to the residuals of each group of records of one mode and sample
-interval, jointly (:func:`campaign_noise`), so the fit is feasible GLS and standard errors stay honest under coloured
-drift, also when the drift is slower than one position (module :mod:`gyrojax.whiten`).
+stacked system is solved by one least-squares step when every effect is linear in its coefficients; the set-up
+effects, which enter through the kinematics, are fitted by Levenberg–Marquardt (``scipy.optimize.least_squares``,
+method ``"lm"``) on the same weighted or whitened system with the exact ``jax.jacfwd`` Jacobian, and its stopping
+status is the fit's ``converged`` flag (:class:`~gyrojax.errors.ConvergenceWarning` when it did not).
+
+With ``noise="ar"`` (the default) a white + Gauss–Markov (or AR) noise model is fitted by REML to the residuals of
+each group of records of one mode and sample interval, jointly (:func:`campaign_noise`), so the fit is feasible GLS
+and standard errors stay honest under coloured drift, also when the drift is slower than one position (module
+:mod:`gyrojax.noise.whiten`).
 
 Before any number is reported the plan's identifiability is checked: the singular values of the column-normalised,
 whitened regressor matrix give the rank, the condition number and the groups of effects the plan cannot tell apart
@@ -21,16 +25,18 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import jax.numpy as jnp
 import numpy as np
 from scipy import stats
+from scipy.optimize import least_squares
 
 from gyrojax.data.io import atomic_write_text
 from gyrojax.data.records import Record
-from gyrojax.errors import ModelError, RecordError
+from gyrojax.errors import ConvergenceWarning, FormatError, ModelError, RecordError
 from gyrojax.noise.whiten import (
     FIT_TAU_SPAN_FRACTION,
     ARNoise,
@@ -96,7 +102,7 @@ def _check_finite(record: Record) -> None:
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
             raise RecordError(
-                f"{record.path or record.name}: row {i + 2}, column {k!r} holds {v[i]!r}; values must be finite"
+                f"{record.path or record.name}: row {i + 2}, column {k!r} holds {float(v[i])}; values must be finite"
             )
 
 
@@ -245,11 +251,12 @@ class FitResult:
     labels: list
     record_names: list
     record_paths: list
-    noise: list  # ARNoise per record
+    noise: list  # noise model of each record (GMNoise or ARNoise; the records of one noise group share one)
     identifiability: dict
     n_samples: int
     iterations: int = 1
     converged: bool = True
+    convergence_note: str = ""  # why the fit did not converge ("" when it did)
     chi2_whitened: float = float("nan")
     dof: int = 0
     inputs: list = field(default_factory=list)
@@ -291,8 +298,22 @@ class FitResult:
 
     @property
     def p_values(self) -> np.ndarray:
-        """Two-sided p-value of "coefficient = 0" from the normal distribution of its t statistic."""
-        return 2 * stats.norm.sf(np.abs(self.t_statistics))
+        """Two-sided p-value of "coefficient = 0" from Student's t with the degrees of freedom of its variance.
+
+        The same ν as the standard error: where it was t-widened (:attr:`dof_eff`, Satterthwaite; :func:`fit`),
+        the plain estimate/σ ratio (σ before the widening by :func:`small_sample_factor`) is referred to t_ν, so the
+        p-value and θ̂ ± 2σ tell one story; elsewhere to t at the residual degrees of freedom :attr:`dof` of the
+        pooled variance (the normal distribution when ``dof`` is 0, i.e. unknown).
+        """
+        t = np.abs(self.t_statistics)
+        if self.dof_eff is not None:
+            nu = np.asarray(self.dof_eff, dtype=float)
+            t = t * small_sample_factor(nu)
+        else:
+            nu = np.full(t.shape, float(self.dof) if self.dof > 0 else np.inf)
+        finite = np.isfinite(nu)
+        with np.errstate(invalid="ignore"):
+            return np.where(finite, 2 * stats.t.sf(t, np.where(finite, nu, 1.0)), 2 * stats.norm.sf(t))
 
     @property
     def residual_rms(self) -> float:
@@ -315,7 +336,8 @@ class FitResult:
         return dict(zip(self.coefficient_names, self.model.coefficient_units))
 
     def to_json(self) -> dict:
-        """The JSON of CONVENTIONS §7 (``gyrojax fit --json``), with extra keys that tools may ignore."""
+        """The JSON of CONVENTIONS §7 (``gyrojax fit --json``), with extra keys that tools may ignore; ``fit.converged``
+        is false, with ``fit.reason``, when the nonlinear or the noise-model step stopped before converging."""
         from gyrojax import __version__
 
         coeffs = {}
@@ -356,6 +378,7 @@ class FitResult:
             "fit": {
                 "iterations": self.iterations,
                 "converged": self.converged,
+                **({"reason": self.convergence_note} if not self.converged else {}),
                 "dof": self.dof,
                 "chi2_whitened": _num(self.chi2_whitened),
             },
@@ -364,17 +387,27 @@ class FitResult:
         }
 
     def save(self, path, force: bool = False) -> Path:
-        """Write :meth:`to_json` plus ``theta`` and ``cov`` (format ``gyrojax-fit-1``) to ``path`` atomically;
-        an existing file is an error unless ``force``. Returns the path."""
+        """Write :meth:`to_json` plus ``theta`` and ``cov`` to ``path`` atomically, tagged with
+        :data:`RESULT_FORMAT` and :data:`RESULT_VERSION`; an existing file is an error unless ``force``.
+        :meth:`load` reads it back. Returns the path."""
         p = Path(path)
         if p.exists() and not force:
             raise ModelError(f"{p}: exists; pass force=True (or --force) to overwrite")
         d = self.to_json()
-        d["format"] = "gyrojax-fit-1"
+        d["format"] = RESULT_FORMAT
+        d["format_version"] = RESULT_VERSION
         d["theta"] = [float(x) for x in self.theta]
         d["cov"] = [[float(x) for x in row] for row in self.cov]
         atomic_write_text(p, json.dumps(d, indent=1, allow_nan=True) + "\n")
         return p
+
+    @classmethod
+    def load(cls, path) -> "FitResult":
+        """A result written by :meth:`save`: model, estimates, covariance, degrees of freedom, convergence and the
+        input hashes (residuals are not stored, so :attr:`residuals` is empty). Raises
+        :class:`~gyrojax.errors.FormatError` naming the file and the key when it is not a gyrojax fit result of
+        a version this gyrojax reads."""
+        return result_from_json(load_result(path), where=str(path))
 
     # -- using the result --
     def error_of(self, record: Record) -> np.ndarray:
@@ -424,21 +457,61 @@ def _num(x):
     return x if math.isfinite(x) else None
 
 
+RESULT_FORMAT = "gyrojax-fit"
+"""The ``format`` key of a saved fit result (:meth:`FitResult.save`)."""
+RESULT_VERSION = 1
+"""The ``format_version`` this gyrojax writes; it reads versions up to this one (``gyrojax-fit-1`` files of 0.2
+carry the version in the format string)."""
+
+
 def load_result(path) -> dict:
-    """A saved fit result as a dict (its ``theta``/``cov`` arrays restore the numbers)."""
-    d = json.loads(Path(path).read_text(encoding="utf-8"))
-    if d.get("format") != "gyrojax-fit-1":
-        raise ModelError(f"{path}: not a gyrojax fit result (format {d.get('format')!r})")
+    """A saved fit result as a dict (its ``theta``/``cov`` arrays restore the numbers), after checking its format
+    and version; :class:`~gyrojax.errors.FormatError` naming the file and the key otherwise."""
+    try:
+        d = json.loads(Path(path).read_text(encoding="utf-8"))
+    except json.JSONDecodeError as e:
+        raise FormatError(f"{path}: not JSON ({e.msg} at line {e.lineno}); not a gyrojax fit result") from None
+    if not isinstance(d, dict):
+        raise FormatError(f"{path}: not a gyrojax fit result (a JSON object with key 'format' is expected)")
+    fmt, version = d.get("format"), d.get("format_version")
+    if fmt == "gyrojax-fit-1" and version is None:  # 0.2 wrote the version into the format string
+        fmt, version = RESULT_FORMAT, 1
+    if fmt != RESULT_FORMAT:
+        raise FormatError(f"{path}: key 'format' is {_plain(fmt)}, not {RESULT_FORMAT!r}; not a gyrojax fit result")
+    if not isinstance(version, int) or isinstance(version, bool) or not 1 <= version <= RESULT_VERSION:
+        raise FormatError(
+            f"{path}: key 'format_version' is {_plain(version)}; this gyrojax reads versions 1 to {RESULT_VERSION}"
+        )
+    for key in ("terms", "theta", "cov", "records", "n_samples"):
+        if key not in d:
+            raise FormatError(f"{path}: key {key!r} is missing from the fit result")
     return d
 
 
-def result_from_json(d: dict) -> FitResult:
-    """Rebuild a :class:`FitResult` (estimates and covariance; residuals are not stored) from a saved result."""
-    model = Model(tuple(d["terms"]), d.get("instrument", fx.SDF))
+def _plain(v) -> str:
+    """A value as a message shows it: strings quoted, numbers plain, absence as 'absent'."""
+    return "absent" if v is None else repr(v) if isinstance(v, str) else str(v)
+
+
+def result_from_json(d: dict, where: str = "fit result") -> FitResult:
+    """Rebuild a :class:`FitResult` (estimates, covariance, fit statistics; residuals are not stored) from the dict
+    of a saved result (:func:`load_result`). ``where`` names the source in error messages."""
+    try:
+        model = Model(tuple(d["terms"]), d.get("instrument", fx.SDF))
+        theta = np.asarray(d["theta"], dtype=float)
+        cov = np.asarray(d["cov"], dtype=float)
+    except (KeyError, TypeError, ValueError) as e:
+        raise FormatError(f"{where}: cannot rebuild the fit ({e})") from None
+    if theta.shape != (model.size,) or cov.shape != (model.size, model.size):
+        raise FormatError(
+            f"{where}: keys 'theta' {list(theta.shape)} and 'cov' {list(cov.shape)} do not match the "
+            f"{model.size} coefficients of {list(model.terms)}"
+        )
+    fit_stats = d.get("fit", {})
     return FitResult(
         model,
-        np.asarray(d["theta"]),
-        np.asarray(d["cov"]),
+        theta,
+        cov,
         [],
         [],
         [r["name"] for r in d["records"]],
@@ -446,6 +519,11 @@ def result_from_json(d: dict) -> FitResult:
         [ARNoise(np.zeros(0), 1.0, 1.0) for _ in d["records"]],
         d.get("identifiability", {}),
         d["n_samples"],
+        iterations=int(fit_stats.get("iterations", 1)),
+        converged=bool(fit_stats.get("converged", True)),
+        convergence_note=str(fit_stats.get("reason", "")),
+        chi2_whitened=float("nan") if fit_stats.get("chi2_whitened") is None else float(fit_stats["chi2_whitened"]),
+        dof=int(fit_stats.get("dof", 0)),
         inputs=d.get("inputs", []),
         dof_eff=_dof_eff_of(d),
     )
@@ -657,6 +735,54 @@ def _solve(jw, rw, rank_tol=ALIAS_TOL):
     return step, cov
 
 
+def _least_squares(model: Model, theta, campaign: Campaign, noises, scales, max_iter: int):
+    """θ minimising the weighted (``noises[i] is None``: divided by ``scales[i]``) or whitened residual of every
+    record, for fixed noise models. Returns (θ, iterations, reason it did not converge or ``""``).
+
+    A model linear in θ needs one solve (:func:`_solve`, rank-cut SVD). The nonlinear set-up effects (table tilt
+    and azimuth, encoder harmonics; CONVENTIONS §6) are fitted by Levenberg–Marquardt
+    (``scipy.optimize.least_squares``, method ``"lm"``, MINPACK) with the exact ``jax.jacfwd`` Jacobian, so a start
+    far from the optimum is damped instead of overshooting. The trust region is measured in report units (arcsec,
+    ppm, deg/h …, the natural scale of each coefficient): scaling it by the Jacobian's columns instead lets the
+    first steps wander along the weakly seen set-up angles when a record is nearly noise-free. The whitening is
+    linear in the data, so the whitened residual and Jacobian of :func:`_stack` are exact for the solver too.
+    """
+    if model.is_linear or model.size == 0:
+        rw, jw = _stack(linearize(model, theta, campaign), noises, scales)
+        step, _ = _solve(jw, rw)
+        return theta + step, 1, ""
+    cache = {}
+
+    def system(th):
+        key = th.tobytes()
+        if key not in cache:
+            cache.clear()
+            cache[key] = _stack(linearize(model, th, campaign), noises, scales)
+        return cache[key]
+
+    sol = least_squares(
+        lambda th: -system(th)[0],
+        np.asarray(theta, dtype=float),
+        jac=lambda th: system(th)[1],
+        method="lm",
+        x_scale=1.0,
+        xtol=1e-12,
+        ftol=1e-12,
+        gtol=1e-12,
+        max_nfev=max_iter * (model.size + 1),
+    )
+    why = "" if sol.status > 0 else f"Levenberg–Marquardt stopped after {sol.nfev} evaluations: {sol.message}"
+    return np.asarray(sol.x, dtype=float), int(sol.nfev), why
+
+
+def _noise_not_converged(noises) -> str:
+    """Reason a noise model's fit did not converge (an object with ``converged`` False), or ``""``."""
+    bad = [nz for nz in noises if nz is not None and getattr(nz, "converged", True) is False]
+    if not bad:
+        return ""
+    return "the noise model's fit did not converge" + (f" ({bad[0].note})" if getattr(bad[0], "note", "") else "")
+
+
 def fit(
     records,
     terms=None,
@@ -690,34 +816,23 @@ def fit(
     theta = np.zeros(model.size) if theta0 is None else np.asarray(theta0, dtype=float).copy()
     n_rec = len(camp.records)
 
-    # white pass: per-record σ from the high-frequency residual, Gauss–Newton to convergence
+    # white pass: per-record σ from the high-frequency residual; one solve, or Levenberg–Marquardt when nonlinear
     lin = linearize(model, theta, camp)
     scales = [_noise_scale(r, lab) for r, _, lab, _ in lin]
     noises = [None] * n_rec
-    it, converged = 0, model.is_linear
-    for it in range(1, max_iter + 1):
-        rw, jw = _stack(lin, noises, scales)
-        if it == 1:
-            report = identifiability(jw, model)
-            if report["aliases"] or report["unexcited"]:
-                if not allow_aliases:
-                    raise IdentifiabilityError(alias_message(report), report)
-        step, _ = _solve(jw, rw)
-        theta = theta + step
-        lin = linearize(model, theta, camp)
-        if model.is_linear:
-            break
-        if np.all(np.abs(step) <= 1e-10 * (1.0 + np.abs(theta))):
-            converged = True
-            break
+    rw, jw = _stack(lin, noises, scales)
+    report = identifiability(jw, model)
+    if (report["aliases"] or report["unexcited"]) and not allow_aliases:
+        raise IdentifiabilityError(alias_message(report), report)
+    theta, it, why = _least_squares(model, theta, camp, noises, scales, max_iter)
+    lin = linearize(model, theta, camp)
     # noise model and GLS pass
     if noise == "ar":
         noises = campaign_noise(lin, camp)
-        for _ in range(3 if not model.is_linear else 1):
-            rw, jw = _stack(lin, noises, scales)
-            step, _ = _solve(jw, rw)
-            theta = theta + step
-            lin = linearize(model, theta, camp)
+        theta, it_gls, why_gls = _least_squares(model, theta, camp, noises, scales, max_iter)
+        it, why = it + it_gls, why or why_gls
+        lin = linearize(model, theta, camp)
+        why = why or _noise_not_converged(noises)
     elif noise != "white":
         raise ModelError(f"noise must be 'ar' or 'white', got {noise!r}")
     else:
@@ -739,6 +854,8 @@ def fit(
         g = small_sample_factor(dof_eff)
         cov = cov * np.outer(g, g)  # Student-t widening: θ̂ ± 2σ keeps its coverage when ν is small
     noise_models = [nz if nz is not None else ARNoise(np.zeros(0), s, s) for nz, s in zip(noises, scales)]
+    if why:
+        warnings.warn(f"fit of {', '.join(model.terms)} did not converge: {why}", ConvergenceWarning, stacklevel=2)
     return FitResult(
         model=model,
         theta=theta,
@@ -751,7 +868,8 @@ def fit(
         identifiability=report,
         n_samples=camp.n_measurements,
         iterations=it,
-        converged=converged or model.is_linear,
+        converged=not why,
+        convergence_note=why,
         chi2_whitened=chi2,
         dof=dof,
         inputs=_hash_inputs(camp.records),

@@ -121,18 +121,6 @@ def _effect_of(name: str) -> str:
         raise ModelError(f"unknown effect {name!r}; valid names: {', '.join(fx.names())}") from None
 
 
-def full_model_for_truth(coefficients: dict, kind: str, setup: dict | None = None) -> Model:
-    """The smallest model holding every non-zero coefficient of a truth (and every set-up effect given)."""
-    terms = []
-    for c, v in coefficients.items():
-        if v != 0.0:
-            terms.append(_effect_of(c))
-    for k, v in (setup or {}).items():
-        if np.any(np.asarray(v) != 0):
-            terms.append(k)
-    return Model.of(terms, kind)
-
-
 # ---------------------------------------------------------------------------------------------------------------
 
 
@@ -228,8 +216,10 @@ def record_data(record: Record) -> RecordData:
 # ---- the physics of one sample set ----------------------------------------------------------------------------
 
 
-def _setup_values(model: Model, theta) -> dict:
-    """Set-up effect coefficients (rad) from θ; zero for set-up effects not in the model."""
+def setup_values(model: Model, theta) -> dict:
+    """Set-up effect values from θ (report units, arcsec) as the kinematics take them: ``delta`` (3,) the base
+    rotation (δ_E, δ_N, δ_U) in rad, ``encoder`` (4,) the harmonics (c1, s1, c2, s2) in rad; zero for set-up effects
+    not in the model (CONVENTIONS §6)."""
     sl = model.slices()
 
     def take(name, n):
@@ -284,7 +274,7 @@ _sensed_batch = jax.vmap(sensed, in_axes=(None, None, None, None, 0, 0, None))
 
 
 def instrument_inputs(data: RecordData, setup: dict, angles=None, rates=None) -> dict:
-    """The inputs dict of :mod:`gyrojax.effects` for every sample (module doc there).
+    """The inputs dict of :mod:`gyrojax.physics.effects` for every sample (module doc there).
 
     Rates ``w_*`` in deg/h, specific forces ``a_*`` in g, ``t_h`` in h, ``temperature_C`` in °C. ``angles`` (n, k)
     rad and ``rates`` (n, k) rad/s replace the encoder-corrected table state of :func:`true_angles` when given.
@@ -376,7 +366,7 @@ def check_servo(data: RecordData, where: str) -> None:
 def predict(model: Model, theta, data: RecordData):
     """Predicted measurement vector of a record (module doc), same shape as ``data.y``."""
     theta = jnp.asarray(theta, dtype=jnp.float64)
-    setup = _setup_values(model, theta)
+    setup = setup_values(model, theta)
     if data.mode == "servo":
         r, _ = servo_rate(model, theta, data, setup)
         s = data.servo_axis

@@ -24,9 +24,9 @@ boundary; :func:`binned_model` builds it for comparison.
 **Compensation.** For a rate gyro the indicated rate is ω_ind = (1 + s(T)) ω + b(T), so ω̂ = (ω_ind − b̂(T))/(1 + ŝ(T)).
 
 **Navigation error.** :func:`navigation_position_error` feeds the residual gyro and accelerometer errors of a run
-through the single-channel Schuler loop of :mod:`gyrojax.system` (Titterton 12.2), with and without compensation. The
-paper reports 181 m (98 m at 70 s) uncompensated and 29.5 m (15.8 m at 70 s) compensated over 90 s at 100 Hz
-(001 l.136) but gives neither the fitted coefficients nor the temperatures, so its numbers cannot be recomputed;
+through the single-channel Schuler loop of :mod:`gyrojax.seeds.system` (Titterton 12.2), with and without
+compensation. The paper reports 181 m (98 m at 70 s) uncompensated and 29.5 m (15.8 m at 70 s) compensated over 90 s at
+100 Hz (001 l.136) but gives neither the fitted coefficients nor the temperatures, so its numbers cannot be recomputed;
 only the ordering (compensated < uncompensated) and its spec-sheet scale are testable.
 
 Units: temperature in °C; coefficients in any unit (the model is linear in them); rates in deg/h, specific force

@@ -27,13 +27,13 @@ from gyrojax.physics import frames
 from gyrojax.physics.model import (
     Model,
     RecordData,
-    _setup_values,
     check_servo,
     encoder_error,
     instrument_inputs,
     predict,
     record_data,
     servo_rate,
+    setup_values,
 )
 
 
@@ -215,7 +215,7 @@ def loop_params(loop, kind: str, where: str = "simulate"):
         return default_tdf() if kind == fx.TDF else default_rebalance()
     if not isinstance(loop, want):
         raise PlanError(
-            f"{where}: a {kind} run needs loop={want.__name__} (gyrojax."
+            f"{where}: a {kind} run needs loop={want.__name__} (gyrojax.dynamics."
             f"{'tdfloop' if kind == fx.TDF else 'loops'}), got {type(loop).__name__}; for a plan mixing instrument "
             f"kinds pass a dict {{kind: parameters}}"
         )
@@ -269,7 +269,7 @@ def _through_loop(ind: np.ndarray, rec: Record, loop) -> np.ndarray:
 
 
 def _through_tdf_loop(omega: np.ndarray, sensed: np.ndarray, rec: Record, params) -> np.ndarray:
-    """Both TDF channels (n, 2) through the DTG capture loops (:mod:`gyrojax.tdfloop`), segment by segment as
+    """Both TDF channels (n, 2) through the DTG capture loops (:mod:`gyrojax.dynamics.tdfloop`), segment by segment as
     :func:`_through_loop`: the case rate ``omega`` (n, 2) about X, Y (deg/h) enters as the rate input, the rest of
     the quasi-static sensed rate ``sensed`` − ``omega`` (drift coefficients and random drift, deg/h) as the drift
     torque; each reading is the loop's S_nom·i at the end of the sample's hold (Hu 3-94, 5-64 to 5-68). The
@@ -321,7 +321,7 @@ def simulate_run(
             axis=1,
         )
         if params is not None:
-            x = instrument_inputs(data, _setup_values(model, theta))
+            x = instrument_inputs(data, setup_values(model, theta))
             omega = np.stack([np.asarray(x["w_X"]), np.asarray(x["w_Y"])], axis=1)
             sensed = _through_tdf_loop(omega, sensed, Record(meta, cols), params)
         cols["current_x_mA"] = sensed[:, 0] / run.scale_factor
@@ -357,13 +357,13 @@ def simulate(plan: Plan, truth, key=None, seed: int = 0, dynamics: str = "quasi-
     each hold; at the plans' low input frequencies it reproduces the quasi-static record within the loop's static
     error, and it shows the loop's lag on oscillating or fast-changing tables. ``loop`` chooses the loop per kind:
 
-    - ``sdf-gyro``, ``fog``, ``rlg``: the analog rebalance loop (:mod:`gyrojax.loops`, Hu 2-50 to 2-56), ``loop`` a
-      ``RebalanceParams`` (default ``default_rebalance()``); the torquer's E_SF, E_A, E_2 are the truth's effects,
-      so the loop's own are zeroed. fog and rlg have no loop model of their own: they get this one as a stand-in
-      with unit DC gain and the loop's bandwidth.
-    - ``tdf-gyro``: both channels through the DTG capture loops (:mod:`gyrojax.tdfloop`), ``loop`` a ``TDFParams``
-      (default ``default_tdf()``): the case rate about X, Y is the rate input, the truth's drift terms and random
-      drift the drift torque. A constant input reads S⁻¹(ω + d) (``tdf_static_matrix``); the loop's torquer
+    - ``sdf-gyro``, ``fog``, ``rlg``: the analog rebalance loop (:mod:`gyrojax.dynamics.loops`, Hu 2-50 to 2-56),
+      ``loop`` a ``RebalanceParams`` (default ``default_rebalance()``); the torquer's E_SF, E_A, E_2 are the truth's
+      effects, so the loop's own are zeroed. fog and rlg have no loop model of their own: they get this one as a
+      stand-in with unit DC gain and the loop's bandwidth.
+    - ``tdf-gyro``: both channels through the DTG capture loops (:mod:`gyrojax.dynamics.tdfloop`), ``loop`` a
+      ``TDFParams`` (default ``default_tdf()``): the case rate about X, Y is the rate input, the truth's drift terms
+      and random drift the drift torque. A constant input reads S⁻¹(ω + d) (``tdf_static_matrix``); the loop's torquer
       errors E_SF_X, E_SF_Y, μ_XY, μ_YX are kept (no TDF effect carries them).
     - ``pendulous-accel``: the pendulum obeys the float's equation with pendulosity·a in place of H·ω (Hu 3-38),
       so its indicated output (g) goes through the rebalance loop of ``loop`` (a ``RebalanceParams``) as a rate

@@ -1,0 +1,168 @@
+"""The fit result's promises: it saves and loads symmetrically with a checked format version; a fit that did not
+converge warns and says so in its JSON; nonlinear set-up terms are fitted by a damped method that converges where
+undamped Gauss–Newton overshoots; p-values use the same Student-t degrees of freedom as the widened σ."""
+
+import dataclasses
+import json
+import warnings
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from gyrojax.data import plans
+from gyrojax.data.records import save_record
+from gyrojax.errors import ConvergenceWarning, FormatError
+from gyrojax.inference.identify import (
+    INTERVAL_LEVEL,
+    RESULT_VERSION,
+    Campaign,
+    FitResult,
+    fit,
+    linearize,
+    result_from_json,
+)
+from gyrojax.physics.model import Model
+from gyrojax.simulation.simulator import simulate
+
+LOCK_IN = 300.0  # deg/h
+LADDER_DPS = (0.1, 0.2, 0.5, 1.0)  # highest rate 3600 deg/h
+
+
+def _as_kind(plan, kind):
+    runs = tuple(dataclasses.replace(r, instrument={**r.instrument, "kind": kind}) for r in plan.runs)
+    return dataclasses.replace(plan, runs=runs)
+
+
+@pytest.fixture(scope="module")
+def rlg_ladder():
+    """A ring-laser gyro on a rate ladder about Up (IA up), lock-in 300 deg/h, white noise 0.5 deg/h."""
+    plan = _as_kind(plans.rate_ladder(rates_dps=LADDER_DPS, seconds=10, dt_s=0.5, mountings=("axial",)), "rlg")
+    return simulate(plan, {"coefficients": {"D_F": 0.2, "Omega_L": LOCK_IN}, "noise": {"white": 0.5}}, seed=3)
+
+
+def test_damped_fit_converges_where_gauss_newton_overshoots(rlg_ladder):
+    """From Ω_L = 5 deg/h the lock-in output √(ω² − Ω_L²) is nearly flat in Ω_L, so the undamped Gauss–Newton step
+    leaps past every rate of the ladder into the dead band, where the Jacobian vanishes and it stays. The
+    Levenberg–Marquardt fit comes back to the truth."""
+    theta0 = np.array([0.0, 5.0])
+    model = Model(("D_F", "lock_in"), "rlg")
+    lin = linearize(model, theta0, Campaign.of(rlg_ladder))
+    r, j = lin[0][0], lin[0][1]
+    gn = theta0 + np.linalg.lstsq(j, r, rcond=None)[0]
+    assert gn[1] > max(LADDER_DPS) * 3600.0  # the undamped step lands in the dead band of every rate
+    dead = linearize(model, gn, Campaign.of(rlg_ladder))[0][1]
+    assert np.abs(dead[:, 1]).max() == 0.0  # and there the lock-in column is zero: Gauss–Newton cannot return
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ConvergenceWarning)
+        res = fit(rlg_ladder, ["D_F", "lock_in"], noise="white", theta0=theta0)
+    assert res.converged and res.to_json()["fit"]["converged"] is True
+    assert abs(res.values["Omega_L"] - LOCK_IN) < 4 * res.stds["Omega_L"]
+    assert abs(res.values["D_F"] - 0.2) < 4 * res.stds["D_F"]
+    # the optimum does not depend on the start
+    again = fit(rlg_ladder, ["D_F", "lock_in"], noise="white", theta0=[0.0, 1000.0])
+    np.testing.assert_allclose(again.theta, res.theta, rtol=1e-6)
+
+
+def test_unconverged_fit_warns_and_says_so(rlg_ladder, tmp_path):
+    with pytest.warns(ConvergenceWarning, match="did not converge"):
+        res = fit(rlg_ladder, ["D_F", "lock_in"], noise="white", theta0=[0.0, 5.0], max_iter=1)
+    assert not res.converged and "Levenberg–Marquardt" in res.convergence_note
+    j = res.to_json()["fit"]
+    assert j["converged"] is False and "evaluations" in j["reason"]
+    back = FitResult.load(res.save(tmp_path / "bad.json"))
+    assert back.converged is False and back.convergence_note == res.convergence_note
+
+
+def test_save_load_round_trip(rlg_ladder, tmp_path):
+    res = fit(rlg_ladder, ["D_F", "lock_in"], noise="ar", theta0=[0.0, 250.0])
+    path = res.save(tmp_path / "fit.json")
+    with pytest.raises(Exception, match="exists"):
+        res.save(path)
+    res.save(path, force=True)
+    back = FitResult.load(path)
+    np.testing.assert_array_equal(back.theta, res.theta)
+    np.testing.assert_array_equal(back.cov, res.cov)
+    assert back.model == res.model and back.dof == res.dof and back.record_names == res.record_names
+    assert back.inputs == res.inputs and back.iterations == res.iterations
+    np.testing.assert_array_equal(back.p_values, res.p_values)
+    # what load gives back saves to the same file, except what is not stored (residuals)
+    second = back.save(tmp_path / "again.json")
+    a, b = json.loads(path.read_text()), json.loads(second.read_text())
+    for key in ("terms", "theta", "cov", "coefficients", "fit", "format", "format_version", "inputs", "instrument"):
+        assert a[key] == b[key], key
+    # Satterthwaite degrees of freedom travel with the coefficients
+    res.dof_eff = np.array([7.0, 12.5])
+    back = FitResult.load(res.save(tmp_path / "nu.json"))
+    np.testing.assert_array_equal(back.dof_eff, res.dof_eff)
+
+
+@pytest.mark.parametrize(
+    "edit, key",
+    [
+        (lambda d: d.update(format="imucal"), "'format'"),
+        (lambda d: d.pop("format"), "'format'"),
+        (lambda d: d.update(format_version=RESULT_VERSION + 1), "'format_version'"),
+        (lambda d: d.update(format_version="1"), "'format_version'"),
+        (lambda d: d.pop("cov"), "'cov'"),
+        (lambda d: d.update(theta=[1.0]), "'theta'"),
+    ],
+)
+def test_load_refuses_other_formats_naming_file_and_key(rlg_ladder, tmp_path, edit, key):
+    res = fit(rlg_ladder, ["D_F", "sf_error"], noise="white")
+    d = json.loads(res.save(tmp_path / "fit.json").read_text())
+    edit(d)
+    bad = tmp_path / "edited.json"
+    bad.write_text(json.dumps(d))
+    with pytest.raises(FormatError) as e:
+        FitResult.load(bad)
+    assert str(bad) in str(e.value) and key in str(e.value)
+    assert "np.float64" not in str(e.value)
+
+
+def test_load_reads_the_0_2_format(rlg_ladder, tmp_path):
+    res = fit(rlg_ladder, ["D_F", "sf_error"], noise="white")
+    d = json.loads(res.save(tmp_path / "fit.json").read_text())
+    d["format"] = "gyrojax-fit-1"
+    del d["format_version"]
+    old = tmp_path / "old.json"
+    old.write_text(json.dumps(d))
+    np.testing.assert_array_equal(FitResult.load(old).theta, res.theta)
+    np.testing.assert_array_equal(result_from_json(d).cov, res.cov)
+
+
+def test_p_values_use_the_t_widening_of_the_standard_errors():
+    """θ̂ ± 2σ is the t_ν interval at one-sided level 0.97725 (the σ is widened by t_ν/z), so a coefficient at
+    exactly 2σ has p = 2·(1 − Φ(2)) = 0.0455 whatever ν; without estimated ν the residual dof are used."""
+    model = Model(("D_F", "D_I", "D_O"))
+    nu = np.array([3.0, 12.0, np.inf])
+    theta = np.array([2.0, -2.0, 2.0])
+    res = FitResult(model, theta, np.eye(3), [], [], [], [], [], {}, 100, dof=40, dof_eff=nu)
+    np.testing.assert_allclose(res.p_values, 2 * stats.norm.sf(2.0), rtol=1e-5)  # L = 0.97725 ≈ Φ(2)
+    # the plain statistic referred to Student's t at ν (scipy), by hand
+    z = stats.norm.ppf(INTERVAL_LEVEL)
+    plain = 2.0 * stats.t.ppf(INTERVAL_LEVEL, 3.0) / z
+    assert res.p_values[0] == pytest.approx(2 * stats.t.sf(plain, 3.0), rel=1e-12)
+    # no Satterthwaite ν: σ is not widened and the p-value is Student's t at the residual dof
+    res = FitResult(model, theta, np.eye(3), [], [], [], [], [], {}, 100, dof=5)
+    np.testing.assert_allclose(res.p_values, 2 * stats.t.sf(2.0, 5), rtol=1e-12)
+    assert res.p_values[0] > 2 * stats.norm.sf(2.0)
+
+
+def test_error_messages_print_plain_numbers(rlg_ladder, tmp_path):
+    """Messages show numbers as a person writes them (27.3, nan), never as ``np.float64(27.3)``."""
+    rec = rlg_ladder[0]
+    cur = rec.columns["current_mA"].copy()
+    cur[3] = np.nan
+    msgs = []
+    with pytest.raises(Exception) as e:
+        fit([rec.with_columns(current_mA=cur)], ["D_F"])
+    msgs.append(str(e.value))
+    t = rec.columns["time_s"].copy()
+    t[5] = t[4]
+    with pytest.raises(Exception) as e:
+        save_record(rec.with_columns(time_s=t), tmp_path)
+    msgs.append(str(e.value))
+    assert "holds nan" in msgs[0] and "previous row's 2.0 (got 2.0)" in msgs[1]
+    for m in msgs:
+        assert "np.float64" not in m and "np.int64" not in m, m
