@@ -739,11 +739,47 @@ def run_study(
     pipeline: Pipeline | None = None,
     start: int = 0,
 ) -> StudyResult:
-    """Evaluate draws ``start … start+draws−1`` of a study in chunks over a mesh of devices (module doc)."""
+    """Evaluate draws ``start … start+draws−1`` of a study in chunks over a mesh of devices (module doc).
+
+    In a ``jax.distributed`` job of N processes (:mod:`gyrojax.montecarlo.hosts`), process k evaluates the block
+    :func:`gyrojax.montecarlo.hosts.share` of the draws on its own devices (``devices``: default its local ones),
+    and every process returns the whole result, gathered in draw order: the same draws as one process computes.
+    ``compile_s`` and ``run_s`` are then the slowest process's.
+    """
+    from gyrojax.montecarlo import hosts
+
     pipe = pipeline or build_pipeline(study)
     n = int(draws if draws is not None else study.draws)
+    nproc, pid = jax.process_count(), jax.process_index()
+    if nproc > 1:
+        devices = list(devices) if devices is not None else jax.local_devices()
+        if any(d.process_index != pid for d in devices):
+            raise StudyError("run_study: in a multi-process job each process runs on its own (local) devices")
+    lo, hi = hosts.share(n, nproc, pid)
+    local, compile_s, run_s = _evaluate(pipe, start + lo, hi - lo, chunk or study.chunk, devices, progress)
+    if nproc > 1:
+        counts = [hosts.share(n, nproc, k)[1] - hosts.share(n, nproc, k)[0] for k in range(nproc)]
+        local = hosts.gather(local, counts)
+        times = hosts.gather({"t": np.array([[compile_s, run_s]])}, [1] * nproc)["t"]
+        compile_s, run_s = float(times[:, 0].max()), float(times[:, 1].max())
+    return StudyResult(
+        study,
+        pipe.truth_model.coefficient_names,
+        pipe.fit_model.coefficient_names,
+        np.arange(start, start + n),
+        local["truth"],
+        local["estimate"],
+        local["std"],
+        local["rms"],
+        compile_s,
+        run_s,
+    )
+
+
+def _evaluate(pipe: Pipeline, start: int, n: int, chunk, devices, progress):
+    """Per-draw arrays of draws ``start … start+n−1`` on ``devices`` (default: all): (dict, compile_s, run_s)."""
     f, sh, ndev = batched_draws(pipe, devices)
-    chunk = chunk or study.chunk or auto_chunk(pipe, ndev)
+    chunk = chunk or auto_chunk(pipe, ndev)
     chunk = int(math.ceil(min(chunk, max(n, 1)) / ndev) * ndev)
     stream = sys.stderr
     outs = []
@@ -765,19 +801,13 @@ def run_study(
         if progress:
             _progress(s + k, n, t1, stream, last)
     run_s = time.perf_counter() - t1
-    cat = {key: np.concatenate([o[key] for o in outs]) for key in outs[0]} if outs else None
-    return StudyResult(
-        study,
-        pipe.truth_model.coefficient_names,
-        pipe.fit_model.coefficient_names,
-        np.arange(start, start + n),
-        cat["truth"],
-        cat["estimate"],
-        cat["std"],
-        cat["rms"],
-        compile_s,
-        run_s,
-    )
+    if outs:
+        cat = {key: np.concatenate([o[key] for o in outs]) for key in outs[0]}
+    else:  # no draws: empty arrays of the right widths
+        p_true, p_fit = pipe.truth_model.size, pipe.fit_model.size
+        cat = {"truth": np.zeros((0, p_true)), "estimate": np.zeros((0, p_fit)), "std": np.zeros((0, p_fit))}
+        cat["rms"] = np.zeros(0)
+    return cat, compile_s, run_s
 
 
 # ---- records of a draw (for the numpy GLS path) -------------------------------------------------------------------
@@ -865,3 +895,82 @@ def save_result(res: StudyResult, out_dir, force: bool = False) -> dict:
 
     figures.save(figures.montecarlo_figure(res, summarize(res)), names["plot"])
     return {k: str(v) for k, v in names.items()}
+
+
+def load_result(out_dir) -> StudyResult:
+    """A result written by :func:`save_result`: its study JSON and its draws table (Parquet or CSV). Errors name
+    the directory and the file."""
+    import pandas as pd
+
+    out = Path(out_dir)
+    study = load_study(out / "study.json")
+    table = out / "draws.parquet"
+    if not table.exists():
+        table = out / "draws.csv"
+    if not table.exists():
+        raise StudyError(f"{out}: no draws.parquet or draws.csv (not a directory written by gyrojax mc)")
+    try:
+        df = pd.read_parquet(table) if table.suffix == ".parquet" else pd.read_csv(table)
+    except (OSError, ValueError) as e:
+        raise StudyError(f"{table}: cannot be read as a draws table ({e})") from None
+    cols = list(df.columns)
+    truth = tuple(c[: -len("_truth")] for c in cols if c.endswith("_truth"))
+    fit = tuple(c[: -len("_estimate")] for c in cols if c.endswith("_estimate"))
+    missing = [c for c in ["draw", "rms"] + [f"{f}_std" for f in fit] if c not in cols]
+    if missing or not truth or not fit:
+        raise StudyError(f"{table}: missing column {missing[0] if missing else '<coefficient>_truth/_estimate'!r}")
+    return StudyResult(
+        study,
+        truth,
+        fit,
+        df["draw"].to_numpy(dtype=np.int64),
+        df[[f"{c}_truth" for c in truth]].to_numpy(dtype=float),
+        df[[f"{c}_estimate" for c in fit]].to_numpy(dtype=float),
+        df[[f"{c}_std" for c in fit]].to_numpy(dtype=float),
+        df["rms"].to_numpy(dtype=float),
+    )
+
+
+def merge_results(results, where=None) -> StudyResult:
+    """One result from the results of disjoint draw ranges of one study (the index-range split: ``gyrojax mc
+    --start S --draws N`` per host, no coordination), rows in draw order. Refuses different studies (any key but
+    ``draws``) and a draw index present twice; ``where`` names the inputs in error messages."""
+    results = list(results)
+    if not results:
+        raise StudyError("merge: no results given")
+    where = list(where) if where is not None else [f"result {i}" for i in range(len(results))]
+
+    def key(r):
+        d = r.study.to_dict()
+        d.pop("draws")
+        return d
+
+    ref = results[0]
+    for r, w in zip(results[1:], where[1:]):
+        if key(r) != key(ref):
+            diff = sorted(k for k in key(ref) if key(ref)[k] != key(r).get(k))
+            raise StudyError(f"merge: {w} is a different study from {where[0]} (key {diff[0]!r} differs)")
+        if r.truth_names != ref.truth_names or r.fit_names != ref.fit_names:
+            raise StudyError(f"merge: {w} has other coefficient columns than {where[0]}")
+    draw = np.concatenate([r.draw for r in results])
+    order = np.argsort(draw, kind="stable")
+    dup = draw[order][1:][np.diff(draw[order]) == 0]
+    if dup.size:
+        owners = [w for r, w in zip(results, where) if dup[0] in r.draw]
+        raise StudyError(f"merge: draw {int(dup[0])} is in {' and '.join(owners)} (the draw ranges overlap)")
+
+    def cat(name):
+        return np.concatenate([getattr(r, name) for r in results])[order]
+
+    return StudyResult(
+        replace(ref.study, draws=int(draw.size)),
+        ref.truth_names,
+        ref.fit_names,
+        draw[order],
+        cat("truth"),
+        cat("estimate"),
+        cat("std"),
+        cat("rms"),
+        sum(r.compile_s for r in results),
+        sum(r.run_s for r in results),
+    )
