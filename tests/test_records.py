@@ -41,7 +41,7 @@ def test_every_example_loads_and_inputs_match_numpy(example_campaigns):
             rec = load_record(EXAMPLES / f"{name}.json")
             assert rec.n > 1000
             data = model.record_data(rec)
-            setup = model._setup_values(model.Model(()), np.zeros(0))
+            setup = model.setup_values(model.Model(()), np.zeros(0))
             x = model.instrument_inputs(data, setup)
             idx = np.linspace(0, rec.n - 1, 200).astype(int)
             sub = records.Record(rec.meta, {k: v[idx] for k, v in rec.columns.items()})

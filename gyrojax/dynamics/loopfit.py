@@ -21,7 +21,7 @@ import numpy as np
 from gyrojax import units
 from gyrojax.data import plans
 from gyrojax.dynamics.loops import RebalanceParams, rebalance_closed_loop_tf
-from gyrojax.physics.model import Model, _setup_values, instrument_inputs, record_data
+from gyrojax.physics.model import Model, instrument_inputs, record_data, setup_values
 
 
 def oscillation_plan(
@@ -64,7 +64,7 @@ def measured_response(record, frequencies_hz, settle_cycles: float = 2.0) -> np.
     Dimensionless (both rates in deg/h); ``frequencies_hz`` in Hz, ``settle_cycles`` cycles skipped per segment.
     """
     d = record_data(record)
-    x = instrument_inputs(d, _setup_values(Model(()), np.zeros(0)))
+    x = instrument_inputs(d, setup_values(Model(()), np.zeros(0)))
     w_in = np.asarray(x["w_I"])
     ind = record.indicated
     seg = record.segment_id

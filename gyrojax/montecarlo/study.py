@@ -54,8 +54,18 @@ from gyrojax.data.truth import SETUP_SIZES
 from gyrojax.errors import GyrojaxError
 from gyrojax.noise.processes import random_drift, validate_noise
 from gyrojax.physics import effects as fx
-from gyrojax.physics import frames
-from gyrojax.physics.model import Model, RecordData, indicated_output, predict, record_data
+from gyrojax.physics.kinematics import turn
+from gyrojax.physics.model import (
+    Model,
+    RecordData,
+    angle_trig,
+    encoder_error_trig,
+    indicated_output,
+    instrument_inputs,
+    predict,
+    record_data,
+    setup_values,
+)
 
 STUDY_FORMAT = "gyrojax-mc-study-1"
 SDF_NINE_TERMS = ("D_F", "D_I", "D_O", "D_S", "D_II", "D_SS", "D_IO", "D_IS", "D_OS")
@@ -232,115 +242,6 @@ def load_study(path) -> Study:
     return study_from_dict(read_json_file(path, StudyError, "a study"), str(path))
 
 
-# ---- the measurement model, written for batches of draws ---------------------------------------------------------
-
-
-def _rotate(u, c, s, v):
-    """R(u, θ) v by Rodrigues, elementwise: v cos θ + (u × v) sin θ + u (u·v)(1 − cos θ); u (3,), c, s, v[i] (n,)."""
-    x = (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
-    d = u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
-    return tuple(v[i] * c + x[i] * s + u[i] * d * (1.0 - c) for i in range(3))
-
-
-def _matvec(m, v):
-    return tuple(m[i, 0] * v[0] + m[i, 1] * v[1] + m[i, 2] * v[2] for i in range(3))
-
-
-def _small_rotation(c, s, eps):
-    """(cos, sin) of θ + ε from those of θ, with cos ε and sin ε by their Taylor series (exact to rounding for
-    |ε| < 0.05 rad: the first omitted terms are below 1e-16 relative): no transcendental per sample."""
-    e2 = eps * eps
-    ce = 1.0 - e2 / 2.0 * (1.0 - e2 / 12.0 * (1.0 - e2 / 30.0 * (1.0 - e2 / 56.0)))
-    se = eps * (1.0 - e2 / 6.0 * (1.0 - e2 / 20.0 * (1.0 - e2 / 42.0 * (1.0 - e2 / 72.0))))
-    return c * ce - s * se, s * ce + c * se
-
-
-def _encoder_from_trig(enc, c, s):
-    """h(θ) and dh/dθ of Hu 5-51 from cos θ, sin θ (double-angle forms)."""
-    c2, s2 = c * c - s * s, 2.0 * s * c
-    h = enc[0] * c + enc[1] * s + enc[2] * c2 + enc[3] * s2
-    dh = -enc[0] * s + enc[1] * c - 2.0 * enc[2] * s2 + 2.0 * enc[3] * c2
-    return h, dh
-
-
-def fast_inputs(data: RecordData, setup: dict, trig=None) -> dict:
-    """The inputs of :func:`gyrojax.physics.model.instrument_inputs` (rebalance records), computed with vector
-    rotations.
-
-    Same maths (CONVENTIONS §3–§4): with B = I + [δ×], C = B·R(u_1,θ_1)…R(u_k,θ_k) and ω_LP = B Σ θ̇_i R_1…R_{i−1} u_i,
-    ω_P = Cᵀ(Ω + ω_LP) and f_P = Cᵀ f; but each rotation acts on vectors elementwise (Rodrigues) instead of
-    building 3×3 matrices per sample, and the encoder correction θ = θ_read − h(θ_read) (Hu 5-51, first order as in
-    :func:`gyrojax.physics.model.true_angles`) turns (cos, sin) of the read angle by a small angle. ``trig``: optional
-    per-axis (cos, sin) of ``data.angles`` (precomputed for a plan: then no transcendental is evaluated per draw).
-    Tested against ``instrument_inputs``. Units as there: rates in deg/h, specific forces in g.
-    """
-    e = data.encoder_axis
-    k = data.axes.shape[0]
-    if trig is None:
-        trig = [(jnp.cos(data.angles[:, i]), jnp.sin(data.angles[:, i])) for i in range(k)]
-    cs = list(trig)
-    rates = [data.rates[:, i] for i in range(k)]
-    h, dh = _encoder_from_trig(setup["encoder"], *cs[e])
-    cs[e] = _small_rotation(cs[e][0], cs[e][1], -h)
-    if data.rates_derived:
-        rates[e] = rates[e] * (1.0 - dh)
-    n = data.angles.shape[0]
-    zero = jnp.zeros(n)
-    w = (zero, zero, zero)
-    for i in range(k):  # ω_LP without the base: θ̇_i R_1 … R_{i−1} u_i
-        v = tuple(jnp.full(n, data.axes[i, j]) for j in range(3))
-        for j in range(i - 1, -1, -1):
-            v = _rotate(data.axes[j], cs[j][0], cs[j][1], v)
-        w = tuple(w[j] + rates[i] * v[j] for j in range(3))
-    b = (
-        jnp.eye(3)
-        + jnp.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]]) * setup["delta"][2]
-        + jnp.array([[0.0, 0.0, 1.0], [0.0, 0.0, 0.0], [-1.0, 0.0, 0.0]]) * setup["delta"][1]
-        + jnp.array([[0.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]]) * setup["delta"][0]
-    )
-    om = frames.earth_rate_enu(data.latitude)
-    bw = _matvec(b, w)
-    wi = _matvec(b.T, tuple(om[j] + bw[j] for j in range(3)))  # Bᵀ(Ω + B ω_LP0)
-    f = frames.specific_force_enu(data.gravity)
-    fb = b.T @ f
-    fi = tuple(jnp.full(n, fb[j]) for j in range(3))
-    for j in range(k):  # Cᵀ = R_kᵀ … R_1ᵀ: apply R_1ᵀ first
-        wi = _rotate(data.axes[j], cs[j][0], -cs[j][1], wi)
-        fi = _rotate(data.axes[j], cs[j][0], -cs[j][1], fi)
-    wt = _matvec(data.triad, wi)
-    at = _matvec(data.triad, fi)
-    w3 = [x / units.DEG_PER_H for x in wt]
-    a3 = [x / units.G0 for x in at]
-    x = {"t_h": data.time_s / units.SECONDS_PER_HOUR, "temperature_C": data.temperature}
-    names = {fx.TDF: ("X", "Y", "Z"), fx.ACCEL: ("I", "P", "O")}.get(data.kind, ("I", "O", "S"))
-    for j, nm in enumerate(names):
-        x[f"w_{nm}"] = w3[j]
-        x[f"a_{nm}"] = a3[j]
-    return x
-
-
-def setup_values(model: Model, theta) -> dict:
-    """Set-up errors (rad) of θ: δ = (tilt_E, tilt_N, azimuth), encoder harmonics; zero when not in the model."""
-    sl = model.slices()
-
-    def take(name, n):
-        return theta[sl[name]] * units.ARCSEC if name in sl else jnp.zeros(n)
-
-    return {
-        "delta": jnp.concatenate([take("table_tilt", 2), take("table_azimuth", 1)]),
-        "encoder": take("encoder_harmonic", 4),
-    }
-
-
-def fast_predict(model: Model, theta, data: RecordData, trig=None):
-    """:func:`gyrojax.physics.model.predict` with :func:`fast_inputs` for rebalance records (servo: ``predict``
-    itself)."""
-    if data.mode == "servo":
-        return predict(model, theta, data)
-    theta = jnp.asarray(theta, dtype=jnp.float64)
-    return indicated_output(model, theta, fast_inputs(data, setup_values(model, theta), trig), data.kind)
-
-
 # ---- the per-draw pipeline ---------------------------------------------------------------------------------------
 
 
@@ -425,8 +326,8 @@ class Pipeline:
             return data, trig
         enc = theta_true[self.truth_model.slices()["encoder_harmonic"]] * units.ARCSEC
         e = data.encoder_axis
-        h, _ = _encoder_from_trig(enc, *trig[e])
-        trig[e] = _small_rotation(trig[e][0], trig[e][1], h)
+        h, _ = encoder_error_trig(enc, *trig[e])
+        trig[e] = turn(trig[e][0], trig[e][1], h)
         return replace(data, angles=data.angles.at[:, e].add(h)), trig
 
     def simulate_draw(self, key):
@@ -436,15 +337,9 @@ class Pipeline:
         ys, reads = [], []
         for i, d in enumerate(self.data):
             rd, trig = self.read_data(theta, i)
-            ys.append(self._predict(self.truth_model, theta, rd, trig) + self.record_noise(kn, i, d))
+            ys.append(predict(self.truth_model, theta, rd, trig) + self.record_noise(kn, i, d))
             reads.append((rd, trig))
         return theta, ys, reads
-
-    @staticmethod
-    def _predict(model, theta, data, trig):
-        if data.mode == "servo":
-            return predict(model, theta, data)
-        return indicated_output(model, theta, fast_inputs(data, setup_values(model, theta), trig), data.kind)
 
     def _fit_prediction(self, reads):
         """θ ↦ the fit model's prediction on the read data, all records concatenated (output units)."""
@@ -452,11 +347,11 @@ class Pipeline:
         if model.is_linear and all(rd.mode != "servo" for rd, _ in reads):
             # the inputs do not depend on θ: compute them once, differentiate the balance equation only
             nominal = setup_values(model, jnp.zeros(model.size))
-            xs = [fast_inputs(rd, nominal, trig) for rd, trig in reads]
+            xs = [instrument_inputs(rd, nominal, trig=trig) for rd, trig in reads]
             return lambda th: jnp.concatenate(
                 [indicated_output(model, th, x, rd.kind) for x, (rd, _) in zip(xs, reads)]
             )
-        return lambda th: jnp.concatenate([self._predict(model, th, rd, trig) for rd, trig in reads])
+        return lambda th: jnp.concatenate([predict(model, th, rd, trig) for rd, trig in reads])
 
     def solve(self, ys, reads):
         """Least squares of the fit model on the read data (module doc): (θ̂, std, rms)."""
@@ -495,7 +390,7 @@ class Pipeline:
             e = self.record_noise(kn, i, d) * d.weight
             n_runs = len(first)
             sums = [jax.ops.segment_sum(v, idx, n_runs, indices_are_sorted=True) for v in (d.weight, e, e * e)]
-            parts.append((self._predict(self.truth_model, theta, rd, trig), *sums))
+            parts.append((predict(self.truth_model, theta, rd, trig), *sums))
             reads.append((rd, trig))
         return theta, parts, reads
 
@@ -572,7 +467,7 @@ def constant_runs(data, models, seed: int = 0):
         later = replace(d, time_s=d.time_s + units.SECONDS_PER_HOUR)
         for m in models:
             th = jnp.asarray(rng.normal(0.0, 1.0, m.size))
-            if not np.allclose(fast_predict(m, th, d), fast_predict(m, th, later), rtol=1e-13, atol=0.0):
+            if not np.allclose(predict(m, th, d), predict(m, th, later), rtol=1e-13, atol=0.0):
                 return None
         out.append((jnp.asarray(idx, dtype=jnp.int32), jnp.asarray(first)))
     return tuple(out)
@@ -618,7 +513,7 @@ def build_pipeline(study: Study, plan=None, records=None) -> Pipeline:
     b = np.array([priors.get(c, (False, 0.0, 0.0))[2] for c in truth_model.coefficient_names])
     data = tuple(record_data(r) for r in recs)
     dtw = tuple(float(np.median(np.diff(np.asarray(r.time_s)))) if r.n > 1 else 1.0 for r in recs)
-    trig = tuple(tuple((jnp.asarray(np.cos(a)), jnp.asarray(np.sin(a))) for a in np.asarray(d.angles).T) for d in data)
+    trig = tuple(tuple(angle_trig(jnp.asarray(d.angles))) for d in data)
     runs = constant_runs(data, (fit_model, truth_model))
     return Pipeline(
         recs, data, fit_model, truth_model, uni, a, b, dict(study.noise), dtw, study.solver, study.seed, trig, runs

@@ -112,10 +112,10 @@ def measurement_inputs(record) -> dict:
     temperature, segment. Servo intervals are placed at their first sample."""
     import jax.numpy as jnp
 
-    from gyrojax.physics.model import Model, _setup_values, instrument_inputs, record_data
+    from gyrojax.physics.model import Model, instrument_inputs, record_data, setup_values
 
     d = record_data(record)
-    x = instrument_inputs(d, _setup_values(Model((), d.kind), jnp.zeros(0)))
+    x = instrument_inputs(d, setup_values(Model((), d.kind), jnp.zeros(0)))
     n = record.n
     view = {"time_h": record.time_s / 3600.0, "segment": record.segment_id}
     for i, a in enumerate(record.axis_names):

@@ -27,13 +27,13 @@ from gyrojax.physics import frames
 from gyrojax.physics.model import (
     Model,
     RecordData,
-    _setup_values,
     check_servo,
     encoder_error,
     instrument_inputs,
     predict,
     record_data,
     servo_rate,
+    setup_values,
 )
 
 
@@ -321,7 +321,7 @@ def simulate_run(
             axis=1,
         )
         if params is not None:
-            x = instrument_inputs(data, _setup_values(model, theta))
+            x = instrument_inputs(data, setup_values(model, theta))
             omega = np.stack([np.asarray(x["w_X"]), np.asarray(x["w_Y"])], axis=1)
             sensed = _through_tdf_loop(omega, sensed, Record(meta, cols), params)
         cols["current_x_mA"] = sensed[:, 0] / run.scale_factor
