@@ -1,7 +1,7 @@
 """Monte Carlo studies of identification: many simulated gyros, one least-squares fit each, in pure JAX.
 
 A *draw* d of a study is, with its own key k_d = fold_in(key(seed), d) (so a draw never depends on the batch
-size, the chunking or the number of devices):
+size, the chunking, the number of devices or the number of processes):
 
 1. truth θ_d from the priors: coefficients ~ N(μ, σ²) or U(a, b); set-up errors (``table_tilt``,
    ``table_azimuth``, ``encoder_harmonic``, arcsec) likewise;
@@ -10,9 +10,9 @@ size, the chunking or the number of devices):
    Gauss–Markov ...) at the plan's sample times;
 3. regressors J = ∂predict(M_fit, θ, read data)/∂θ at θ = 0 with the *nominal* set-up (``jax.jacfwd``), so set-up
    errors are unmodelled unless M_fit names them; r = y − predict(M_fit, 0, read data);
-4. least squares on the valid rows (weight 1): column-normalised normal equations by Cholesky (or QR),
-   θ̂ = (JᵀJ)⁻¹Jᵀr, σ̂² = |r − Jθ̂|²/(m − p), cov = σ̂²(JᵀJ)⁻¹. Models with set-up effects take three
-   Gauss–Newton steps.
+4. least squares on the valid rows (weight 1), by :func:`gyrojax.inference.lstsq.lstsq` (column-normalised normal
+   equations by Cholesky, or QR): θ̂ = (JᵀJ)⁻¹Jᵀr, σ̂² = |r − Jθ̂|²/(m − p), cov = σ̂²(JᵀJ)⁻¹. Models with set-up
+   effects take three Gauss–Newton steps.
 
 **Static plans** (every record a sequence of fixed positions, no rate, no time- or temperature-dependent effect):
 the inputs, and so the signal and the regressors, are constant on each run of samples at one position. Each draw
@@ -30,7 +30,13 @@ read angles the measurements were generated at, which is exact for models linear
 
 A study is a JSON object (:class:`Study`); :func:`run_study` evaluates it in chunks (bounded memory) over a 1-D
 mesh of devices (``jax.sharding.NamedSharding``); :func:`summarize` gives bias, RMS error, mean σ̂ and the coverage
-of θ̂ ± σ̂ and θ̂ ± 2σ̂ per coefficient. ``gyrojax mc STUDY.json --out DIR`` runs one from the command line.
+of θ̂ ± σ̂ and θ̂ ± 2σ̂ per coefficient. ``gyrojax mc STUDY.json --out DIR`` runs one from the command line. In a
+``jax.distributed`` job :func:`run_study` splits the draws over the processes and gathers them
+(:mod:`gyrojax.montecarlo.hosts`); results of separate draw ranges merge with :func:`merge_results`.
+
+Draws evaluate the measurement model itself (:func:`gyrojax.physics.model.predict`, whose kinematics work on whole
+records in vector form), with the (cos, sin) of the plan's angles precomputed
+(:func:`gyrojax.physics.model.angle_trig`).
 """
 
 from __future__ import annotations
@@ -52,6 +58,7 @@ from gyrojax.data.io import atomic_write_bytes, atomic_write_text, read_json_fil
 from gyrojax.data.records import Record
 from gyrojax.data.truth import SETUP_SIZES
 from gyrojax.errors import GyrojaxError
+from gyrojax.inference.lstsq import lstsq, lstsq_normal
 from gyrojax.noise.processes import random_drift, validate_noise
 from gyrojax.physics import effects as fx
 from gyrojax.physics.kinematics import turn
@@ -370,7 +377,7 @@ class Pipeline:
         theta = jnp.zeros(p)
         for _ in range(steps):
             r, jt = lin(theta)
-            step, ninv = _lstsq(jt, r, self.solver)
+            step, ninv = lstsq(jt.T, r, self.solver)
             theta = theta + step
         res = r - step @ jt
         m = jnp.sum(w)
@@ -406,12 +413,7 @@ class Pipeline:
         for _ in range(steps):
             d = sig - pred(theta)
             jt = jax.vmap(lambda v, th=theta: jax.jvp(pred, (th,), (v,))[1])(jnp.eye(p))
-            sc = jnp.sqrt(jnp.sum(nw * jt * jt, axis=1))
-            sc = jnp.where(sc > 0, sc, 1.0)
-            z = jt / sc[:, None]
-            c = jax.scipy.linalg.cho_factor((z * nw) @ z.T)
-            step = jax.scipy.linalg.cho_solve(c, z @ (nw * d + s1)) / sc
-            ninv = jax.scipy.linalg.cho_solve(c, jnp.eye(p)) / jnp.outer(sc, sc)
+            step, ninv = lstsq_normal((jt * nw) @ jt.T, jt @ (nw * d + s1), "cholesky")
             theta = theta + step
         dres = d - step @ jt
         rss = jnp.sum(nw * dres * dres + 2.0 * dres * s1 + s2)
@@ -471,24 +473,6 @@ def constant_runs(data, models, seed: int = 0):
                 return None
         out.append((jnp.asarray(idx, dtype=jnp.int32), jnp.asarray(first)))
     return tuple(out)
-
-
-def _lstsq(jt, r, solver: str):
-    """Step and (JᵀJ)⁻¹ of the least-squares problem J x ≈ r (``jt`` = Jᵀ, (p, m)), in column-normalised form."""
-    sc = jnp.sqrt(jnp.sum(jt * jt, axis=1))
-    sc = jnp.where(sc > 0, sc, 1.0)
-    z = jt / sc[:, None]
-    p = z.shape[0]
-    if solver == "qr":
-        q, rr = jnp.linalg.qr(z.T)
-        x = jax.scipy.linalg.solve_triangular(rr, q.T @ r)
-        rinv = jax.scipy.linalg.solve_triangular(rr, jnp.eye(p))
-        ninv = rinv @ rinv.T
-    else:
-        c = jax.scipy.linalg.cho_factor(z @ z.T)
-        x = jax.scipy.linalg.cho_solve(c, z @ r)
-        ninv = jax.scipy.linalg.cho_solve(c, jnp.eye(p))
-    return x / sc, ninv / jnp.outer(sc, sc)
 
 
 def build_pipeline(study: Study, plan=None, records=None) -> Pipeline:
