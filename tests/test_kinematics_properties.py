@@ -234,3 +234,25 @@ def test_normal_gravity_matches_somigliana_and_igf1980(phi):
     # International Gravity Formula 1980 (GRS80, truncated series): agrees to a few 1e-6 m/s²
     igf = 9.780327 * (1 + 0.0053024 * np.sin(phi) ** 2 - 0.0000058 * np.sin(2 * phi) ** 2)
     assert abs(g - igf) < 5e-6
+
+
+# ---- the vector form the measurement model evaluates is the matrix chain ----------------------------------------
+
+
+@SETTINGS
+@given(chains(), st.lists(st.floats(-0.01, 0.01, **finite), min_size=3, max_size=3))
+def test_vector_form_is_the_matrix_chain(chain, delta):
+    """platform_inputs (Rodrigues on vectors, from cos/sin) = Cᵀ(Ω + ω_LP), Cᵀ f with C, ω_LP of the 3×3 matrix
+    chain (platform_state, base B = I + [δ×]); and kinematics.turn is the rotation of (cos, sin) by a small angle."""
+    axes, angles, rates = chain
+    delta = np.array(delta)
+    om, f = np.array([0.0, 5e-5, 4e-5]), np.array([0.0, 0.0, 9.8])
+    c, w = (np.asarray(m) for m in _state(axes, angles, rates, jnp.eye(3) + kinematics.skew(jnp.asarray(delta))))
+    trig = [(jnp.cos(a), jnp.sin(a)) for a in angles]
+    wp, fp = kinematics.platform_inputs(jnp.asarray(axes), trig, list(jnp.asarray(rates)), jnp.asarray(delta), om, f)
+    np.testing.assert_allclose(np.array(wp), c.T @ (om + w), rtol=0, atol=1e-13)
+    np.testing.assert_allclose(np.array(fp), c.T @ f, rtol=0, atol=1e-12)
+    for a in angles:
+        for eps in (0.049, -1e-3, 1e-9):
+            ct, st_ = kinematics.turn(np.cos(a), np.sin(a), eps)
+            np.testing.assert_allclose([ct, st_], [np.cos(a + eps), np.sin(a + eps)], rtol=0, atol=2e-15)

@@ -204,18 +204,49 @@ def cmd_design(args) -> int:
 
 
 def cmd_mc(args) -> int:
-    """``gyrojax mc``: run a study file and write draws, summary and plot into ``--out``; exit code."""
-    from gyrojax.montecarlo.study import StudyError, load_study, run_study, save_result, summarize
+    """``gyrojax mc``: run a study file and write draws, summary and plot into ``--out``; exit code.
 
-    study = load_study(args.study)
-    if args.draws is not None:
-        if args.draws < 1:
-            raise StudyError("--draws must be >= 1")
-        study = replace(study, draws=args.draws)
-    out = Path(args.out)
-    if not args.force and (out / "study.json").exists():
-        raise StudyError(f"{out / 'study.json'} exists; use --force to overwrite")
-    res = run_study(study, progress=study.draws >= 2000 or sys.stderr.isatty())
+    With ``--coordinator/--num-processes/--process-id`` (or ``JAX_COORDINATOR_ADDRESS``) this process is one of a
+    ``jax.distributed`` job: each process evaluates its share of the draws, process 0 gathers and writes. A failure
+    in any process (bad study, existing output) stops every process with exit 2 instead of leaving the others waiting.
+    """
+    from gyrojax.montecarlo import hosts
+
+    hosts.initialize(args.coordinator, args.num_processes, args.process_id)
+    import jax
+
+    from gyrojax.errors import GyrojaxError
+    from gyrojax.montecarlo.study import StudyError, load_study, run_study
+
+    first = jax.process_index() == 0
+    err, study, out = None, None, Path(args.out)
+    try:
+        study = load_study(args.study)
+        if args.draws is not None:
+            if args.draws < 1:
+                raise StudyError("--draws must be >= 1")
+            study = replace(study, draws=args.draws)
+        if args.start < 0:
+            raise StudyError(f"--start must be >= 0, got {args.start}")
+        if first and not args.force and (out / "study.json").exists():
+            raise StudyError(f"{out / 'study.json'} exists; use --force to overwrite")
+    except GyrojaxError as e:
+        err = e
+    hosts.agree(err)
+    res = run_study(study, start=args.start, progress=first and (study.draws >= 2000 or sys.stderr.isatty()))
+    err = None
+    try:
+        if first:
+            _write_mc(res, out, args)
+    except (GyrojaxError, OSError) as e:
+        err = e
+    hosts.agree(err)  # the other processes exit once process 0 has written
+    return 0
+
+
+def _write_mc(res, out: Path, args) -> None:
+    from gyrojax.montecarlo.study import save_result, summarize
+
     files = save_result(res, out, force=args.force)
     summ = summarize(res)
     if args.json:
@@ -233,4 +264,20 @@ def cmd_mc(args) -> int:
     else:
         print(summ.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
         print(f"{len(res.draw)} draws in {res.run_s:.2f} s (+{res.compile_s:.2f} s compile); files in {out}")
+
+
+def cmd_mc_merge(args) -> int:
+    """``gyrojax mc-merge DIR… --out DIR``: one result from results of disjoint draw ranges of one study."""
+    import numpy as np
+
+    from gyrojax.montecarlo.study import StudyError, load_result, merge_results
+
+    out = Path(args.out)
+    if not args.force and (out / "study.json").exists():
+        raise StudyError(f"{out / 'study.json'} exists; use --force to overwrite")
+    res = merge_results([load_result(d) for d in args.dirs], where=args.dirs)
+    d = np.asarray(res.draw)
+    if d.size and d[-1] - d[0] + 1 != d.size:
+        print(f"gyrojax: note: the merged draws {d[0]}…{d[-1]} leave gaps ({d.size} draws)", file=sys.stderr)
+    _write_mc(res, out, args)
     return 0

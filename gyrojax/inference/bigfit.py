@@ -38,7 +38,8 @@ from gyrojax.data.records import (
     validate_meta,
 )
 from gyrojax.errors import GyrojaxError, ModelError, RecordError
-from gyrojax.inference.identify import DEFAULT_TERMS, IdentifiabilityError, alias_message, identifiability
+from gyrojax.inference.identify import ALIAS_TOL, DEFAULT_TERMS, IdentifiabilityError, alias_message, identifiability
+from gyrojax.inference.lstsq import lstsq_normal
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model, jacobian_jit, predict_jit, record_data
 
@@ -215,19 +216,12 @@ def fit_chunked(path, terms=None, chunk_rows: int = 200_000, allow_aliases: bool
     report = identifiability(r_factor, model)
     if (report["aliases"] or report["unexcited"]) and not allow_aliases:
         raise IdentifiabilityError(f"{csv_path}: " + alias_message(report), report)
-    smax = lam.max() if p else 1.0
-    keep = lam > (1e-7**2) * smax
-    inv = (v[:, keep] / lam[keep]) @ v[:, keep].T
-    delta = inv @ (jtr / sc) / sc
+    delta, inv = lstsq_normal(jtj, jtr, "eigh", ALIAS_TOL)  # the rank cut of identify.fit
     theta = (theta0 if theta0 is not None else np.zeros(p)) + delta
-    rank = int(keep.sum())
+    rank = report["rank"]
     rss = max(rtr - float(delta @ jtr), 0.0)
     dof = max(n - rank, 1)
-    cov = inv / np.outer(sc, sc) * (rss / dof)
-    if not keep.all():
-        bad = np.abs(v[:, ~keep]).max(axis=1) > 0.05
-        cov[bad, :] = np.nan
-        cov[:, bad] = np.nan
+    cov = inv * (rss / dof)
     return ChunkedFit(model, theta, cov, n, float(np.sqrt(rss / n)), report, chunks)
 
 

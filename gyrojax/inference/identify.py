@@ -37,6 +37,7 @@ from scipy.optimize import least_squares
 from gyrojax.data.io import atomic_write_text
 from gyrojax.data.records import Record
 from gyrojax.errors import ConvergenceWarning, FormatError, ModelError, RecordError
+from gyrojax.inference.lstsq import lstsq
 from gyrojax.noise.whiten import (
     FIT_TAU_SPAN_FRACTION,
     ARNoise,
@@ -176,11 +177,6 @@ def linearize(model: Model, theta, campaign: Campaign):
         jac = np.asarray(jacobian_jit(model, th, d))[ok] if model.size else np.zeros((int(ok.sum()), 0))
         out.append((r, jac, lab[ok], t[ok]))
     return out
-
-
-def _column_scale(j: np.ndarray) -> np.ndarray:
-    s = np.sqrt((j * j).sum(axis=0))
-    return np.where(s > 0, s, 1.0)
 
 
 def identifiability(jw: np.ndarray, model: Model, tol: float = ALIAS_TOL) -> dict:
@@ -718,21 +714,9 @@ def _noise_scale(r, labels) -> float:
 
 
 def _solve(jw, rw, rank_tol=ALIAS_TOL):
-    """Least-squares step in normalised columns: (step, covariance) by SVD with a rank cut."""
-    if jw.shape[1] == 0:
-        return np.zeros(0), np.zeros((0, 0))
-    sc = _column_scale(jw)
-    z = jw / sc
-    u, s, vt = np.linalg.svd(z, full_matrices=False)
-    keep = s >= rank_tol * s[0]
-    sinv = np.where(keep, 1.0 / np.where(keep, s, 1.0), 0.0)
-    step = (vt.T * sinv) @ (u.T @ rw) / sc
-    cov = ((vt.T * sinv**2) @ vt) / np.outer(sc, sc)
-    if not keep.all():  # coefficients in an unseen direction have no finite uncertainty
-        bad = np.abs(vt[~keep]).max(axis=0) > 0.05
-        cov[bad, :] = np.nan
-        cov[:, bad] = np.nan
-    return step, cov
+    """Least-squares step and (JᵀJ)⁻¹ in normalised columns, by SVD with a rank cut
+    (:func:`gyrojax.inference.lstsq.lstsq`)."""
+    return lstsq(jw, rw, "svd", rank_tol)
 
 
 def _least_squares(model: Model, theta, campaign: Campaign, noises, scales, max_iter: int):

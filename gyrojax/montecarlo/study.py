@@ -1,7 +1,7 @@
 """Monte Carlo studies of identification: many simulated gyros, one least-squares fit each, in pure JAX.
 
 A *draw* d of a study is, with its own key k_d = fold_in(key(seed), d) (so a draw never depends on the batch
-size, the chunking or the number of devices):
+size, the chunking, the number of devices or the number of processes):
 
 1. truth θ_d from the priors: coefficients ~ N(μ, σ²) or U(a, b); set-up errors (``table_tilt``,
    ``table_azimuth``, ``encoder_harmonic``, arcsec) likewise;
@@ -10,9 +10,9 @@ size, the chunking or the number of devices):
    Gauss–Markov ...) at the plan's sample times;
 3. regressors J = ∂predict(M_fit, θ, read data)/∂θ at θ = 0 with the *nominal* set-up (``jax.jacfwd``), so set-up
    errors are unmodelled unless M_fit names them; r = y − predict(M_fit, 0, read data);
-4. least squares on the valid rows (weight 1): column-normalised normal equations by Cholesky (or QR),
-   θ̂ = (JᵀJ)⁻¹Jᵀr, σ̂² = |r − Jθ̂|²/(m − p), cov = σ̂²(JᵀJ)⁻¹. Models with set-up effects take three
-   Gauss–Newton steps.
+4. least squares on the valid rows (weight 1), by :func:`gyrojax.inference.lstsq.lstsq` (column-normalised normal
+   equations by Cholesky, or QR): θ̂ = (JᵀJ)⁻¹Jᵀr, σ̂² = |r − Jθ̂|²/(m − p), cov = σ̂²(JᵀJ)⁻¹. Models with set-up
+   effects take three Gauss–Newton steps.
 
 **Static plans** (every record a sequence of fixed positions, no rate, no time- or temperature-dependent effect):
 the inputs, and so the signal and the regressors, are constant on each run of samples at one position. Each draw
@@ -30,7 +30,13 @@ read angles the measurements were generated at, which is exact for models linear
 
 A study is a JSON object (:class:`Study`); :func:`run_study` evaluates it in chunks (bounded memory) over a 1-D
 mesh of devices (``jax.sharding.NamedSharding``); :func:`summarize` gives bias, RMS error, mean σ̂ and the coverage
-of θ̂ ± σ̂ and θ̂ ± 2σ̂ per coefficient. ``gyrojax mc STUDY.json --out DIR`` runs one from the command line.
+of θ̂ ± σ̂ and θ̂ ± 2σ̂ per coefficient. ``gyrojax mc STUDY.json --out DIR`` runs one from the command line. In a
+``jax.distributed`` job :func:`run_study` splits the draws over the processes and gathers them
+(:mod:`gyrojax.montecarlo.hosts`); results of separate draw ranges merge with :func:`merge_results`.
+
+Draws evaluate the measurement model itself (:func:`gyrojax.physics.model.predict`, whose kinematics work on whole
+records in vector form), with the (cos, sin) of the plan's angles precomputed
+(:func:`gyrojax.physics.model.angle_trig`).
 """
 
 from __future__ import annotations
@@ -52,10 +58,21 @@ from gyrojax.data.io import atomic_write_bytes, atomic_write_text, read_json_fil
 from gyrojax.data.records import Record
 from gyrojax.data.truth import SETUP_SIZES
 from gyrojax.errors import GyrojaxError
+from gyrojax.inference.lstsq import lstsq, lstsq_normal
 from gyrojax.noise.processes import random_drift, validate_noise
 from gyrojax.physics import effects as fx
-from gyrojax.physics import frames
-from gyrojax.physics.model import Model, RecordData, indicated_output, predict, record_data
+from gyrojax.physics.kinematics import turn
+from gyrojax.physics.model import (
+    Model,
+    RecordData,
+    angle_trig,
+    encoder_error_trig,
+    indicated_output,
+    instrument_inputs,
+    predict,
+    record_data,
+    setup_values,
+)
 
 STUDY_FORMAT = "gyrojax-mc-study-1"
 SDF_NINE_TERMS = ("D_F", "D_I", "D_O", "D_S", "D_II", "D_SS", "D_IO", "D_IS", "D_OS")
@@ -232,115 +249,6 @@ def load_study(path) -> Study:
     return study_from_dict(read_json_file(path, StudyError, "a study"), str(path))
 
 
-# ---- the measurement model, written for batches of draws ---------------------------------------------------------
-
-
-def _rotate(u, c, s, v):
-    """R(u, θ) v by Rodrigues, elementwise: v cos θ + (u × v) sin θ + u (u·v)(1 − cos θ); u (3,), c, s, v[i] (n,)."""
-    x = (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
-    d = u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
-    return tuple(v[i] * c + x[i] * s + u[i] * d * (1.0 - c) for i in range(3))
-
-
-def _matvec(m, v):
-    return tuple(m[i, 0] * v[0] + m[i, 1] * v[1] + m[i, 2] * v[2] for i in range(3))
-
-
-def _small_rotation(c, s, eps):
-    """(cos, sin) of θ + ε from those of θ, with cos ε and sin ε by their Taylor series (exact to rounding for
-    |ε| < 0.05 rad: the first omitted terms are below 1e-16 relative): no transcendental per sample."""
-    e2 = eps * eps
-    ce = 1.0 - e2 / 2.0 * (1.0 - e2 / 12.0 * (1.0 - e2 / 30.0 * (1.0 - e2 / 56.0)))
-    se = eps * (1.0 - e2 / 6.0 * (1.0 - e2 / 20.0 * (1.0 - e2 / 42.0 * (1.0 - e2 / 72.0))))
-    return c * ce - s * se, s * ce + c * se
-
-
-def _encoder_from_trig(enc, c, s):
-    """h(θ) and dh/dθ of Hu 5-51 from cos θ, sin θ (double-angle forms)."""
-    c2, s2 = c * c - s * s, 2.0 * s * c
-    h = enc[0] * c + enc[1] * s + enc[2] * c2 + enc[3] * s2
-    dh = -enc[0] * s + enc[1] * c - 2.0 * enc[2] * s2 + 2.0 * enc[3] * c2
-    return h, dh
-
-
-def fast_inputs(data: RecordData, setup: dict, trig=None) -> dict:
-    """The inputs of :func:`gyrojax.physics.model.instrument_inputs` (rebalance records), computed with vector
-    rotations.
-
-    Same maths (CONVENTIONS §3–§4): with B = I + [δ×], C = B·R(u_1,θ_1)…R(u_k,θ_k) and ω_LP = B Σ θ̇_i R_1…R_{i−1} u_i,
-    ω_P = Cᵀ(Ω + ω_LP) and f_P = Cᵀ f; but each rotation acts on vectors elementwise (Rodrigues) instead of
-    building 3×3 matrices per sample, and the encoder correction θ = θ_read − h(θ_read) (Hu 5-51, first order as in
-    :func:`gyrojax.physics.model.true_angles`) turns (cos, sin) of the read angle by a small angle. ``trig``: optional
-    per-axis (cos, sin) of ``data.angles`` (precomputed for a plan: then no transcendental is evaluated per draw).
-    Tested against ``instrument_inputs``. Units as there: rates in deg/h, specific forces in g.
-    """
-    e = data.encoder_axis
-    k = data.axes.shape[0]
-    if trig is None:
-        trig = [(jnp.cos(data.angles[:, i]), jnp.sin(data.angles[:, i])) for i in range(k)]
-    cs = list(trig)
-    rates = [data.rates[:, i] for i in range(k)]
-    h, dh = _encoder_from_trig(setup["encoder"], *cs[e])
-    cs[e] = _small_rotation(cs[e][0], cs[e][1], -h)
-    if data.rates_derived:
-        rates[e] = rates[e] * (1.0 - dh)
-    n = data.angles.shape[0]
-    zero = jnp.zeros(n)
-    w = (zero, zero, zero)
-    for i in range(k):  # ω_LP without the base: θ̇_i R_1 … R_{i−1} u_i
-        v = tuple(jnp.full(n, data.axes[i, j]) for j in range(3))
-        for j in range(i - 1, -1, -1):
-            v = _rotate(data.axes[j], cs[j][0], cs[j][1], v)
-        w = tuple(w[j] + rates[i] * v[j] for j in range(3))
-    b = (
-        jnp.eye(3)
-        + jnp.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]]) * setup["delta"][2]
-        + jnp.array([[0.0, 0.0, 1.0], [0.0, 0.0, 0.0], [-1.0, 0.0, 0.0]]) * setup["delta"][1]
-        + jnp.array([[0.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]]) * setup["delta"][0]
-    )
-    om = frames.earth_rate_enu(data.latitude)
-    bw = _matvec(b, w)
-    wi = _matvec(b.T, tuple(om[j] + bw[j] for j in range(3)))  # Bᵀ(Ω + B ω_LP0)
-    f = frames.specific_force_enu(data.gravity)
-    fb = b.T @ f
-    fi = tuple(jnp.full(n, fb[j]) for j in range(3))
-    for j in range(k):  # Cᵀ = R_kᵀ … R_1ᵀ: apply R_1ᵀ first
-        wi = _rotate(data.axes[j], cs[j][0], -cs[j][1], wi)
-        fi = _rotate(data.axes[j], cs[j][0], -cs[j][1], fi)
-    wt = _matvec(data.triad, wi)
-    at = _matvec(data.triad, fi)
-    w3 = [x / units.DEG_PER_H for x in wt]
-    a3 = [x / units.G0 for x in at]
-    x = {"t_h": data.time_s / units.SECONDS_PER_HOUR, "temperature_C": data.temperature}
-    names = {fx.TDF: ("X", "Y", "Z"), fx.ACCEL: ("I", "P", "O")}.get(data.kind, ("I", "O", "S"))
-    for j, nm in enumerate(names):
-        x[f"w_{nm}"] = w3[j]
-        x[f"a_{nm}"] = a3[j]
-    return x
-
-
-def setup_values(model: Model, theta) -> dict:
-    """Set-up errors (rad) of θ: δ = (tilt_E, tilt_N, azimuth), encoder harmonics; zero when not in the model."""
-    sl = model.slices()
-
-    def take(name, n):
-        return theta[sl[name]] * units.ARCSEC if name in sl else jnp.zeros(n)
-
-    return {
-        "delta": jnp.concatenate([take("table_tilt", 2), take("table_azimuth", 1)]),
-        "encoder": take("encoder_harmonic", 4),
-    }
-
-
-def fast_predict(model: Model, theta, data: RecordData, trig=None):
-    """:func:`gyrojax.physics.model.predict` with :func:`fast_inputs` for rebalance records (servo: ``predict``
-    itself)."""
-    if data.mode == "servo":
-        return predict(model, theta, data)
-    theta = jnp.asarray(theta, dtype=jnp.float64)
-    return indicated_output(model, theta, fast_inputs(data, setup_values(model, theta), trig), data.kind)
-
-
 # ---- the per-draw pipeline ---------------------------------------------------------------------------------------
 
 
@@ -425,8 +333,8 @@ class Pipeline:
             return data, trig
         enc = theta_true[self.truth_model.slices()["encoder_harmonic"]] * units.ARCSEC
         e = data.encoder_axis
-        h, _ = _encoder_from_trig(enc, *trig[e])
-        trig[e] = _small_rotation(trig[e][0], trig[e][1], h)
+        h, _ = encoder_error_trig(enc, *trig[e])
+        trig[e] = turn(trig[e][0], trig[e][1], h)
         return replace(data, angles=data.angles.at[:, e].add(h)), trig
 
     def simulate_draw(self, key):
@@ -436,15 +344,9 @@ class Pipeline:
         ys, reads = [], []
         for i, d in enumerate(self.data):
             rd, trig = self.read_data(theta, i)
-            ys.append(self._predict(self.truth_model, theta, rd, trig) + self.record_noise(kn, i, d))
+            ys.append(predict(self.truth_model, theta, rd, trig) + self.record_noise(kn, i, d))
             reads.append((rd, trig))
         return theta, ys, reads
-
-    @staticmethod
-    def _predict(model, theta, data, trig):
-        if data.mode == "servo":
-            return predict(model, theta, data)
-        return indicated_output(model, theta, fast_inputs(data, setup_values(model, theta), trig), data.kind)
 
     def _fit_prediction(self, reads):
         """θ ↦ the fit model's prediction on the read data, all records concatenated (output units)."""
@@ -452,11 +354,11 @@ class Pipeline:
         if model.is_linear and all(rd.mode != "servo" for rd, _ in reads):
             # the inputs do not depend on θ: compute them once, differentiate the balance equation only
             nominal = setup_values(model, jnp.zeros(model.size))
-            xs = [fast_inputs(rd, nominal, trig) for rd, trig in reads]
+            xs = [instrument_inputs(rd, nominal, trig=trig) for rd, trig in reads]
             return lambda th: jnp.concatenate(
                 [indicated_output(model, th, x, rd.kind) for x, (rd, _) in zip(xs, reads)]
             )
-        return lambda th: jnp.concatenate([self._predict(model, th, rd, trig) for rd, trig in reads])
+        return lambda th: jnp.concatenate([predict(model, th, rd, trig) for rd, trig in reads])
 
     def solve(self, ys, reads):
         """Least squares of the fit model on the read data (module doc): (θ̂, std, rms)."""
@@ -475,7 +377,7 @@ class Pipeline:
         theta = jnp.zeros(p)
         for _ in range(steps):
             r, jt = lin(theta)
-            step, ninv = _lstsq(jt, r, self.solver)
+            step, ninv = lstsq(jt.T, r, self.solver)
             theta = theta + step
         res = r - step @ jt
         m = jnp.sum(w)
@@ -495,7 +397,7 @@ class Pipeline:
             e = self.record_noise(kn, i, d) * d.weight
             n_runs = len(first)
             sums = [jax.ops.segment_sum(v, idx, n_runs, indices_are_sorted=True) for v in (d.weight, e, e * e)]
-            parts.append((self._predict(self.truth_model, theta, rd, trig), *sums))
+            parts.append((predict(self.truth_model, theta, rd, trig), *sums))
             reads.append((rd, trig))
         return theta, parts, reads
 
@@ -511,12 +413,7 @@ class Pipeline:
         for _ in range(steps):
             d = sig - pred(theta)
             jt = jax.vmap(lambda v, th=theta: jax.jvp(pred, (th,), (v,))[1])(jnp.eye(p))
-            sc = jnp.sqrt(jnp.sum(nw * jt * jt, axis=1))
-            sc = jnp.where(sc > 0, sc, 1.0)
-            z = jt / sc[:, None]
-            c = jax.scipy.linalg.cho_factor((z * nw) @ z.T)
-            step = jax.scipy.linalg.cho_solve(c, z @ (nw * d + s1)) / sc
-            ninv = jax.scipy.linalg.cho_solve(c, jnp.eye(p)) / jnp.outer(sc, sc)
+            step, ninv = lstsq_normal((jt * nw) @ jt.T, jt @ (nw * d + s1), "cholesky")
             theta = theta + step
         dres = d - step @ jt
         rss = jnp.sum(nw * dres * dres + 2.0 * dres * s1 + s2)
@@ -572,28 +469,10 @@ def constant_runs(data, models, seed: int = 0):
         later = replace(d, time_s=d.time_s + units.SECONDS_PER_HOUR)
         for m in models:
             th = jnp.asarray(rng.normal(0.0, 1.0, m.size))
-            if not np.allclose(fast_predict(m, th, d), fast_predict(m, th, later), rtol=1e-13, atol=0.0):
+            if not np.allclose(predict(m, th, d), predict(m, th, later), rtol=1e-13, atol=0.0):
                 return None
         out.append((jnp.asarray(idx, dtype=jnp.int32), jnp.asarray(first)))
     return tuple(out)
-
-
-def _lstsq(jt, r, solver: str):
-    """Step and (JᵀJ)⁻¹ of the least-squares problem J x ≈ r (``jt`` = Jᵀ, (p, m)), in column-normalised form."""
-    sc = jnp.sqrt(jnp.sum(jt * jt, axis=1))
-    sc = jnp.where(sc > 0, sc, 1.0)
-    z = jt / sc[:, None]
-    p = z.shape[0]
-    if solver == "qr":
-        q, rr = jnp.linalg.qr(z.T)
-        x = jax.scipy.linalg.solve_triangular(rr, q.T @ r)
-        rinv = jax.scipy.linalg.solve_triangular(rr, jnp.eye(p))
-        ninv = rinv @ rinv.T
-    else:
-        c = jax.scipy.linalg.cho_factor(z @ z.T)
-        x = jax.scipy.linalg.cho_solve(c, z @ r)
-        ninv = jax.scipy.linalg.cho_solve(c, jnp.eye(p))
-    return x / sc, ninv / jnp.outer(sc, sc)
 
 
 def build_pipeline(study: Study, plan=None, records=None) -> Pipeline:
@@ -618,7 +497,7 @@ def build_pipeline(study: Study, plan=None, records=None) -> Pipeline:
     b = np.array([priors.get(c, (False, 0.0, 0.0))[2] for c in truth_model.coefficient_names])
     data = tuple(record_data(r) for r in recs)
     dtw = tuple(float(np.median(np.diff(np.asarray(r.time_s)))) if r.n > 1 else 1.0 for r in recs)
-    trig = tuple(tuple((jnp.asarray(np.cos(a)), jnp.asarray(np.sin(a))) for a in np.asarray(d.angles).T) for d in data)
+    trig = tuple(tuple(angle_trig(jnp.asarray(d.angles))) for d in data)
     runs = constant_runs(data, (fit_model, truth_model))
     return Pipeline(
         recs, data, fit_model, truth_model, uni, a, b, dict(study.noise), dtw, study.solver, study.seed, trig, runs
@@ -739,11 +618,47 @@ def run_study(
     pipeline: Pipeline | None = None,
     start: int = 0,
 ) -> StudyResult:
-    """Evaluate draws ``start … start+draws−1`` of a study in chunks over a mesh of devices (module doc)."""
+    """Evaluate draws ``start … start+draws−1`` of a study in chunks over a mesh of devices (module doc).
+
+    In a ``jax.distributed`` job of N processes (:mod:`gyrojax.montecarlo.hosts`), process k evaluates the block
+    :func:`gyrojax.montecarlo.hosts.share` of the draws on its own devices (``devices``: default its local ones),
+    and every process returns the whole result, gathered in draw order: the same draws as one process computes.
+    ``compile_s`` and ``run_s`` are then the slowest process's.
+    """
+    from gyrojax.montecarlo import hosts
+
     pipe = pipeline or build_pipeline(study)
     n = int(draws if draws is not None else study.draws)
+    nproc, pid = jax.process_count(), jax.process_index()
+    if nproc > 1:
+        devices = list(devices) if devices is not None else jax.local_devices()
+        if any(d.process_index != pid for d in devices):
+            raise StudyError("run_study: in a multi-process job each process runs on its own (local) devices")
+    lo, hi = hosts.share(n, nproc, pid)
+    local, compile_s, run_s = _evaluate(pipe, start + lo, hi - lo, chunk or study.chunk, devices, progress)
+    if nproc > 1:
+        counts = [hosts.share(n, nproc, k)[1] - hosts.share(n, nproc, k)[0] for k in range(nproc)]
+        local = hosts.gather(local, counts)
+        times = hosts.gather({"t": np.array([[compile_s, run_s]])}, [1] * nproc)["t"]
+        compile_s, run_s = float(times[:, 0].max()), float(times[:, 1].max())
+    return StudyResult(
+        study,
+        pipe.truth_model.coefficient_names,
+        pipe.fit_model.coefficient_names,
+        np.arange(start, start + n),
+        local["truth"],
+        local["estimate"],
+        local["std"],
+        local["rms"],
+        compile_s,
+        run_s,
+    )
+
+
+def _evaluate(pipe: Pipeline, start: int, n: int, chunk, devices, progress):
+    """Per-draw arrays of draws ``start … start+n−1`` on ``devices`` (default: all): (dict, compile_s, run_s)."""
     f, sh, ndev = batched_draws(pipe, devices)
-    chunk = chunk or study.chunk or auto_chunk(pipe, ndev)
+    chunk = chunk or auto_chunk(pipe, ndev)
     chunk = int(math.ceil(min(chunk, max(n, 1)) / ndev) * ndev)
     stream = sys.stderr
     outs = []
@@ -765,19 +680,13 @@ def run_study(
         if progress:
             _progress(s + k, n, t1, stream, last)
     run_s = time.perf_counter() - t1
-    cat = {key: np.concatenate([o[key] for o in outs]) for key in outs[0]} if outs else None
-    return StudyResult(
-        study,
-        pipe.truth_model.coefficient_names,
-        pipe.fit_model.coefficient_names,
-        np.arange(start, start + n),
-        cat["truth"],
-        cat["estimate"],
-        cat["std"],
-        cat["rms"],
-        compile_s,
-        run_s,
-    )
+    if outs:
+        cat = {key: np.concatenate([o[key] for o in outs]) for key in outs[0]}
+    else:  # no draws: empty arrays of the right widths
+        p_true, p_fit = pipe.truth_model.size, pipe.fit_model.size
+        cat = {"truth": np.zeros((0, p_true)), "estimate": np.zeros((0, p_fit)), "std": np.zeros((0, p_fit))}
+        cat["rms"] = np.zeros(0)
+    return cat, compile_s, run_s
 
 
 # ---- records of a draw (for the numpy GLS path) -------------------------------------------------------------------
@@ -865,3 +774,82 @@ def save_result(res: StudyResult, out_dir, force: bool = False) -> dict:
 
     figures.save(figures.montecarlo_figure(res, summarize(res)), names["plot"])
     return {k: str(v) for k, v in names.items()}
+
+
+def load_result(out_dir) -> StudyResult:
+    """A result written by :func:`save_result`: its study JSON and its draws table (Parquet or CSV). Errors name
+    the directory and the file."""
+    import pandas as pd
+
+    out = Path(out_dir)
+    study = load_study(out / "study.json")
+    table = out / "draws.parquet"
+    if not table.exists():
+        table = out / "draws.csv"
+    if not table.exists():
+        raise StudyError(f"{out}: no draws.parquet or draws.csv (not a directory written by gyrojax mc)")
+    try:
+        df = pd.read_parquet(table) if table.suffix == ".parquet" else pd.read_csv(table)
+    except (OSError, ValueError) as e:
+        raise StudyError(f"{table}: cannot be read as a draws table ({e})") from None
+    cols = list(df.columns)
+    truth = tuple(c[: -len("_truth")] for c in cols if c.endswith("_truth"))
+    fit = tuple(c[: -len("_estimate")] for c in cols if c.endswith("_estimate"))
+    missing = [c for c in ["draw", "rms"] + [f"{f}_std" for f in fit] if c not in cols]
+    if missing or not truth or not fit:
+        raise StudyError(f"{table}: missing column {missing[0] if missing else '<coefficient>_truth/_estimate'!r}")
+    return StudyResult(
+        study,
+        truth,
+        fit,
+        df["draw"].to_numpy(dtype=np.int64),
+        df[[f"{c}_truth" for c in truth]].to_numpy(dtype=float),
+        df[[f"{c}_estimate" for c in fit]].to_numpy(dtype=float),
+        df[[f"{c}_std" for c in fit]].to_numpy(dtype=float),
+        df["rms"].to_numpy(dtype=float),
+    )
+
+
+def merge_results(results, where=None) -> StudyResult:
+    """One result from the results of disjoint draw ranges of one study (the index-range split: ``gyrojax mc
+    --start S --draws N`` per host, no coordination), rows in draw order. Refuses different studies (any key but
+    ``draws``) and a draw index present twice; ``where`` names the inputs in error messages."""
+    results = list(results)
+    if not results:
+        raise StudyError("merge: no results given")
+    where = list(where) if where is not None else [f"result {i}" for i in range(len(results))]
+
+    def key(r):
+        d = r.study.to_dict()
+        d.pop("draws")
+        return d
+
+    ref = results[0]
+    for r, w in zip(results[1:], where[1:]):
+        if key(r) != key(ref):
+            diff = sorted(k for k in key(ref) if key(ref)[k] != key(r).get(k))
+            raise StudyError(f"merge: {w} is a different study from {where[0]} (key {diff[0]!r} differs)")
+        if r.truth_names != ref.truth_names or r.fit_names != ref.fit_names:
+            raise StudyError(f"merge: {w} has other coefficient columns than {where[0]}")
+    draw = np.concatenate([r.draw for r in results])
+    order = np.argsort(draw, kind="stable")
+    dup = draw[order][1:][np.diff(draw[order]) == 0]
+    if dup.size:
+        owners = [w for r, w in zip(results, where) if dup[0] in r.draw]
+        raise StudyError(f"merge: draw {int(dup[0])} is in {' and '.join(owners)} (the draw ranges overlap)")
+
+    def cat(name):
+        return np.concatenate([getattr(r, name) for r in results])[order]
+
+    return StudyResult(
+        replace(ref.study, draws=int(draw.size)),
+        ref.truth_names,
+        ref.fit_names,
+        draw[order],
+        cat("truth"),
+        cat("estimate"),
+        cat("std"),
+        cat("rms"),
+        sum(r.compile_s for r in results),
+        sum(r.run_s for r in results),
+    )

@@ -223,22 +223,25 @@ def setup_values(model: Model, theta) -> dict:
     sl = model.slices()
 
     def take(name, n):
-        if name in sl:
-            return theta[sl[name]] * units.ARCSEC
-        return jnp.zeros(n)
+        return theta[sl[name]] * units.ARCSEC if name in sl else jnp.zeros(n)
 
-    tilt = take("table_tilt", 2)
-    az = take("table_azimuth", 1)
-    enc = take("encoder_harmonic", 4)
-    return {"delta": jnp.concatenate([tilt, az]), "encoder": enc}
+    return {
+        "delta": jnp.concatenate([take("table_tilt", 2), take("table_azimuth", 1)]),
+        "encoder": take("encoder_harmonic", 4),
+    }
+
+
+def encoder_error_trig(enc, c, s):
+    """h(θ) and dh/dθ of :func:`encoder_error` from c = cos θ, s = sin θ (double-angle forms; no transcendental)."""
+    c2, s2 = c * c - s * s, 2.0 * s * c
+    h = enc[0] * c + enc[1] * s + enc[2] * c2 + enc[3] * s2
+    dh = -enc[0] * s + enc[1] * c - 2.0 * enc[2] * s2 + 2.0 * enc[3] * c2
+    return h, dh
 
 
 def encoder_error(enc, angle):
     """Angle readout error h(θ) = c1 cos θ + s1 sin θ + c2 cos 2θ + s2 sin 2θ (rad), and dh/dθ (Hu 5-51)."""
-    c1, s1, c2, s2 = enc[0], enc[1], enc[2], enc[3]
-    h = c1 * jnp.cos(angle) + s1 * jnp.sin(angle) + c2 * jnp.cos(2 * angle) + s2 * jnp.sin(2 * angle)
-    dh = -c1 * jnp.sin(angle) + s1 * jnp.cos(angle) - 2 * c2 * jnp.sin(2 * angle) + 2 * s2 * jnp.cos(2 * angle)
-    return h, dh
+    return encoder_error_trig(enc, jnp.cos(angle), jnp.sin(angle))
 
 
 def true_angles(data: RecordData, setup: dict):
@@ -256,39 +259,70 @@ def true_angles(data: RecordData, setup: dict):
     return angles, rates
 
 
+def angle_trig(angles) -> list:
+    """Per table axis (cos θ_i, sin θ_i) of angles (n, k) rad: the ``trig`` argument of :func:`instrument_inputs`."""
+    return [(jnp.cos(angles[:, i]), jnp.sin(angles[:, i])) for i in range(angles.shape[1])]
+
+
+_AXIS_NAMES = {fx.TDF: ("X", "Y", "Z"), fx.ACCEL: ("I", "P", "O")}
+
+
+def _triad_inputs(axes, triad, latitude, gravity, trig, rates, delta) -> tuple:
+    """Rates (deg/h) and specific forces (g) along the triad's three axes, each a 3-tuple of arrays shaped like the
+    (cos, sin) of ``trig``; ``rates`` per table axis (rad/s)."""
+    om = frames.earth_rate_enu(latitude)
+    f = frames.specific_force_enu(gravity)
+    wp, fp = kinematics.platform_inputs(axes, trig, rates, delta, om, f)
+    w = tuple((triad[i, 0] * wp[0] + triad[i, 1] * wp[1] + triad[i, 2] * wp[2]) / units.DEG_PER_H for i in range(3))
+    a = tuple((triad[i, 0] * fp[0] + triad[i, 1] * fp[1] + triad[i, 2] * fp[2]) / units.G0 for i in range(3))
+    return w, a
+
+
+def _record_inputs(data: RecordData, trig, rates, delta) -> tuple:
+    """:func:`_triad_inputs` of a record: ``rates`` (n, k) rad/s."""
+    per_axis = [rates[:, i] for i in range(rates.shape[1])]
+    return _triad_inputs(data.axes, data.triad, data.latitude, data.gravity, trig, per_axis, delta)
+
+
 def sensed(axes, triad, latitude, gravity, angles, rates, delta):
     """Inertial rate (deg/h) and specific force (g) along the three instrument axes, for one sample.
 
-    ω_IP = Ω + ω_LP and f = (0, 0, g) in L, projected on C·axis (CONVENTIONS §3–§4).
+    ω_IP = Ω + ω_LP and f = (0, 0, g) in L, projected on C·axis (CONVENTIONS §3–§4); the same code as
+    :func:`instrument_inputs` (:func:`gyrojax.physics.kinematics.platform_inputs`), for angles (k,) rad and rates
+    (k,) rad/s.
     """
-    base = jnp.eye(3) + kinematics.skew(delta)
-    c, w_lp = kinematics.platform_state(axes, angles, rates, base)
-    w_ip = frames.earth_rate_enu(latitude) + w_lp
-    f = frames.specific_force_enu(gravity)
-    w_p = c.T @ w_ip
-    f_p = c.T @ f
-    return triad @ w_p / units.DEG_PER_H, triad @ f_p / units.G0
+    k = axes.shape[0]
+    trig = [(jnp.cos(angles[i]), jnp.sin(angles[i])) for i in range(k)]
+    w, a = _triad_inputs(axes, triad, latitude, gravity, trig, [rates[i] for i in range(k)], delta)
+    return jnp.stack(w), jnp.stack(a)
 
 
-_sensed_batch = jax.vmap(sensed, in_axes=(None, None, None, None, 0, 0, None))
+def instrument_inputs(data: RecordData, setup: dict, angles=None, rates=None, trig=None) -> dict:
+    """The inputs dict of :mod:`gyrojax.physics.effects` for every sample of a record (module doc there).
 
+    Rates ``w_*`` in deg/h, specific forces ``a_*`` in g, ``t_h`` in h, ``temperature_C`` in °C.
 
-def instrument_inputs(data: RecordData, setup: dict, angles=None, rates=None) -> dict:
-    """The inputs dict of :mod:`gyrojax.physics.effects` for every sample (module doc there).
-
-    Rates ``w_*`` in deg/h, specific forces ``a_*`` in g, ``t_h`` in h, ``temperature_C`` in °C. ``angles`` (n, k)
-    rad and ``rates`` (n, k) rad/s replace the encoder-corrected table state of :func:`true_angles` when given.
+    By default the table state is the read one corrected for the encoder error (:func:`true_angles`: θ = θ_read − h,
+    applied as a small turn of (cos, sin) of the read angle, :func:`gyrojax.physics.kinematics.turn`); ``trig``
+    (per axis (cos, sin) of ``data.angles``, :func:`angle_trig`) may be given precomputed, so that no
+    transcendental function is evaluated (the Monte Carlo evaluates many draws on one plan). ``angles`` (n, k) rad
+    and ``rates`` (n, k) rad/s replace the corrected table state when given (``trig`` is then ignored).
     """
-    if angles is None:
-        angles, rates = true_angles(data, setup)
-    w, a = _sensed_batch(data.axes, data.triad, data.latitude, data.gravity, angles, rates, setup["delta"])
-    x = {"t_h": data.time_s / units.SECONDS_PER_HOUR, "temperature_C": data.temperature}
-    if data.kind == fx.TDF:
-        x.update(w_X=w[:, 0], w_Y=w[:, 1], w_Z=w[:, 2], a_X=a[:, 0], a_Y=a[:, 1], a_Z=a[:, 2])
-    elif data.kind == fx.ACCEL:
-        x.update(w_I=w[:, 0], w_P=w[:, 1], w_O=w[:, 2], a_I=a[:, 0], a_P=a[:, 1], a_O=a[:, 2])
+    if angles is not None:
+        trig = angle_trig(angles)
     else:
-        x.update(w_I=w[:, 0], w_O=w[:, 1], w_S=w[:, 2], a_I=a[:, 0], a_O=a[:, 1], a_S=a[:, 2])
+        e = data.encoder_axis
+        trig = list(trig) if trig is not None else angle_trig(data.angles)
+        h, dh = encoder_error_trig(setup["encoder"], *trig[e])
+        trig[e] = kinematics.turn(trig[e][0], trig[e][1], -h)
+        rates = data.rates
+        if data.rates_derived:
+            rates = rates.at[:, e].multiply(1.0 - dh)
+    w, a = _record_inputs(data, trig, rates, setup["delta"])
+    x = {"t_h": data.time_s / units.SECONDS_PER_HOUR, "temperature_C": data.temperature}
+    for j, nm in enumerate(_AXIS_NAMES.get(data.kind, ("I", "O", "S"))):
+        x[f"w_{nm}"] = w[j]
+        x[f"a_{nm}"] = a[j]
     return x
 
 
@@ -341,13 +375,12 @@ def servo_rate(model: Model, theta, data: RecordData, setup: dict):
 def servo_sensitivity(data: RecordData):
     """∂ω_I/∂θ̇_s at each sample (dimensionless): how strongly turning the servo axis moves the input-axis rate.
     Zero means the table cannot null the pickoff (IA perpendicular to the servo axis)."""
-    setup = {"delta": jnp.zeros(3), "encoder": jnp.zeros(4)}
-    angles = data.angles
+    trig = angle_trig(data.angles)
     still = jnp.zeros_like(data.rates)
     unit = still.at[:, data.servo_axis].set(1.0)
-    w1, _ = _sensed_batch(data.axes, data.triad, data.latitude, data.gravity, angles, unit, setup["delta"])
-    w0, _ = _sensed_batch(data.axes, data.triad, data.latitude, data.gravity, angles, still, setup["delta"])
-    return (w1[:, 0] - w0[:, 0]) * units.DEG_PER_H
+    w1, _ = _record_inputs(data, trig, unit, jnp.zeros(3))
+    w0, _ = _record_inputs(data, trig, still, jnp.zeros(3))
+    return (w1[0] - w0[0]) * units.DEG_PER_H
 
 
 def check_servo(data: RecordData, where: str) -> None:
@@ -363,8 +396,10 @@ def check_servo(data: RecordData, where: str) -> None:
         )
 
 
-def predict(model: Model, theta, data: RecordData):
-    """Predicted measurement vector of a record (module doc), same shape as ``data.y``."""
+def predict(model: Model, theta, data: RecordData, trig=None):
+    """Predicted measurement vector of a record (module doc), same shape as ``data.y`` (deg/h for gyros, g for
+    accelerometers). ``trig``: optional precomputed (cos, sin) of ``data.angles`` (rad) per axis
+    (:func:`angle_trig`; rebalance records)."""
     theta = jnp.asarray(theta, dtype=jnp.float64)
     setup = setup_values(model, theta)
     if data.mode == "servo":
@@ -374,7 +409,7 @@ def predict(model: Model, theta, data: RecordData):
         mean_rate = 0.5 * (r[1:] + r[:-1])
         dh = (h[1:] - h[:-1]) / data.dt if data.encoder_axis == s else 0.0
         return (mean_rate + dh) / units.DEG_PER_H * data.weight
-    x = instrument_inputs(data, setup)
+    x = instrument_inputs(data, setup, trig=trig)
     return indicated_output(model, theta, x, data.kind)
 
 
