@@ -17,6 +17,8 @@ import numpy as np
 from scipy.linalg import solve_toeplitz
 from scipy.signal import lfilter
 
+from . import reml
+
 P_MAX = 20
 TAU_SPAN_FRACTION = 8.0
 """In the diagnosis, Gauss–Markov correlation times are capped at the record span / 8: structure slower than that
@@ -330,8 +332,10 @@ def profile_likelihood(r, design, labels, times, start: GMNoise | None = None) -
         ok = labels >= 0
         v = max(float(np.var(r[ok])), 1e-300)
         start = GMNoise(float(np.ptp(times[ok])) / 20 or 1.0, 0.1 * v, 0.9 * v)
-    best = _gm_mle(r, labels, times, start, design, profile=True, grid=given is None)
-    return gm_profile(r, design, labels, times, best)
+    series = reml.prepare(r, design, labels, times, TAU_SPAN_FRACTION)
+    start_theta = (start.tau_s, start.gm_var, start.white_var)
+    _, value, *_ = reml.fit(series, start_theta, reml=False, coarse=given is not None)
+    return float(value)
 
 
 def fit_gm(
@@ -403,35 +407,14 @@ def _gm_mle(
     regressors of the fit are given, so that the drift the fitted coefficients absorbed is not lost from σ_g².
 
     The autocovariance fit inside short segments underestimates τ when τ is comparable to a segment; the
-    likelihood sees the correlation across the gaps between segments too.
+    likelihood sees the correlation across the gaps between segments too. Jitted JAX likelihood with exact
+    derivatives, minimised by quasi-Newton from the best of a grid of starts (:func:`gyrojax.noise.reml.fit`);
+    ``grid=False`` uses a coarser grid around ``start`` (the profile likelihood ratio refits twice per slow candidate).
     """
-    from scipy.optimize import minimize
-
-    ok = labels >= 0
-    tau_max = max(series_span(times[ok], series_restarts(labels[ok], times[ok])) / tau_span_fraction, 1e-9)
-
-    def unpack(u):
-        return GMNoise(min(float(np.exp(u[0])), tau_max), float(np.exp(u[1])), float(np.exp(u[2])))
-
-    def nll(u):
-        if np.any(np.abs(u) > 700):
-            return np.inf
-        if design is not None:
-            f = gm_profile if profile else gm_reml
-            return f(r, design, labels, times, unpack(u))
-        return gm_loglik(r, labels, times, unpack(u))[0]
-
-    # the likelihood in τ has local minima on short records: start from the best of a grid of correlation times
-    dt0 = float(np.median(np.diff(times[ok]))) if ok.sum() > 1 else 1.0
-    n_tau, fractions = (8, (0.02, 0.1, 0.3)) if grid else (5, (0.03, 0.2))
-    starts = [min(start.tau_s, tau_max)] + list(np.geomspace(max(2 * dt0, 1e-9), tau_max, n_tau))
-    total = start.gm_var + start.white_var
-    cands = [np.log([t, v * total, (1 - v) * total]) for t in starts for v in fractions]
-    cands.append(np.log([min(start.tau_s, tau_max), start.gm_var, start.white_var]))
-    u0 = min(cands, key=nll)
-    sol = minimize(nll, u0, method="Nelder-Mead", options={"xatol": 1e-3, "fatol": 1e-3, "maxiter": 300})
-    best = sol.x if sol.fun <= nll(u0) else u0
-    return unpack(best)
+    series = reml.prepare(r, design, labels, times, tau_span_fraction)
+    restricted = design is not None and not profile
+    theta, *_ = reml.fit(series, (start.tau_s, start.gm_var, start.white_var), reml=restricted, coarse=not grid)
+    return GMNoise(min(float(theta[0]), series.tau_max), float(theta[1]), float(theta[2]))
 
 
 def fit_noise(
