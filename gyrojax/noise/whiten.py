@@ -346,6 +346,7 @@ def fit_gm(
     design: np.ndarray | None = None,
     tau_span_fraction: float = TAU_SPAN_FRACTION,
     neutral_start: bool = False,
+    start: GMNoise | None = None,
 ) -> GMNoise | None:
     """White + Gauss–Markov model from the pooled autocovariance: γ_0 = σ_w² + σ_g², γ_k = σ_g² φ^k (k ≥ 1),
     φ = exp(−Δt/τ) at the median step Δt (s, from ``times``), then refined by maximum likelihood (REML when
@@ -353,7 +354,8 @@ def fit_gm(
     restart where time goes back). None when no segment has 8 samples, the residual is zero, or the
     autocovariance gives no admissible split (0 < σ_g² < γ_0) — unless ``neutral_start``, when the likelihood then
     starts from a neutral split instead (the fit's choice; the diagnosis keeps such residuals for its candidates).
-    Variances in the unit of ``r`` squared.
+    Variances in the unit of ``r`` squared. ``start``: a previous fit of a closely related residual (the diagnosis'
+    rounds) to start from instead of the moment estimate.
     """
     from scipy.optimize import minimize_scalar
 
@@ -361,6 +363,8 @@ def fit_gm(
     lens = [e - s for s, e in bounds]
     if not lens or max(lens) < 8:
         return None
+    if start is not None and start.gm_var > 0 and start.white_var > 0:
+        return _gm_mle(r, labels, times, start, design, tau_span_fraction=tau_span_fraction)
     dt0 = float(np.median(np.diff(times))) if len(times) > 1 else 1.0
     if not dt0 > 0:
         dt0 = 1.0
@@ -426,6 +430,7 @@ def fit_noise(
     tau_span_fraction: float = TAU_SPAN_FRACTION,
     neutral_start: bool = False,
     prefer_gm: bool = False,
+    start: GMNoise | None = None,
 ):
     """The noise model of a residual: white + Gauss–Markov (maximum likelihood), unless an AR(p ≥ 1) model is
     better by BIC.
@@ -439,9 +444,11 @@ def fit_noise(
     on a 2-hour servo record understated the long-run variance, ±2σ coverage 0.90 against 0.967 with GM).
 
     ``r`` in its own unit (deg/h for gyro residuals, g for accelerometers), ``times`` in s, ``design`` (n, p) the fit's
-    regressors. Returns an :class:`ARNoise` or a :class:`GMNoise`.
+    regressors; ``start`` as for :func:`fit_gm`. Returns an :class:`ARNoise` or a :class:`GMNoise`.
     """
-    gm = fit_gm(r, labels, times, design=design, tau_span_fraction=tau_span_fraction, neutral_start=neutral_start)
+    gm = fit_gm(
+        r, labels, times, design=design, tau_span_fraction=tau_span_fraction, neutral_start=neutral_start, start=start
+    )
     if prefer_gm and gm is not None:
         return gm
     ar = fit_ar(r, labels, p_max)
