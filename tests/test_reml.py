@@ -123,7 +123,7 @@ def test_fit_finds_the_reml_optimum():
     assert np.abs(np.asarray(g)).max() < 1e-3
     assert f == pytest.approx(gm_reml(r, x, lab, t, GMNoise(*theta)), abs=1e-7)
     starts = reml.grid(s, (10.0, 0.2, 1.0), False)
-    assert f <= float(np.min(reml.values(starts, *s.arrays, 1.0))) + s.logdet_const + 1e-9
+    assert f <= float(np.min(reml.values(s, starts, True))) + s.logdet_const + 1e-9
     # the simulated drift (φ = 0.95 per ~2 s step: τ ≈ 39 s) is found within its sampling error
     assert 15.0 < theta[0] < 100.0
 

@@ -10,12 +10,12 @@ innovation variances
     −2 log L_P = Σ log S_k + |ẽ|²                                  (profile likelihood, β at its GLS estimate)
     −2 log L_R = Σ log S_k + |ẽ|² + log det(X̃ᵀX̃)                   (REML, Patterson & Thompson 1971)
 
-(without the 2π terms). Both are one jitted function of u = (log τ, log σ_g², log σ_w²): the filter is a
-``lax.scan``, β is profiled out by the p×p normal equations in normalised columns (Cholesky), and the minimum is
-found by a trust-region quasi-Newton method on the exact gradient (reverse mode), its curvature started from
-the exact Hessian, from the best of a vmapped grid of correlation
-times around the caller's start (a moment estimate or a previous fit). The exact Hessian (``jax.jacfwd`` twice) gives
-the REML information of the Satterthwaite degrees of freedom.
+(without the 2π terms). Both are one jitted function of u = (log τ, log σ_g², log σ_w²): the filter's two
+recursions are two-level ``lax.scan`` s (about 2√N sequential steps), β is profiled out by the p×p normal equations
+in normalised columns (Cholesky), and the minimum is found by a trust-region quasi-Newton method on the exact
+gradient (reverse mode) from the best of a small grid of correlation times around the caller's start (a moment
+estimate or a previous fit). The exact Hessian (``jax.jacfwd`` twice) gives the REML information of the
+Satterthwaite degrees of freedom.
 
 Shapes are padded to buckets (rows to m·2^k with 4 ≤ m < 8, columns to a multiple of 8) so that records of
 similar length and models of similar size reuse one compiled function: padded rows pass through the filter
@@ -321,7 +321,6 @@ value_and_grad = jax.jit(jax.value_and_grad(objective))
 hessian = jax.jit(jax.jacfwd(jax.jacfwd(objective)))
 """Exact Hessian of :func:`objective` in u (forward over forward mode; compiled separately, used where the curvature
 itself is wanted: the Satterthwaite degrees of freedom)."""
-values = jax.jit(jax.vmap(objective, in_axes=(0, None, None, None, None, None)))
 likelihood_terms_jit = jax.jit(likelihood_terms)
 
 
@@ -353,16 +352,23 @@ def _bounds(s: Series):
 
 def minimise(s: Series, u0, reml: bool, max_iter: int = 80, ftol: float = 1e-7):
     """Minimise :func:`objective` from ``u0`` within the bounds of ``s`` (τ ≤ τ_max): trust-region quasi-Newton on
-    the exact gradient (reverse mode through the filter), its curvature started from the exact Hessian at ``u0``
-    (eigenvalues made positive) and updated by BFGS. A variable at a bound with the gradient pushing outward is held
-    there. Returns (u, −2 log L without the column-scaling constant, iterations)."""
+    the exact gradient (reverse mode through the filter), its curvature started from differences of the exact
+    gradient at ``u0`` (eigenvalues made positive) and updated by BFGS. A variable at a bound with the gradient
+    pushing outward is held there. Returns (u, −2 log L without the column-scaling constant, iterations)."""
     lo, hi = _bounds(s)
     arrays = s.arrays
     c = 1.0 if reml else 0.0
     u = np.clip(np.asarray(u0, dtype=float), lo, hi)
     f, g = value_and_grad(u, *arrays, c)
     f, g = float(f), np.asarray(g)
-    ev, vec = np.linalg.eigh(np.asarray(hessian(u, *arrays, c)))
+    # initial curvature: differences of the exact gradient (3 evaluations; the Hessian's own compiled function is
+    # kept for where the curvature itself is the result), eigenvalues made positive
+    h0 = np.zeros((3, 3))
+    for k in range(3):
+        e = np.zeros(3)
+        e[k] = 1e-3 if u[k] + 1e-3 <= hi[k] else -1e-3
+        h0[:, k] = (np.asarray(value_and_grad(u + e, *arrays, c)[1]) - g) / e[k]
+    ev, vec = np.linalg.eigh(0.5 * (h0 + h0.T))
     ev = np.maximum(np.abs(ev), 1e-8 * max(float(np.abs(ev).max()), 1e-300) + 1e-300)
     b = (vec * ev) @ vec.T
     radius, it = 2.0, 0
@@ -407,16 +413,21 @@ def minimise(s: Series, u0, reml: bool, max_iter: int = 80, ftol: float = 1e-7):
 
 def grid(s: Series, start, coarse: bool):
     """Starts in u for the search: τ on a geometric grid from 2Δt to τ_max (and the start's τ), each with a few
-    splits of the start's total variance, and the start itself. Fixed size (16) so one compiled evaluation serves."""
+    splits of the start's total variance, and the start itself."""
     tau0, g0, w0 = start
     total = max(g0 + w0, 1e-300)
-    n_tau, fractions = (4, (0.03, 0.2)) if coarse else (7, (0.02, 0.3))
+    n_tau, fractions = (4, (0.03, 0.2)) if coarse else (6, (0.02, 0.3))
     taus = [min(tau0, s.tau_max)] + list(np.geomspace(max(2 * s.dt0, 1e-9), s.tau_max, n_tau))
     cands = [np.log([t, v * total, (1 - v) * total]) for t in taus for v in fractions]
     cands.append(np.log([min(tau0, s.tau_max), max(g0, 1e-300), max(w0, 1e-300)]))
-    while len(cands) < 17:
-        cands.insert(0, cands[-1])
     return np.array(cands)
+
+
+def values(s: Series, us, reml: bool) -> np.ndarray:
+    """−2 log L (without the column-scaling constant) at each row of ``us`` (k, 3), by the compiled value-and-gradient
+    function (one compiled function per shape serves the search; a vmapped one would be a second compilation)."""
+    c = 1.0 if reml else 0.0
+    return np.array([float(value_and_grad(u, *s.arrays, c)[0]) for u in us])
 
 
 def fit(s: Series, start, reml: bool = True, coarse: bool = False):
@@ -426,7 +437,7 @@ def fit(s: Series, start, reml: bool = True, coarse: bool = False):
     column-scaling constant under REML) and the iterations."""
     lo, hi = _bounds(s)
     cands = np.clip(grid(s, start, coarse), lo, hi)
-    vals = np.asarray(values(cands, *s.arrays, 1.0 if reml else 0.0))
+    vals = values(s, cands, reml)
     vals = np.where(np.isfinite(vals), vals, np.inf)
     u, f, it = minimise(s, cands[int(np.argmin(vals))], reml)
     return np.exp(u), f + (s.logdet_const if reml else 0.0), it
