@@ -350,7 +350,7 @@ def _bounds(s: Series):
     return lo, np.maximum(hi, lo)
 
 
-def minimise(s: Series, u0, reml: bool, max_iter: int = 80, ftol: float = 1e-7):
+def minimise(s: Series, u0, reml: bool, max_iter: int = 80, ftol: float = 1e-10):
     """Minimise :func:`objective` from ``u0`` within the bounds of ``s`` (τ ≤ τ_max): trust-region quasi-Newton on
     the exact gradient (reverse mode through the filter), its curvature started from differences of the exact
     gradient at ``u0`` (eigenvalues made positive) and updated by BFGS. A variable at a bound with the gradient
@@ -368,6 +368,8 @@ def minimise(s: Series, u0, reml: bool, max_iter: int = 80, ftol: float = 1e-7):
         e = np.zeros(3)
         e[k] = 1e-3 if u[k] + 1e-3 <= hi[k] else -1e-3
         h0[:, k] = (np.asarray(value_and_grad(u + e, *arrays, c)[1]) - g) / e[k]
+    if not np.all(np.isfinite(h0)):  # a difference reached a non-finite value: start from a scaled identity
+        h0 = np.eye(3) * max(float(np.abs(np.nan_to_num(g)).max()), 1.0)
     ev, vec = np.linalg.eigh(0.5 * (h0 + h0.T))
     ev = np.maximum(np.abs(ev), 1e-8 * max(float(np.abs(ev).max()), 1e-300) + 1e-300)
     b = (vec * ev) @ vec.T
@@ -404,10 +406,7 @@ def minimise(s: Series, u0, reml: bool, max_iter: int = 80, ftol: float = 1e-7):
             radius = min(2.0 * radius, 8.0)
         elif ratio < 0.25:
             radius = 0.5 * min(radius, norm)
-        done = f - fn < ftol
         u, f, g = un, fn, gn
-        if done:
-            break
     return u, f, it
 
 
