@@ -175,7 +175,7 @@ def _nuisance(t: np.ndarray) -> np.ndarray:
     return np.ones((len(t), 1))
 
 
-def _noise_models(lin, cols) -> list:
+def _noise_models(lin, cols, starts=None) -> list:
     """Per-record noise model from the residual left after projecting on the regressor columns ``cols`` and on a
     per-record offset.
 
@@ -183,8 +183,10 @@ def _noise_models(lin, cols) -> list:
     a flipped mounting gives an omitted D_O) would otherwise pass for long-memory noise and hide the very effect
     under test. It is a nuisance regressor only here; REML keeps the noise estimate unbiased when it is absent.
     Slower-than-the-record drift is kept apart from noise by the cap on τ
-    (:data:`gyrojax.noise.whiten.TAU_SPAN_FRACTION`).
+    (:data:`gyrojax.noise.whiten.TAU_SPAN_FRACTION`). ``starts``: the previous round's models, whose Gauss–Markov
+    fits start this round's (one column more changes them little).
     """
+    starts = starts or [None] * len(lin)
     scales = [max(np.sqrt(np.mean(r * r)), 1e-300) for r, *_ in lin]
     n_rec = len(lin)
     blocks = []
@@ -196,10 +198,10 @@ def _noise_models(lin, cols) -> list:
     ub = _basis(np.concatenate(blocks, axis=0))
     res = r_all - ub @ (ub.T @ r_all)
     out, i0 = [], 0
-    for (r, j, lab, t), s in zip(lin, scales):
+    for (r, j, lab, t), s, st in zip(lin, scales, starts):
         n = len(r)
         design = np.column_stack([j[:, cols], _nuisance(t)])
-        nz = fit_noise(res[i0 : i0 + n] * s, lab, t, design=design)
+        nz = fit_noise(res[i0 : i0 + n] * s, lab, t, design=design, start=st if isinstance(st, GMNoise) else None)
         out.append(nz if nz.innovation_std > 0 else ARNoise(np.zeros(0), s, s))
         i0 += n
     return out
@@ -320,10 +322,12 @@ def diagnose(
     # noise model by forward selection: from the current residual, re-estimated after adding the most
     # significant candidate (so that a strong missing effect does not pass for coloured noise, and a plan whose
     # candidates span every position cannot soak the drift's low-frequency power into a saturated fit)
+    # (each round's noise fits start from the previous round's)
     extra: list[str] = []
+    noises = None
     for _round in range(4):
         cols = np.concatenate([np.arange(p0)] + [np.arange(full.size)[sl[c]] for c in extra]).astype(int)
-        noises = _noise_models(lin, cols)
+        noises = _noise_models(lin, cols, noises)
         tested, perps, unexcited = _score(lin, noises, model, full, cand, p0, res.residual_rms)
         live = [c for c in tested if c.df > 0]
         if not live:

@@ -1,0 +1,456 @@
+"""White + first-order Gauss–Markov noise estimation as jitted JAX functions with exact derivatives.
+
+A residual series r (n,) with regressors X (n, p) is modelled as r = Xβ + g + w: w white of variance σ_w², g a
+first-order Gauss–Markov process of stationary variance σ_g² and correlation time τ (s), decaying by
+φ_k = exp(−Δt_k/τ) between samples Δt_k apart (irregular steps and gaps allowed; a row where time does not increase
+starts an independent series). The Kalman filter's normalised innovations whiten r and X exactly (Harvey 1989 §3.4;
+the state-space form of the GM drift of IEEE 952 annex C), so that with ẽ the whitened GLS residual and S_k the
+innovation variances
+
+    −2 log L_P = Σ log S_k + |ẽ|²                                  (profile likelihood, β at its GLS estimate)
+    −2 log L_R = Σ log S_k + |ẽ|² + log det(X̃ᵀX̃)                   (REML, Patterson & Thompson 1971)
+
+(without the 2π terms). Both are one jitted function of u = (log τ, log σ_g², log σ_w²): the filter's two
+recursions are two-level ``lax.scan`` s (about 2√N sequential steps), β is profiled out by the p×p normal equations
+in normalised columns (Cholesky), and the minimum is found by a trust-region quasi-Newton method on the exact
+gradient (reverse mode) from the best of a small grid of correlation times around the caller's start (a moment
+estimate or a previous fit). The exact Hessian (``jax.jacfwd`` twice) gives the REML information of the
+Satterthwaite degrees of freedom.
+
+Shapes are padded to buckets (rows to m·2^k with 4 ≤ m < 8, columns to a multiple of 8) so that records of
+similar length and models of similar size reuse one compiled function: padded rows pass through the filter
+unchanged and carry no log S; each padded column is a unit vector on a padded row, orthogonal to everything else,
+so it adds nothing to |ẽ|² or to log det.
+
+Collinear regressors (the diagnosis' per-record offset beside a constant D_F column) are rank-safe: whitening is
+invertible, so the column space of X̃ is that of X, and the columns kept are those independent of the columns
+before them (|R_kk| of a QR of the normalised X above :data:`RANK_TOL`), which gives log det over the estimable
+directions exactly as a QR of X̃ would.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+RANK_TOL = 1e-7
+"""A regressor whose normalised component orthogonal to the previous regressors is below this is not estimated."""
+TAU_FLOOR_STEPS = 0.05
+"""Lower bound of τ in sample steps: a Gauss–Markov process faster than this is white noise to the filter."""
+VAR_SPAN = 1e12
+"""Variances are searched within [total/VAR_SPAN, total·1e4], total the residual's variance."""
+
+
+def bucket_rows(n: int) -> int:
+    """Smallest m·2^k ≥ n with 4 ≤ m < 8 (at most 25 % padding; four sizes per octave), at least 16."""
+    n = max(int(n), 16)
+    k = max(n.bit_length() - 3, 0)
+    return -(-n // (1 << k)) << k
+
+
+def bucket_cols(p: int) -> int:
+    """Columns padded to a multiple of 8 (at least 8)."""
+    return max(8, -(-int(p) // 8) * 8)
+
+
+def independent_columns(design: np.ndarray, tol: float = RANK_TOL) -> np.ndarray:
+    """Indices of the columns of ``design`` (n, p) independent of the columns before them (QR of the column-normalised
+    matrix; |R_kk| ≤ ``tol`` marks a column in the span of the previous ones, or a zero column)."""
+    if design.shape[1] == 0:
+        return np.zeros(0, dtype=int)
+    norms = np.sqrt(np.einsum("ij,ij->j", design, design))
+    live = norms > 0
+    z = design[:, live] / norms[live]
+    if z.shape[1] == 0:
+        return np.zeros(0, dtype=int)
+    d = np.abs(np.diag(np.linalg.qr(z, mode="r")))
+    return np.flatnonzero(live)[d > tol]
+
+
+@dataclass(frozen=True)
+class Series:
+    """A residual and its regressors prepared for the jitted likelihood (rows with label ≥ 0 only, padded).
+
+    ``x`` (N, 1 + P): column 0 the residual (its unit, e.g. deg/h), then the independent regressors scaled to unit
+    norm and the padding columns; ``dt`` (N,) steps (s); ``restart`` (N,) rows that start a series; ``mask`` (N,) real
+    rows. ``norms`` the regressors' column norms; ``logdet_const`` = 2 Σ log(norms) restores log det(X̃ᵀX̃) of the
+    unscaled regressors.
+    """
+
+    x: np.ndarray
+    dt: np.ndarray
+    restart: np.ndarray
+    mask: np.ndarray
+    logdet_const: float
+    n: int
+    rank: int
+    tau_max: float
+    dt0: float
+    var0: float
+    norms: np.ndarray
+
+    @property
+    def arrays(self):
+        """The array arguments of the jitted functions."""
+        return self.x, self.dt, self.restart, self.mask
+
+
+def series_restarts(times: np.ndarray) -> np.ndarray:
+    """Rows where an independent series starts: the first row, or ``times`` (s) not increasing (stacked records)."""
+    out = np.zeros(len(times), dtype=bool)
+    if len(times):
+        out[0] = True
+        out[1:] = np.diff(times) <= 0
+    return out
+
+
+def longest_span(times: np.ndarray, restart: np.ndarray) -> float:
+    """Longest time span (s) of the independent series in ``times`` (each starts where ``restart`` is set)."""
+    if not len(times):
+        return 1.0
+    starts = np.flatnonzero(restart)
+    ends = np.append(starts[1:], len(times))
+    return float(max(np.ptp(times[s:e]) for s, e in zip(starts, ends))) or 1.0
+
+
+def prepare(r, design, labels, times, tau_span_fraction: float, select: bool = True) -> Series:
+    """A :class:`Series` of the rows with ``labels`` ≥ 0 of ``r`` (n,), ``design`` (n, p) or None and ``times`` (s);
+    τ capped at the longest series' span / ``tau_span_fraction``. ``select=False`` keeps every column (for
+    :func:`whitened_gram`; the likelihood needs the independent ones)."""
+    ok = np.asarray(labels) >= 0
+    r = np.asarray(r, dtype=float)[ok]
+    t = np.asarray(times, dtype=float)[ok]
+    n = len(r)
+    j = np.zeros((n, 0)) if design is None else np.asarray(design, dtype=float)[ok]
+    if select:
+        j = j[:, independent_columns(j)]
+    norms = np.sqrt(np.einsum("ij,ij->j", j, j)) if j.shape[1] else np.zeros(0)
+    norms = np.where(norms > 0, norms, 1.0)
+    j = j / norms if j.shape[1] else j
+    p = j.shape[1]
+    pb = bucket_cols(p)
+    nb = bucket_rows(n + pb - p)
+    x = np.zeros((nb, 1 + pb))
+    x[:n, 0] = r
+    x[:n, 1 : 1 + p] = j
+    for k in range(pb - p):  # padding column k: a unit vector on padded row n + k
+        x[n + k, 1 + p + k] = 1.0
+    restart = np.ones(nb, dtype=bool)
+    restart[:n] = series_restarts(t)
+    dt = np.ones(nb)
+    dt[:n] = np.diff(t, prepend=t[0] if n else 0.0)
+    mask = np.zeros(nb, dtype=bool)
+    mask[:n] = True
+    steps = np.diff(t)[~restart[1:n]] if n > 1 else np.zeros(0)
+    dt0 = float(np.median(steps)) if steps.size else 1.0
+    dt0 = dt0 if dt0 > 0 else 1.0
+    tau_max = max(longest_span(t, restart[:n]) / tau_span_fraction, 1e-9)
+    var0 = float(np.var(r)) if n else 1.0
+    return Series(
+        x, dt, restart, mask, float(2.0 * np.sum(np.log(norms))), n, p, tau_max, dt0, var0 if var0 > 0 else 1.0, norms
+    )
+
+
+# ---- the jitted likelihood ----------------------------------------------------------------------------------------
+
+
+def block_length(n: int) -> int:
+    """Block length L (a power of two dividing ``n``, about √n) of the two-level scans."""
+    k = (n & -n).bit_length() - 1  # n = odd · 2^k
+    return 1 << min(k, max(int(round(math.log2(max(n, 1)) / 2)), 0))
+
+
+def _apply(mat, p):
+    a, b, c, d = mat
+    return (a * p + b) / (c * p + d)
+
+
+@jax.custom_jvp
+def mobius_prefix(mats, p0):
+    """P_k = M_k ∘ … ∘ M_1 (p0) for linear-fractional maps M_k: P ↦ (a P + b)/(c P + d) with entries ≥ 0, ``mats``
+    four (N,) arrays. Two-level scan: compositions inside blocks of L steps (sequential in L, vectorised over the
+    blocks), then the value at each block end (sequential over the blocks), then every value (elementwise)."""
+    n = mats[0].shape[0]
+    ell = block_length(n)
+    blocks = [m.reshape(n // ell, ell).T for m in mats]  # (L, B)
+
+    def compose(carry, m):
+        a1, b1, c1, d1 = carry
+        a2, b2, c2, d2 = m
+        a, b = a2 * a1 + b2 * c1, a2 * b1 + b2 * d1
+        c, d = c2 * a1 + d2 * c1, c2 * b1 + d2 * d1
+        norm = a + b + c + d  # the map is projective: normalise against overflow
+        out = (a / norm, b / norm, c / norm, d / norm)
+        return out, out
+
+    one = jnp.ones(n // ell, dtype=mats[0].dtype)
+    zero = jnp.zeros_like(one)
+    _, local = jax.lax.scan(compose, (one, zero, zero, one), tuple(blocks))  # each (L, B)
+    total = tuple(m[-1] for m in local)
+
+    def across(p, m):
+        return _apply(m, p), p
+
+    _, p_in = jax.lax.scan(across, p0, total)  # value entering each block (B,)
+    return _apply(local, p_in[None, :]).T.reshape(n)
+
+
+@jax.custom_jvp
+def affine_prefix(coef, drive):
+    """x_k = coef_k x_{k−1} + drive_k from x_0 = 0, ``coef`` (N,), ``drive`` (N, m): two-level scan as
+    :func:`mobius_prefix`."""
+    n, m = drive.shape
+    ell = block_length(n)
+    nb = n // ell
+    cb = coef.reshape(nb, ell).T  # (L, B)
+    db = drive.reshape(nb, ell, m).transpose(1, 0, 2)  # (L, B, m)
+
+    def inner(carry, inp):
+        a_acc, x_acc = carry
+        a, d = inp
+        a_acc = a * a_acc
+        x_acc = a[:, None] * x_acc + d
+        return (a_acc, x_acc), (a_acc, x_acc)
+
+    init = (jnp.ones(nb, dtype=drive.dtype), jnp.zeros((nb, m), dtype=drive.dtype))
+    _, (a_loc, x_loc) = jax.lax.scan(inner, init, (cb, db))
+
+    def across(x, inp):
+        a, xl = inp
+        return a * x + xl, x
+
+    _, x_in = jax.lax.scan(across, jnp.zeros(m, dtype=drive.dtype), (a_loc[-1][:, None], x_loc[-1]))  # (B, m)
+    full = x_loc + a_loc[:, :, None] * x_in[None, :, :]  # (L, B, m)
+    return full.transpose(1, 0, 2).reshape(n, m)
+
+
+def _shift(x, first):
+    """x_{k−1} (``first`` at k = 0)."""
+    return jnp.concatenate([jnp.broadcast_to(first, (1,) + x.shape[1:]).astype(x.dtype), x[:-1]], axis=0)
+
+
+@affine_prefix.defjvp
+def _affine_prefix_jvp(primals, tangents):
+    # the tangent obeys the same recursion: dx_k = coef_k dx_{k−1} + (dcoef_k x_{k−1} + ddrive_k), so derivatives of
+    # any order reuse this two-level scan instead of differentiating through its internals (fast to compile)
+    coef, drive = primals
+    dcoef, ddrive = tangents
+    x = affine_prefix(coef, drive)
+    return x, affine_prefix(coef, ddrive + dcoef[:, None] * _shift(x, 0.0))
+
+
+@mobius_prefix.defjvp
+def _mobius_prefix_jvp(primals, tangents):
+    # dP_k = M_k'(P_{k−1}) dP_{k−1} + (∂M_k/∂entries)(P_{k−1}) · dentries: an affine recursion
+    (a, b, c, d), p0 = primals
+    (da, db, dc, dd), dp0 = tangents
+    p = mobius_prefix((a, b, c, d), p0)
+    prev = _shift(p, p0)
+    den = c * prev + d
+    num = a * prev + b
+    slope = (a * d - b * c) / (den * den)
+    drive = (da * prev + db) / den - num * (dc * prev + dd) / (den * den)
+    drive = drive.at[0].add(slope[0] * dp0)
+    return p, affine_prefix(slope, drive[:, None])[:, 0]
+
+
+def whiten_scan(theta, x, dt, restart, mask):
+    """Normalised Kalman innovations of every column of ``x`` (N, m) and log S (N,) under white (σ_w²) + GM (σ_g², τ);
+    ``theta`` = (τ s, σ_g², σ_w²) in x's unit squared (exact GLS whitening). A restart row starts an independent
+    series (φ = 0); masked rows pass through unchanged with log S = 0.
+
+    Both recursions of the filter are prefix compositions evaluated by two-level scans (about 2√N sequential steps,
+    vectorised otherwise; cheap to differentiate in forward mode): the filtered GM variance
+    P_k = (φ_k² P_{k−1} + q_k) σ_w² / S_k, S_k = φ_k² P_{k−1} + q_k + σ_w², q_k = σ_g²(1 − φ_k²), is a linear-fractional
+    map of P_{k−1}; the filtered state x̂_k = φ_k (σ_w²/S_k) x̂_{k−1} + K_k z_k, K_k = 1 − σ_w²/S_k, an affine one.
+    """
+    tau, g, w = theta[0], theta[1], theta[2]
+    phi = jnp.where(restart, 0.0, jnp.exp(-dt / tau))
+    f2 = phi * phi
+    q = g * (1.0 - f2)
+    one, zero = jnp.ones_like(phi), jnp.zeros_like(phi)
+    mats = (
+        jnp.where(mask, w * f2, one),
+        jnp.where(mask, w * q, zero),
+        jnp.where(mask, f2, zero),
+        jnp.where(mask, q + w, one),
+    )
+    p0 = jnp.asarray(g, dtype=x.dtype)
+    p_post = mobius_prefix(mats, p0)
+    p_prev = jnp.concatenate([p0[None], p_post[:-1]])
+    pp = f2 * p_prev + q  # predicted GM variance (φ = 0: a fresh, independent start)
+    s = pp + w
+    coef = jnp.where(mask, phi * w / s, one)
+    drive = jnp.where(mask[:, None], (pp / s)[:, None] * x, 0.0)
+    filt = affine_prefix(coef, drive)
+    prev = jnp.concatenate([jnp.zeros((1, x.shape[1]), dtype=x.dtype), filt[:-1]], axis=0)
+    out = jnp.where(mask[:, None], (x - phi[:, None] * prev) / jnp.sqrt(s)[:, None], x)
+    return out, jnp.where(mask, jnp.log(s), 0.0)
+
+
+def gram_scan(theta, x, dt, restart, mask):
+    """(X̃ᵀX̃ of the whitened columns of ``x`` (m, m), Σ log S) under ``theta``."""
+    out, logs = whiten_scan(theta, x, dt, restart, mask)
+    return out.T @ out, jnp.sum(logs)
+
+
+def likelihood_terms(theta, x, dt, restart, mask):
+    """(Σ log S_k, |ẽ|², log det(X̃ᵀX̃) of the normalised columns) under ``theta`` = (τ, σ_g², σ_w²)."""
+    gram, logs = gram_scan(theta, x, dt, restart, mask)
+    a, b, rr = gram[1:, 1:], gram[1:, 0], gram[0, 0]
+    sc = jnp.sqrt(jnp.diag(a))
+    chol = jnp.linalg.cholesky(a / jnp.outer(sc, sc))
+    z = jax.scipy.linalg.solve_triangular(chol, b / sc, lower=True)
+    quad = rr - z @ z
+    logdet = 2.0 * jnp.sum(jnp.log(jnp.diag(chol))) + 2.0 * jnp.sum(jnp.log(sc))
+    return logs, quad, logdet
+
+
+def objective(u, x, dt, restart, mask, reml):
+    """−2 log L (profile, ``reml`` = 0) or −2 log L_R (``reml`` = 1) at u = (log τ, log σ_g², log σ_w²), without
+    the 2π terms and the constant of the column scaling."""
+    logs, quad, logdet = likelihood_terms(jnp.exp(u), x, dt, restart, mask)
+    return logs + quad + reml * logdet
+
+
+value_and_grad = jax.jit(jax.value_and_grad(objective))
+hessian = jax.jit(jax.jacfwd(jax.jacfwd(objective)))
+"""Exact Hessian of :func:`objective` in u (forward over forward mode; compiled separately, used where the curvature
+itself is wanted: the Satterthwaite degrees of freedom)."""
+likelihood_terms_jit = jax.jit(likelihood_terms)
+
+
+def _gram(u, x, dt, restart, mask):
+    return gram_scan(jnp.exp(u), x, dt, restart, mask)[0][1:, 1:]
+
+
+gram_and_jacobian = jax.jit(
+    lambda u, x, dt, restart, mask: (_gram(u, x, dt, restart, mask), jax.jacfwd(_gram)(u, x, dt, restart, mask))
+)
+"""(X̃ᵀX̃ (P, P), ∂X̃ᵀX̃/∂u (P, P, 3)) of the normalised, padded columns of a :class:`Series`."""
+
+
+# ---- the minimiser ------------------------------------------------------------------------------------------------
+
+
+def neg2_loglik(s: Series, theta, reml: bool) -> float:
+    """−2 log L_R (``reml``) or −2 log L_P of the series under ``theta`` = (τ s, σ_g², σ_w²) (σ_g² may be 0: white)."""
+    th = np.asarray(theta, dtype=float)
+    logs, quad, logdet = likelihood_terms_jit(th, *s.arrays)
+    return float(logs + quad + (float(logdet) + s.logdet_const if reml else 0.0))
+
+
+def _bounds(s: Series):
+    lo = np.array([math.log(TAU_FLOOR_STEPS * s.dt0), math.log(s.var0 / VAR_SPAN), math.log(s.var0 / VAR_SPAN)])
+    hi = np.array([math.log(s.tau_max), math.log(s.var0 * 1e4), math.log(s.var0 * 1e4)])
+    return lo, np.maximum(hi, lo)
+
+
+def minimise(s: Series, u0, reml: bool, max_iter: int = 80, ftol: float = 1e-10):
+    """Minimise :func:`objective` from ``u0`` within the bounds of ``s`` (τ ≤ τ_max): trust-region quasi-Newton on
+    the exact gradient (reverse mode through the filter), its curvature started from differences of the exact
+    gradient at ``u0`` (eigenvalues made positive) and updated by BFGS. A variable at a bound with the gradient
+    pushing outward is held there. Returns (u, −2 log L without the column-scaling constant, iterations)."""
+    lo, hi = _bounds(s)
+    arrays = s.arrays
+    c = 1.0 if reml else 0.0
+    u = np.clip(np.asarray(u0, dtype=float), lo, hi)
+    f, g = value_and_grad(u, *arrays, c)
+    f, g = float(f), np.asarray(g)
+    # initial curvature: differences of the exact gradient (3 evaluations; the Hessian's own compiled function is
+    # kept for where the curvature itself is the result), eigenvalues made positive
+    h0 = np.zeros((3, 3))
+    for k in range(3):
+        e = np.zeros(3)
+        e[k] = 1e-3 if u[k] + 1e-3 <= hi[k] else -1e-3
+        h0[:, k] = (np.asarray(value_and_grad(u + e, *arrays, c)[1]) - g) / e[k]
+    if not np.all(np.isfinite(h0)):  # a difference reached a non-finite value: start from a scaled identity
+        h0 = np.eye(3) * max(float(np.abs(np.nan_to_num(g)).max()), 1.0)
+    ev, vec = np.linalg.eigh(0.5 * (h0 + h0.T))
+    ev = np.maximum(np.abs(ev), 1e-8 * max(float(np.abs(ev).max()), 1e-300) + 1e-300)
+    b = (vec * ev) @ vec.T
+    radius, it = 2.0, 0
+    while it < max_iter:
+        it += 1
+        free = ~(((u >= hi - 1e-12) & (g < 0)) | ((u <= lo + 1e-12) & (g > 0)))
+        if not free.any() or not np.all(np.isfinite(g)):
+            break
+        gf, bf = g[free], b[np.ix_(free, free)]
+        d = -np.linalg.solve(bf, gf)
+        norm = float(np.linalg.norm(d))
+        if norm > radius:
+            d *= radius / norm
+        pred = -(gf @ d + 0.5 * d @ bf @ d)
+        if pred < ftol:
+            break
+        step = np.zeros(3)
+        step[free] = d
+        un = np.clip(u + step, lo, hi)
+        fn, gn = value_and_grad(un, *arrays, c)
+        fn, gn = float(fn), np.asarray(gn)
+        if not (np.isfinite(fn) and fn < f):
+            radius = 0.25 * min(radius, norm)
+            if radius < 1e-8:
+                break
+            continue
+        sk, yk = un - u, gn - g
+        if sk @ yk > 1e-12 * np.linalg.norm(sk) * np.linalg.norm(yk):  # BFGS update of the curvature
+            bs = b @ sk
+            b = b - np.outer(bs, bs) / (sk @ bs) + np.outer(yk, yk) / (sk @ yk)
+        ratio = (f - fn) / pred
+        if ratio > 0.75 and norm >= 0.99 * radius:
+            radius = min(2.0 * radius, 8.0)
+        elif ratio < 0.25:
+            radius = 0.5 * min(radius, norm)
+        u, f, g = un, fn, gn
+    return u, f, it
+
+
+def grid(s: Series, start, coarse: bool):
+    """Starts in u for the search: τ on a geometric grid from 2Δt to τ_max (and the start's τ), each with a few
+    splits of the start's total variance, and the start itself."""
+    tau0, g0, w0 = start
+    total = max(g0 + w0, 1e-300)
+    n_tau, fractions = (4, (0.03, 0.2)) if coarse else (6, (0.02, 0.3))
+    taus = [min(tau0, s.tau_max)] + list(np.geomspace(max(2 * s.dt0, 1e-9), s.tau_max, n_tau))
+    cands = [np.log([t, v * total, (1 - v) * total]) for t in taus for v in fractions]
+    cands.append(np.log([min(tau0, s.tau_max), max(g0, 1e-300), max(w0, 1e-300)]))
+    return np.array(cands)
+
+
+def values(s: Series, us, reml: bool) -> np.ndarray:
+    """−2 log L (without the column-scaling constant) at each row of ``us`` (k, 3), by the compiled value-and-gradient
+    function (one compiled function per shape serves the search; a vmapped one would be a second compilation)."""
+    c = 1.0 if reml else 0.0
+    return np.array([float(value_and_grad(u, *s.arrays, c)[0]) for u in us])
+
+
+def fit(s: Series, start, reml: bool = True, coarse: bool = False):
+    """Maximum (restricted) likelihood white + Gauss–Markov parameters of a series: :func:`minimise` from the best
+    point of :func:`grid` (the likelihood in τ has local minima on short records), which includes
+    ``start`` = (τ s, σ_g², σ_w²) (a moment estimate or a previous fit). Returns (τ, σ_g², σ_w²), −2 log L (with the
+    column-scaling constant under REML) and the iterations."""
+    lo, hi = _bounds(s)
+    cands = np.clip(grid(s, start, coarse), lo, hi)
+    vals = values(s, cands, reml)
+    vals = np.where(np.isfinite(vals), vals, np.inf)
+    u, f, it = minimise(s, cands[int(np.argmin(vals))], reml)
+    return np.exp(u), f + (s.logdet_const if reml else 0.0), it
+
+
+def reml_hessian(s: Series, theta) -> np.ndarray:
+    """Exact Hessian (3, 3) of −2 log L_R in u = log(τ, σ_g², σ_w²) at ``theta`` = (τ s, σ_g², σ_w²)."""
+    return np.asarray(hessian(np.log(np.asarray(theta, dtype=float)), *s.arrays, 1.0))
+
+
+def whitened_gram(s: Series, theta):
+    """X̃ᵀX̃ (p, p) of the whitened regressors of ``s`` in their own units and its derivatives (p, p, 3) in
+    u = log(τ, σ_g², σ_w²) (exact, forward mode) at ``theta`` = (τ s, σ_g², σ_w²)."""
+    a, da = gram_and_jacobian(np.log(np.asarray(theta, dtype=float)), *s.arrays)
+    p, d = s.rank, s.norms
+    a, da = np.asarray(a)[:p, :p], np.asarray(da)[:p, :p]
+    return a * np.outer(d, d), da * np.outer(d, d)[:, :, None]
