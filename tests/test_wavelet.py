@@ -111,18 +111,7 @@ def test_covariance_against_monte_carlo():
     spec = gmwm.ModelSpec(white=True, random_walk=True, n_gm=1)
     th = jnp.log(jnp.asarray([4.0, 1e-4, 9.0, 1.0 / 60.0]))
     _, cnt = wv.haar_wv(np.zeros(n), m)
-    grid = gmwm._Grid(m)
-    om = np.asarray(
-        gmwm.model_covariance(
-            gmwm.expand(spec, th),
-            jnp.asarray(gmwm.spec_mask(spec)),
-            jnp.asarray(m, float),
-            cnt,
-            grid.f,
-            grid.w,
-            grid.gains,
-        )
-    )
+    om = gmwm.covariance_at(spec, th, m, cnt)
     emp = np.cov(nus.T)
     np.testing.assert_allclose(np.diag(emp) / np.diag(om), 1.0, atol=0.25)
     corr = lambda c: np.diag(c / np.sqrt(np.outer(np.diag(c), np.diag(c))), 1)  # noqa: E731
@@ -145,17 +134,6 @@ def test_estimator_equals_allantools_and_model_matches_it():
     np.testing.assert_allclose(nu, ad**2 / 2, rtol=1e-9)
     spec = gmwm.ModelSpec(white=True, random_walk=True, n_gm=1)
     th = jnp.log(jnp.asarray([1.0, 1e-6, 0.5, 1.0 / 300.0]))
-    grid = gmwm._Grid(m)
-    om = np.asarray(
-        gmwm.model_covariance(
-            gmwm.expand(spec, th),
-            jnp.asarray(gmwm.spec_mask(spec)),
-            jnp.asarray(m, float),
-            cnt,
-            grid.f,
-            grid.w,
-            grid.gains,
-        )
-    )
+    om = gmwm.covariance_at(spec, th, m, cnt)
     model_avar = 2 * np.asarray(gmwm.model_wv(spec, th, m))
     assert np.all(np.abs(ad**2 - model_avar) < 4 * 2 * np.sqrt(np.diag(om)))

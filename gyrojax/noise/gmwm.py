@@ -281,8 +281,9 @@ def levenberg_marquardt(theta0, mask, nu_hat, m, p_mat, lo, hi, n_iter: int = 80
     """min_θ |P(ν̂ − ν(θ))|² by Levenberg–Marquardt with the exact Jacobian, θ clipped to [lo, hi].
 
     Full log-parameters θ (:data:`FULL_NAMES`) with the inactive ones masked out (one compilation for every
-    model). Returns (θ̂, cost). Fixed iteration count (jit/vmap friendly); a step is taken only when it lowers
-    the cost, the damping λ falls by 3 after a success and rises by 4 after a failure.
+    model). Returns (θ̂, cost). A step is taken only when it lowers the cost; the damping λ falls by 3 after a
+    success and rises by 4 after a failure; the loop ends after ``n_iter`` iterations, or when an accepted step
+    lowers the cost by less than 1e-12 of it, or when λ exceeds 1e12 (no step lowers it any more).
     """
     maskf = mask.astype(jnp.float64)
 
@@ -293,8 +294,8 @@ def levenberg_marquardt(theta0, mask, nu_hat, m, p_mat, lo, hi, n_iter: int = 80
         r = resid(th)
         return r @ r
 
-    def body(_, carry):
-        th, c, lam = carry
+    def body(carry):
+        k, th, c, lam, _ = carry
         r = resid(th)
         jac = jax.jacfwd(resid)(th) * maskf[None, :]
         a = jac.T @ jac
@@ -304,10 +305,16 @@ def levenberg_marquardt(theta0, mask, nu_hat, m, p_mat, lo, hi, n_iter: int = 80
         new = jnp.clip(th + step, lo, hi)
         cn = cost(new)
         ok = jnp.isfinite(cn) & (cn < c)
-        return (jnp.where(ok, new, th), jnp.where(ok, cn, c), jnp.where(ok, lam / 3.0, lam * 4.0))
+        done = ok & (c - cn <= 1e-12 * c)
+        return (k + 1, jnp.where(ok, new, th), jnp.where(ok, cn, c), jnp.where(ok, lam / 3.0, lam * 4.0), done)
+
+    def more(carry):
+        k, _, _, lam, done = carry
+        return (k < n_iter) & ~done & (lam < 1e12)
 
     th0 = jnp.clip(theta0, lo, hi)
-    th, c, _ = jax.lax.fori_loop(0, n_iter, body, (th0, cost(th0), jnp.asarray(1e-3)))
+    init = (jnp.asarray(0), th0, cost(th0), jnp.asarray(1e-3), jnp.asarray(False))
+    _, th, c, _, _ = jax.lax.while_loop(more, body, init)
     return th, c
 
 
@@ -341,7 +348,8 @@ def _basis(spec: ModelSpec, m, rates):
 @lru_cache(maxsize=4096)
 def _gm_column(m: tuple, a: float) -> np.ndarray:
     """ν²(m) of a unit-variance AR1 of rate ``a`` (cached: the starting-value grid repeats across candidates)."""
-    return np.asarray(wv.wv_gauss_markov(np.asarray(m), 1.0, a))
+    mp = _pad(m, padded_length(len(m)), 1.0)
+    return np.asarray(wv.wv_gauss_markov(mp, 1.0, a))[: len(m)]
 
 
 def _nnls(basis, nu_hat, p_mat):
@@ -492,8 +500,10 @@ class NoiseModel:
 
     def avar(self, taus_s):
         """Model Allan variance, (deg/h)², at ``taus_s`` (s): 2ν²(τ/Δt)."""
-        m = jnp.asarray(np.asarray(taus_s, float) / self.dt)
-        return 2.0 * np.asarray(full_wv(expand(self.spec, self.theta), jnp.asarray(spec_mask(self.spec)), m))
+        m = np.asarray(taus_s, float) / self.dt
+        mp = jnp.asarray(_pad(m.ravel(), padded_length(m.size), 1.0))
+        out = np.asarray(full_wv(expand(self.spec, self.theta), jnp.asarray(spec_mask(self.spec)), mp))
+        return 2.0 * out[: m.size].reshape(m.shape)
 
     def adev(self, taus_s):
         """Model Allan deviation, deg/h."""
@@ -506,9 +516,10 @@ class NoiseModel:
 
     def _adev_jacobian(self, taus_s) -> np.ndarray:
         """∂σ_model(τ)/∂θ, (len(taus), p), compiled once for every model (full layout, masked)."""
-        m = jnp.asarray(np.asarray(taus_s, float) / self.dt)
+        m = np.asarray(taus_s, float).ravel() / self.dt
+        mp = jnp.asarray(_pad(m, padded_length(m.size), 1.0))
         mask = spec_mask(self.spec)
-        return np.asarray(_full_adev_jacobian(expand(self.spec, self.theta), jnp.asarray(mask), m))[:, mask]
+        return np.asarray(_full_adev_jacobian(expand(self.spec, self.theta), jnp.asarray(mask), mp))[: m.size, mask]
 
     def term_adev(self, taus_s) -> dict:
         """Each process's own Allan deviation (deg/h) at ``taus_s``."""
@@ -670,12 +681,40 @@ def load_noise_model(path) -> NoiseModel:
     return NoiseModel.from_json(d, where=str(p))
 
 
+GRID_POINTS = 4000
+"""Points of the frequency grid of the covariance integrals (400 per decade or more for m ≤ 10⁷)."""
+
+
+def padded_length(j: int) -> int:
+    """Length the arrays of ``j`` scales or taus are padded to: the compiled solver, covariance and Jacobians see a
+    few shapes only (32, 64, …), so they compile once for every data length (padding rows carry zero weight)."""
+    return max(32, 1 << (int(j) - 1).bit_length())
+
+
+def _pad(x, length: int, fill: float):
+    x = np.asarray(x, float)
+    return np.concatenate([x, np.full(length - len(x), fill)])
+
+
 class _Grid:
-    """Frequency grid and pairwise Haar gains for the covariance Ω at the half-widths of one estimate."""
+    """Frequency grid and pairwise Haar gains for the covariance Ω at the (padded) half-widths of one estimate."""
 
     def __init__(self, m):
-        self.f, self.w = wv.frequency_grid(np.max(m))
-        self.gains = wv.averaged_gains(jnp.asarray(m, dtype=jnp.float64), self.f)
+        jp = padded_length(len(m))
+        self.f, self.w = wv.frequency_grid(np.max(m), n_points=GRID_POINTS)
+        self.gains = wv.averaged_gains(jnp.asarray(_pad(m, jp, 1.0)), self.f)
+
+
+def covariance_at(spec: ModelSpec, theta, m, counts) -> np.ndarray:
+    """Ω (J, J), (deg/h)⁴: covariance of Haar wavelet variance estimates at half-widths ``m`` (samples) with
+    ``counts`` coefficients each, under the model ``spec`` with log-parameters ``theta``."""
+    j = len(m)
+    jp = padded_length(j)
+    grid = _Grid(np.asarray(m))
+    mp = jnp.asarray(_pad(m, jp, 1.0))
+    cp = jnp.asarray(_pad(counts, jp, float(np.max(counts))))
+    om = model_covariance(expand(spec, theta), jnp.asarray(spec_mask(spec)), mp, cp, grid.f, grid.w, grid.gains)
+    return np.asarray(om)[:j, :j]
 
 
 def _scatter(idx, values, fill: float = 0.0):
@@ -692,9 +731,21 @@ def fit_spec(
     ``omega``: a fixed weighting covariance (e.g. for model comparison); default: the two-step efficient
     weights Ω(θ̂) (``n_steps`` re-evaluations after a first fit with diagonal weights ν̂⁴·m/M).
     """
-    m = jnp.asarray(est.m, dtype=jnp.float64)
-    nu = jnp.asarray(est.nu2)
+    j = len(est.m)
+    jp = padded_length(j)
+    m = jnp.asarray(_pad(est.m, jp, 1.0))  # padding: m = 1, ν̂ = 0, zero rows of P (no weight)
+    nu = jnp.asarray(_pad(est.nu2, jp, 0.0))
+    counts = jnp.asarray(_pad(est.counts, jp, float(np.max(est.counts))))
     grid = grid or _Grid(est.m)
+
+    def padp(p):
+        out = np.zeros((jp, jp))
+        out[:j, :j] = p
+        return jnp.asarray(out)
+
+    def omega_at(th):
+        return np.asarray(model_covariance(th, mask, m, counts, grid.f, grid.w, grid.gains))[:j, :j]
+
     lo, hi = _bounds(spec, est.m, est.nu2, est.n_samples)
     if spec.n_params > len(est.m):
         raise NoiseModelError(f"model {spec.label()} has {spec.n_params} parameters for {len(est.m)} scales")
@@ -710,18 +761,18 @@ def fit_spec(
     lo_f = _scatter(idx, lo)
     hi_f = _scatter(idx, hi)
     theta = expand(spec, starting_values(spec, est.m, est.nu2, p_mat, est.n_samples))
-    theta, _ = levenberg_marquardt(theta, mask, nu, m, jnp.asarray(p_mat), lo_f, hi_f)
+    theta, _ = levenberg_marquardt(theta, mask, nu, m, padp(p_mat), lo_f, hi_f)
     om = omega
     if method == "gmwm" and omega is None:
         for _ in range(n_steps):
-            om = np.asarray(model_covariance(theta, mask, m, est.counts, grid.f, grid.w, grid.gains))
+            om = omega_at(theta)
             p_mat = whitening_matrix(om)
-            theta, _ = levenberg_marquardt(theta, mask, nu, m, jnp.asarray(p_mat), lo_f, hi_f)
+            theta, _ = levenberg_marquardt(theta, mask, nu, m, padp(p_mat), lo_f, hi_f)
     if om is None or method == "avlr":
-        om = np.asarray(model_covariance(theta, mask, m, est.counts, grid.f, grid.w, grid.gains))
+        om = omega_at(theta)
     theta = jnp.asarray(np.asarray(theta)[idx])
-    r = np.asarray(p_mat @ (nu - model_wv(spec, theta, m)))
-    d = np.asarray(full_wv_jacobian(expand(spec, theta), mask, m))[:, idx]
+    r = np.asarray(p_mat @ (est.nu2 - np.asarray(model_wv(spec, theta, m))[:j]))
+    d = np.asarray(full_wv_jacobian(expand(spec, theta), mask, m))[:j, idx]
     pd = p_mat @ d
     theta = np.asarray(theta)
     # parameters pinned at a bound carry no information (their standard error is reported as infinite)

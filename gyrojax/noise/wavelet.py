@@ -128,14 +128,15 @@ def spectrum_gauss_markov(f, s2, a):
     return s2 * (-jnp.expm1(-2.0 * a)) / (p * p + 4.0 * phi * jnp.sin(jnp.pi * f) ** 2)
 
 
-def frequency_grid(m_max, points_per_decade: int = 400):
+def frequency_grid(m_max, points_per_decade: int = 400, n_points: int | None = None):
     """Log grid on (0, ½] for the spectral integrals: (f, weights) with ∫₀^½ g df ≈ Σ w g(f).
 
     From f_lo = 1e-4/m_max (the part below f_lo taken as a rectangle, where |G|⁴S² is flat for the random walk
-    and vanishes for the others) to ½, trapezoid rule in ln f.
+    and vanishes for the others) to ½, trapezoid rule in ln f; ``n_points`` fixes the number of points instead
+    (one shape for every m_max: one compilation of the covariance).
     """
     f_lo = 1e-4 / float(m_max)
-    k = int(points_per_decade * math.log10(0.5 / f_lo)) + 1
+    k = n_points or int(points_per_decade * math.log10(0.5 / f_lo)) + 1
     lf = np.linspace(math.log(f_lo), math.log(0.5), k)
     f = np.exp(lf)
     h = np.diff(lf)
