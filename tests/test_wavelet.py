@@ -124,7 +124,7 @@ def test_covariance_against_monte_carlo():
 def test_estimator_equals_allantools_and_model_matches_it():
     """ν̂² = oadev²/2 of allantools to rounding; on a long white + GM + RW series allantools' oadev² lies within
     4 model standard errors (2√Ω) of the model's 2ν² at every octave τ."""
-    n = 2**18
+    n = 2**16
     comps = {"white": 1.0, "random_walk": 1e-6, "gauss_markov": [(0.5, 1.0 / 300.0)]}
     y = np.asarray(wv.simulate_components(jax.random.PRNGKey(3), n, comps))
     m = wv.dyadic_m(n)
