@@ -31,7 +31,7 @@ TRUE = {"white": 0.05, "random_walk": 10.0, "gm1_sigma": 2.0, "gm1_tau": 5.0}
 
 
 def components(spec, values, dt):
-    p = gmwm._split(spec, jnp.asarray(gmwm.theta_from_natural(spec, values, dt)))
+    p = gmwm.latent_parameters(spec, jnp.asarray(gmwm.theta_from_natural(spec, values, dt)))
     out = {k: float(p[k]) for k in ("white", "quantization", "random_walk") if getattr(spec, k)}
     out["gauss_markov"] = [(float(s), float(a)) for s, a in zip(p["gm_var"], p["gm_rate"])]
     return out

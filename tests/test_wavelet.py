@@ -53,7 +53,7 @@ def test_gauss_markov_bracket_in_exact_arithmetic():
         return b / (1 - phi) ** 2
 
     for m, a in [(1, 0.2), (1, 0.05), (100, 0.000999), (100, 0.001001), (1e4, 1e-6), (3, 1e-9), (1e5, 5e-7), (7, 2.0)]:
-        assert float(wv._gm_bracket(m, a)) == pytest.approx(float(exact(m, a)), rel=1e-11)
+        assert float(wv.gm_bracket(m, a)) == pytest.approx(float(exact(m, a)), rel=1e-11)
 
 
 def test_gauss_markov_tends_to_the_continuous_allan_variance():

@@ -202,8 +202,10 @@ def model_wv(spec: ModelSpec, theta, m):
     return full_wv(expand(spec, theta), spec_mask(spec), m)
 
 
-def _split(spec: ModelSpec, theta):
-    """Latent parameters (per sample) from the compact log-parameters θ."""
+def latent_parameters(spec: ModelSpec, theta):
+    """Latent per-sample parameters from the compact log-parameters θ: a dict with ``white`` s², ``quantization``
+    q², ``random_walk`` g², ``drift`` w² ((deg/h)², module :mod:`gyrojax.noise.wavelet` table; 1 when the process is
+    absent) and ``gm_var`` ((deg/h)²), ``gm_rate`` (a = Δt/T, dimensionless) arrays of the AR1 processes."""
     e = jnp.exp(expand(spec, theta))
     out = {k: e[i] for i, k in enumerate(("white", "quantization", "random_walk", "drift"))}
     out["gm_var"] = e[4::2][: spec.n_gm]
@@ -214,7 +216,7 @@ def _split(spec: ModelSpec, theta):
 def natural_parameters(spec: ModelSpec, theta, dt):
     """Natural parameters (module table units: deg/√h, arcsec, deg/h/√h, deg/h/h, deg/h and s) as a flat array,
     with their names and units; ``dt`` the sample interval in s."""
-    p = _split(spec, theta)
+    p = latent_parameters(spec, theta)
     vals, names, units = [], [], []
     if spec.white:
         vals.append(jnp.sqrt(p["white"] * dt) / 60.0)

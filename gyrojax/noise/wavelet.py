@@ -69,8 +69,9 @@ def wv_drift(m, w2):
     return w2 * m * m / 4.0
 
 
-def _gm_bracket(m, a):
-    """B(a, m)/(1 − φ)² of the AR1 wavelet variance, φ = e^{−a}; closed form, or series where it cancels."""
+def gm_bracket(m, a):
+    """B(a, m)/(1 − φ)² of the AR1 wavelet variance (dimensionless), φ = e^{−a}, m in samples; closed form, or
+    the Taylor series where it cancels (m·a < :data:`SERIES_LIMIT`)."""
     m = jnp.asarray(m, dtype=jnp.float64)
     a = jnp.asarray(a, dtype=jnp.float64)
     small = m * a < SERIES_LIMIT
@@ -95,7 +96,7 @@ def _gm_bracket(m, a):
 @jax.jit
 def wv_gauss_markov(m, s2, a):
     """ν² of a stationary AR1 (first-order Gauss–Markov) of variance ``s2``, φ = e^{−a}, a = Δt/T."""
-    return s2 * _gm_bracket(m, a) / (2.0 * jnp.asarray(m, dtype=jnp.float64) ** 2)
+    return s2 * gm_bracket(m, a) / (2.0 * jnp.asarray(m, dtype=jnp.float64) ** 2)
 
 
 # ---- spectra (per sample, f in cycles per sample) --------------------------------------------------------------
