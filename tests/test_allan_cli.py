@@ -22,7 +22,8 @@ def test_noise_json_and_plot(static_record, capsys):
     png = d / "allan.png"
     assert main(["noise", path, "--json", "--plot", str(png)]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert list(out) == ["taus_s", "adev_deg_per_h", "adev_low", "adev_high", "terms"]
+    assert list(out)[:5] == ["taus_s", "adev_deg_per_h", "adev_low", "adev_high", "terms"]
+    assert {"adev_model_deg_per_h", "adequacy", "derived", "model", "method"} <= set(out)
     assert list(out["terms"]) == ["white", "bias_instability", "random_walk", "quantization", "gauss_markov"]
     n = len(out["taus_s"])
     assert n > 10 and all(len(out[k]) == n for k in ("adev_deg_per_h", "adev_low", "adev_high"))

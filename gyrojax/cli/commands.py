@@ -69,7 +69,12 @@ def cmd_fit(args) -> int:
     from gyrojax.report.figures import fit_table
 
     recs = load_records(args.records)
-    res = fit(recs, parse_terms(args.terms) or None)
+    if args.noise_model:
+        from gyrojax.noise.gmwm import load_noise_model
+
+        res = fit(recs, parse_terms(args.terms) or None, noise=load_noise_model(args.noise_model))
+    else:
+        res = fit(recs, parse_terms(args.terms) or None)
     if args.json:
         print(json.dumps(res.to_json()))
     else:
@@ -108,31 +113,103 @@ def cmd_demo(args) -> int:
 # ---- noise, design and Monte Carlo -----------------------------------------------------------------------------
 
 
-def cmd_noise(args) -> int:
-    """``gyrojax noise``: Allan deviation (deg/h against τ in s) and noise fit of static records; exit code."""
-    from gyrojax.data.records import load_records
-    from gyrojax.noise.allan import UNITS, analyze, noise_json, static_rate_segments
-    from gyrojax.report.figures import allan_figure, save
+MAX_TAU_WORK = 4e9
+"""Largest (number of τ) × (samples) evaluated for ``noise --taus all`` (each τ costs one pass over the data)."""
 
-    if args.plot and Path(args.plot).exists() and not args.force:
-        raise UsageError(f"{args.plot}: exists; pass --force to overwrite")
+
+def parse_taus(spec: str | None, n: int, tau0: float):
+    """Averaging factors m for ``--taus``: ``octave`` (m = 2^k), ``decade`` (1, 2, 4 × 10^k), ``all`` (every m),
+    or a comma-separated list of τ in s (each a multiple of τ0 within 1 % of τ0, and 2m ≤ n − 1); None: default.
+    Returns an integer array, or None."""
+    if spec is None:
+        return None
+    import math
+
+    import numpy as np
+
+    m_max = (n - 1) // 2
+    if m_max < 1:
+        raise UsageError(f"--taus: {n} samples leave no averaging time")
+    key = spec.strip().lower()
+    if key == "octave":
+        return 2 ** np.arange(int(math.floor(math.log2(m_max))) + 1)
+    if key == "decade":
+        out = [d * 10**k for k in range(int(math.log10(m_max)) + 1) for d in (1, 2, 4)]
+        return np.array([m for m in out if m <= m_max])
+    if key == "all":
+        if m_max * n > MAX_TAU_WORK:
+            raise UsageError(
+                f"--taus all: {m_max} taus over {n} samples is too much work; use octave, decade or a list"
+            )
+        return np.arange(1, m_max + 1)
+    try:
+        taus = [float(x) for x in spec.split(",") if x.strip()]
+    except ValueError:
+        msg = f"--taus {spec!r}: expected octave, decade, all or a comma-separated list of seconds"
+        raise UsageError(msg) from None
+    if not taus:
+        raise UsageError("--taus: empty list")
+    ms = []
+    for t in taus:
+        if not (math.isfinite(t) and t > 0):
+            raise UsageError(f"--taus: {t!r} is not a positive time in s")
+        m = round(t / tau0)
+        if m < 1 or abs(m * tau0 - t) > 0.01 * tau0:
+            raise UsageError(f"--taus: {t:g} s is not a multiple of the sample interval {tau0:.9g} s")
+        if m > m_max:
+            raise UsageError(f"--taus: {t:g} s is longer than half the longest segment ({m_max * tau0:g} s)")
+        ms.append(m)
+    if len(set(ms)) != len(ms):
+        raise UsageError("--taus: two of the taus fall on the same multiple of the sample interval")
+    return np.array(sorted(ms))
+
+
+def cmd_noise(args) -> int:
+    """``gyrojax noise``: Allan deviation (deg/h against τ in s), noise model and adequacy of static records."""
+    from gyrojax.data.records import load_records
+    from gyrojax.noise import allan
+    from gyrojax.noise.gmwm import noise_report
+    from gyrojax.report.figures import noise_model_figure, save
 
     recs = load_records(args.records)
-    segs, tau0 = static_rate_segments(recs)
-    res, fit = analyze(segs, tau0, gauss_markov=args.gauss_markov)
+    notes: list[str] = []
+    segs, tau0 = allan.static_rate_segments(recs, notes=notes)
+    if args.plot and Path(args.plot).exists() and not args.force:
+        raise UsageError(f"{args.plot}: exists; pass --force to overwrite")
+    m_list = parse_taus(args.taus, max(len(s) for s in segs), tau0)
+    out, res, ieee, nm = noise_report(
+        segs, tau0, m_list, method=args.method, model=args.model, notes=notes, gauss_markov=args.gauss_markov
+    )
     if args.plot:
-        save(allan_figure(res, fit, title=", ".join(r.name for r in recs)), args.plot)
+        save(noise_model_figure(out, title=", ".join(r.name for r in recs)), args.plot)
     if args.json:
-        print(json.dumps(noise_json(res, fit)))
+        print(json.dumps(out))
         return 0
-    print(f"{'tau_s':>12s} {'adev_deg_per_h':>16s} {'low':>12s} {'high':>12s}")
-    for t, a, lo, hi in zip(res.taus_s, res.adev, res.low, res.high, strict=True):
-        print(f"{t:12.4g} {a:16.6g} {lo:12.6g} {hi:12.6g}")
-    for k in fit.included:
-        if k == "gauss_markov":
-            print(f"gauss_markov: sigma {fit.gauss_markov[0]:.6g} deg/h, tau {fit.gauss_markov[1]:.6g} s")
-        else:
-            print(f"{k}: {fit.values[k]:.6g} {UNITS[k]}")
+    for note in notes:
+        print(f"note: {note}")
+    print(f"{'tau_s':>12s} {'adev_deg_per_h':>15s} {'low':>11s} {'high':>11s} {'model':>11s}  in 95% band")
+    for i, t in enumerate(res.taus_s):
+        print(
+            f"{t:12.4g} {res.adev[i]:15.6g} {res.low[i]:11.5g} {res.high[i]:11.5g} "
+            f"{out['adev_model_deg_per_h'][i]:11.5g}  {'yes' if out['adequacy']['inside'][i] else 'NO'}"
+        )
+    if nm is not None:
+        print(f"model {nm.spec.label()} ({nm.method}), J-test p = {nm.p_value:.3g}")
+        for k, v in nm.parameters().items():
+            std = "pinned at a bound" if v["std"] is None else f"± {v['std']:.2g}"
+            print(f"  {k}: {v['value']:.6g} {std} {v['unit']}")
+        for k, v in out["derived"].items():
+            if v["value"] is None:
+                print(f"  {k}: not read ({v['reason']})")
+            else:
+                print(f"  {k}: {v['value']:.4g} ± {v['std']:.2g} {v['unit']} (read at tau = {v['tau_s']:.3g} s)")
+    else:
+        for k in ieee.included:
+            if k == "gauss_markov":
+                print(f"gauss_markov: sigma {ieee.gauss_markov[0]:.6g} deg/h, tau {ieee.gauss_markov[1]:.6g} s")
+            else:
+                print(f"{k}: {ieee.values[k]:.6g} {allan.UNITS[k]}")
+    print(out["adequacy"]["verdict"])
     return 0
 
 
@@ -161,6 +238,12 @@ def cmd_design(args) -> int:
     terms = parse_terms(args.terms) if args.terms else list(SDF9)
     gm = parse_gm(args.gm)
     noise = Noise(args.arw, gm)
+    if args.noise_model:
+        from gyrojax.noise.gmwm import load_noise_model
+
+        if args.gm:
+            raise UsageError("--noise-model and --gm both give the noise; pass one")
+        noise = Noise(*load_noise_model(args.noise_model).white_gm())
     res = design(
         terms,
         args.positions,
@@ -226,6 +309,12 @@ def cmd_mc(args) -> int:
             if args.draws < 1:
                 raise StudyError("--draws must be >= 1")
             study = replace(study, draws=args.draws)
+        if args.noise_model:
+            from gyrojax.noise.gmwm import load_noise_model
+            from gyrojax.noise.processes import validate_noise
+
+            noise = validate_noise(load_noise_model(args.noise_model).noise_dict(), "--noise-model")
+            study = replace(study, noise=noise)
         if args.start < 0:
             raise StudyError(f"--start must be >= 0, got {args.start}")
         if first and not args.force and (out / "study.json").exists():

@@ -468,10 +468,18 @@ def analyze(segments, tau0: float, m_list=None, gauss_markov: bool = False, **fi
 # ---- records and the command line -------------------------------------------------------------------------------
 
 
-def static_rate_segments(records, rate_tol_dps: float = 1e-9):
+JITTER_TOLERANCE = 0.1
+"""Largest timestamp jitter (max |Δt − mean Δt| / mean Δt within a continuous segment) taken as a uniform
+sampling at the mean interval; more is refused (the Allan variance needs a constant sample interval)."""
+
+
+def static_rate_segments(records, rate_tol_dps: float = 1e-9, notes: list | None = None):
     """The indicated rate (deg/h) of static SDF records, split into continuous segments; and the common τ0 (s).
 
-    Raises :class:`AllanError` for a non-SDF record, a moving table, or sample intervals that differ.
+    Gaps (steps over 1.5 × the median, :func:`gyrojax.records.continuous_segments`) split a record into
+    segments that are pooled. Timestamp jitter within a segment up to :data:`JITTER_TOLERANCE` of the interval
+    is tolerated: τ0 is then the mean interval and a sentence saying so is appended to ``notes`` (if given).
+    Raises :class:`AllanError` for a non-SDF record, a moving table, larger jitter, or intervals that differ.
     """
     segs, tau0 = [], None
     for r in records:
@@ -487,20 +495,30 @@ def static_rate_segments(records, rate_tol_dps: float = 1e-9):
                 f"({r.rates_dps[row, col]:g} deg/s); the noise analysis needs static records"
             )
         sid, y, t = r.segment_id, r.indicated, r.time_s
-        for s in np.unique(sid):
+        pieces = np.unique(sid)
+        if len(pieces) > 1 and notes is not None:
+            notes.append(f"{r.name}: {len(pieces)} continuous pieces separated by gaps, analysed separately and pooled")
+        for s in pieces:
             sel = sid == s
             if sel.sum() < 4:
                 continue
             dt = np.diff(t[sel])
-            d = float(np.median(dt))
-            if np.max(np.abs(dt - d)) > 1e-6 * d:
+            d = float(np.mean(dt))
+            jitter = float(np.max(np.abs(dt - d))) / d
+            if jitter > JITTER_TOLERANCE:
                 raise AllanError(
-                    f"{r.name}: non-uniform sampling in segment {int(s)} (steps {dt.min():g} to "
-                    f"{dt.max():g} s); the Allan variance needs a constant sample interval"
+                    f"{r.name}: non-uniform sampling in segment {int(s)} (steps {dt.min():g} to {dt.max():g} s, "
+                    f"jitter {100 * jitter:.0f} % of the interval > {100 * JITTER_TOLERANCE:.0f} %); the Allan "
+                    "variance needs a constant sample interval"
+                )
+            if jitter > 1e-6 and notes is not None:
+                notes.append(
+                    f"{r.name}: timestamp jitter up to {100 * jitter:.2g} % of the interval; "
+                    f"the mean interval {d:.9g} s is used"
                 )
             if tau0 is None:
                 tau0 = d
-            elif abs(d - tau0) > 1e-6 * tau0:
+            elif abs(d - tau0) > max(1e-6, JITTER_TOLERANCE * 0.1) * tau0:
                 raise AllanError(f"{r.name}: sample interval {d:g} s differs from {tau0:g} s of the other records")
             segs.append(np.asarray(y[sel], float))
     if not segs:

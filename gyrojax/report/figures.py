@@ -282,6 +282,36 @@ def save(fig, path) -> None:
 # ---- figures of the noise, design and Monte Carlo studies ---------------------------------------------------------
 
 
+def noise_model_figure(out: dict, title: str = "Allan deviation"):
+    """``gyrojax noise --plot``: the empirical ADEV (deg/h against τ in s) with its 95 % band, the model ADEV, its
+    processes drawn separately and the τ where the model leaves the band; ``out`` the dict of
+    :func:`gyrojax.noise.gmwm.noise_report`. Returns the figure."""
+    from gyrojax.noise import gmwm
+
+    taus = np.asarray(out["taus_s"])
+    fig, ax = _figure(figsize=(7, 5))
+    adq = out["adequacy"]
+    ax.fill_between(taus, adq["low"], adq["high"], color="0.8", label=f"empirical {100 * adq['ci']:.0f} % band")
+    ax.plot(taus, out["adev_deg_per_h"], "o", ms=3, color="k", label="overlapping ADEV")
+    ax.plot(taus, out["adev_model_deg_per_h"], "-", color="C3", lw=1.6, label=f"model ({out['method']})")
+    if "model" in out:
+        nm = gmwm.NoiseModel.from_json(out["model"])
+        tt = np.geomspace(taus.min(), taus.max(), 200)
+        for name, curve in nm.term_adev(tt).items():
+            ax.plot(tt, curve, "--", lw=0.9, label=name)
+    bad = ~np.asarray(adq["inside"])
+    if bad.any():
+        ax.plot(taus[bad], np.asarray(out["adev_model_deg_per_h"])[bad], "x", color="C3", label="model outside band")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("τ (s)")
+    ax.set_ylabel("Allan deviation (deg/h)")
+    ax.set_title(title)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    return fig
+
+
 def allan_figure(res, fit, title: str = "Allan deviation"):
     """Log-log Allan deviation (deg/h against τ in s) with its ±1σ interval, the fitted total and each fitted
     term drawn separately (IEEE 952 annex C); ``res`` an :class:`gyrojax.noise.allan.AllanResult`, ``fit`` its
