@@ -259,8 +259,8 @@ def shapes(campaign) -> list[tuple]:
 
 
 def basis(a: np.ndarray, tol: float = 1e-7) -> np.ndarray:
-    """Orthonormal basis of the column space of ``a`` (columns normalised first; directions whose singular value is
-    below ``tol`` × the largest are dropped, ``tol`` ≥ 1e-7).
+    """Orthonormal basis (dimensionless) of the column space of ``a`` (columns normalised first; directions whose
+    singular value is below ``tol`` × the largest are dropped, ``tol`` ≥ 1e-7).
 
     By the eigen-decomposition of the small Gram matrix and a QR re-orthonormalisation (Cholesky-QR2 in spirit):
     several times cheaper than the SVD of the tall matrix, which the diagnosis would otherwise do dozens of times.
@@ -300,6 +300,8 @@ class WhitenedSystem:
 
     @classmethod
     def build(cls, lin, noises, blocks_per_shape, p0: int) -> "WhitenedSystem":
+        """Whiten each record's residual (output unit: deg/h or g), regressors and shape blocks together with its
+        noise model (dimensionless afterwards) and stack the records."""
         rows_r, rows_j, rows_x = [], [], []
         widths = [b[0].shape[1] for b in blocks_per_shape]
         for i, ((r, j, lab, t), nz) in enumerate(zip(lin, noises)):
@@ -464,7 +466,8 @@ g-sensitivity times the tilted gravity — far below the noise of any practical 
 
 
 def setup_measurements(group) -> list[str]:
-    """Independent measurements that would separate the set-up effects of ``group`` when no rate test can."""
+    """Independent measurements that would separate the set-up effects (arcsec-size table errors) of ``group`` when
+    no rate test can."""
     return [SETUP_MEASUREMENTS[g] for g in group if g in SETUP_MEASUREMENTS]
 
 
