@@ -170,7 +170,11 @@ def expression_effect(name: str, expr: str, kind: str = fx.SDF) -> fx.Effect:
     if name in FUNCTIONS or name in CONSTANTS or any(name in v for v in INPUTS.values()):
         raise ExpressionError(f"effect name {name!r} is a function or input name; choose another")
     f, used = compile_expression(expr, kind)
-    kinds = tuple(k for k, allowed in INPUTS.items() if set(used) <= set(allowed) and (k == kind or k != fx.TDF))
+    kinds = tuple(
+        k
+        for k, allowed in INPUTS.items()
+        if set(used) <= set(allowed) and OUTPUT_UNIT[k] == OUTPUT_UNIT[kind] and (k == kind or k != fx.TDF)
+    )
     unit = f"{OUTPUT_UNIT[kind]} per ({expr.strip()})"
     return fx.Effect(
         name=name,
