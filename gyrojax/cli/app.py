@@ -67,6 +67,23 @@ def parse_gm(text: str | None, option: str = "--gm") -> tuple[float, float] | No
     return sigma, tau
 
 
+def add_effect_arguments(parser) -> None:
+    """``--effect NAME=EXPR`` and ``--effects-file PATH`` (both repeatable) on a sub-command
+    (:mod:`gyrojax.physics.expression`)."""
+    parser.add_argument(
+        "--effect",
+        action="append",
+        metavar="NAME=EXPR",
+        help="an effect NAME·EXPR of your own (deg/h per unit of EXPR), EXPR in the instrument inputs",
+    )
+    parser.add_argument(
+        "--effects-file",
+        action="append",
+        metavar="PATH",
+        help='a TOML/JSON file with an [effects] table of NAME = "EXPR"',
+    )
+
+
 def _command(name: str):
     """A lazy handler: imports :mod:`gyrojax.cli.commands` only when the sub-command runs."""
 
@@ -101,6 +118,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     s.add_argument("--force", action="store_true", help="overwrite existing records")
     s.add_argument("--json", action="store_true")
+    add_effect_arguments(s)
     s.set_defaults(func=_command("simulate"))
 
     s = sub.add_parser("fit", help="fit named effects to records (CONVENTIONS §7)")
@@ -110,6 +128,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--save", help="write the result as JSON to this path")
     s.add_argument("--noise-model", metavar="NOISE.json", help="GLS with this noise model (gyrojax noise --json)")
     s.add_argument("--force", action="store_true")
+    add_effect_arguments(s)
     s.set_defaults(func=_command("fit"))
 
     s = sub.add_parser("diagnose", help="rank the effects the model is missing (CONVENTIONS §7)")
@@ -117,6 +136,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--terms", help="comma-separated effect names of the current model")
     s.add_argument("--alpha", type=float, default=0.01, help="family-wise significance level (default 0.01)")
     s.add_argument("--json", action="store_true")
+    add_effect_arguments(s)
     s.set_defaults(func=_command("diagnose"))
 
     s = sub.add_parser("noise", help="Allan deviation, GMWM noise model and its adequacy for static records")
@@ -147,6 +167,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", required=True, help="the plan JSON to write")
     s.add_argument("--force", action="store_true", help="overwrite an existing plan file")
     s.add_argument("--json", action="store_true")
+    add_effect_arguments(s)
     s.set_defaults(func=_command("design"))
 
     s = sub.add_parser("mc", help="Monte Carlo study: simulate and fit many gyros (docs/montecarlo.md)")

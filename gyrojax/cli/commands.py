@@ -12,6 +12,24 @@ from pathlib import Path
 
 from gyrojax.cli.app import UsageError, parse_gm, parse_options, parse_terms
 
+
+def effects_from_args(args, kind: str) -> list[str]:
+    """Register the ``--effect``/``--effects-file`` effects of ``args`` for instruments of ``kind``; their names."""
+    from gyrojax.physics.expression import command_line_effects
+
+    return command_line_effects(getattr(args, "effect", None), getattr(args, "effects_file", None), kind)
+
+
+def terms_with_effects(terms: list[str], names: list[str], kind: str) -> list[str] | None:
+    """``terms`` (default: the fit's default model for ``kind``) with the user effects ``names`` appended once."""
+    if not names:
+        return terms or None
+    from gyrojax.inference.identify import DEFAULT_TERMS
+
+    base = list(terms) if terms else list(DEFAULT_TERMS[kind])
+    return base + [n for n in names if n not in base]
+
+
 # ---- records, fits and diagnoses
 # ----------------------------------------------------------------------------------------------
 
@@ -45,6 +63,7 @@ def cmd_simulate(args) -> int:
     from gyrojax.simulation.simulator import simulate
 
     plan = _plan_from_arg(args.plan, parse_options(args.option))
+    effects_from_args(args, plan.runs[0].instrument.get("kind", "sdf-gyro") if plan.runs else "sdf-gyro")
     truth = load_truth(args.truth) if args.truth else Truth()
     out = Path(args.out)
     recs = simulate(plan, truth, seed=args.seed, dynamics=args.dynamics)
@@ -69,12 +88,14 @@ def cmd_fit(args) -> int:
     from gyrojax.report.figures import fit_table
 
     recs = load_records(args.records)
+    names = effects_from_args(args, recs[0].kind)
+    terms = terms_with_effects(parse_terms(args.terms), names, recs[0].kind)
     if args.noise_model:
         from gyrojax.noise.gmwm import load_noise_model
 
-        res = fit(recs, parse_terms(args.terms) or None, noise=load_noise_model(args.noise_model))
+        res = fit(recs, terms, noise=load_noise_model(args.noise_model))
     else:
-        res = fit(recs, parse_terms(args.terms) or None)
+        res = fit(recs, terms)
     if args.json:
         print(json.dumps(res.to_json()))
     else:
@@ -93,7 +114,8 @@ def cmd_diagnose(args) -> int:
     if not 0.0 < args.alpha < 1.0:
         raise UsageError(f"--alpha must lie in (0, 1), got {args.alpha}")
     recs = load_records(args.records)
-    d = diagnose(recs, parse_terms(args.terms) or None, alpha=args.alpha)
+    names = effects_from_args(args, recs[0].kind)
+    d = diagnose(recs, terms_with_effects(parse_terms(args.terms), names, recs[0].kind), alpha=args.alpha)
     if args.json:
         print(json.dumps(d.to_json()))
     else:
@@ -236,6 +258,7 @@ def cmd_design(args) -> int:
         if value < 0:
             raise UsageError(f"{option} must be >= 0, got {value}")
     terms = parse_terms(args.terms) if args.terms else list(SDF9)
+    terms += [n for n in effects_from_args(args, "sdf-gyro") if n not in terms]
     gm = parse_gm(args.gm)
     noise = Noise(args.arw, gm)
     if args.noise_model:

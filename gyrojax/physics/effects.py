@@ -10,6 +10,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 from gyrojax import units
+from gyrojax.physics import registry
 from gyrojax.physics.registry import (
     ACCEL,
     FOG,
@@ -298,3 +299,5 @@ register(
         linear_in_rate=False,
     )
 )
+
+registry.BUILTIN.update(names())  # everything registered so far is built in (cannot be unregistered)

@@ -94,6 +94,20 @@ def register(effect: Effect) -> Effect:
     return effect
 
 
+BUILTIN: set[str] = set()
+"""Names of the built-in effects (:mod:`gyrojax.physics.effects` adds them on import); they cannot be unregistered."""
+
+
+def unregister(name: str) -> None:
+    """Remove an effect registered by the user (built-ins stay, :data:`BUILTIN`);
+    :class:`~gyrojax.errors.UnknownNameError` when ``name`` is not registered."""
+    if name not in _REGISTRY:
+        raise UnknownNameError(f"unknown effect {name!r}")
+    if name in BUILTIN:
+        raise ValueError(f"effect {name!r} is built in and cannot be removed")
+    del _REGISTRY[name]
+
+
 def get(name: str) -> Effect:
     """The effect called ``name``; :class:`~gyrojax.errors.UnknownNameError` listing the valid names otherwise."""
     try:

@@ -70,7 +70,8 @@ def diagnosis_text(d, add: str | None = None) -> str:
         lines.append(f"{c.name:18s} {c.statistic:12.4g} {c.df:3d} {c.p_adjusted:10.3g} {c.rms_after:12.6g}  {al}")
     if d.unexcited:
         lines.append("not excited by this plan: " + ", ".join(d.unexcited))
-    top = d.top
+    lines += adequacy_lines(d)
+    top = next((c for c in d.candidates if c.name == d.proposal), None) if hasattr(d, "proposal") else d.top
     if d.verdict == "missing-effect" and top is not None:
         name = add or top.name
         terms = ",".join(d.fit.model.terms + (name,))
@@ -84,6 +85,33 @@ def diagnosis_text(d, add: str | None = None) -> str:
         else:
             lines.append(f"→ add {name!r} and refit (gyrojax fit … --terms {terms})")
     return "\n".join(lines)
+
+
+def adequacy_lines(d) -> list[str]:
+    """The lines of a diagnosis about what no named effect explains, near-aliases, and candidates that cannot be
+    proposed (refused by fit, or of implausible size) — each beside the unexplained structure
+    (:mod:`gyrojax.inference.adequacy`)."""
+    lines = []
+    for c in d.candidates:
+        if c.df > 0 and getattr(c, "indistinguishable", None) and c.p_adjusted < d.alpha:
+            sep = "; ".join(c.separated_by[:3]) or "no built-in plan"
+            lines.append(
+                f"{c.name} is indistinguishable in this test from {', '.join(c.indistinguishable)} "
+                f"(either explains the data within the critical difference); to separate them: {sep}"
+            )
+    for c in d.candidates:
+        if c.df > 0 and c.p_adjusted < d.alpha and (getattr(c, "refused", None) or getattr(c, "implausible", None)):
+            why = c.refused or f"implausible size: {c.implausible}"
+            lines.append(f"not proposed: {c.name} — {why}")
+    for s in getattr(d, "unexplained", [])[:6]:
+        tip = f"; model it with {s.to_json()['effect_option']}" if s.expression else ""
+        lines.append(f"{s.line} (χ² {s.statistic:.4g} on {s.df} df, p (Holm) {s.p_adjusted:.3g}){tip}")
+    if getattr(d, "unexplained", None) and getattr(d, "proposal", None) is None:
+        lines.append(
+            "→ no named effect explains the residual: model the structure above (gyrojax fit … --effect "
+            "'NAME=EXPR') or look for its physical cause"
+        )
+    return lines
 
 
 # ---- residual views (matplotlib) --------------------------------------------------------------------------------

@@ -1,0 +1,527 @@
+"""Model adequacy beyond the named library: residual structure that no named effect explains.
+
+The score tests of :mod:`gyrojax.inference.diagnose` can only name effects the library holds. Here the whitened
+residual is tested against **shapes in every input the records carry**, whatever the library says:
+
+* each moving table angle θ: harmonics cos kθ, sin kθ, k = 1 … :data:`HARMONICS` (2 df each);
+* each specific-force input a_I, a_O, a_S (TDF: a_X, a_Y, a_Z; accelerometer: a_I, a_P, a_O): powers 1 … 4;
+* the input-axis rate ω_I (TDF: ω_X, ω_Y) and the rate of each turning table axis: ω, |ω|, ω², ω³, sign ω;
+* time (campaign clock): linear, quadratic, cubic; temperature (when recorded and varying): the same;
+* the position index: one offset per (record, position) — an omnibus for anything that depends on where the
+  table stands.
+
+For a shape with regressors X (whitened with the noise model W of the fit, as the named tests whiten theirs),
+
+    X⊥ = X − P X,    S = r̃ᵀ X⊥(X⊥ᵀX⊥)⁺X⊥ᵀ r̃ / σ̃²  ~  χ²(rank X⊥)  when the residual holds no such structure,
+
+where P projects on the model's regressors **and every named candidate's** (so what is left is structure that no
+named effect explains; a shape they span is not tested) and σ̃² is the residual variance after all of them and all
+shapes (a deterministic signal cannot inflate it). p-values join those of the named candidates in one Holm
+step-down family (:func:`holm_log10`), so the family-wise error of the whole diagnosis stays at α.
+
+The same whitened system answers which candidates are **statistically indistinguishable** (:func:`near_aliases`):
+two candidates c, d whose joint fit is not significantly better than either alone (each one's conditional score
+test given the other below its χ² critical value at α) explain the data within the test's critical difference.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import jax.numpy as jnp
+import numpy as np
+from scipy import stats
+
+from gyrojax.noise.whiten import whiten
+from gyrojax.physics import effects as fx
+from gyrojax.physics.model import instrument_inputs
+
+HARMONICS = 6
+"""Highest harmonic of a table angle tested (cycles per revolution)."""
+POWERS = {1: "linear", 2: "quadratic", 3: "cubic", 4: "quartic"}
+UNSEEN = 1e-6
+"""|X⊥| / |X| below which the model and the named candidates span a shape: it is not tested."""
+SAME = 0.9
+"""Canonical correlation above which two unexplained shapes are the same structure seen through two inputs."""
+MIN_RATE_DEG_PER_H = 1.0
+"""A rate input is tested only when it varies by more than this (deg/h): a still table has nothing to show."""
+
+_ACCEL_INPUTS = {fx.TDF: ("a_X", "a_Y", "a_Z"), fx.ACCEL: ("a_I", "a_P", "a_O")}
+_RATE_INPUTS = {fx.TDF: ("w_X", "w_Y"), fx.ACCEL: ()}
+
+
+@dataclass
+class Structure:
+    """Residual structure against one input that no named effect explains (one test of the family).
+
+    ``statistic`` ~ χ²(``df``) under "no such structure"; ``estimate``/``std`` (single-column shapes of an instrument
+    input) are the coefficient the shape would get if added to the model alone, in ``unit`` (output unit per unit
+    of ``expression``); ``expression`` is what to give ``--effect NAME=EXPR`` to model it.
+    """
+
+    versus: str
+    shape: str
+    statistic: float
+    df: int
+    p_value: float
+    log10_p: float
+    p_adjusted: float = 1.0
+    expression: str | None = None
+    estimate: float | None = None
+    std: float | None = None
+    unit: str | None = None
+    same_as: list = field(default_factory=list)
+
+    def to_json(self) -> dict:
+        """One entry of ``unexplained`` in the diagnosis JSON."""
+        out = {
+            "versus": self.versus,
+            "shape": self.shape,
+            "statistic": float(self.statistic),
+            "df": int(self.df),
+            "p_value": float(self.p_value),
+            "p_adjusted": float(self.p_adjusted),
+            "log10_p": float(self.log10_p),
+            "same_as": list(self.same_as),
+        }
+        if self.expression is not None:
+            out["expression"] = self.expression
+            out["effect_option"] = f"--effect '{suggest_name(self)}={self.expression}'"
+        if self.estimate is not None:
+            out["estimate"] = {"value": float(self.estimate), "std": float(self.std), "unit": self.unit}
+        return out
+
+    @property
+    def line(self) -> str:
+        """The report line: "residual structure vs a_I that no named effect explains: cubic"."""
+        extra = f" (also seen vs {', '.join(self.same_as)})" if self.same_as else ""
+        return f"residual structure vs {self.versus} that no named effect explains: {self.shape}{extra}"
+
+
+def suggest_name(s: Structure) -> str:
+    """A coefficient name for an ``--effect`` modelling ``s`` (``U_a_I_3`` for a_I³)."""
+    base = s.versus.replace(" ", "_")
+    power = {v: k for k, v in POWERS.items()}.get(s.shape)
+    return f"U_{base}_{power}" if power else f"U_{base}_{s.shape.replace(' ', '_').replace('|', 'abs')}"
+
+
+# ---- the shapes -------------------------------------------------------------------------------------------------
+
+
+def _measurement_rows(arr: np.ndarray, data) -> np.ndarray:
+    """Per-sample values -> per-measurement values (servo: interval means; TDF: the two channels stacked)."""
+    a = np.asarray(arr, dtype=float)
+    if data.mode == "servo":
+        return 0.5 * (a[1:] + a[:-1])
+    if data.kind == fx.TDF:
+        return np.concatenate([a, a])
+    return a
+
+
+def _harmonic(p: dict, axis: str, k: int) -> np.ndarray:
+    th = p["angle"].get(axis, np.zeros(len(p["seg"])))
+    return np.column_stack([np.cos(k * th), np.sin(k * th)])
+
+
+def shapes(campaign) -> list[tuple]:
+    """Every shape the records can show: ``(versus, shape, expression, unit, blocks)`` with ``blocks[i]`` the
+    regressors (measurement rows of record i kept by its labels, q columns) in raw input units."""
+    kind = campaign.kind
+    out_unit = "g" if kind == fx.ACCEL else "deg/h"
+    per_rec = []
+    zero = {"delta": jnp.zeros(3), "encoder": jnp.zeros(4)}
+    for rec, d, lab in zip(campaign.records, campaign.data, campaign.labels):
+        ok = lab >= 0
+        x = {k: np.asarray(v) for k, v in instrument_inputs(d, zero).items()}
+        n = rec.n
+        v = {k: _measurement_rows(x[k][:n], d)[ok] for k in x if not k.startswith("channel_is")}
+        ang = {a: _measurement_rows(np.deg2rad(rec.angles_deg[:, i]), d)[ok] for i, a in enumerate(rec.axis_names)}
+        rate = {a: _measurement_rows(rec.rates_dps[:, i] * 3600.0, d)[ok] for i, a in enumerate(rec.axis_names)}
+        temp = None if rec.temperature_C is None else _measurement_rows(rec.temperature_C, d)[ok]
+        seg = _measurement_rows(rec.segment_id.astype(float), d)[ok].round().astype(int)
+        per_rec.append({"x": v, "angle": ang, "rate": rate, "temp": temp, "seg": seg})
+
+    def stacked(get):
+        return np.concatenate([np.asarray(get(p), dtype=float) for p in per_rec]) if per_rec else np.zeros(0)
+
+    def blocks(fn):
+        return [np.asarray(fn(p), dtype=float).reshape(len(p["seg"]), -1) for p in per_rec]
+
+    out = []
+    # table angles: harmonics
+    axes = sorted({a for p in per_rec for a in p["angle"]})
+    for a in axes:
+        allv = np.concatenate([p["angle"].get(a, np.zeros(0)) for p in per_rec])
+        if allv.size == 0 or np.ptp(allv) < np.deg2rad(1.0):
+            continue
+        for k in range(1, HARMONICS + 1):
+            out.append(
+                (f"table angle {a}", f"{k}θ harmonic", None, None, blocks(lambda p, k=k, a=a: _harmonic(p, a, k)))
+            )
+    # specific force: powers
+    for key in _ACCEL_INPUTS.get(kind, ("a_I", "a_O", "a_S")):
+        allv = stacked(lambda p, key=key: p["x"][key])
+        if allv.size == 0 or np.ptp(allv) < 1e-3:
+            continue
+        for k, name in POWERS.items():
+            out.append(
+                (
+                    key,
+                    name,
+                    key if k == 1 else f"{key}**{k}",
+                    f"{out_unit}/g" + (f"^{k}" if k > 1 else ""),
+                    blocks(lambda p, key=key, k=k: p["x"][key] ** k),
+                )
+            )
+    # rates: the instrument's input-axis rate, and each turning table axis
+    rate_shapes = (
+        ("linear", lambda w: w, "{}"),
+        ("|ω|", np.abs, "abs({})"),
+        ("quadratic", lambda w: w * w, "{}**2"),
+        ("cubic", lambda w: w**3, "{}**3"),
+        ("sign", np.sign, "sign({})"),
+    )
+    units_of = {
+        "linear": f"{out_unit} per deg/h",
+        "|ω|": f"{out_unit} per deg/h",
+        "sign": out_unit,
+        "quadratic": f"{out_unit} per (deg/h)^2",
+        "cubic": f"{out_unit} per (deg/h)^3",
+    }
+    for key in _RATE_INPUTS.get(kind, ("w_I",)):
+        allv = stacked(lambda p, key=key: p["x"][key])
+        if allv.size == 0 or np.ptp(allv) < MIN_RATE_DEG_PER_H:
+            continue
+        for name, f, ex in rate_shapes:
+            out.append((key, name, ex.format(key), units_of[name], blocks(lambda p, key=key, f=f: f(p["x"][key]))))
+    for a in axes:
+        allv = np.concatenate([p["rate"].get(a, np.zeros(0)) for p in per_rec])
+        if allv.size == 0 or np.ptp(allv) < MIN_RATE_DEG_PER_H:
+            continue
+        scale = float(np.max(np.abs(allv))) or 1.0
+        for name, f, _ in rate_shapes:
+            out.append(
+                (
+                    f"table rate {a}",
+                    name,
+                    None,
+                    None,
+                    blocks(lambda p, a=a, f=f, s=scale: f(p["rate"].get(a, np.zeros(len(p["seg"]))) / s)),
+                )
+            )
+    # time on the campaign clock
+    t_all = stacked(lambda p: p["x"]["t_h"])
+    if t_all.size and np.ptp(t_all) > 0:
+        mid = round(0.5 * (t_all.max() + t_all.min()), 3)
+        for k in (1, 2, 3):
+            ex = "t_h" if k == 1 else f"(t_h-{mid:g})**{k}"
+            out.append(
+                (
+                    "time",
+                    POWERS[k],
+                    ex,
+                    f"{out_unit}/h" + (f"^{k}" if k > 1 else ""),
+                    blocks(lambda p, k=k: (p["x"]["t_h"] - mid) ** k),
+                )
+            )
+    # temperature
+    if all(p["temp"] is not None for p in per_rec):
+        tc = stacked(lambda p: p["temp"])
+        if tc.size and np.ptp(tc) > 1e-6:
+            for k in (1, 2, 3):
+                ex = "(temperature_C-20)" + (f"**{k}" if k > 1 else "")
+                out.append(
+                    (
+                        "temperature_C",
+                        POWERS[k],
+                        ex,
+                        f"{out_unit}/°C" + (f"^{k}" if k > 1 else ""),
+                        blocks(lambda p, k=k: (p["temp"] - 20.0) ** k),
+                    )
+                )
+    # position index: one offset per (record, position)
+    keys = sorted({(i, s) for i, p in enumerate(per_rec) for s in np.unique(p["seg"])})
+    if len(keys) > 1:
+        col = {k: j for j, k in enumerate(keys)}
+        bl = []
+        for i, p in enumerate(per_rec):
+            m = np.zeros((len(p["seg"]), len(keys)))
+            for s in np.unique(p["seg"]):
+                m[p["seg"] == s, col[(i, s)]] = 1.0
+            bl.append(m)
+        multi = any(len(np.unique(p["seg"])) > 1 for p in per_rec)
+        out.append(("position", "offset per position" if multi else "offset per record", None, None, bl))
+    return out
+
+
+# ---- linear algebra ---------------------------------------------------------------------------------------------
+
+
+def basis(a: np.ndarray, tol: float = 1e-7) -> np.ndarray:
+    """Orthonormal basis (dimensionless) of the column space of ``a`` (columns normalised first; directions whose
+    singular value is below ``tol`` × the largest are dropped, ``tol`` ≥ 1e-7).
+
+    By the eigen-decomposition of the small Gram matrix and a QR re-orthonormalisation (Cholesky-QR2 in spirit):
+    several times cheaper than the SVD of the tall matrix, which the diagnosis would otherwise do dozens of times.
+    """
+    if a.ndim == 1:
+        a = a[:, None]
+    if a.shape[1] == 0:
+        return np.zeros((a.shape[0], 0))
+    norms = np.sqrt((a * a).sum(axis=0))
+    live = norms > 0
+    if not live.any():
+        return np.zeros((a.shape[0], 0))
+    z = a[:, live] / norms[live]
+    ev, vec = np.linalg.eigh(z.T @ z)
+    keep = ev > max(tol, 1e-7) ** 2 * ev[-1]
+    if not keep.any():
+        return np.zeros((a.shape[0], 0))
+    u = z @ (vec[:, keep] / np.sqrt(ev[keep]))
+    # one more Gram pass restores orthonormality to machine precision (CholQR2)
+    ch = np.linalg.cholesky(u.T @ u)
+    return np.linalg.solve(ch, u.T).T
+
+
+def _perp(u: np.ndarray, x: np.ndarray) -> np.ndarray:
+    return x - u @ (u.T @ x) if u.shape[1] else x
+
+
+@dataclass
+class WhitenedSystem:
+    """Residual, regressors (model p0 columns, then the candidates') and shapes, whitened by one noise model."""
+
+    r: np.ndarray
+    j: np.ndarray
+    x: np.ndarray
+    shape_cols: list
+    p0: int
+
+    @classmethod
+    def build(cls, lin, noises, blocks_per_shape, p0: int) -> "WhitenedSystem":
+        """Whiten each record's residual (output unit: deg/h or g), regressors and shape blocks together with its
+        noise model (dimensionless afterwards) and stack the records."""
+        rows_r, rows_j, rows_x = [], [], []
+        widths = [b[0].shape[1] for b in blocks_per_shape]
+        for i, ((r, j, lab, t), nz) in enumerate(zip(lin, noises)):
+            xs = [b[i] for b in blocks_per_shape]
+            both = np.column_stack([r, j] + xs) if xs else np.column_stack([r, j])
+            w, _ = whiten(both, lab, nz, t)
+            rows_r.append(w[:, 0])
+            rows_j.append(w[:, 1 : 1 + j.shape[1]])
+            rows_x.append(w[:, 1 + j.shape[1] :])
+        edges = np.cumsum([0] + widths)
+        cols = [np.arange(a, b) for a, b in zip(edges[:-1], edges[1:])]
+        return cls(np.concatenate(rows_r), np.concatenate(rows_j, axis=0), np.concatenate(rows_x, axis=0), cols, p0)
+
+
+def residual_structure(campaign, lin, noises, p0: int, candidate_cols=None) -> list[Structure]:
+    """Test the whitened residual against every shape of :func:`shapes` (module doc); p-values not yet adjusted.
+
+    Args:
+      campaign: the :class:`gyrojax.inference.identify.Campaign` of the records.
+      lin: per record (r, J, labels, times) as :func:`gyrojax.inference.identify.linearize` gives them for the model
+        extended by the candidates, at the fitted θ (residual in the output unit, deg/h or g).
+      noises: one noise model per record (the fit's), used to whiten residual, regressors and shapes alike.
+      p0: number of the model's own columns in J (the rest are the named candidates').
+      candidate_cols: columns of J to project out besides the model's (default: all of them).
+
+    Returns: one :class:`Structure` per shape that the model and the candidates do not span, strongest first.
+    """
+    lib = shapes(campaign)
+    if not lib:
+        return []
+    ws = WhitenedSystem.build(lin, noises, [s[4] for s in lib], p0)
+    cols = np.arange(ws.j.shape[1]) if candidate_cols is None else np.union1d(np.arange(p0), candidate_cols)
+    u0 = basis(ws.j[:, :p0])
+    u_named = basis(ws.j[:, cols.astype(int)])
+    r0 = _perp(u0, ws.r)
+    # σ̃²: after the model, the named candidates and every shape (no deterministic structure can inflate it)
+    u_all = basis(np.column_stack([ws.j[:, cols.astype(int)], ws.x]))
+    n = len(ws.r)
+    dof = n - u_all.shape[1]
+    if dof >= max(10, n // 10):
+        e = _perp(u_all, ws.r)
+    else:
+        e, dof = _perp(u_named, ws.r), max(n - u_named.shape[1], 1)
+    sigma2 = float(e @ e) / dof
+    if not sigma2 > 0:
+        return []
+    out, perps = [], []
+    for (versus, shape, expr, unit, _), c in zip(lib, ws.shape_cols):
+        x = ws.x[:, c]
+        xn = float(np.sqrt((x * x).sum()))
+        if xn == 0.0:
+            continue
+        xp = _perp(u_named, x)
+        if float(np.sqrt((xp * xp).sum())) / xn < UNSEEN:
+            continue
+        uc = basis(xp)
+        if uc.shape[1] == 0:
+            continue
+        proj = uc.T @ r0
+        stat = float(proj @ proj) / sigma2
+        df = uc.shape[1]
+        logp = float(stats.chi2.logsf(stat, df))
+        s = Structure(versus, shape, stat, df, math.exp(logp), logp / math.log(10), expression=expr)
+        if expr is not None and x.shape[1] == 1:
+            x0 = _perp(u0, x[:, 0])
+            nn = float(x0 @ x0)
+            if nn > 0:
+                s.estimate, s.std, s.unit = float(x0 @ r0) / nn, math.sqrt(sigma2 / nn), unit
+        out.append(s)
+        perps.append(uc)
+    order = np.argsort([s.log10_p for s in out], kind="stable")
+    out = [out[i] for i in order]
+    perps = [perps[i] for i in order]
+    for i, a in enumerate(out):
+        for j in range(i):
+            b = out[j]
+            sv = np.linalg.svd(perps[i].T @ perps[j], compute_uv=False)
+            if sv.size and sv[0] > SAME:
+                a.same_as.append(b.versus)
+                b.same_as.append(a.versus)
+    for s in out:
+        s.same_as = list(dict.fromkeys(v for v in s.same_as if v != s.versus))
+    return out
+
+
+def holm_log10(log10_p) -> np.ndarray:
+    """Holm step-down adjusted p-values, as log10 (so that p-values below the float range still order and adjust):
+    adj_(i) = max_{j ≤ i} min(1, (m − j + 1) p_(j))."""
+    lp = np.asarray(log10_p, dtype=float)
+    m = len(lp)
+    adj = np.empty(m)
+    running = -np.inf
+    for rank, i in enumerate(np.argsort(lp, kind="stable")):
+        running = max(running, min(0.0, math.log10(m - rank) + lp[i]))
+        adj[i] = running
+    return adj
+
+
+# ---- near-aliases -----------------------------------------------------------------------------------------------
+
+
+def near_aliases(lin, noises, p0: int, slices: dict, names, alpha: float) -> dict:
+    """Candidates each of ``names`` cannot be told from at level ``alpha`` (module doc): name -> [other names].
+
+    ``slices``: candidate name -> slice of J's columns; J's first ``p0`` columns are the model's. Two candidates
+    are indistinguishable when each one's conditional score statistic given the other, S(c | d) = S(c ∪ d) − S(d),
+    is below the χ²(rank added) critical value at ``alpha`` — so both best fits leave likelihoods within that
+    critical difference of the joint one. Exact aliases (nothing added either way) are left to ``aliases``.
+    """
+    ws = WhitenedSystem.build(lin, noises, [], p0)
+    u0 = basis(ws.j[:, :p0])
+    r0 = _perp(u0, ws.r)
+    sigma2 = float(r0 @ r0) / max(len(r0) - u0.shape[1], 1)
+    if not sigma2 > 0:
+        return {}
+    perp = {}
+    for c, sl in slices.items():
+        xp = _perp(u0, ws.j[:, sl])
+        if xp.size and float(np.abs(xp).max()) > 0:
+            uc = basis(xp)
+            if uc.shape[1]:
+                perp[c] = uc
+
+    def score(u):
+        pr = u.T @ r0
+        return float(pr @ pr) / sigma2
+
+    single = {c: score(u) for c, u in perp.items()}
+    out = {}
+    for c in names:
+        if c not in perp or single[c] < stats.chi2.isf(alpha, perp[c].shape[1]):
+            continue  # (a slow candidate judged by its likelihood ratio, not by this score)
+        found = []
+        for d, ud in perp.items():
+            if d == c:
+                continue
+            uj = basis(np.column_stack([perp[c], ud]))
+            s_joint = score(uj)
+            add_c, add_d = uj.shape[1] - ud.shape[1], uj.shape[1] - perp[c].shape[1]
+            if add_c == 0 and add_d == 0:
+                continue  # an exact alias
+            ok = True
+            for added, s_cond in ((add_c, s_joint - single[d]), (add_d, s_joint - single[c])):
+                if added and s_cond >= stats.chi2.isf(alpha, added):
+                    ok = False
+            if ok:
+                found.append(d)
+        out[c] = found
+    return out
+
+
+# ---- what the diagnosis may propose -----------------------------------------------------------------------------
+
+SETUP_MEASUREMENTS = {
+    "table_tilt": "level the table base with a precision level or inclinometer (fixes table_tilt)",
+    "table_azimuth": "survey the table's azimuth with a theodolite or north-finder (fixes table_azimuth)",
+    "encoder_harmonic": "calibrate the angle readout against a polygon and autocollimator (fixes encoder_harmonic)",
+}
+"""Measurements outside any rate test that pin a set-up effect down: a tilt about North and an azimuth error turn
+the Earth rate the same way in every table test (both move only its East component in the base), and only the
+g-sensitivity times the tilted gravity — far below the noise of any practical test — tells them apart."""
+
+
+def setup_measurements(group) -> list[str]:
+    """Independent measurements that would separate the set-up effects (arcsec-size table errors) of ``group`` when
+    no rate test can."""
+    return [SETUP_MEASUREMENTS[g] for g in group if g in SETUP_MEASUREMENTS]
+
+
+MAX_REFITS = 3
+"""Significant candidates refitted per diagnosis at most (in rank order, until one is accepted and plausible)."""
+
+
+def vet(
+    tested,
+    significant,
+    campaign,
+    result,
+    lin,
+    noises,
+    p0: int,
+    slices: dict,
+    alpha: float,
+    plausible: dict | None = None,
+) -> str | None:
+    """Decide what the diagnosis may propose; returns the name of the effect to add (None: no named effect).
+
+    For the significant candidates, in rank order: their near-aliases (:func:`near_aliases`, into
+    ``indistinguishable``); a refit with the candidate added, exactly as ``gyrojax fit`` would do it, so that a
+    candidate ``fit`` refuses is marked ``refused`` with fit's reason and ``rms_after`` is fit's own residual RMS
+    (``rms_after_refit``); and the refitted sizes against :mod:`gyrojax.physics.plausibility` (``implausible``).
+    The first candidate that passes is the proposal. Candidates that are not refitted keep their one-step estimates,
+    checked for plausibility too.
+    """
+    from gyrojax.errors import ModelError
+    from gyrojax.inference.identify import fit
+    from gyrojax.physics import plausibility
+
+    live = {c.name: slices[c.name] for c in tested if c.df > 0 and c.name in slices}
+    near = near_aliases(lin, noises, p0, live, [c.name for c in significant if c.name in live], alpha)
+    proposal = None
+    refits = sum(1 for c in significant if c.rms_after_refit or c.refused)  # one budget across the diagnosis' rounds
+    for c in significant:
+        c.indistinguishable = [d for d in near.get(c.name, []) if d not in c.aliases]
+        if proposal is None and refits < MAX_REFITS and not c.rms_after_refit and c.refused is None:
+            refits += 1
+            try:
+                f = fit(campaign.records, tuple(result.model.terms) + (c.name,), campaign=campaign)
+            except ModelError as e:
+                c.refused = f"fit refuses it on these records: {e}"
+            else:
+                c.rms_after, c.rms_after_refit = f.residual_rms, True
+                units = f.units()
+                c.estimate = {
+                    k: {"value": f.values[k], "std": f.stds[k], "unit": units[k]} for k in fx.get(c.name).coefficients
+                }
+        c.implausible = plausibility.implausible(c.estimate, plausible)
+        if proposal is None and c.refused is None and c.implausible is None and c.rms_after_refit:
+            proposal = c.name
+    for c in tested:
+        if c not in significant and c.df > 0:
+            c.implausible = plausibility.implausible(c.estimate, plausible)
+    return proposal
