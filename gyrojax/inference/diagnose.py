@@ -34,7 +34,6 @@ import numpy as np
 from scipy import stats
 
 from gyrojax.errors import ModelError
-from gyrojax.inference import adequacy
 from gyrojax.inference.identify import Campaign, FitResult, fit, linearize
 from gyrojax.noise.whiten import ARNoise, GMNoise, fit_noise, profile_likelihood, whiten
 from gyrojax.physics import effects as fx
@@ -61,10 +60,6 @@ class Candidate:
     estimate: dict = field(default_factory=dict)
     separated_by: list = field(default_factory=list)
     log10_p: float = 0.0
-    indistinguishable: list = field(default_factory=list)  # near-aliases (gyrojax.inference.adequacy.near_aliases)
-    refused: str | None = None  # why `fit` refuses the model with this candidate added (never proposed then)
-    implausible: str | None = None  # sizes beyond what real instruments have (gyrojax.physics.plausibility)
-    rms_after_refit: bool = False  # rms_after is fit's own after adding the candidate (else the one-step value)
 
     def to_json(self) -> dict:
         """One entry of ``candidates`` in the diagnosis JSON (CONVENTIONS §7); ``rms_after_deg_per_h`` is in the
@@ -80,11 +75,6 @@ class Candidate:
             "rms_after_deg_per_h": float(self.rms_after),
             "estimate": self.estimate,
             "separated_by": list(self.separated_by),
-            "indistinguishable": list(self.indistinguishable),
-            "refused": self.refused,
-            "implausible": self.implausible,
-            "plausible": self.implausible is None,
-            "rms_after_from": "refit" if self.rms_after_refit else "one-step",
         }
 
 
@@ -97,9 +87,6 @@ class Diagnosis:
     candidates: list
     alpha: float
     unexcited: list = field(default_factory=list)
-    unexplained: list = field(default_factory=list)  # significant gyrojax.inference.adequacy.Structure, strongest first
-    proposal: str | None = None  # the candidate to add: significant, accepted by fit, plausible
-    tests: int = 0  # size of the multiple-comparison family (named candidates + shapes)
 
     @property
     def top(self) -> Candidate | None:
@@ -126,9 +113,6 @@ class Diagnosis:
             "terms": list(self.fit.model.terms),
             "alpha": self.alpha,
             "not_excited": list(self.unexcited),
-            "unexplained": [s.to_json() for s in self.unexplained],
-            "proposal": self.proposal,
-            "family_size": self.tests,
             "fit": self.fit.to_json(),
         }
 
@@ -191,7 +175,7 @@ def _nuisance(t: np.ndarray) -> np.ndarray:
     return np.ones((len(t), 1))
 
 
-def _noise_models(lin, cols, starts=None) -> list:
+def _noise_models(lin, cols) -> list:
     """Per-record noise model from the residual left after projecting on the regressor columns ``cols`` and on a
     per-record offset.
 
@@ -199,10 +183,8 @@ def _noise_models(lin, cols, starts=None) -> list:
     a flipped mounting gives an omitted D_O) would otherwise pass for long-memory noise and hide the very effect
     under test. It is a nuisance regressor only here; REML keeps the noise estimate unbiased when it is absent.
     Slower-than-the-record drift is kept apart from noise by the cap on τ
-    (:data:`gyrojax.noise.whiten.TAU_SPAN_FRACTION`). ``starts``: the previous round's models, whose Gauss–Markov
-    fits start this round's (one column more changes them little).
+    (:data:`gyrojax.noise.whiten.TAU_SPAN_FRACTION`).
     """
-    starts = starts or [None] * len(lin)
     scales = [max(np.sqrt(np.mean(r * r)), 1e-300) for r, *_ in lin]
     n_rec = len(lin)
     blocks = []
@@ -214,10 +196,10 @@ def _noise_models(lin, cols, starts=None) -> list:
     ub = _basis(np.concatenate(blocks, axis=0))
     res = r_all - ub @ (ub.T @ r_all)
     out, i0 = [], 0
-    for (r, j, lab, t), s, st in zip(lin, scales, starts):
+    for (r, j, lab, t), s in zip(lin, scales):
         n = len(r)
         design = np.column_stack([j[:, cols], _nuisance(t)])
-        nz = fit_noise(res[i0 : i0 + n] * s, lab, t, design=design, start=st if isinstance(st, GMNoise) else None)
+        nz = fit_noise(res[i0 : i0 + n] * s, lab, t, design=design)
         out.append(nz if nz.innovation_std > 0 else ARNoise(np.zeros(0), s, s))
         i0 += n
     return out
@@ -307,8 +289,6 @@ def diagnose(
     result: FitResult | None = None,
     campaign: Campaign | None = None,
     suggest_tests: bool = True,
-    model_free: bool = True,
-    plausible: dict | None = None,
 ) -> Diagnosis:
     """Rank the effects the model ``terms`` is missing, from the data of ``records``.
 
@@ -320,9 +300,6 @@ def diagnose(
       result: a fit of ``terms`` to these records, if already at hand.
       campaign: the records already built into a :class:`gyrojax.inference.identify.Campaign`, if at hand.
       suggest_tests: name built-in plans that would separate aliased candidates.
-      model_free: also test the residual against shapes in every input (:mod:`gyrojax.inference.adequacy`); the
-        family of the multiple-comparison control then holds the named candidates and the shapes.
-      plausible: overrides of the plausible sizes (:mod:`gyrojax.physics.plausibility`), by coefficient or effect name.
 
     Returns: a :class:`Diagnosis` with ``verdict`` ``"missing-effect"`` or ``"adequate"``; residuals and noise
     floor in the output unit (deg/h for gyros, g for accelerometers), candidate estimates in report units.
@@ -343,12 +320,10 @@ def diagnose(
     # noise model by forward selection: from the current residual, re-estimated after adding the most
     # significant candidate (so that a strong missing effect does not pass for coloured noise, and a plan whose
     # candidates span every position cannot soak the drift's low-frequency power into a saturated fit)
-    # (each round's noise fits start from the previous round's)
     extra: list[str] = []
-    noises = None
     for _round in range(4):
         cols = np.concatenate([np.arange(p0)] + [np.arange(full.size)[sl[c]] for c in extra]).astype(int)
-        noises = _noise_models(lin, cols, noises)
+        noises = _noise_models(lin, cols)
         tested, perps, unexcited = _score(lin, noises, model, full, cand, p0, res.residual_rms)
         live = [c for c in tested if c.df > 0]
         if not live:
@@ -375,25 +350,16 @@ def diagnose(
                 ca.aliases.append(b)
                 cb.aliases.append(a)
 
-    # ---- model-free adequacy, joint Holm, vetting of what is proposed (gyrojax.inference.adequacy) -------
+    # multiple comparisons: Holm over the candidates actually tested
     live = [c for c in tested if c.df > 0]
-    tested.sort(key=lambda c: (c.log10_p if c.df > 0 else 0.0, -c.statistic))  # by evidence (log p never underflows)
-    explaining = [c.name for c in live]  # named effects that may explain a shape: not refused, plausible
-    for _round in range(2):
-        cols = np.concatenate([np.arange(full.size)[sl[c]] for c in explaining]).astype(int) if explaining else []
-        shapes = adequacy.residual_structure(camp, lin, res.noise, p0, cols) if model_free else []
-        adj = adequacy.holm_log10([c.log10_p for c in live] + [s.log10_p for s in shapes])
-        for c, a in zip(live + shapes, adj):
-            c.p_adjusted = float(10.0**a)
-        sig = {id(c) for c, a in zip(live + shapes, adj) if a < math.log10(alpha)}
-        significant = [c for c in tested if id(c) in sig]
-        unexplained = [s for s in shapes if id(s) in sig]
-        proposal = adequacy.vet(tested, significant, camp, res, lin, noises, p0, sl, alpha, plausible)
-        barred = {c.name for c in significant if c.refused or c.implausible}
-        if not barred & set(explaining):
-            break
-        explaining = [c for c in explaining if c not in barred]  # shapes they would have hidden are tested again
-    verdict = "missing-effect" if significant or unexplained else "adequate"
+    adj = holm(np.array([c.p_value for c in live]))
+    m = len(live)
+    for c, a in zip(live, adj):
+        c.p_adjusted = float(a)
+    # rank by evidence (log p, so that underflowed p-values still order)
+    tested.sort(key=lambda c: (c.log10_p if c.df > 0 else 0.0, -c.statistic))
+    significant = [c for c in live if c.log10_p + math.log10(max(m, 1)) < math.log10(alpha)]
+    verdict = "missing-effect" if significant else "adequate"
 
     # colour that no deterministic effect explains: report it as gauss_markov
     gm = _colour_candidate(res, noises, lin, alpha)
@@ -405,10 +371,10 @@ def diagnose(
 
     if suggest_tests:
         for c in tested[:5]:
-            if (c.aliases or c.indistinguishable) and c.name in perps:
-                group = (c.name,) + tuple(a for a in c.aliases + c.indistinguishable if a in fx.names())
-                c.separated_by = separating_plans(model.kind, group) or adequacy.setup_measurements(group)
-    return Diagnosis(verdict, res, tested, alpha, unexcited, unexplained, proposal, len(live) + len(shapes))
+            if c.aliases and c.name in perps:
+                group = (c.name,) + tuple(a for a in c.aliases if a in fx.names())
+                c.separated_by = separating_plans(model.kind, group)
+    return Diagnosis(verdict, res, tested, alpha, unexcited)
 
 
 def _colour_candidate(res: FitResult, noises, lin, alpha) -> Candidate | None:
@@ -531,10 +497,10 @@ def add_and_refit(records, terms, effect: str | None = None, *, diagnosis: Diagn
     camp = Campaign.of(records) if not isinstance(records, Campaign) else records
     d = diagnosis or diagnose(camp.records, terms, campaign=camp, **kw)
     if effect is None:
-        if d.proposal is None:
-            why = "; ".join(s.line for s in d.unexplained[:3]) or "the model is adequate for these records"
-            raise ModelError(f"no named effect to add: {why}")
-        effect = d.proposal
+        det = [c for c in d.candidates if c.name != "gauss_markov" and c.df > 0]
+        if not det:
+            raise ModelError("no deterministic candidate to add; the model is adequate for these records")
+        effect = det[0].name
     new_terms = tuple(d.fit.model.terms) + (effect,)
     new_fit = fit(camp.records, new_terms, campaign=camp, allow_aliases=False)
     new_d = diagnose(camp.records, new_terms, campaign=camp, result=new_fit, **kw)

@@ -38,7 +38,6 @@ from gyrojax.data.io import atomic_write_text
 from gyrojax.data.records import Record
 from gyrojax.errors import ConvergenceWarning, FormatError, ModelError, RecordError
 from gyrojax.inference.lstsq import lstsq
-from gyrojax.noise import reml
 from gyrojax.noise.whiten import (
     FIT_TAU_SPAN_FRACTION,
     ARNoise,
@@ -47,6 +46,8 @@ from gyrojax.noise.whiten import (
     fit_noise,
     gls_residual,
     gm_reml,
+    series_restarts,
+    series_span,
     whiten,
 )
 from gyrojax.physics import effects as fx
@@ -639,37 +640,56 @@ INTERVAL_LEVEL = 0.97725
 """P(Z ≤ 2): standard errors are widened so that θ̂ ± 2σ keeps this one-sided level under Student's t."""
 
 
-def satterthwaite_dof(lin, campaign: Campaign, noises, scales) -> np.ndarray:
+def satterthwaite_dof(lin, campaign: Campaign, noises, scales, step: float = 0.05) -> np.ndarray:
     """Effective degrees of freedom ν_k of each coefficient's GLS variance V_k when the Gauss–Markov noise
     parameters are estimated (Satterthwaite 1946, as Giesbrecht & Burns 1985 apply it to REML fits):
     ν_k = 2 V_k² / Var(V̂_k), Var(V̂_k) ≈ ∇V_kᵀ I⁻¹ ∇V_k, with I the REML information of each group's
-    u = (log τ, log σ_g², log σ_w²) — half the exact Hessian of −2 log L_R
-    (:func:`gyrojax.noise.reml.reml_hessian`) — and ∇V_k = −diag(V ∂(J̃ᵀJ̃)/∂u V) exact too
-    (:func:`gyrojax.noise.reml.whitened_gram`).
+    (log τ, log σ_g², log σ_w²) and ∇V_k by central differences (``step`` in the log-parameters).
 
     Drift slower than a position is seen only in the scatter of the position means: an 8-position test leaves a
     handful of such degrees of freedom, and a plug-in σ̂ then covers ±2σ in ~0.88 of the cases, not 0.954.
     A τ at its cap is held fixed. Records with an AR or white model add nothing (their ν is large).
     Returns ν (dimensionless, ≥ 1; ``inf`` where no noise parameter was estimated).
     """
-    rw, jw = _stack(lin, noises, scales)
-    cov = _solve(jw, rw)[1]
-    v0 = np.diag(cov)
+
+    def variances(nz_list):
+        rw, jw = _stack(lin, nz_list, scales)
+        return np.diag(_solve(jw, rw)[1])
+
+    v0 = variances(noises)
     var_v = np.zeros_like(v0)
     for idx in noise_groups(campaign):
         nz = noises[idx[0]]
         if not isinstance(nz, GMNoise) or nz.gm_var <= 0 or nz.white_var <= 0:
             continue
         r, j, lab, t = group_series(lin, idx)
-        theta = (nz.tau_s, nz.gm_var, nz.white_var)
-        series = reml.prepare(r, j, lab, t, FIT_TAU_SPAN_FRACTION)
-        free = [1, 2] if nz.tau_s >= 0.999 * series.tau_max else [0, 1, 2]
-        hess = reml.reml_hessian(series, theta)[np.ix_(free, free)]
-        w, vec = np.linalg.eigh(0.5 * (hess + hess.T))  # −2 log L_R: information = hess / 2
+        tau_max = series_span(t, series_restarts(lab, t)) / FIT_TAU_SPAN_FRACTION
+        u0 = np.log([nz.tau_s, nz.gm_var, nz.white_var])
+        free = [1, 2] if nz.tau_s >= 0.999 * tau_max else [0, 1, 2]
+        basis = np.eye(3)[free] * step
+
+        def reml(u):
+            return gm_reml(r, j, lab, t, GMNoise(*np.exp(u)))
+
+        f0 = reml(u0)
+        k = len(free)
+        hess = np.zeros((k, k))
+        for a in range(k):
+            hess[a, a] = (reml(u0 + basis[a]) - 2 * f0 + reml(u0 - basis[a])) / step**2
+            for b in range(a):
+                ea, eb = basis[a], basis[b]
+                hess[a, b] = hess[b, a] = (
+                    reml(u0 + ea + eb) - reml(u0 + ea - eb) - reml(u0 - ea + eb) + reml(u0 - ea - eb)
+                ) / (4 * step * step)
+        w, vec = np.linalg.eigh(hess)  # −2 log L_R: information = hess / 2
         w = np.maximum(w, 1e-9 * max(float(w.max()), 1e-300))
         cov_u = 2.0 * (vec / w) @ vec.T
-        _, dgram = reml.whitened_gram(reml.prepare(r, j, lab, t, FIT_TAU_SPAN_FRACTION, select=False), theta)
-        grad = -np.einsum("ki,ija,jk->ka", cov, dgram, cov)[:, free]  # ∂V_k/∂u = −(V ∂A/∂u V)_kk
+        grad = np.zeros((len(v0), k))
+        for a in range(k):
+            for sign in (1.0, -1.0):
+                moved = GMNoise(*np.exp(u0 + sign * basis[a]))
+                grad[:, a] += sign * variances([moved if i in idx else nz_i for i, nz_i in enumerate(noises)])
+        grad /= 2 * step
         var_v += np.einsum("ka,ab,kb->k", grad, cov_u, grad)
     with np.errstate(divide="ignore", invalid="ignore"):
         nu = np.where(var_v > 0, 2.0 * v0**2 / var_v, np.inf)
@@ -764,9 +784,7 @@ def fit(
       records: a :class:`Record`, or a list of records of one instrument kind (any plans, mountings, modes).
       terms: effect names (or coefficient names); default: D_F, D_I, D_O, D_S for an SDF gyro.
       noise: ``"ar"`` (GLS with a white + Gauss–Markov or AR noise model per group of records, :func:`campaign_noise`;
-        default), ``"white"`` (WLS, one σ per record), or a given noise model with a ``whitening_model(dt_s)``
-        method (e.g. :class:`gyrojax.noise.gmwm.NoiseModel` from ``gyrojax noise``): GLS with that covariance, not
-        re-estimated, and the standard errors not rescaled by the residual χ² (the noise is known).
+        default) or ``"white"`` (WLS, one σ per record).
       allow_aliases: return a minimum-norm fit instead of raising when the plan cannot separate some effects
         (those coefficients then have no finite standard error).
       theta0: starting coefficients (report units) for the nonlinear set-up effects.
@@ -793,17 +811,7 @@ def fit(
     theta, it, why = _least_squares(model, theta, camp, noises, scales, max_iter)
     lin = linearize(model, theta, camp)
     # noise model and GLS pass
-    known = hasattr(noise, "whitening_model")  # a given noise model (e.g. gmwm.NoiseModel): GLS, not re-estimated
-    if known:
-        if kind == fx.ACCEL:
-            raise ModelError(f"a noise model in deg/h applies to gyro records, not to {kind!r}")
-        noises = [noise.whitening_model(float(np.median(np.diff(t)))) for *_, t in lin]
-        for _ in range(3 if not model.is_linear else 1):
-            rw, jw = _stack(lin, noises, scales)
-            step, _ = _solve(jw, rw)
-            theta = theta + step
-            lin = linearize(model, theta, camp)
-    elif noise == "ar":
+    if noise == "ar":
         noises = campaign_noise(lin, camp)
         theta, it_gls, why_gls = _least_squares(model, theta, camp, noises, scales, max_iter)
         it, why = it + it_gls, why or why_gls
@@ -823,8 +831,7 @@ def fit(
     _, cov = _solve(jw, rw)
     dof = max(len(rw) - report["rank"], 1)
     chi2 = float(rw @ rw)
-    if not known:
-        cov = cov * chi2 / dof  # the noise levels were estimated: scale by the pooled reduced χ² of the whitened fit
+    cov = cov * chi2 / dof  # the noise levels were estimated: scale by the pooled reduced χ² of the whitened fit
     dof_eff = None
     if noise == "ar" and any(isinstance(nz, GMNoise) for nz in noises):
         dof_eff = satterthwaite_dof(lin, camp, noises, scales)
