@@ -129,6 +129,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--noise-model", metavar="NOISE.json", help="GLS with this noise model (gyrojax noise --json)")
     s.add_argument("--force", action="store_true")
     add_effect_arguments(s)
+    s.add_argument(
+        "--per-instrument", action="store_true", help="fit each instrument (JSON instrument.id/channel) on its own"
+    )
     s.set_defaults(func=_command("fit"))
 
     s = sub.add_parser("diagnose", help="rank the effects the model is missing (CONVENTIONS §7)")

@@ -88,6 +88,19 @@ def cmd_fit(args) -> int:
     from gyrojax.report.figures import fit_table
 
     recs = load_records(args.records)
+    if getattr(args, "per_instrument", False):
+        from gyrojax.inference.identify import fit_per_instrument
+
+        if args.save:
+            raise UsageError("--save takes one fit; with --per-instrument, fit each instrument's records on its own")
+        results = fit_per_instrument(recs, parse_terms(args.terms) or None)
+        if args.json:
+            print(json.dumps({"instruments": {k or "(no id)": v.to_json() for k, v in results.items()}}))
+        else:
+            for k, v in results.items():
+                print(f"instrument {k or '(no id)'}:")
+                print(fit_table(v))
+        return 0
     names = effects_from_args(args, recs[0].kind)
     terms = terms_with_effects(parse_terms(args.terms), names, recs[0].kind)
     if args.noise_model:

@@ -187,6 +187,43 @@ def continuous_segments(time_s: np.ndarray, segment: np.ndarray | None = None) -
     return np.concatenate([[0], np.cumsum(brk)]).astype(np.int64)
 
 
+JITTER_TOL = 0.05
+"""Largest relative deviation of a step from the mean sample interval that :func:`uniform_interval` accepts as
+logger jitter (5 %): a 204.8 Hz clock written with a few digits, or a logger's 9.9–10.05 ms steps."""
+
+
+def uniform_interval(time_s, tol: float = JITTER_TOL) -> tuple[float, float]:
+    """The mean sample interval of ``time_s`` (s) and its jitter, the largest |step − mean| / mean (dimensionless).
+
+    Timestamps of real loggers jitter (rounding to a few digits, a clock read by software): the samples are taken
+    uniformly, the stamps are not. Raises :class:`~gyrojax.errors.RecordError` when a step departs from the mean
+    by more than ``tol`` (a gap or a changed rate, not jitter) or when there are fewer than two samples.
+    """
+    t = np.asarray(time_s, dtype=float)
+    if t.size < 2:
+        raise RecordError("a sample interval needs at least two samples")
+    dt = np.diff(t)
+    mean = float((t[-1] - t[0]) / (t.size - 1))
+    if not mean > 0:
+        raise RecordError("times must increase to define a sample interval")
+    jitter = float(np.max(np.abs(dt - mean))) / mean
+    if jitter > tol:
+        i = int(np.argmax(np.abs(dt - mean)))
+        raise RecordError(
+            f"step {i + 1} is {dt[i]:.6g} s against a mean interval of {mean:.6g} s ({100 * jitter:.3g} % off; "
+            f"logger jitter up to {100 * tol:.3g} % is accepted): a gap or a change of sample rate"
+        )
+    return mean, jitter
+
+
+def interval_key(dt_s: float, digits: int = 3) -> float:
+    """A sample interval (s) rounded to ``digits`` significant digits: the key that tells records sampled at the
+    same rate apart from others, whatever the last digits of their timestamps."""
+    if not dt_s > 0 or not math.isfinite(dt_s):
+        return 0.0
+    return float(f"{dt_s:.{digits}g}")
+
+
 def derive_rate(time_s: np.ndarray, angle_deg: np.ndarray, segment_id: np.ndarray) -> np.ndarray:
     """Angle rate (deg/s) by second-order differences, inside each continuous segment only."""
     rate = np.zeros_like(angle_deg, dtype=float)

@@ -34,7 +34,7 @@ import numpy as np
 from scipy import stats
 
 from gyrojax.errors import ModelError
-from gyrojax.inference.identify import Campaign, FitResult, fit, linearize
+from gyrojax.inference.identify import Campaign, FitResult, fit, linearize, residue_columns
 from gyrojax.noise.whiten import ARNoise, GMNoise, fit_noise, profile_likelihood, whiten
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model, jacobian, record_data
@@ -218,11 +218,13 @@ def _score(lin, noises, model: Model, full: Model, cand, p0: int, rms_now: float
     j_raw = np.concatenate([j for _, j, *_ in lin], axis=0)
     n_raw = len(r_raw)
     tested, perps, unexcited = [], {}, []
+    residue = residue_columns(jw)  # floating-point residue (cos 90° = 6e-17): not excited, never estimated
     for c in cand:
         cols = sl[c]
-        x = jw[:, cols]
+        keep = ~residue[cols]
+        x = jw[:, cols] * keep
         xn = float(np.sqrt((x * x).sum()))
-        xr = j_raw[:, cols]
+        xr = j_raw[:, cols] * keep
         if xn == 0.0 or float(np.abs(xr).max()) == 0.0:
             unexcited.append(c)
             continue

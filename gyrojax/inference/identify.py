@@ -35,7 +35,7 @@ from scipy import stats
 from scipy.optimize import least_squares
 
 from gyrojax.data.io import atomic_write_text
-from gyrojax.data.records import Record
+from gyrojax.data.records import Record, interval_key
 from gyrojax.errors import ConvergenceWarning, FormatError, ModelError, RecordError
 from gyrojax.inference.lstsq import lstsq
 from gyrojax.noise.whiten import (
@@ -54,6 +54,10 @@ from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model, RecordData, check_servo, jacobian_jit, predict_jit, record_data
 
 ALIAS_TOL = 1e-7  # singular value / largest below this: a direction the plan cannot see
+RESIDUE_TOL = 1e-12
+"""A whitened regressor column whose norm is below this fraction of the largest column's is floating-point residue
+(cos 90° = 6e-17, not 0): the plan does not excite that coefficient. Legitimately weak columns (E_2 under the Earth
+rate alone, ~1e-8) stay well above it; residue stays below ~1e-14."""
 DEFAULT_TERMS = {
     fx.SDF: ("D_F", "D_I", "D_O", "D_S"),
     fx.TDF: ("DX_F", "DY_F"),
@@ -107,6 +111,38 @@ def _check_finite(record: Record) -> None:
             )
 
 
+def instrument_id(record: Record) -> str:
+    """Which instrument (and channel) a record measured: its JSON keys ``instrument.id`` and
+    ``instrument.channel`` joined as ``id[channel]`` (either may be absent; ``""`` when both are)."""
+    inst = record.meta.get("instrument", {})
+    ident = inst.get("id")
+    chan = inst.get("channel")
+    out = "" if ident is None else str(ident)
+    return out + (f"[{chan}]" if chan is not None else "")
+
+
+def check_one_instrument(records) -> None:
+    """Refuse records of different instruments or channels in one fit: one coefficient set for several gyros
+    would be a blend of theirs. Records without ``instrument.id``/``channel`` are taken as one instrument."""
+    ids: dict[str, list[str]] = {}
+    for r in records:
+        ids.setdefault(instrument_id(r), []).append(r.name)
+    if len(ids) > 1:
+        listing = "; ".join(f"{k or '(no id)'}: {', '.join(v[:3])}{' …' if len(v) > 3 else ''}" for k, v in ids.items())
+        raise ModelError(
+            f"records of {len(ids)} different instruments/channels cannot share one coefficient set ({listing}); "
+            "fit each instrument on its own (fit_per_instrument, or `gyrojax fit --per-instrument`)"
+        )
+
+
+def split_by_instrument(records) -> dict[str, list]:
+    """Records grouped by :func:`instrument_id`, in order of first appearance."""
+    out: dict[str, list] = {}
+    for r in records:
+        out.setdefault(instrument_id(r), []).append(r)
+    return out
+
+
 @dataclass
 class Campaign:
     """Records of one fit as arrays: ``data[i]`` (:class:`gyrojax.physics.model.RecordData`), ``labels[i]``
@@ -131,6 +167,7 @@ class Campaign:
         kinds = {r.kind for r in records}
         if len(kinds) > 1:
             raise ModelError(f"records of different instrument kinds cannot be fitted together: {sorted(kinds)}")
+        check_one_instrument(records)
         for r in records:
             _check_finite(r)
         data = [record_data(r) for r in records]
@@ -179,6 +216,15 @@ def linearize(model: Model, theta, campaign: Campaign):
     return out
 
 
+def residue_columns(jw: np.ndarray, tol: float = RESIDUE_TOL) -> np.ndarray:
+    """Mask of the columns of a (whitened) regressor matrix that are only floating-point residue
+    (:data:`RESIDUE_TOL`): their coefficients are not excited, and an estimate of them would be noise / 1e-16."""
+    norms = np.sqrt((jw * jw).sum(axis=0))
+    if norms.size == 0:
+        return np.zeros(0, dtype=bool)
+    return norms <= tol * max(float(norms.max()), 1e-300)
+
+
 def identifiability(jw: np.ndarray, model: Model, tol: float = ALIAS_TOL) -> dict:
     """Rank, condition number and alias groups of a (whitened) regressor matrix.
 
@@ -190,8 +236,9 @@ def identifiability(jw: np.ndarray, model: Model, tol: float = ALIAS_TOL) -> dic
     if jw.shape[1] == 0:
         return {"rank": 0, "size": 0, "condition": 1.0, "aliases": [], "unexcited": []}
     norms = np.sqrt((jw * jw).sum(axis=0))
-    unexcited = [names[i] for i in np.flatnonzero(norms <= 1e-12 * max(norms.max(), 1e-300))]
-    z = jw / np.where(norms > 0, norms, 1.0)
+    residue = residue_columns(jw)
+    unexcited = [names[i] for i in np.flatnonzero(residue)]
+    z = np.where(residue, 0.0, jw / np.where(norms > 0, norms, 1.0))
     _, s, vt = np.linalg.svd(z, full_matrices=False)
     smax = s[0] if s.size else 1.0
     small = s < tol * smax
@@ -371,6 +418,7 @@ class FitResult:
             "instrument": self.model.kind,
             "correlation": [[_num(x) for x in row] for row in corr],
             "identifiability": {k: v for k, v in self.identifiability.items() if k != "singular_values"},
+            "not_excited": list(self.identifiability.get("unexcited", [])),
             "fit": {
                 "iterations": self.iterations,
                 "converged": self.converged,
@@ -563,12 +611,30 @@ def _stack(lin, noises, scales):
 def noise_groups(campaign: Campaign) -> list[list[int]]:
     """Indices of the records that share one noise model: same mode and sample interval (s). One instrument's
     drift is one random process, whatever the position; a servo record's interval means, or another sample
-    interval, see it through a different filter."""
+    interval, see it through a different filter.
+
+    The interval is the median step rounded to 3 significant digits (:func:`gyrojax.data.records.interval_key`),
+    so the last digits of the timestamps (a clock written with 7 digits, logger jitter) never split a group.
+    A record JSON key ``noise_group`` (any string) chooses the group instead."""
     groups: dict[tuple, list[int]] = {}
-    for i, (rec, t) in enumerate(zip(campaign.records, campaign.times)):
-        dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
-        groups.setdefault((rec.mode, round(dt, 9)), []).append(i)
+    for i, (rec, t, lab) in enumerate(zip(campaign.records, campaign.times, campaign.labels)):
+        user = rec.meta.get("noise_group")
+        if user is not None:
+            groups.setdefault(("user", str(user)), []).append(i)
+            continue
+        groups.setdefault((rec.mode, interval_key(mean_interval(t, lab))), []).append(i)
     return list(groups.values())
+
+
+def mean_interval(times: np.ndarray, labels: np.ndarray) -> float:
+    """Sample interval (s) of a record's measurements: the median over its continuous segments of each segment's
+    mean step (span / steps), so that timestamps rounded to a few digits give the interval, not their last digit."""
+    steps = []
+    for s in np.unique(labels[labels >= 0]):
+        t = times[labels == s]
+        if len(t) > 1:
+            steps.append((t[-1] - t[0]) / (len(t) - 1))
+    return float(np.median(steps)) if steps else 0.0
 
 
 def campaign_noise(lin, campaign: Campaign) -> list:
@@ -715,7 +781,10 @@ def _noise_scale(r, labels) -> float:
 
 def _solve(jw, rw, rank_tol=ALIAS_TOL):
     """Least-squares step and (JᵀJ)⁻¹ in normalised columns, by SVD with a rank cut
-    (:func:`gyrojax.inference.lstsq.lstsq`)."""
+    (:func:`gyrojax.inference.lstsq.lstsq`). Floating-point residue columns (:func:`residue_columns`) get no step
+    and no finite uncertainty."""
+    if jw.shape[1]:
+        jw = np.where(residue_columns(jw), 0.0, jw)
     return lstsq(jw, rw, "svd", rank_tol)
 
 
@@ -859,3 +928,8 @@ def fit(
         inputs=_hash_inputs(camp.records),
         dof_eff=dof_eff,
     )
+
+
+def fit_per_instrument(records, terms=None, **kw) -> dict:
+    """One :func:`fit` per instrument (:func:`instrument_id`), never pooled: ``{id: FitResult}``."""
+    return {k: fit(v, terms, **kw) for k, v in split_by_instrument(records).items()}
