@@ -112,7 +112,7 @@ def cmd_fit(args) -> int:
     if args.json:
         print(json.dumps(res.to_json()))
     else:
-        print(fit_table(res))
+        print(res.text() if hasattr(res, "text") else fit_table(res))  # an imu-triad fit prints its own table
     if args.save:
         res.save(args.save, force=args.force)
     return 0
@@ -405,4 +405,102 @@ def cmd_mc_merge(args) -> int:
     if d.size and d[-1] - d[0] + 1 != d.size:
         print(f"gyrojax: note: the merged draws {d[0]}…{d[-1]} leave gaps ({d.size} draws)", file=sys.stderr)
     _write_mc(res, out, args)
+    return 0
+
+
+# ---- MEMS IMU triads: import and apply ---------------------------------------------------------------------------
+
+
+def cmd_import(args) -> int:
+    """``gyrojax import imucal|imutk|csv``: convert a calibration session into imu-triad records in ``--out``."""
+    from gyrojax.data import importers
+    from gyrojax.data.records import record_paths, save_record
+
+    if args.format == "imucal":
+        if len(args.inputs) != 1:
+            raise UsageError("import imucal takes one SESSION.csv")
+        rec = importers.import_imucal(
+            args.inputs[0],
+            rate_hz=args.rate_hz,
+            sections=args.sections,
+            gyro_unit=args.gyro_unit,
+            gyro_counts_per_dps=args.gyro_scale,
+            angle_deg=args.angle,
+            angle_std_deg=args.angle_std,
+            latitude_deg=args.latitude,
+            gravity_mps2=args.gravity,
+            name=args.name,
+            instrument_id=args.id,
+        )
+    elif args.format == "imutk":
+        if len(args.inputs) != 2:
+            raise UsageError("import imutk takes two files: ACC GYRO")
+        rec = importers.import_imutk(
+            args.inputs[0],
+            args.inputs[1],
+            gyro_unit=args.gyro_unit if args.gyro_unit != "counts" else "rad/s",
+            latitude_deg=args.latitude,
+            gravity_mps2=args.gravity,
+            name=args.name,
+            instrument_id=args.id,
+        )
+    else:
+        if len(args.inputs) != 1:
+            raise UsageError("import csv takes one CSV file")
+        if not args.map:
+            raise UsageError("import csv needs --map, e.g. time_s=t,gyro_x=gx,gyro_y=gy,gyro_z=gz,acc_x=ax,…")
+        rec = importers.import_csv(
+            args.inputs[0],
+            dict(p.split("=", 1) for p in args.map.split(",")),
+            gyro_unit=args.gyro_unit,
+            gyro_counts_per_dps=args.gyro_scale,
+            acc_unit=args.acc_unit,
+            rate_hz=args.rate_hz,
+            latitude_deg=args.latitude,
+            gravity_mps2=args.gravity,
+            name=args.name,
+            instrument_id=args.id,
+        )
+    out = Path(args.out)
+    if not args.force:
+        for p in record_paths(out / rec.name):
+            if p.exists():
+                raise UsageError(f"{p}: exists; pass --force to overwrite")
+    path = save_record(rec, out, force=True)
+    kinds = [s["type"] for s in rec.meta["segments"]]
+    summary = {k: kinds.count(k) for k in ("static", "rotation", "move") if k in kinds}
+    if args.json:
+        print(json.dumps({"record": str(path), "segments": summary, "n_samples": rec.n}))
+    else:
+        print(f"{path}: {rec.n} samples; segments " + ", ".join(f"{v} {k}" for k, v in summary.items()))
+    return 0
+
+
+def cmd_apply(args) -> int:
+    """``gyrojax apply FIT.json RECORDS --out DIR``: write calibrated body rates (deg/s) of imu-triad records."""
+    import numpy as np
+
+    from gyrojax.data.io import atomic_write_text
+    from gyrojax.data.records import load_records
+    from gyrojax.inference.triad import load_triad_fit
+
+    fit_res = load_triad_fit(args.fit)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    for rec in load_records(args.records):
+        target = out / f"{rec.name}.calibrated.csv"
+        if target.exists() and not args.force:
+            raise UsageError(f"{target}: exists; pass --force to overwrite")
+        w = fit_res.apply(rec) / 3600.0
+        cols = {"time_s": rec.time_s, "gyro_x_dps": w[:, 0], "gyro_y_dps": w[:, 1], "gyro_z_dps": w[:, 2]}
+        lines = [",".join(cols)] + [
+            ",".join(repr(float(v)) for v in row) for row in np.column_stack(list(cols.values()))
+        ]
+        atomic_write_text(target, "\n".join(lines) + "\n")
+        written.append(str(target))
+    if args.json:
+        print(json.dumps({"calibrated": written}))
+    else:
+        print("\n".join(written))
     return 0

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from gyrojax.data.io import is_finite_number
+from gyrojax.data.triad import is_triad, validate_triad_columns, validate_triad_meta
 from gyrojax.errors import RecordError
 from gyrojax.physics.effects import ACCEL, INSTRUMENT_KINDS, SDF, TDF
 
@@ -290,6 +291,8 @@ def validate_meta(meta, file="record.json") -> dict:
     name = _require(file, meta, "name")
     if not isinstance(name, str) or not name:
         raise _err(file, "key 'name' must be a non-empty string")
+    if is_triad(meta):  # a hand-moved IMU: no table, segments instead (gyrojax.data.triad)
+        return validate_triad_meta(meta, file)
     site = _require(file, meta, "site")
     lat = _number(file, site, "latitude_deg", "site.")
     if not -90.0 <= lat <= 90.0:
@@ -352,6 +355,7 @@ def validate_meta(meta, file="record.json") -> dict:
 
 
 NUMERIC_COLUMNS = ("time_s", "segment", "temperature_C", "current_mA", "current_x_mA", "current_y_mA")
+TRIAD_COLUMN_PREFIXES = ("gyro_", "acc_")  # triad records (gyrojax.data.triad): gyro_<c>_dps|counts, acc_<c>_g
 
 
 def must_be_numeric(column: str) -> bool:
@@ -360,6 +364,7 @@ def must_be_numeric(column: str) -> bool:
         column in NUMERIC_COLUMNS
         or (column.startswith("angle_") and column.endswith("_deg"))
         or (column.startswith("rate_") and column.endswith("_dps"))
+        or column.startswith(TRIAD_COLUMN_PREFIXES)
     )
 
 
@@ -536,17 +541,10 @@ def validate_columns(meta: dict, columns: dict[str, np.ndarray], file="record.cs
     if "time_s" not in columns:
         hint = _column_hint(columns, "time_s")
         raise _err(file, f"missing required column 'time_s'{hint}; columns are {list(columns)}")
-    t = columns["time_s"]
-    if len(t) > 1:
-        dt = np.diff(t)
-        if np.any(dt <= 0):
-            i = int(np.flatnonzero(dt <= 0)[0])
-            what = "repeats" if dt[i] == 0 else "decreases from"
-            raise _err(
-                file,
-                f"row {i + 3}, column 'time_s': time {what} the previous row's {float(t[i])} (got {float(t[i + 1])}); "
-                "times must be strictly increasing",
-            )
+    if is_triad(meta):
+        _check_times(columns["time_s"], file)
+        return validate_triad_columns(meta, columns, file)
+    _check_times(columns["time_s"], file)
     names = [a["name"] for a in meta["table"]["axes"]]
     for a in names:
         if f"angle_{a}_deg" not in columns:
@@ -567,6 +565,19 @@ def validate_columns(meta: dict, columns: dict[str, np.ndarray], file="record.cs
         if np.any(seg != np.round(seg)):
             i = int(np.flatnonzero(seg != np.round(seg))[0])
             raise _err(file, f"row {i + 2}, column 'segment' holds {float(seg[i])}; segment labels are integers")
+
+
+def _check_times(t, file) -> None:
+    if len(t) > 1:
+        dt = np.diff(t)
+        if np.any(dt <= 0):
+            i = int(np.flatnonzero(dt <= 0)[0])
+            what = "repeats" if dt[i] == 0 else "decreases from"
+            raise _err(
+                file,
+                f"row {i + 3}, column 'time_s': time {what} the previous row's {float(t[i])} (got {float(t[i + 1])}); "
+                "times must be strictly increasing",
+            )
 
 
 def _no_duplicate_keys(json_path):

@@ -36,6 +36,7 @@ from scipy.optimize import least_squares
 
 from gyrojax.data.io import atomic_write_text
 from gyrojax.data.records import Record, interval_key
+from gyrojax.data.triad import TRIAD_KIND
 from gyrojax.errors import ConvergenceWarning, FormatError, ModelError, RecordError
 from gyrojax.inference.lstsq import lstsq
 from gyrojax.noise.whiten import (
@@ -111,6 +112,11 @@ def _check_finite(record: Record) -> None:
             )
 
 
+def _is_triad(records) -> bool:
+    recs = [records] if isinstance(records, Record) else records
+    return isinstance(recs, (list, tuple)) and any(isinstance(r, Record) and r.kind == TRIAD_KIND for r in recs)
+
+
 def instrument_id(record: Record) -> str:
     """Which instrument (and channel) a record measured: its JSON keys ``instrument.id`` and
     ``instrument.channel`` joined as ``id[channel]`` (either may be absent; ``""`` when both are)."""
@@ -165,6 +171,11 @@ class Campaign:
         if not records:
             raise ModelError("no records to fit")
         kinds = {r.kind for r in records}
+        if TRIAD_KIND in kinds:
+            raise ModelError(
+                "imu-triad records have no turntable: they are fitted per channel by fit() "
+                "(gyrojax.inference.triad.fit_triad); diagnose and the turntable tools do not take them"
+            )
         if len(kinds) > 1:
             raise ModelError(f"records of different instrument kinds cannot be fitted together: {sorted(kinds)}")
         check_one_instrument(records)
@@ -862,6 +873,10 @@ def fit(
 
     Raises: :class:`IdentifiabilityError` naming the effects the plan cannot tell apart.
     """
+    if campaign is None and _is_triad(records):  # a hand-moved IMU: per-channel fit (gyrojax.inference.triad)
+        from gyrojax.inference.triad import fit_triad
+
+        return fit_triad(records, terms, allow_aliases=allow_aliases)
     camp = campaign or Campaign.of(records)
     kind = kind or camp.kind
     model = Model.of(terms if terms is not None else DEFAULT_TERMS[kind], kind)
