@@ -159,6 +159,13 @@ def triad_segments(record: Record, earth_rate: bool | None = None) -> tuple[list
             a_rot = a if a is not None else np.tile(n_axis * sign * 0.0, (len(sel), 1))
             span = len(sel) * dt
             sd = float(spec.get("angle_std_deg", 0.0)) * units.SECONDS_PER_HOUR / span  # angle error as a mean rate
+            # the horizontal Earth rate (unknown heading) turns with the body: its mean over the rotation is
+            # |m| Ω_h with m = mean(exp(i φ(t))) over the angle history's shape; uniform heading ⇒ covariance
+            # (Ω_h² |m|² / 2) (I − n nᵀ) (0 for a uniform full turn, up to the static value for a slow start/stop)
+            phase = np.radians(theta_deg) * np.cumsum(shape) / total
+            m2 = float(abs(np.mean(np.exp(1j * phase))) ** 2)
+            nn = np.outer(n_axis, n_axis)
+            extra = sd**2 * nn + 0.5 * horizontal**2 * m2 * (np.eye(3) - nn)
             out.append(
                 Segment(
                     "rotation",
@@ -169,7 +176,7 @@ def triad_segments(record: Record, earth_rate: bool | None = None) -> tuple[list
                     th,
                     temp[sel],
                     len(sel),
-                    sd**2 * np.outer(n_axis, n_axis),
+                    extra,
                     record.name,
                     {"angle_deg": theta_deg, "axis": n_axis.tolist(), "duration_s": span},
                 )
@@ -192,11 +199,15 @@ def long_run_variance(resid: list[np.ndarray], max_lag: int = NW_MAX_LAG) -> np.
     for n in lens:
         bounds.append((i0, i0 + n))
         i0 += n
+    w = 1.0 - np.arange(1, lag + 1) / (lag + 1)
+    # each segment's mean was removed: its lagged products sum low by ≈ q each, so the pooled γ_l are low by
+    # ≈ q / n̄ (n̄: mean segment length) and the window sum by the factor 1 − (1 + 2 Σ w_l)/n̄; divided out
+    n_h = sum(lens) / len(lens)
+    shrink = max(1.0 - (1.0 + 2.0 * float(w.sum())) / n_h, 0.5)
     q = np.zeros(3)
     for c in range(3):
         gam, _ = pooled_autocovariance(r_all[:, c], bounds, lag)
-        w = 1.0 - np.arange(1, lag + 1) / (lag + 1)
-        q[c] = max(gam[0] + 2.0 * float(w @ gam[1:]), gam[0] / 10.0)
+        q[c] = max(gam[0] + 2.0 * float(w @ gam[1:]), gam[0] / 10.0) / shrink
     return q
 
 
@@ -485,8 +496,9 @@ def fit_triad(
     if "latitude unknown" in modes and any(t == "D_I" for t in model.terms):
         notes.append(
             "site latitude unknown: the vertical Earth rate Omega sin(phi) (|.| <= 15.04 deg/h) cannot be told from "
-            "g-sensitivity along each sensing axis, so each D_I[c] includes it; the horizontal Earth rate (unknown "
-            "heading) is marginalised with its largest value, 15.04 deg/h"
+            "g-sensitivity along each sensing axis, so each D_I[c] includes it (G includes Omega sin(phi) S / |a|: "
+            "also M_O, M_S times it in D_O, D_S); the horizontal Earth rate (unknown heading) is marginalised with "
+            "its largest value, 15.04 deg/h"
         )
     if dof > 0 and stats.chi2.sf(chi2, dof) < 0.01:
         notes.append(

@@ -1,0 +1,89 @@
+"""MEMS gyro triad: honest σ of the Ferraris fit (Monte Carlo coverage) and speed beside imucal on the same session.
+
+1. Coverage: simulated Ferraris sessions (:func:`gyrojax.simulation.triad.simulate_ferraris`: six faces of random
+   heading, three hand turns of 360° about x, y, z, 0.2 deg/s white gyro noise at 100 Hz, a random truth of
+   per-channel bias, g-sensitivity, scale-factor error and misalignment of MEMS size) fitted by
+   :func:`gyrojax.inference.triad.fit_triad`; printed: the fraction of the 21 coefficients × draws inside θ̂ ± 2σ̂
+   (0.9545 for an honest σ̂), under three settings: latitude known; latitude unknown (D_I then holds Ω sin φ);
+   hand angle error σ_Θ = 0.5° declared and simulated.
+2. Speed: the vendored imucal session (tests/data/imucal) calibrated by imucal's FerrarisCalibration and by
+   gyrojax (import + fit, warm: the fit compiled once), as a ratio. imucal is an optional dependency (``bench``
+   extra); without it only the gyrojax time is printed.
+
+    python -m benchmarks.bench_triad [--draws 400] [--repeat 20]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from gyrojax.data.importers import import_imucal
+from gyrojax.inference.triad import fit_triad
+from gyrojax.montecarlo.triad import ferraris_coverage
+
+SESSION = Path(__file__).resolve().parent.parent / "tests" / "data" / "imucal" / "annotated_session.csv"
+
+
+def time_gyrojax(repeat: int) -> float:
+    """Median seconds of import + fit of the vendored session (after one warm-up run that compiles)."""
+    times = []
+    for _ in range(repeat + 1):
+        t0 = time.perf_counter()
+        rec = import_imucal(SESSION, rate_hz=204.8, gyro_counts_per_dps=16.4)
+        fit_triad(rec)
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times[1:]))
+
+
+def time_imucal(repeat: int) -> float | None:
+    """Median seconds of reading the session and imucal's FerrarisCalibration.compute, or None without imucal."""
+    try:
+        import pandas as pd
+        from imucal import FerrarisCalibration, ferraris_regions_from_df
+    except ImportError:
+        return None
+    times = []
+    for _ in range(repeat + 1):
+        t0 = time.perf_counter()
+        df = pd.read_csv(SESSION).set_index("part")
+        regions = ferraris_regions_from_df(df)
+        FerrarisCalibration().compute(regions, 204.8, from_acc_unit="a.u.", from_gyr_unit="a.u.")
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times[1:]))
+
+
+def main(argv=None) -> None:
+    p = argparse.ArgumentParser()
+    p.add_argument("--draws", type=int, default=400)
+    p.add_argument("--repeat", type=int, default=20)
+    a = p.parse_args(argv)
+    sd = math.sqrt(0.9545 * 0.0455 / (21 * a.draws))
+    print(f"coverage of theta +- 2 sigma, {a.draws} simulated Ferraris sessions x 21 coefficients (honest: 0.9545)")
+    for label, kw in (
+        ("latitude known", {}),
+        ("latitude unknown", {"latitude_known": False}),
+        ("hand angle error 0.5 deg", {"angle_std_deg": 0.5}),
+    ):
+        t0 = time.perf_counter()
+        h = ferraris_coverage(a.draws, **kw)
+        per = h.mean(axis=0)
+        print(
+            f"  {label:26s} {h.mean():.4f} (independent-draw sd {sd:.4f}); per coefficient {per.min():.3f}–"
+            f"{per.max():.3f}; {time.perf_counter() - t0:.1f} s"
+        )
+    tg = time_gyrojax(a.repeat)
+    ti = time_imucal(a.repeat)
+    print(f"imucal session (9413 samples): gyrojax import+fit {1e3 * tg:.1f} ms (warm)", end="")
+    if ti is None:
+        print("; imucal not installed (pip install imucal, the 'bench' extra)")
+    else:
+        print(f", imucal {1e3 * ti:.1f} ms; ratio gyrojax/imucal {tg / ti:.2f}")
+
+
+if __name__ == "__main__":
+    main()

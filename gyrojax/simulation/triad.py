@@ -1,0 +1,148 @@
+"""Simulated hand calibrations of a MEMS gyro triad: a Ferraris session (six faces, three full turns) as an
+``imu-triad`` record, from a per-channel truth, for Monte Carlo studies of :func:`gyrojax.inference.triad.fit_triad`.
+
+The motion is the physics of a body on a level table (CONVENTIONS §2): each face has the body axis ±e_i up and a
+random heading ψ ~ U(0, 2π); its inertial rate is the Earth rate C_kᵀ Ω and its specific force C_kᵀ (0, 0, g).
+Each rotation turns the body about its vertical axis e_i (face i_p) by Θ = angle + δ, δ ~ N(0, σ_Θ²), with a smooth
+hand profile θ̇ ∝ sin(π t / T) whose samples sum to Θ, the Earth rate seen through the turning attitude. Gyro channels
+indicate the triad model (:func:`gyrojax.physics.triad.triad_output`) plus white noise; accelerometers the true
+specific force plus white noise (they are taken as calibrated).
+"""
+
+from __future__ import annotations
+
+import math
+
+import jax
+import numpy as np
+
+from gyrojax import units
+from gyrojax.data.importers import triad_meta
+from gyrojax.data.records import Record
+from gyrojax.physics import triad as tp
+
+FACES = (("x_p", 0, 1.0), ("x_a", 0, -1.0), ("y_p", 1, 1.0), ("y_a", 1, -1.0), ("z_p", 2, 1.0), ("z_a", 2, -1.0))
+
+
+def _rot(axis: np.ndarray, angle: float) -> np.ndarray:
+    """Rotation matrix R(u, θ) = I + sin θ [u×] + (1 − cos θ)[u×]² (CONVENTIONS §3)."""
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * k @ k
+
+
+def face_attitude(axis: int, sign: float, heading: float) -> np.ndarray:
+    """Body→ENU attitude with body axis ``sign``·e_axis pointing Up, turned by ``heading`` (rad) about Up."""
+    up = np.zeros(3)
+    up[axis] = sign
+    # a rotation taking the body's up-axis to ENU Up (0, 0, 1), then the heading about Up
+    z = np.array([0.0, 0.0, 1.0])
+    v = np.cross(up, z)
+    c = float(up @ z)
+    if np.linalg.norm(v) < 1e-12:
+        base = np.eye(3) if c > 0 else _rot(np.array([1.0, 0.0, 0.0]), math.pi)
+    else:
+        base = _rot(v / np.linalg.norm(v), math.acos(max(-1.0, min(1.0, c))))
+    return _rot(z, heading) @ base
+
+
+_triad_output_jit = jax.jit(tp.triad_output, static_argnums=0)
+
+
+def simulate_ferraris(
+    truth: dict,
+    *,
+    terms=("D_F", "D_I", "D_O", "D_S", "sf_error", "ia_misalignment"),
+    rate_hz: float = 100.0,
+    static_s: float = 5.0,
+    rotation_s: float = 6.0,
+    gap_s: float = 1.0,
+    gyro_noise_dps: float = 0.2,
+    acc_noise_g: float = 0.002,
+    angle_deg: float = 360.0,
+    angle_std_deg: float = 0.0,
+    latitude_deg: float | None = 49.6,
+    gravity_mps2: float = 9.81,
+    fit_latitude: bool = True,
+    seed: int = 0,
+) -> Record:
+    """One simulated Ferraris session (module doc) as an ``imu-triad`` record, gyro columns in deg/s.
+
+    ``truth``: per-channel coefficients ``{"D_F[x]": deg/h, "E_SF[y]": ppm, "M_O[z]": arcsec, …}`` of ``terms``.
+    ``fit_latitude``: write the latitude into the record (else ``null``: unknown to the fit).
+    Samples between segments are transitions (label −1, ``gap_s`` long, not modelled).
+    """
+    rng = np.random.default_rng(seed)
+    model = tp.channel_model(terms)
+    theta = np.array([[truth.get(tp.channel_name(c, ch), 0.0) for c in model.coefficient_names] for ch in tp.CHANNELS])
+    dt = 1.0 / rate_hz
+    lat = math.radians(latitude_deg if latitude_deg is not None else 0.0)
+    omega_l = units.OMEGA_IE_DEG_PER_H * np.array([0.0, math.cos(lat), math.sin(lat)])  # deg/h in ENU
+    f_l = np.array([0.0, 0.0, gravity_mps2 / units.G0])  # g
+    ws, fs, labels, segs = [], [], [], []
+
+    def add(w, f, label):
+        ws.append(w)
+        fs.append(f)
+        labels.append(np.full(len(w), label))
+
+    n_static, n_rot, n_gap = (
+        int(round(static_s * rate_hz)),
+        int(round(rotation_s * rate_hz)),
+        int(round(gap_s * rate_hz)),
+    )
+    label = 0
+    for name, axis, sign in FACES:
+        c = face_attitude(axis, sign, rng.uniform(0, 2 * math.pi))
+        add(np.tile(c.T @ omega_l, (n_static, 1)), np.tile(c.T @ f_l, (n_static, 1)), label)
+        segs.append({"label": label, "type": "static", "name": name})
+        add(np.tile(c.T @ omega_l, (n_gap, 1)), np.tile(c.T @ f_l, (n_gap, 1)), -1)
+        label += 1
+    for axis, ch in enumerate(tp.CHANNELS):
+        c0 = face_attitude(axis, 1.0, rng.uniform(0, 2 * math.pi))
+        e = np.zeros(3)
+        e[axis] = 1.0
+        total = math.radians(angle_deg + angle_std_deg * rng.standard_normal())
+        t = (np.arange(n_rot) + 0.5) * dt
+        rate = np.sin(math.pi * t / rotation_s)  # the profile's shape; scaled so the samples sum to Θ exactly
+        rate *= total / (rate.sum() * dt)  # rad/s about body e
+        ang = np.cumsum(rate) * dt - 0.5 * rate * dt
+        w = np.empty((n_rot, 3))
+        f = np.empty((n_rot, 3))
+        for k in range(n_rot):
+            ck = c0 @ _rot(e, ang[k])
+            w[k] = ck.T @ omega_l + e * rate[k] / units.DEG_PER_H
+            f[k] = ck.T @ f_l
+        add(w, f, label)
+        segs.append(
+            {
+                "label": label,
+                "type": "rotation",
+                "name": f"{ch}_rot",
+                "axis": ch,
+                "angle_deg": angle_deg,
+                "angle_std_deg": angle_std_deg,
+            }
+        )
+        add(np.tile(c0.T @ omega_l, (n_gap, 1)), np.tile(c0.T @ f_l, (n_gap, 1)), -1)
+        label += 1
+    w = np.concatenate(ws)
+    f = np.concatenate(fs)
+    lab = np.concatenate(labels).astype(float)
+    n = len(w)
+    time_s = np.arange(n) * dt
+    ind = np.asarray(_triad_output_jit(model, theta, w, f, time_s / 3600.0, np.full(n, 20.0)))
+    gyro_dps = ind / units.SECONDS_PER_HOUR + gyro_noise_dps * rng.standard_normal((n, 3))
+    acc = f + acc_noise_g * rng.standard_normal((n, 3))
+    cols = {"time_s": time_s, "segment": lab}
+    for j, ch in enumerate(tp.CHANNELS):
+        cols[f"gyro_{ch}_dps"] = gyro_dps[:, j]
+    for j, ch in enumerate(tp.CHANNELS):
+        cols[f"acc_{ch}_g"] = acc[:, j]
+    meta = triad_meta(
+        f"ferraris-sim-{seed}",
+        segs,
+        latitude_deg=latitude_deg if fit_latitude else None,
+        gravity_mps2=gravity_mps2,
+        notes="simulated Ferraris session (gyrojax.simulation.triad)",
+    )
+    return Record(meta, cols)
