@@ -438,7 +438,8 @@ def cmd_import(args) -> int:
         rec = importers.import_imutk(
             args.inputs[0],
             args.inputs[1],
-            gyro_unit=args.gyro_unit if args.gyro_unit != "counts" else "rad/s",
+            gyro_unit=args.gyro_unit,
+            gyro_counts_per_dps=args.gyro_scale,
             latitude_deg=args.latitude,
             gravity_mps2=args.gravity,
             name=args.name,

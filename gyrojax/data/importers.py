@@ -222,3 +222,208 @@ def import_imucal(
     validate_triad_meta(meta, f"{meta['name']}.json")
     validate_triad_columns(meta, cols, f"{meta['name']}.csv")
     return Record(meta, {k: np.asarray(v, dtype=float) for k, v in cols.items()})
+
+
+def read_imutk_ascii(path) -> np.ndarray:
+    """imu_tk's ASCII format: one sample per line, ``time x y z`` separated by blanks (its ``.mat`` text files;
+    gzip-compressed files are read too). Returns (n, 4) floats; :class:`RecordError` naming the line otherwise."""
+    p = Path(path)
+    try:
+        data = np.loadtxt(p, ndmin=2)
+    except (OSError, ValueError) as e:
+        raise RecordError(f"{p}: not an imu_tk ASCII file (time x y z per line): {e}") from None
+    if data.shape[1] != 4 or len(data) < 2:
+        raise RecordError(f"{p}: expected 4 columns (time x y z) and at least 2 lines, got shape {data.shape}")
+    bad = np.flatnonzero(np.diff(data[:, 0]) <= 0)
+    if bad.size:
+        raise RecordError(f"{p}: line {bad[0] + 2}: time does not increase ({data[bad[0] + 1, 0]!r})")
+    return data
+
+
+def import_imutk(
+    acc_path,
+    gyro_path,
+    *,
+    gyro_unit: str = "counts",
+    gyro_counts_per_dps: float | None = None,
+    acc_g_per_count: float | None = None,
+    acc_bias0=None,
+    latitude_deg: float | None = None,
+    gravity_mps2: float = 9.81,
+    init_s: float = 50.0,
+    detector_k: float = 6.0,
+    name: str | None = None,
+    instrument_id: str | None = None,
+) -> Record:
+    """An imu_tk multi-position recording (accelerometer and gyroscope files) as one ``imu-triad`` record.
+
+    Static poses come from :func:`gyrojax.data.segments.static_intervals` (accelerometer and gyro variance against
+    the first ``init_s`` seconds of rest); each pair of consecutive poses gets a ``move`` segment (the samples
+    between them: a gravity-to-gravity move, its rotation known through the accelerometer directions before and
+    after). The accelerometer is calibrated by imu_tk's 9-parameter model fitted to |a| = g over the poses
+    (:func:`gyrojax.data.segments.ellipsoid_accelerometer`), started from ``acc_g_per_count`` and ``acc_bias0``
+    (default: the 16-bit mid-scale 32768 and |mean of the initial rest| = 1 g).
+
+    Args: gyro_unit ``"counts"`` (with ``gyro_counts_per_dps``), ``"dps"`` or ``"rad/s"``; latitude_deg (None:
+    unknown); gravity_mps2 (local gravity, m/s²).
+    """
+    acc = read_imutk_ascii(acc_path)
+    gyr = read_imutk_ascii(gyro_path)
+    if len(acc) != len(gyr) or not np.allclose(acc[:, 0], gyr[:, 0], atol=1e-6):
+        raise RecordError(f"{gyro_path}: its timestamps differ from {acc_path}'s; resample one onto the other first")
+    return triad_from_arrays(
+        acc[:, 0] - acc[0, 0],
+        acc[:, 1:],
+        gyr[:, 1:],
+        acc_unit="counts",
+        gyro_unit=gyro_unit,
+        gyro_counts_per_dps=gyro_counts_per_dps,
+        acc_g_per_count=acc_g_per_count,
+        acc_bias0=acc_bias0,
+        latitude_deg=latitude_deg,
+        gravity_mps2=gravity_mps2,
+        init_s=init_s,
+        detector_k=detector_k,
+        name=name or Path(acc_path).name.split(".")[0],
+        instrument_id=instrument_id,
+        source=f"imu_tk files {acc_path}, {gyro_path}",
+    )
+
+
+def triad_from_arrays(
+    t,
+    acc,
+    gyr,
+    *,
+    acc_unit: str = "g",
+    gyro_unit: str = "dps",
+    gyro_counts_per_dps: float | None = None,
+    acc_g_per_count: float | None = None,
+    acc_bias0=None,
+    latitude_deg: float | None = None,
+    gravity_mps2: float = 9.81,
+    init_s: float = 50.0,
+    detector_k: float = 6.0,
+    name: str = "imu",
+    instrument_id: str | None = None,
+    source: str = "arrays",
+) -> Record:
+    """A multi-position recording (times s, accelerometer (n, 3), gyro (n, 3)) as an ``imu-triad`` record: static
+    poses detected, a gravity-to-gravity move between each pair of consecutive poses; an accelerometer in counts is
+    calibrated by imu_tk's 9-parameter ellipsoid model (see :func:`import_imutk`)."""
+    from gyrojax.data.segments import ellipsoid_accelerometer, imutk_acc_model, static_intervals
+
+    t = np.asarray(t, dtype=float)
+    acc = np.asarray(acc, dtype=float)
+    gyr = np.asarray(gyr, dtype=float)
+    rate_hz = (len(t) - 1) / (t[-1] - t[0])
+    iv = static_intervals(acc, rate_hz, gyro=gyr, init_s=init_s, k=detector_k)
+    if len(iv) < 9:
+        raise RecordError(f"{source}: found {len(iv)} static poses; the calibration needs at least 9")
+    g_units = gravity_mps2 / units.G0
+    extra = {}
+    if acc_unit == "counts":
+        means = np.array([acc[s:e].mean(axis=0) for s, e in iv])
+        bias0 = np.full(3, 32768.0) if acc_bias0 is None else np.asarray(acc_bias0, dtype=float)
+        scale0 = acc_g_per_count or g_units / float(np.linalg.norm(means[0] - bias0))
+        params = ellipsoid_accelerometer(means, g_units, scale0, bias0)
+        acc_cal = imutk_acc_model(params, acc)
+        extra["accelerometer_calibration"] = {
+            "model": "imu_tk: a = T K (raw - b) in g; params alpha_yz, alpha_zy, alpha_zx, s_x..s_z, b_x..b_z",
+            "params": params.tolist(),
+        }
+    elif acc_unit in ("g", "m/s^2"):
+        acc_cal = acc if acc_unit == "g" else acc / units.G0
+    else:
+        raise RecordError(f"acc_unit must be 'g', 'm/s^2' or 'counts', got {acc_unit!r}")
+    labels = np.full(len(t), -1.0)
+    segs = []
+    for i, (s, e) in enumerate(iv):
+        labels[s:e] = 2 * i
+        segs.append({"label": 2 * i, "type": "static", "name": f"pose-{i}"})
+        if i + 1 < len(iv):
+            s2 = iv[i + 1][0]
+            labels[e:s2] = 2 * i + 1
+            segs.append(
+                {"label": 2 * i + 1, "type": "move", "name": f"move-{i}-{i + 1}", "from": 2 * i, "to": 2 * i + 2}
+            )
+    cols = {"time_s": t, "segment": labels}
+    if gyro_unit == "counts":
+        if gyro_counts_per_dps is None:
+            raise RecordError(f"{source}: gyro values are raw counts: give the nominal scale (counts per deg/s)")
+        for j, c in enumerate(CHANNELS):
+            cols[f"gyro_{c}_counts"] = gyr[:, j]
+    elif gyro_unit in ("dps", "rad/s"):
+        f = 1.0 if gyro_unit == "dps" else 1.0 / units.DEG
+        for j, c in enumerate(CHANNELS):
+            cols[f"gyro_{c}_dps"] = gyr[:, j] * f
+        gyro_counts_per_dps = None
+    else:
+        raise RecordError(f"gyro_unit must be 'counts', 'dps' or 'rad/s', got {gyro_unit!r}")
+    for j, c in enumerate(CHANNELS):
+        cols[f"acc_{c}_g"] = acc_cal[:, j]
+    meta = triad_meta(
+        name,
+        segs,
+        latitude_deg=latitude_deg,
+        gravity_mps2=gravity_mps2,
+        counts_per_dps=gyro_counts_per_dps,
+        instrument_id=instrument_id,
+        notes=f"imported from {source} ({len(iv)} static poses, {rate_hz:.6g} Hz)",
+        extra=extra,
+    )
+    validate_triad_meta(meta, f"{meta['name']}.json")
+    validate_triad_columns(meta, cols, f"{meta['name']}.csv")
+    return Record(meta, {k: np.asarray(v, dtype=float) for k, v in cols.items()})
+
+
+CSV_KEYS = ("time_s", "gyro_x", "gyro_y", "gyro_z", "acc_x", "acc_y", "acc_z")
+
+
+def import_csv(
+    path,
+    mapping: dict,
+    *,
+    gyro_unit: str = "dps",
+    acc_unit: str = "g",
+    rate_hz: float | None = None,
+    name: str | None = None,
+    **kw,
+) -> Record:
+    """Any CSV of a multi-position recording, with a column mapping ``{"gyro_x": "gx", …, "acc_z": "az",
+    "time_s": "t"}`` (``time_s`` may be omitted when ``rate_hz`` is given): static poses detected and moves between
+    them, as :func:`triad_from_arrays` (other keyword arguments go there)."""
+    import pandas as pd
+
+    unknown = sorted(set(mapping) - set(CSV_KEYS))
+    if unknown:
+        raise RecordError(f"column mapping: unknown keys {unknown}; valid: {', '.join(CSV_KEYS)}")
+    need = [k for k in CSV_KEYS[1:] if k not in mapping]
+    if need:
+        raise RecordError(f"column mapping: {need} missing (map every gyro_<c> and acc_<c> to a column)")
+    df = pd.read_csv(path)
+    miss = [v for v in mapping.values() if v not in df.columns]
+    if miss:
+        raise RecordError(f"{path}: columns {miss} (from the mapping) are not in the file; it has {list(df.columns)}")
+    if "time_s" in mapping:
+        t = df[mapping["time_s"]].to_numpy(dtype=float)
+    elif rate_hz:
+        t = np.arange(len(df)) / float(rate_hz)
+    else:
+        raise RecordError(f"{path}: map a time column (time_s=COL) or give the sample rate (--rate-hz)")
+    acc = df[[mapping[f"acc_{c}"] for c in CHANNELS]].to_numpy(dtype=float)
+    gyr = df[[mapping[f"gyro_{c}"] for c in CHANNELS]].to_numpy(dtype=float)
+    for arr, what in ((t[:, None], "time"), (acc, "acc"), (gyr, "gyro")):
+        bad = ~np.isfinite(arr)
+        if bad.any():
+            raise RecordError(f"{path}: row {int(np.argwhere(bad)[0][0]) + 2}: a {what} value is not a finite number")
+    return triad_from_arrays(
+        t - t[0],
+        acc,
+        gyr,
+        gyro_unit=gyro_unit,
+        acc_unit=acc_unit,
+        name=name or Path(path).stem,
+        source=str(path),
+        **kw,
+    )

@@ -80,6 +80,21 @@ class Segment:
     info: dict = field(default_factory=dict)
 
 
+@dataclass
+class Move:
+    """A gravity-to-gravity move (imu_tk): gyro samples ``g`` (n, 3) deg/h and specific force ``a`` (n, 3) g between
+    two static poses whose Up directions in the body frame are ``u_from`` and ``u_to`` (unit vectors, from the
+    accelerometer); ``dt`` s; ``var_dir`` the variance (rad², per axis) of the two directions' noise."""
+
+    name: str
+    g: np.ndarray
+    a: np.ndarray
+    dt: float
+    u_from: np.ndarray
+    u_to: np.ndarray
+    var_dir: float
+
+
 def _earth(record: Record, earth_rate: bool | None):
     """(vertical rate Ω sin φ in deg/h or None when unknown/off, horizontal magnitude bound in deg/h, mode text)."""
     on = record.meta.get("earth_rate", True) if earth_rate is None else earth_rate
@@ -93,9 +108,9 @@ def _earth(record: Record, earth_rate: bool | None):
     return omega * math.sin(phi), omega * math.cos(phi), f"latitude {float(lat):g} deg"
 
 
-def triad_segments(record: Record, earth_rate: bool | None = None) -> tuple[list[Segment], list[np.ndarray], str]:
+def triad_segments(record: Record, earth_rate: bool | None = None):
     """The static and rotation segments of one triad record as :class:`Segment` s, the per-segment static residual
-    series (deg/h, (n, 3), for the noise estimate), and the Earth-rate mode (module doc)."""
+    series (deg/h, (n, 3), for the noise estimate), the Earth-rate mode (module doc) and the :class:`Move` s."""
     gyro = gyro_dph(record)
     acc = acc_g(record)
     t = np.asarray(record.time_s, dtype=float)
@@ -104,10 +119,11 @@ def triad_segments(record: Record, earth_rate: bool | None = None) -> tuple[list
     seg = np.asarray(record.columns["segment"]).astype(int)
     vertical, horizontal, mode = _earth(record, earth_rate)
     g_site = float(record.meta["site"]["gravity_mps2"]) / units.G0
-    out, resid = [], []
+    out, resid, moves = [], [], []
     for spec in record.meta["segments"]:
         sel = np.flatnonzero(seg == spec["label"])
         if spec["type"] == "move":
+            moves.append(_move(record, spec, gyro, acc, t, seg))
             continue
         if len(sel) < 2:
             raise ModelError(f"{record.name}: segment {spec['label']} has {len(sel)} sample(s); at least 2 are needed")
@@ -181,7 +197,77 @@ def triad_segments(record: Record, earth_rate: bool | None = None) -> tuple[list
                     {"angle_deg": theta_deg, "axis": n_axis.tolist(), "duration_s": span},
                 )
             )
-    return out, resid, mode
+    return out, resid, mode, moves
+
+
+def _move(record: Record, spec: dict, gyro, acc, t, seg) -> Move:
+    """The :class:`Move` of a ``move`` segment (module doc of :mod:`gyrojax.data.triad`)."""
+    if acc is None:
+        raise ModelError(f"{record.name}: move segment {spec['label']} needs the accelerometer (acc_<c>_g columns)")
+
+    def pose(label):
+        a = acc[seg == label]
+        m = a.mean(axis=0)
+        return m / np.linalg.norm(m), float(a.var(axis=0).mean()) / len(a) / float(m @ m)
+
+    sel = np.flatnonzero(seg == spec["label"])
+    if len(sel) < 2:
+        raise ModelError(f"{record.name}: move segment {spec['label']} has {len(sel)} sample(s)")
+    u0, v0 = pose(spec["from"])
+    u1, v1 = pose(spec["to"])
+    # the samples of the move plus the boundary samples, so that the integration spans the whole motion
+    lo, hi = max(sel[0] - 1, 0), min(sel[-1] + 2, len(t))
+    dt = (t[hi - 1] - t[lo]) / max(hi - lo - 1, 1)
+    return Move(spec.get("name", f"move-{spec['label']}"), gyro[lo:hi], acc[lo:hi], float(dt), u0, u1, v0 + v1)
+
+
+def linear_matrices(model, theta):
+    """b (3,) deg/h, S (3, 3) and G (3, 3) deg/h/g of a linear channel model at θ (3p,), from the channel model
+    itself (unit inputs through :func:`gyrojax.physics.triad.triad_output`), differentiable in θ."""
+    th = theta.reshape(3, model.size)
+    zero = jnp.zeros((3, 3))
+    eye = jnp.eye(3)
+    t, temp = jnp.zeros(3), jnp.full(3, 20.0)
+    b = tp.triad_output(model, th, zero, zero, t, temp)[0]
+    s = (tp.triad_output(model, th, eye, zero, t, temp) - b).T
+    g = (tp.triad_output(model, th, zero, eye, t, temp) - b).T
+    return b, s, g
+
+
+def _expm_so3(v):
+    """exp([v×]) by Rodrigues' formula, safe at v = 0 (v in rad)."""
+    th2 = v @ v
+    th = jnp.sqrt(jnp.where(th2 > 0, th2, 1.0))
+    small = th2 < 1e-16
+    a = jnp.where(small, 1.0 - th2 / 6.0, jnp.sin(th) / th)
+    b = jnp.where(small, 0.5 - th2 / 24.0, (1.0 - jnp.cos(th)) / jnp.where(th2 > 0, th2, 1.0))
+    k = jnp.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    return jnp.eye(3) + a * k + b * (k @ k)
+
+
+def move_residual(model, theta, g, a, mask, dt, u_from, u_to):
+    """Residual u_to − Rᵀ u_from of a gravity-to-gravity move: R is the body's rotation over the move, integrated
+    from the calibrated rates ω = S⁻¹ (ω_ind − b − G a) (sample by sample, exact exponential of each step's mean
+    rate); Up stays fixed in space, so the predicted Up at the end is Rᵀ u_from (imu_tk, Tedaldi et al. §IV-C).
+    ``mask`` (n−1,) is 1 for the steps of the move and 0 for padding (moves are padded to one length, one compile)."""
+    b, s, gm = linear_matrices(model, theta)
+    w = jnp.linalg.solve(s, (g - b - a @ gm.T).T).T * units.DEG_PER_H  # rad/s
+    steps = 0.5 * (w[1:] + w[:-1]) * dt * mask[:, None]
+
+    def step(r, v):
+        return r @ _expm_so3(v), None
+
+    r, _ = jax.lax.scan(step, jnp.eye(3), steps)
+    return u_to - r.T @ u_from
+
+
+def _moves_residual(model, theta, g, a, mask, dt, u_from, u_to):
+    return jax.vmap(move_residual, in_axes=(None, None, 0, 0, 0, 0, 0, 0))(model, theta, g, a, mask, dt, u_from, u_to)
+
+
+moves_residual_jit = jax.jit(_moves_residual, static_argnums=0)
+moves_jacobian_jit = jax.jit(jax.jacfwd(_moves_residual, argnums=1), static_argnums=0)
+LINEAR_TERMS = ("D_F", "D_I", "D_O", "D_S", "sf_error", "ia_misalignment")
 
 
 def long_run_variance(resid: list[np.ndarray], max_lag: int = NW_MAX_LAG) -> np.ndarray:
@@ -430,18 +516,24 @@ def fit_triad(
     if not is_triad_input(recs):
         raise ModelError("fit_triad takes imu-triad records only")
     check_one_instrument(recs)
-    segments, resid, modes = [], [], set()
+    segments, resid, modes, moves = [], [], set(), []
     for r in recs:
-        s, q, mode = triad_segments(r, earth_rate)
+        s, q, mode, mv = triad_segments(r, earth_rate)
         segments.extend(s)
         resid.extend(q)
         modes.add(mode)
+        moves.extend(mv)
     if not segments:
         raise ModelError("the records hold no static or rotation segment to fit")
-    has_rot = any(s.kind == "rotation" for s in segments)
+    has_rot = any(s.kind == "rotation" for s in segments) or bool(moves)
     if terms is None:
         terms = DEFAULT_ROTATION_TERMS if has_rot else DEFAULT_STATIC_TERMS
     model = tp.channel_model(terms)
+    if moves and any(t not in LINEAR_TERMS for t in model.terms):
+        raise ModelError(
+            f"gravity-to-gravity moves integrate the calibrated rate of the linear model ({', '.join(LINEAR_TERMS)}); "
+            f"drop {[t for t in model.terms if t not in LINEAR_TERMS]}"
+        )
     names = [tp.channel_name(c, ch) for ch in tp.CHANNELS for c in model.coefficient_names]
     q = long_run_variance(resid) if noise_q is None else np.asarray(noise_q, dtype=float)
 
@@ -458,6 +550,24 @@ def fit_triad(
         sl = slice(3 * i, 3 * i + 3)
         rw[sl] = np.linalg.solve(low, y[sl] - base[sl])
         jw[sl] = np.linalg.solve(low, jac[sl])
+    lin_r, lin_j = rw, jw
+    theta = np.zeros(3 * model.size)
+    move_w = _move_whitening(moves, q)
+    packed = pack_moves(moves) if moves else None
+    if moves:  # Gauss–Newton on the linear rows and the moves' direction residuals (2 whitened rows per move)
+        theta = _svd_step(lin_j, lin_r)  # statics (+ rotations): bias and g-terms; scale factor nominal
+        for _ in range(30):
+            mr, mj = _move_rows(model, theta, packed, move_w)
+            rw = np.concatenate([lin_r - lin_j @ theta, mr])
+            jw = np.concatenate([lin_j, mj])
+            step = _svd_step(jw, rw)
+            theta = theta + step
+            # converged when no coefficient moves by more than 1e-6 of its own standard error (whitened columns)
+            if np.max(np.abs(step) * np.sqrt((jw * jw).sum(axis=0))) < 1e-6:
+                break
+        mr, mj = _move_rows(model, theta, packed, move_w)
+        rw = np.concatenate([lin_r - lin_j @ theta, mr])
+        jw = np.concatenate([lin_j, mj])
     residue = residue_columns(jw)
     not_excited = [names[i] for i in np.flatnonzero(residue)]
     jw = np.where(residue, 0.0, jw)
@@ -480,17 +590,25 @@ def fit_triad(
             {"aliases": groups, "unexcited": not_excited},
         )
     sinv = np.where(keep, 1.0 / np.where(keep, sv, 1.0), 0.0)
-    theta = (vt.T * sinv) @ (u.T @ rw) / np.where(norms > 0, norms, 1.0)
+    theta = theta + (vt.T * sinv) @ (u.T @ rw) / np.where(norms > 0, norms, 1.0)
     cov = ((vt.T * sinv**2) @ vt) / np.outer(np.where(norms > 0, norms, 1.0), np.where(norms > 0, norms, 1.0))
+    if moves:
+        mr, _ = _move_rows(model, theta, packed, move_w)
+        rw = np.concatenate([lin_r - lin_j @ theta, mr])
+        jw_full = np.concatenate([lin_j, np.zeros((len(mr), lin_j.shape[1]))])
+        e_all = rw
+    else:
+        jw_full = None
     bad = residue.copy()
     if not keep.all():
         bad |= np.abs(vt[~keep]).max(axis=0) > 0.05
     cov[bad, :] = np.nan
     cov[:, bad] = np.nan
-    e = rw - jw @ theta
-    dof = int(len(y) - keep.sum())
+    e = e_all if moves else rw - jw @ theta
+    dof = int(len(rw) - keep.sum())
     chi2 = float(e @ e)
     raw_res = y - base - jac @ np.where(bad, 0.0, theta)
+    del jw_full
     mode = " / ".join(sorted(modes))
     notes = []
     if "latitude unknown" in modes and any(t == "D_I" for t in model.terms):
@@ -524,6 +642,63 @@ def fit_triad(
         counts_per_dps=k or None,
         notes=notes,
     )
+
+
+def _svd_step(jw, rw):
+    """Minimum-norm least-squares step in normalised columns (a rank cut at :data:`ALIAS_TOL`)."""
+    norms = np.sqrt((jw * jw).sum(axis=0))
+    sc = np.where(norms > 0, norms, 1.0)
+    u, sv, vt = np.linalg.svd(jw / sc, full_matrices=False)
+    keep = sv >= ALIAS_TOL * sv[0]
+    sinv = np.where(keep, 1.0 / np.where(keep, sv, 1.0), 0.0)
+    return (vt.T * sinv) @ (u.T @ rw) / sc
+
+
+def _move_whitening(moves, q) -> list:
+    """Per move: (P (3, 2) basis ⟂ u_to, σ (rad) of each of the two residual components). The variance is the
+    gyro noise integrated over the move (mean long-run variance of the channels × n dt²), the noise of the two Up
+    directions, and the Earth rate turning the body unseen ((Ω T)²/3, heading and latitude unknown)."""
+    out = []
+    q_mean = float(np.mean(q))
+    for m in moves:
+        n = len(m.g)
+        angle_var = q_mean * n * m.dt**2 * units.DEG_PER_H**2
+        earth = (units.OMEGA_IE * n * m.dt) ** 2 / 3.0
+        var = angle_var + earth + m.var_dir
+        u = m.u_to
+        a = np.eye(3)[int(np.argmin(np.abs(u)))]
+        e1 = np.cross(u, a)
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(u, e1)
+        out.append((np.column_stack([e1, e2]), float(np.sqrt(var))))
+    return out
+
+
+def pack_moves(moves) -> tuple:
+    """The moves padded to one length: (g (M, L, 3), a (M, L, 3), mask (M, L−1), dt (M,), u_from (M, 3), u_to)."""
+    length = max(len(m.g) for m in moves)
+    g = np.zeros((len(moves), length, 3))
+    a = np.zeros((len(moves), length, 3))
+    mask = np.zeros((len(moves), length - 1))
+    for i, m in enumerate(moves):
+        n = len(m.g)
+        g[i, :n], a[i, :n] = m.g, m.a
+        g[i, n:], a[i, n:] = m.g[-1], m.a[-1]
+        mask[i, : n - 1] = 1.0
+    dt = np.array([m.dt for m in moves])
+    u0 = np.array([m.u_from for m in moves])
+    u1 = np.array([m.u_to for m in moves])
+    return tuple(jnp.asarray(x) for x in (g, a, mask, dt, u0, u1))
+
+
+def _move_rows(model, theta, packed, whitening):
+    """Whitened residual rows (2 per move) and their Jacobian (2 per move, 3p columns) at θ."""
+    th = jnp.asarray(theta)
+    r = np.asarray(moves_residual_jit(model, th, *packed))
+    j = -np.asarray(moves_jacobian_jit(model, th, *packed))  # rows of "y − f": the Jacobian of f is −∂r/∂θ
+    rows = [p.T @ r[i] / sd for i, (p, sd) in enumerate(whitening)]
+    jacs = [p.T @ j[i] / sd for i, (p, sd) in enumerate(whitening)]
+    return np.concatenate(rows), np.concatenate(jacs)
 
 
 def load_triad_fit(path) -> TriadFit:
