@@ -111,3 +111,16 @@ def test_import_refuses_counts_without_a_scale_and_unknown_sections(tmp_path, ca
     bad.write_text(text)
     assert main(["import", "imucal", str(bad), "--gyro-scale", "16.4", "--out", str(tmp_path / "o")]) == 2
     assert "unknown section names ['x_spin']" in capsys.readouterr().err
+
+
+def test_import_bad_files_exit_2(tmp_path, capsys):
+    garbage = tmp_path / "garbage.csv"
+    garbage.write_bytes(b"\x89PNG\r\n\x1a\n\x00\xff\xfe" * 10)
+    nan = tmp_path / "nan.csv"
+    lines = (IMUCAL / "annotated_session.csv").read_text().splitlines()
+    lines[5] = lines[5].rsplit(",", 1)[0] + ",nan"
+    nan.write_text("\n".join(lines) + "\n")
+    for path, words in ((garbage, "not a readable"), (nan, "row 6")):
+        rc = main(["import", "imucal", str(path), "--gyro-scale", "16.4", "--out", str(tmp_path / "o")])
+        err = capsys.readouterr().err
+        assert rc == 2 and words in err and err.count("\n") == 1, err

@@ -4,7 +4,6 @@ gravity-to-gravity moves between poses to find scale factor and misalignment as 
 independently: the calibrated rates (``apply``), integrated with scipy's rotations, carry each pose's measured
 gravity direction onto the next pose's, far better than the nominal scale does."""
 
-
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation

@@ -58,6 +58,16 @@ def ferraris_accelerometer(means: dict, g: float = 1.0) -> tuple[np.ndarray, np.
     return sol[:3].T, sol[3]
 
 
+def read_table(path):
+    """A CSV file as a pandas DataFrame; :class:`RecordError` naming the file when it is not a readable CSV."""
+    import pandas as pd
+
+    try:
+        return pd.read_csv(path)
+    except (UnicodeDecodeError, ValueError, pd.errors.ParserError, pd.errors.EmptyDataError) as e:
+        raise RecordError(f"{path}: not a readable comma-separated table ({str(e).strip()[:120]})") from None
+
+
 def triad_meta(
     name: str,
     segments: list,
@@ -132,13 +142,19 @@ def import_imucal(
     import pandas as pd
 
     where = str(session) if not isinstance(session, pd.DataFrame) else "session"
-    df = session if isinstance(session, pd.DataFrame) else pd.read_csv(session)
+    df = session if isinstance(session, pd.DataFrame) else read_table(session)
     acc_cols, gyr_cols = [f"acc_{c}" for c in CHANNELS], [f"gyr_{c}" for c in CHANNELS]
     miss = [c for c in acc_cols + gyr_cols if c not in df.columns]
     if miss:
         raise RecordError(f"{where}: missing columns {miss}; imucal sessions have acc_x…acc_z, gyr_x…gyr_z")
     if not rate_hz or not rate_hz > 0:
         raise RecordError(f"{where}: the sample rate (rate_hz) must be positive, got {rate_hz!r}")
+    for cols in (acc_cols, gyr_cols):  # in file order, so the row named is the file's
+        arr = df[cols].apply(pd.to_numeric, errors="coerce").to_numpy(dtype=float)
+        bad = ~np.isfinite(arr)
+        if bad.any():
+            i, j = np.argwhere(bad)[0]
+            raise RecordError(f"{where}: row {i + 2}, column {cols[j]!r} is not a finite number")
     if "samples" in df.columns:
         df = df.sort_values("samples", kind="stable").reset_index(drop=True)
         samples = df["samples"].to_numpy(dtype=float)
@@ -160,11 +176,6 @@ def import_imucal(
         raise RecordError(f"{where}: unknown section names {unknown}; imucal's are {known}")
     acc = df[acc_cols].to_numpy(dtype=float)
     gyr = df[gyr_cols].to_numpy(dtype=float)
-    for arr, cols in ((acc, acc_cols), (gyr, gyr_cols)):
-        bad = ~np.isfinite(arr)
-        if bad.any():
-            i, j = np.argwhere(bad)[0]
-            raise RecordError(f"{where}: row {i + 2}, column {cols[j]!r} is not a finite number")
     g_units = gravity_mps2 / units.G0
     means = {f: acc[part == f].mean(axis=0) for f in FERRARIS_FACES if np.any(part == f)}
     a_mat, b_vec = ferraris_accelerometer(means, g_units)
@@ -225,7 +236,7 @@ def import_imucal(
 
 
 def read_imutk_ascii(path) -> np.ndarray:
-    """imu_tk's ASCII format: one sample per line, ``time x y z`` separated by blanks (its ``.mat`` text files;
+    """imu_tk's ASCII format: one sample per line, ``time x y z`` (time in s, values in raw units) separated by blanks (its ``.mat`` text files;
     gzip-compressed files are read too). Returns (n, 4) floats; :class:`RecordError` naming the line otherwise."""
     p = Path(path)
     try:
@@ -401,7 +412,7 @@ def import_csv(
     need = [k for k in CSV_KEYS[1:] if k not in mapping]
     if need:
         raise RecordError(f"column mapping: {need} missing (map every gyro_<c> and acc_<c> to a column)")
-    df = pd.read_csv(path)
+    df = read_table(path)
     miss = [v for v in mapping.values() if v not in df.columns]
     if miss:
         raise RecordError(f"{path}: columns {miss} (from the mapping) are not in the file; it has {list(df.columns)}")

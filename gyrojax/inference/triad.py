@@ -249,6 +249,7 @@ def move_residual(model, theta, g, a, mask, dt, u_from, u_to):
     """Residual u_to − Rᵀ u_from of a gravity-to-gravity move: R is the body's rotation over the move, integrated
     from the calibrated rates ω = S⁻¹ (ω_ind − b − G a) (sample by sample, exact exponential of each step's mean
     rate); Up stays fixed in space, so the predicted Up at the end is Rᵀ u_from (imu_tk, Tedaldi et al. §IV-C).
+    ``g`` (n, 3) deg/h, ``a`` (n, 3) g, ``dt`` s, unit vectors ``u_from``/``u_to``; the residual is dimensionless.
     ``mask`` (n−1,) is 1 for the steps of the move and 0 for padding (moves are padded to one length, one compile)."""
     b, s, gm = linear_matrices(model, theta)
     w = jnp.linalg.solve(s, (g - b - a @ gm.T).T).T * units.DEG_PER_H  # rad/s
@@ -262,6 +263,8 @@ def move_residual(model, theta, g, a, mask, dt, u_from, u_to):
 
 
 def _moves_residual(model, theta, g, a, mask, dt, u_from, u_to):
+    """:func:`move_residual` of every move at once (arrays of :func:`pack_moves`: gyro deg/h, specific force g,
+    dt s, Up directions unit vectors); (M, 3), dimensionless."""
     return jax.vmap(move_residual, in_axes=(None, None, 0, 0, 0, 0, 0, 0))(model, theta, g, a, mask, dt, u_from, u_to)
 
 

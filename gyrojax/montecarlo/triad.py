@@ -41,7 +41,10 @@ def mems_truth(seed: int = 42) -> dict:
 
 
 def ferraris_coverage(draws: int, latitude_known: bool = True, angle_std_deg: float = 0.0, truth=None) -> np.ndarray:
-    """Inside-±2σ indicator, shape (draws, 21), of simulated Ferraris sessions fitted by the triad fit."""
+    """Inside-±2σ indicator, shape (draws, 21), of simulated Ferraris sessions fitted by the triad fit.
+
+    ``latitude_known``: the fit is told the site latitude (:data:`LATITUDE`, deg), else not (D_I then holds the
+    vertical Earth rate, deg/h/g); ``angle_std_deg``: the hand's angle error, deg, simulated and declared."""
     truth = truth or mems_truth()
     want = dict(truth)
     if not latitude_known:  # unknown latitude: the vertical Earth rate Ω sin φ u = (Ω sin φ/|a|) a stays in the g-terms
