@@ -404,7 +404,6 @@ def import_csv(
     """Any CSV of a multi-position recording, with a column mapping ``{"gyro_x": "gx", …, "acc_z": "az",
     "time_s": "t"}`` (``time_s`` may be omitted when ``rate_hz`` is given): static poses detected and moves between
     them, as :func:`triad_from_arrays` (other keyword arguments go there)."""
-    import pandas as pd
 
     unknown = sorted(set(mapping) - set(CSV_KEYS))
     if unknown:
