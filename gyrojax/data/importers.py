@@ -236,8 +236,9 @@ def import_imucal(
 
 
 def read_imutk_ascii(path) -> np.ndarray:
-    """imu_tk's ASCII format: one sample per line, ``time x y z`` (time in s, values in raw units) separated by blanks (its ``.mat`` text files;
-    gzip-compressed files are read too). Returns (n, 4) floats; :class:`RecordError` naming the line otherwise."""
+    """imu_tk's ASCII format: one sample per line, ``time x y z`` (time in s, values in raw units) separated by
+    blanks (its ``.mat`` text files; gzip-compressed files are read too). Returns (n, 4) floats; :class:`RecordError`
+    naming the line otherwise."""
     p = Path(path)
     try:
         data = np.loadtxt(p, ndmin=2)
