@@ -2,7 +2,7 @@
 tests/data/imucal, MIT) imported by ``gyrojax import imucal`` and fitted by ``gyrojax fit`` reproduces imucal's own
 calibration of the same session (its regression snapshot, example_cal.json), channel by channel, within 4σ.
 
-imucal's conventions (tests/data/imucal/ORIGIN-README.md): raw = K_g R_g ω + K_ga a + b_g, ω in deg/s, raw counts,
+imucal's conventions (tests/data/imucal/README.md): raw = K_g R_g ω + K_ga a + b_g, ω in deg/s, raw counts,
 a in m/s² calibrated with grav = 9.81, and its default expected rotation angle −360°. This session's rotations
 are +360° about +x, +y, +z (the data's sign), so imucal's K_g R_g = −(nominal scale) · S. imucal ignores the Earth
 rate and the site is unknown: the fit keeps the latitude unknown (D_I then holds Ω sin φ, as imucal's K_ga does,
