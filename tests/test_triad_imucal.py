@@ -124,3 +124,14 @@ def test_import_bad_files_exit_2(tmp_path, capsys):
         rc = main(["import", "imucal", str(path), "--gyro-scale", "16.4", "--out", str(tmp_path / "o")])
         err = capsys.readouterr().err
         assert rc == 2 and words in err and err.count("\n") == 1, err
+
+
+def test_apply_refuses_what_is_not_a_triad_fit(imported, tmp_path, capsys):
+    damaged = tmp_path / "damaged.json"
+    damaged.write_text('{"format": "gyrojax-fit-1", "instrument": "imu-triad", "theta": [1.0]}')
+    not_json = tmp_path / "bin.json"
+    not_json.write_bytes(b"\xff\xfe\x00\x01")
+    for path, words in ((damaged, "damaged imu-triad fit"), (not_json, "cannot read"), (imported, "cannot read")):
+        rc = main(["apply", str(path), str(imported), "--out", str(tmp_path / "o")])
+        err = capsys.readouterr().err
+        assert rc == 2 and words in err and err.count("\n") == 1, err

@@ -711,10 +711,19 @@ def load_triad_fit(path) -> TriadFit:
     p = Path(path)
     try:
         d = json.loads(p.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as e:
+    except (OSError, ValueError) as e:  # unreadable, not UTF-8, not JSON
         raise ModelError(f"{p}: cannot read a fit result ({e})") from None
     if d.get("format") != "gyrojax-fit-1" or d.get("instrument") != TRIAD_KIND or "theta" not in d:
         raise ModelError(f"{p}: not a saved imu-triad fit (save one with `gyrojax fit RECORDS --save FIT.json`)")
+    try:
+        return _triad_fit_of(d)
+    except (KeyError, TypeError, ValueError, IndexError) as e:
+        raise ModelError(
+            f"{p}: a damaged imu-triad fit ({type(e).__name__}: {e}); save it again with `fit --save`"
+        ) from None
+
+
+def _triad_fit_of(d: dict) -> TriadFit:
     model = tp.channel_model(d["terms"])
     cov = np.array([[np.nan if x is None else x for x in row] for row in d["cov"]], dtype=float)
     return TriadFit(
