@@ -15,7 +15,7 @@ from gyrojax.inference.identify import IdentifiabilityError, fit
 from gyrojax.inference.triad import fit_triad, long_run_variance
 from gyrojax.montecarlo.triad import ferraris_coverage, mems_truth
 from gyrojax.physics import triad as tp
-from gyrojax.simulation.triad import simulate_ferraris
+from gyrojax.simulation.triad import simulate_ferraris, simulate_multiposition
 
 TRUTH = mems_truth(7)
 
@@ -38,6 +38,19 @@ def test_noise_free_session_round_trip():
     a = np.array([[0.1, 0.2, 0.97]])
     direct = np.asarray(tp.triad_output(res.model, res.theta.reshape(3, -1), w, a, np.zeros(1), np.full(1, 20.0)))
     assert np.allclose(direct[0], m["S"] @ w[0] + m["G"] @ a[0] + m["b"], rtol=1e-12)
+
+
+def test_gravity_to_gravity_moves_round_trip():
+    """imu_tk's principle: poses of random attitude joined by moves give scale factor and misalignment with no
+    rotation of known angle. Noise-free and without Earth rate the fit is exact; the simulator turns the body with
+    CONVENTIONS §3's rotation formula, the fit integrates the calibrated rates with its own exponential."""
+    rec = simulate_multiposition(TRUTH, poses=10, gyro_noise_dps=1e-9, acc_noise_g=0.0, earth_rate=False, seed=2)
+    assert [s["type"] for s in rec.meta["segments"]].count("move") == 9
+    res = fit_triad(rec)
+    for k, v in TRUTH.items():
+        assert res.values[k] == pytest.approx(v, rel=1e-7, abs=1e-5), k
+    with pytest.raises(ModelError, match="integrate the calibrated rate of the linear model"):
+        fit_triad(rec, ["D_F", "sf_error", "sf_asymmetry"])
 
 
 def test_matrix_forms_agree():

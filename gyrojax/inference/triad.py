@@ -93,6 +93,7 @@ class Move:
     u_from: np.ndarray
     u_to: np.ndarray
     var_dir: float
+    earth_var: float = 0.0
 
 
 def _earth(record: Record, earth_rate: bool | None):
@@ -123,7 +124,16 @@ def triad_segments(record: Record, earth_rate: bool | None = None):
     for spec in record.meta["segments"]:
         sel = np.flatnonzero(seg == spec["label"])
         if spec["type"] == "move":
-            moves.append(_move(record, spec, gyro, acc, t, seg))
+            mv = _move(record, spec, gyro, acc, t, seg)
+            # Up is fixed to the Earth, the gyro integrates the inertial rate: over the move the Earth turns Up by
+            # Ω_h T about a horizontal axis of unknown heading, variance (Ω_h T)²/2 per component; latitude unknown:
+            # averaged over sites, E[cos² φ] = 2/3, hence (Ω T)²/3
+            span = len(mv.g) * mv.dt * units.DEG_PER_H
+            if mode == "latitude unknown":
+                mv.earth_var = (units.OMEGA_IE_DEG_PER_H * span) ** 2 / 3.0
+            else:
+                mv.earth_var = (horizontal * span) ** 2 / 2.0
+            moves.append(mv)
             continue
         if len(sel) < 2:
             raise ModelError(f"{record.name}: segment {spec['label']} has {len(sel)} sample(s); at least 2 are needed")
@@ -660,14 +670,13 @@ def _svd_step(jw, rw):
 def _move_whitening(moves, q) -> list:
     """Per move: (P (3, 2) basis ⟂ u_to, σ (rad) of each of the two residual components). The variance is the
     gyro noise integrated over the move (mean long-run variance of the channels × n dt²), the noise of the two Up
-    directions, and the Earth rate turning the body unseen ((Ω T)²/3, heading and latitude unknown)."""
+    directions, and the Earth turning Up unseen during the move (:attr:`Move.earth_var`, heading unknown)."""
     out = []
     q_mean = float(np.mean(q))
     for m in moves:
         n = len(m.g)
         angle_var = q_mean * n * m.dt**2 * units.DEG_PER_H**2
-        earth = (units.OMEGA_IE * n * m.dt) ** 2 / 3.0
-        var = angle_var + earth + m.var_dir
+        var = angle_var + m.earth_var + m.var_dir
         u = m.u_to
         a = np.eye(3)[int(np.argmin(np.abs(u)))]
         e1 = np.cross(u, a)

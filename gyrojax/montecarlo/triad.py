@@ -13,7 +13,7 @@ import numpy as np
 
 from gyrojax import units
 from gyrojax.inference.triad import fit_triad
-from gyrojax.simulation.triad import simulate_ferraris
+from gyrojax.simulation.triad import simulate_ferraris, simulate_multiposition
 
 LATITUDE = 49.6
 """Latitude of the simulated site, deg."""
@@ -61,4 +61,22 @@ def ferraris_coverage(draws: int, latitude_known: bool = True, angle_std_deg: fl
         res = fit_triad(rec)
         v, s = res.values, res.stds
         hits.append([abs(v[k] - want[k]) <= 2 * s[k] for k in truth])
+    return np.array(hits)
+
+
+def multiposition_coverage(draws: int, poses: int = 12, truth=None) -> np.ndarray:
+    """Inside-±2σ indicator, shape (draws, 21), of simulated imu_tk-style sessions (``poses`` static poses of random
+    attitude, gravity-to-gravity moves between them, latitude unknown to the fit) fitted by the triad fit; the
+    g-terms compared with the truth plus the vertical Earth rate they absorb ((Ω sin φ / |a|) S, deg/h/g)."""
+    truth = truth or mems_truth()
+    k = units.OMEGA_IE_DEG_PER_H * math.sin(math.radians(LATITUDE)) / (GRAVITY / units.G0)
+    want = dict(truth)
+    for ch in "xyz":
+        want[f"D_I[{ch}]"] += k * (1.0 + truth.get(f"E_SF[{ch}]", 0.0) * units.PPM)
+        want[f"D_O[{ch}]"] += k * truth.get(f"M_O[{ch}]", 0.0) * units.ARCSEC
+        want[f"D_S[{ch}]"] += k * truth.get(f"M_S[{ch}]", 0.0) * units.ARCSEC
+    hits = []
+    for seed in range(draws):
+        res = fit_triad(simulate_multiposition(truth, poses=poses, seed=seed, latitude_deg=LATITUDE))
+        hits.append([abs(res.values[q] - want[q]) <= 2 * res.stds[q] for q in truth])
     return np.array(hits)

@@ -146,3 +146,105 @@ def simulate_ferraris(
         notes="simulated Ferraris session (gyrojax.simulation.triad)",
     )
     return Record(meta, cols)
+
+
+def random_attitude(rng) -> np.ndarray:
+    """A rotation matrix drawn uniformly (a normalised Gaussian quaternion)."""
+    q = rng.standard_normal(4)
+    w, x, y, z = q / np.linalg.norm(q)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def _axis_angle(r: np.ndarray) -> tuple[np.ndarray, float]:
+    """Unit axis and angle (rad) of a rotation matrix (angle in [0, π])."""
+    angle = math.acos(max(-1.0, min(1.0, (np.trace(r) - 1) / 2)))
+    v = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
+    n = float(np.linalg.norm(v))
+    if n < 1e-12:
+        return np.array([1.0, 0.0, 0.0]), 0.0
+    return v / n, angle
+
+
+def simulate_multiposition(
+    truth: dict,
+    *,
+    poses: int = 12,
+    terms=("D_F", "D_I", "D_O", "D_S", "sf_error", "ia_misalignment"),
+    rate_hz: float = 100.0,
+    static_s: float = 4.0,
+    move_s: float = 2.0,
+    init_s: float = 0.0,
+    gyro_noise_dps: float = 0.05,
+    acc_noise_g: float = 0.001,
+    latitude_deg: float = 49.6,
+    gravity_mps2: float = 9.81,
+    earth_rate: bool = True,
+    seed: int = 0,
+) -> Record:
+    """An imu_tk-style session as an ``imu-triad`` record: ``poses`` static poses of random attitude, each joined to
+    the next by a gravity-to-gravity ``move`` segment (a turn about the fixed body axis that takes one attitude to
+    the next, rate profile ∝ sin(π t / T) whose samples sum to the angle). Gyro channels indicate the triad model
+    plus white noise (deg/s); accelerometers the true specific force (g) plus white noise. ``earth_rate=False``
+    leaves the Earth rate out of the motion and the record (for exact round trips). Times in s, latitude in deg."""
+    rng = np.random.default_rng(seed)
+    model = tp.channel_model(terms)
+    theta = np.array([[truth.get(tp.channel_name(c, ch), 0.0) for c in model.coefficient_names] for ch in tp.CHANNELS])
+    dt = 1.0 / rate_hz
+    lat = math.radians(latitude_deg)
+    omega_l = units.OMEGA_IE_DEG_PER_H * np.array([0.0, math.cos(lat), math.sin(lat)]) * (1.0 if earth_rate else 0.0)
+    f_l = np.array([0.0, 0.0, gravity_mps2 / units.G0])
+    atts = [random_attitude(rng) for _ in range(poses)]
+    ws, fs, labels, segs = [], [], [], []
+    n_static, n_move = int(round(static_s * rate_hz)), int(round(move_s * rate_hz))
+    for k, c in enumerate(atts):
+        n = n_static + (int(round(init_s * rate_hz)) if k == 0 else 0)
+        ws.append(np.tile(c.T @ omega_l, (n, 1)))
+        fs.append(np.tile(c.T @ f_l, (n, 1)))
+        labels.append(np.full(n, 2 * k))
+        segs.append({"label": 2 * k, "type": "static", "name": f"pose-{k}"})
+        if k + 1 == poses:
+            break
+        axis, angle = _axis_angle(c.T @ atts[k + 1])  # body-frame axis taking attitude k to k + 1
+        t = (np.arange(n_move) + 0.5) * dt
+        prof = np.sin(math.pi * t / move_s)
+        rate = prof * angle / (prof.sum() * dt)  # rad/s; the samples sum to the angle exactly
+        # the attitude at each sample (midpoint of its interval), and the body rate: turn + Earth rate
+        ang = np.cumsum(rate) * dt - 0.5 * rate * dt
+        w = np.empty((n_move, 3))
+        f = np.empty((n_move, 3))
+        for i in range(n_move):
+            ci = c @ _rot(axis, ang[i])
+            w[i] = ci.T @ omega_l + axis * rate[i] / units.DEG_PER_H
+            f[i] = ci.T @ f_l
+        ws.append(w)
+        fs.append(f)
+        labels.append(np.full(n_move, 2 * k + 1))
+        segs.append({"label": 2 * k + 1, "type": "move", "name": f"move-{k}-{k + 1}", "from": 2 * k, "to": 2 * k + 2})
+    w = np.concatenate(ws)
+    f = np.concatenate(fs)
+    lab = np.concatenate(labels).astype(float)
+    n = len(w)
+    time_s = np.arange(n) * dt
+    ind = np.asarray(_triad_output_jit(model, theta, w, f, time_s / 3600.0, np.full(n, 20.0)))
+    gyro_dps = ind / units.SECONDS_PER_HOUR + gyro_noise_dps * rng.standard_normal((n, 3))
+    acc = f + acc_noise_g * rng.standard_normal((n, 3))
+    cols = {"time_s": time_s, "segment": lab}
+    for j, ch in enumerate(tp.CHANNELS):
+        cols[f"gyro_{ch}_dps"] = gyro_dps[:, j]
+    for j, ch in enumerate(tp.CHANNELS):
+        cols[f"acc_{ch}_g"] = acc[:, j]
+    meta = triad_meta(
+        f"multiposition-sim-{seed}",
+        segs,
+        latitude_deg=None,
+        gravity_mps2=gravity_mps2,
+        notes="simulated multi-position session with gravity-to-gravity moves (gyrojax.simulation.triad)",
+    )
+    meta["earth_rate"] = bool(earth_rate)
+    return Record(meta, cols)
