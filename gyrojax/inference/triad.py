@@ -25,8 +25,9 @@ Every coefficient enters linearly, so one generalized-least-squares solve fits t
 Earth rate (ω_ie = 15.04 deg/h): with the site latitude φ its vertical part Ω sin φ·u is modelled exactly; the
 horizontal part enters as above. With the latitude unknown (``null``), the vertical part cannot be told from a
 g-sensitivity along each sensing axis (both are ∝ a_I): it stays in D_I[c] (the result says so), and the horizontal
-part is marginalised with its largest value Ω (cos φ ≤ 1). ``earth_rate=False`` switches both off (a record's
-``"earth_rate": false`` does too).
+part is marginalised with its mean square over the sites of the sphere, Ω² E[cos² φ] = (2/3) Ω².
+``earth_rate=False`` switches both off (a record's ``"earth_rate": false`` does too). In a gravity-to-gravity move
+the Earth turns Up unseen by Ω_h T (T the move's duration): a variance (Ω_h T)²/2 per direction component.
 """
 
 from __future__ import annotations
@@ -103,8 +104,8 @@ def _earth(record: Record, earth_rate: bool | None):
         return 0.0, 0.0, "off"
     lat = record.meta["site"].get("latitude_deg")
     omega = units.OMEGA_IE_DEG_PER_H
-    if lat is None:
-        return None, omega, "latitude unknown"
+    if lat is None:  # the site averaged over the sphere: E[cos² φ] = 2/3
+        return None, omega * math.sqrt(2.0 / 3.0), "latitude unknown"
     phi = math.radians(float(lat))
     return omega * math.sin(phi), omega * math.cos(phi), f"latitude {float(lat):g} deg"
 
@@ -126,13 +127,8 @@ def triad_segments(record: Record, earth_rate: bool | None = None):
         if spec["type"] == "move":
             mv = _move(record, spec, gyro, acc, t, seg)
             # Up is fixed to the Earth, the gyro integrates the inertial rate: over the move the Earth turns Up by
-            # Ω_h T about a horizontal axis of unknown heading, variance (Ω_h T)²/2 per component; latitude unknown:
-            # averaged over sites, E[cos² φ] = 2/3, hence (Ω T)²/3
-            span = len(mv.g) * mv.dt * units.DEG_PER_H
-            if mode == "latitude unknown":
-                mv.earth_var = (units.OMEGA_IE_DEG_PER_H * span) ** 2 / 3.0
-            else:
-                mv.earth_var = (horizontal * span) ** 2 / 2.0
+            # Ω_h T about a horizontal axis of unknown heading, variance (Ω_h T)²/2 per component
+            mv.earth_var = (horizontal * len(mv.g) * mv.dt * units.DEG_PER_H) ** 2 / 2.0
             moves.append(mv)
             continue
         if len(sel) < 2:
@@ -629,7 +625,7 @@ def fit_triad(
             "site latitude unknown: the vertical Earth rate Omega sin(phi) (|.| <= 15.04 deg/h) cannot be told from "
             "g-sensitivity along each sensing axis, so each D_I[c] includes it (G includes Omega sin(phi) S / |a|: "
             "also M_O, M_S times it in D_O, D_S); the horizontal Earth rate (unknown heading) is marginalised with "
-            "its largest value, 15.04 deg/h"
+            "its mean square over the sites of the sphere, (2/3) (15.04 deg/h)^2"
         )
     if dof > 0 and stats.chi2.sf(chi2, dof) < 0.01:
         notes.append(
