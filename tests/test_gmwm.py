@@ -167,10 +167,9 @@ def test_monte_carlo_coverage():
     assert stats.binomtest(int(np.sum(np.abs(z) <= 2)), z.size, 0.95).pvalue > 1e-3
 
 
-DATA = Path("/work/shared/data/imucal/annotated_session.csv")
+DATA = Path(__file__).resolve().parent / "data" / "imucal" / "annotated_session.csv"
 
 
-@pytest.mark.skipif(not DATA.exists(), reason="the imucal session is not available")
 def test_real_mems_static_faces_smoke():
     """A real MEMS gyro (BMI160 class, 204.8 Hz): the six static faces (~5 s each) pooled per axis. The selected
     model stays inside the empirical 95 % band at all but a few τ, and the ARW is in the datasheet
