@@ -306,7 +306,8 @@ def gram_scan(theta, x, dt, restart, mask):
 
 
 def likelihood_terms(theta, x, dt, restart, mask):
-    """(Σ log S_k, |ẽ|², log det(X̃ᵀX̃) of the normalised columns) under ``theta`` = (τ, σ_g², σ_w²)."""
+    """(Σ log S_k, |ẽ|², log det(X̃ᵀX̃) of the normalised columns), dimensionless, under ``theta`` = (τ in s,
+    σ_g², σ_w² in the residual's unit squared); ``dt`` the sample steps in s."""
     gram, logs = gram_scan(theta, x, dt, restart, mask)
     a, b, rr = gram[1:, 1:], gram[1:, 0], gram[0, 0]
     sc = jnp.sqrt(jnp.diag(a))
