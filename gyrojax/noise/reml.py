@@ -320,7 +320,7 @@ def likelihood_terms(theta, x, dt, restart, mask):
 
 def objective(u, x, dt, restart, mask, reml):
     """−2 log L (profile, ``reml`` = 0) or −2 log L_R (``reml`` = 1) at u = (log τ, log σ_g², log σ_w²), without
-    the 2π terms and the constant of the column scaling."""
+    the 2π terms and the constant of the column scaling (dimensionless; τ in s, ``dt`` in s)."""
     logs, quad, logdet = likelihood_terms(jnp.exp(u), x, dt, restart, mask)
     return logs + quad + reml * logdet
 
