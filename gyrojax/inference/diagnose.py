@@ -34,6 +34,7 @@ import numpy as np
 from scipy import stats
 
 from gyrojax.errors import ModelError
+from gyrojax.inference import adequacy
 from gyrojax.inference.identify import Campaign, FitResult, fit, linearize, residue_columns
 from gyrojax.noise.whiten import ARNoise, GMNoise, fit_noise, profile_likelihood, whiten
 from gyrojax.physics import effects as fx
@@ -60,6 +61,10 @@ class Candidate:
     estimate: dict = field(default_factory=dict)
     separated_by: list = field(default_factory=list)
     log10_p: float = 0.0
+    indistinguishable: list = field(default_factory=list)  # near-aliases (gyrojax.inference.adequacy.near_aliases)
+    refused: str | None = None  # why `fit` refuses the model with this candidate added (never proposed then)
+    implausible: str | None = None  # sizes beyond what real instruments have (gyrojax.physics.plausibility)
+    rms_after_refit: bool = False  # rms_after is fit's own after adding the candidate (else the one-step value)
 
     def to_json(self) -> dict:
         """One entry of ``candidates`` in the diagnosis JSON (CONVENTIONS §7); ``rms_after_deg_per_h`` is in the
@@ -75,6 +80,11 @@ class Candidate:
             "rms_after_deg_per_h": float(self.rms_after),
             "estimate": self.estimate,
             "separated_by": list(self.separated_by),
+            "indistinguishable": list(self.indistinguishable),
+            "refused": self.refused,
+            "implausible": self.implausible,
+            "plausible": self.implausible is None,
+            "rms_after_from": "refit" if self.rms_after_refit else "one-step",
         }
 
 
@@ -87,6 +97,9 @@ class Diagnosis:
     candidates: list
     alpha: float
     unexcited: list = field(default_factory=list)
+    unexplained: list = field(default_factory=list)  # significant gyrojax.inference.adequacy.Structure, strongest first
+    proposal: str | None = None  # the candidate to add: significant, accepted by fit, plausible
+    tests: int = 0  # size of the multiple-comparison family (named candidates + shapes)
 
     @property
     def top(self) -> Candidate | None:
@@ -113,6 +126,9 @@ class Diagnosis:
             "terms": list(self.fit.model.terms),
             "alpha": self.alpha,
             "not_excited": list(self.unexcited),
+            "unexplained": [s.to_json() for s in self.unexplained],
+            "proposal": self.proposal,
+            "family_size": self.tests,
             "fit": self.fit.to_json(),
         }
 
@@ -291,6 +307,8 @@ def diagnose(
     result: FitResult | None = None,
     campaign: Campaign | None = None,
     suggest_tests: bool = True,
+    model_free: bool = True,
+    plausible: dict | None = None,
 ) -> Diagnosis:
     """Rank the effects the model ``terms`` is missing, from the data of ``records``.
 
@@ -302,6 +320,9 @@ def diagnose(
       result: a fit of ``terms`` to these records, if already at hand.
       campaign: the records already built into a :class:`gyrojax.inference.identify.Campaign`, if at hand.
       suggest_tests: name built-in plans that would separate aliased candidates.
+      model_free: also test the residual against shapes in every input (:mod:`gyrojax.inference.adequacy`); the
+        family of the multiple-comparison control then holds the named candidates and the shapes.
+      plausible: overrides of the plausible sizes (:mod:`gyrojax.physics.plausibility`), by coefficient or effect name.
 
     Returns: a :class:`Diagnosis` with ``verdict`` ``"missing-effect"`` or ``"adequate"``; residuals and noise
     floor in the output unit (deg/h for gyros, g for accelerometers), candidate estimates in report units.
@@ -352,16 +373,25 @@ def diagnose(
                 ca.aliases.append(b)
                 cb.aliases.append(a)
 
-    # multiple comparisons: Holm over the candidates actually tested
+    # ---- model-free adequacy, joint Holm, vetting of what is proposed (gyrojax.inference.adequacy) -------
     live = [c for c in tested if c.df > 0]
-    adj = holm(np.array([c.p_value for c in live]))
-    m = len(live)
-    for c, a in zip(live, adj):
-        c.p_adjusted = float(a)
-    # rank by evidence (log p, so that underflowed p-values still order)
-    tested.sort(key=lambda c: (c.log10_p if c.df > 0 else 0.0, -c.statistic))
-    significant = [c for c in live if c.log10_p + math.log10(max(m, 1)) < math.log10(alpha)]
-    verdict = "missing-effect" if significant else "adequate"
+    tested.sort(key=lambda c: (c.log10_p if c.df > 0 else 0.0, -c.statistic))  # by evidence (log p never underflows)
+    explaining = [c.name for c in live]  # named effects that may explain a shape: not refused, plausible
+    for _round in range(2):
+        cols = np.concatenate([np.arange(full.size)[sl[c]] for c in explaining]).astype(int) if explaining else []
+        shapes = adequacy.residual_structure(camp, lin, res.noise, p0, cols) if model_free else []
+        adj = adequacy.holm_log10([c.log10_p for c in live] + [s.log10_p for s in shapes])
+        for c, a in zip(live + shapes, adj):
+            c.p_adjusted = float(10.0**a)
+        sig = {id(c) for c, a in zip(live + shapes, adj) if a < math.log10(alpha)}
+        significant = [c for c in tested if id(c) in sig]
+        unexplained = [s for s in shapes if id(s) in sig]
+        proposal = adequacy.vet(tested, significant, camp, res, lin, noises, p0, sl, alpha, plausible)
+        barred = {c.name for c in significant if c.refused or c.implausible}
+        if not barred & set(explaining):
+            break
+        explaining = [c for c in explaining if c not in barred]  # shapes they would have hidden are tested again
+    verdict = "missing-effect" if significant or unexplained else "adequate"
 
     # colour that no deterministic effect explains: report it as gauss_markov
     gm = _colour_candidate(res, noises, lin, alpha)
@@ -373,10 +403,10 @@ def diagnose(
 
     if suggest_tests:
         for c in tested[:5]:
-            if c.aliases and c.name in perps:
-                group = (c.name,) + tuple(a for a in c.aliases if a in fx.names())
-                c.separated_by = separating_plans(model.kind, group)
-    return Diagnosis(verdict, res, tested, alpha, unexcited)
+            if (c.aliases or c.indistinguishable) and c.name in perps:
+                group = (c.name,) + tuple(a for a in c.aliases + c.indistinguishable if a in fx.names())
+                c.separated_by = separating_plans(model.kind, group) or adequacy.setup_measurements(group)
+    return Diagnosis(verdict, res, tested, alpha, unexcited, unexplained, proposal, len(live) + len(shapes))
 
 
 def _colour_candidate(res: FitResult, noises, lin, alpha) -> Candidate | None:
@@ -499,10 +529,10 @@ def add_and_refit(records, terms, effect: str | None = None, *, diagnosis: Diagn
     camp = Campaign.of(records) if not isinstance(records, Campaign) else records
     d = diagnosis or diagnose(camp.records, terms, campaign=camp, **kw)
     if effect is None:
-        det = [c for c in d.candidates if c.name != "gauss_markov" and c.df > 0]
-        if not det:
-            raise ModelError("no deterministic candidate to add; the model is adequate for these records")
-        effect = det[0].name
+        if d.proposal is None:
+            why = "; ".join(s.line for s in d.unexplained[:3]) or "the model is adequate for these records"
+            raise ModelError(f"no named effect to add: {why}")
+        effect = d.proposal
     new_terms = tuple(d.fit.model.terms) + (effect,)
     new_fit = fit(camp.records, new_terms, campaign=camp, allow_aliases=False)
     new_d = diagnose(camp.records, new_terms, campaign=camp, result=new_fit, **kw)

@@ -864,7 +864,9 @@ def fit(
       records: a :class:`Record`, or a list of records of one instrument kind (any plans, mountings, modes).
       terms: effect names (or coefficient names); default: D_F, D_I, D_O, D_S for an SDF gyro.
       noise: ``"ar"`` (GLS with a white + Gauss–Markov or AR noise model per group of records, :func:`campaign_noise`;
-        default) or ``"white"`` (WLS, one σ per record).
+        default), ``"white"`` (WLS, one σ per record), or a given noise model with a ``whitening_model(dt_s)``
+        method (e.g. :class:`gyrojax.noise.gmwm.NoiseModel` from ``gyrojax noise``): GLS with that covariance, not
+        re-estimated, and the standard errors not rescaled by the residual χ² (the noise is known).
       allow_aliases: return a minimum-norm fit instead of raising when the plan cannot separate some effects
         (those coefficients then have no finite standard error).
       theta0: starting coefficients (report units) for the nonlinear set-up effects.
@@ -895,7 +897,17 @@ def fit(
     theta, it, why = _least_squares(model, theta, camp, noises, scales, max_iter)
     lin = linearize(model, theta, camp)
     # noise model and GLS pass
-    if noise == "ar":
+    known = hasattr(noise, "whitening_model")  # a given noise model (e.g. gmwm.NoiseModel): GLS, not re-estimated
+    if known:
+        if kind == fx.ACCEL:
+            raise ModelError(f"a noise model in deg/h applies to gyro records, not to {kind!r}")
+        noises = [noise.whitening_model(float(np.median(np.diff(t)))) for *_, t in lin]
+        for _ in range(3 if not model.is_linear else 1):
+            rw, jw = _stack(lin, noises, scales)
+            step, _ = _solve(jw, rw)
+            theta = theta + step
+            lin = linearize(model, theta, camp)
+    elif noise == "ar":
         noises = campaign_noise(lin, camp)
         theta, it_gls, why_gls = _least_squares(model, theta, camp, noises, scales, max_iter)
         it, why = it + it_gls, why or why_gls
@@ -915,7 +927,8 @@ def fit(
     _, cov = _solve(jw, rw)
     dof = max(len(rw) - report["rank"], 1)
     chi2 = float(rw @ rw)
-    cov = cov * chi2 / dof  # the noise levels were estimated: scale by the pooled reduced χ² of the whitened fit
+    if not known:
+        cov = cov * chi2 / dof  # the noise levels were estimated: scale by the pooled reduced χ² of the whitened fit
     dof_eff = None
     if noise == "ar" and any(isinstance(nz, GMNoise) for nz in noises):
         dof_eff = satterthwaite_dof(lin, camp, noises, scales)
