@@ -37,7 +37,7 @@ MS = [1, 2, 3, 5, 8, 16, 64]
     ],
 )
 def test_closed_forms_equal_the_spectral_integral(closed, spectrum):
-    """ν²(m) = ∫|G_m|²S df, integrated numerically from the process spectra (no closed form shared)."""
+    """ν²(m) = ∫|G_m|²S df, integrated numerically from the process spectra (no closed form used in common)."""
     ms = np.array(MS, float)
     np.testing.assert_allclose(np.asarray(closed(ms)), _spectral(MS, spectrum), rtol=2e-5)
 

@@ -21,6 +21,19 @@ GRAVITY = 9.81
 """Gravity of the simulated site, m/s² (the default of :func:`~gyrojax.simulation.triad.simulate_ferraris`)."""
 
 
+def with_vertical_earth_rate(truth: dict) -> dict:
+    """The coefficients a fit with the latitude unknown should find: with the site's vertical Earth rate
+    Ω sin φ u = (Ω sin φ / |a|) a left in the g-terms (deg/h/g), through each channel's scale factor and
+    misalignment (at :data:`LATITUDE` and :data:`GRAVITY`)."""
+    k = units.OMEGA_IE_DEG_PER_H * math.sin(math.radians(LATITUDE)) / (GRAVITY / units.G0)
+    want = dict(truth)
+    for ch in "xyz":
+        want[f"D_I[{ch}]"] += k * (1.0 + truth.get(f"E_SF[{ch}]", 0.0) * units.PPM)
+        want[f"D_O[{ch}]"] += k * truth.get(f"M_O[{ch}]", 0.0) * units.ARCSEC
+        want[f"D_S[{ch}]"] += k * truth.get(f"M_S[{ch}]", 0.0) * units.ARCSEC
+    return want
+
+
 def mems_truth(seed: int = 42) -> dict:
     """Per-channel MEMS-sized errors: bias ~500 deg/h, g-sensitivity ~30 deg/h/g, SF ~1 %, misalignment ~3000″."""
     rng = np.random.default_rng(seed)
@@ -46,13 +59,7 @@ def ferraris_coverage(draws: int, latitude_known: bool = True, angle_std_deg: fl
     ``latitude_known``: the fit is told the site latitude (:data:`LATITUDE`, deg), else not (D_I then holds the
     vertical Earth rate, deg/h/g); ``angle_std_deg``: the hand's angle error, deg, simulated and declared."""
     truth = truth or mems_truth()
-    want = dict(truth)
-    if not latitude_known:  # unknown latitude: the vertical Earth rate Ω sin φ u = (Ω sin φ/|a|) a stays in the g-terms
-        k = units.OMEGA_IE_DEG_PER_H * math.sin(math.radians(LATITUDE)) / (GRAVITY / units.G0)
-        for ch in "xyz":
-            want[f"D_I[{ch}]"] += k * (1.0 + truth.get(f"E_SF[{ch}]", 0.0) * units.PPM)
-            want[f"D_O[{ch}]"] += k * truth.get(f"M_O[{ch}]", 0.0) * units.ARCSEC
-            want[f"D_S[{ch}]"] += k * truth.get(f"M_S[{ch}]", 0.0) * units.ARCSEC
+    want = dict(truth) if latitude_known else with_vertical_earth_rate(truth)
     hits = []
     for seed in range(draws):
         rec = simulate_ferraris(
@@ -69,12 +76,7 @@ def multiposition_coverage(draws: int, poses: int = 12, truth=None) -> np.ndarra
     attitude, gravity-to-gravity moves between them, latitude unknown to the fit) fitted by the triad fit; the
     g-terms compared with the truth plus the vertical Earth rate they absorb ((Ω sin φ / |a|) S, deg/h/g)."""
     truth = truth or mems_truth()
-    k = units.OMEGA_IE_DEG_PER_H * math.sin(math.radians(LATITUDE)) / (GRAVITY / units.G0)
-    want = dict(truth)
-    for ch in "xyz":
-        want[f"D_I[{ch}]"] += k * (1.0 + truth.get(f"E_SF[{ch}]", 0.0) * units.PPM)
-        want[f"D_O[{ch}]"] += k * truth.get(f"M_O[{ch}]", 0.0) * units.ARCSEC
-        want[f"D_S[{ch}]"] += k * truth.get(f"M_S[{ch}]", 0.0) * units.ARCSEC
+    want = with_vertical_earth_rate(truth)
     hits = []
     for seed in range(draws):
         res = fit_triad(simulate_multiposition(truth, poses=poses, seed=seed, latitude_deg=LATITUDE))

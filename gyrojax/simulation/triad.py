@@ -48,6 +48,44 @@ def face_attitude(axis: int, sign: float, heading: float) -> np.ndarray:
 _triad_output_jit = jax.jit(tp.triad_output, static_argnums=0)
 
 
+def turn_samples(c0, axis, angle_rad: float, n: int, dt: float, omega_l, f_l):
+    """Body rate (deg/h) and specific force (g), (n, 3) each, of a turn by ``angle_rad`` about the body unit vector
+    ``axis`` from attitude ``c0`` (body → L), with rate profile ∝ sin(π t / (n·dt)) scaled so that the samples sum
+    to the angle exactly; each sample's attitude is that at the midpoint of its interval (dt in s). ``omega_l`` the
+    Earth rate (deg/h) and ``f_l`` the specific force (g) in L."""
+    t = (np.arange(n) + 0.5) * dt
+    prof = np.sin(math.pi * t / (n * dt))
+    rate = prof * angle_rad / (prof.sum() * dt)  # rad/s
+    ang = np.cumsum(rate) * dt - 0.5 * rate * dt
+    w = np.empty((n, 3))
+    f = np.empty((n, 3))
+    for k in range(n):
+        ck = c0 @ _rot(axis, ang[k])
+        w[k] = ck.T @ omega_l + axis * rate[k] / units.DEG_PER_H
+        f[k] = ck.T @ f_l
+    return w, f
+
+
+def sensor_columns(model, theta, ws, fs, labels, dt, gyro_noise_dps, acc_noise_g, rng) -> dict:
+    """The CSV columns of a simulated session (``time_s`` s, ``segment``, ``gyro_*_dps`` deg/s, ``acc_*_g`` g) from
+    the pieces of true body rate ``ws`` (deg/h) and specific force ``fs`` (g) with their segment labels: the triad
+    model's indicated rates plus white noise, the accelerometers' true specific force plus white noise."""
+    w = np.concatenate(ws)
+    f = np.concatenate(fs)
+    lab = np.concatenate(labels).astype(float)
+    n = len(w)
+    time_s = np.arange(n) * dt
+    ind = np.asarray(_triad_output_jit(model, theta, w, f, time_s / 3600.0, np.full(n, 20.0)))
+    gyro_dps = ind / units.SECONDS_PER_HOUR + gyro_noise_dps * rng.standard_normal((n, 3))
+    acc = f + acc_noise_g * rng.standard_normal((n, 3))
+    cols = {"time_s": time_s, "segment": lab}
+    for j, ch in enumerate(tp.CHANNELS):
+        cols[f"gyro_{ch}_dps"] = gyro_dps[:, j]
+    for j, ch in enumerate(tp.CHANNELS):
+        cols[f"acc_{ch}_g"] = acc[:, j]
+    return cols
+
+
 def simulate_ferraris(
     truth: dict,
     *,
@@ -102,17 +140,7 @@ def simulate_ferraris(
         e = np.zeros(3)
         e[axis] = 1.0
         total = math.radians(angle_deg + angle_std_deg * rng.standard_normal())
-        t = (np.arange(n_rot) + 0.5) * dt
-        rate = np.sin(math.pi * t / rotation_s)  # the profile's shape; scaled so the samples sum to Θ exactly
-        rate *= total / (rate.sum() * dt)  # rad/s about body e
-        ang = np.cumsum(rate) * dt - 0.5 * rate * dt
-        w = np.empty((n_rot, 3))
-        f = np.empty((n_rot, 3))
-        for k in range(n_rot):
-            ck = c0 @ _rot(e, ang[k])
-            w[k] = ck.T @ omega_l + e * rate[k] / units.DEG_PER_H
-            f[k] = ck.T @ f_l
-        add(w, f, label)
+        add(*turn_samples(c0, e, total, n_rot, dt, omega_l, f_l), label)
         segs.append(
             {
                 "label": label,
@@ -125,19 +153,7 @@ def simulate_ferraris(
         )
         add(np.tile(c0.T @ omega_l, (n_gap, 1)), np.tile(c0.T @ f_l, (n_gap, 1)), -1)
         label += 1
-    w = np.concatenate(ws)
-    f = np.concatenate(fs)
-    lab = np.concatenate(labels).astype(float)
-    n = len(w)
-    time_s = np.arange(n) * dt
-    ind = np.asarray(_triad_output_jit(model, theta, w, f, time_s / 3600.0, np.full(n, 20.0)))
-    gyro_dps = ind / units.SECONDS_PER_HOUR + gyro_noise_dps * rng.standard_normal((n, 3))
-    acc = f + acc_noise_g * rng.standard_normal((n, 3))
-    cols = {"time_s": time_s, "segment": lab}
-    for j, ch in enumerate(tp.CHANNELS):
-        cols[f"gyro_{ch}_dps"] = gyro_dps[:, j]
-    for j, ch in enumerate(tp.CHANNELS):
-        cols[f"acc_{ch}_g"] = acc[:, j]
+    cols = sensor_columns(model, theta, ws, fs, labels, dt, gyro_noise_dps, acc_noise_g, rng)
     meta = triad_meta(
         f"ferraris-sim-{seed}",
         segs,
@@ -211,34 +227,12 @@ def simulate_multiposition(
         if k + 1 == poses:
             break
         axis, angle = _axis_angle(c.T @ atts[k + 1])  # body-frame axis taking attitude k to k + 1
-        t = (np.arange(n_move) + 0.5) * dt
-        prof = np.sin(math.pi * t / move_s)
-        rate = prof * angle / (prof.sum() * dt)  # rad/s; the samples sum to the angle exactly
-        # the attitude at each sample (midpoint of its interval), and the body rate: turn + Earth rate
-        ang = np.cumsum(rate) * dt - 0.5 * rate * dt
-        w = np.empty((n_move, 3))
-        f = np.empty((n_move, 3))
-        for i in range(n_move):
-            ci = c @ _rot(axis, ang[i])
-            w[i] = ci.T @ omega_l + axis * rate[i] / units.DEG_PER_H
-            f[i] = ci.T @ f_l
+        w, f = turn_samples(c, axis, angle, n_move, dt, omega_l, f_l)
         ws.append(w)
         fs.append(f)
         labels.append(np.full(n_move, 2 * k + 1))
         segs.append({"label": 2 * k + 1, "type": "move", "name": f"move-{k}-{k + 1}", "from": 2 * k, "to": 2 * k + 2})
-    w = np.concatenate(ws)
-    f = np.concatenate(fs)
-    lab = np.concatenate(labels).astype(float)
-    n = len(w)
-    time_s = np.arange(n) * dt
-    ind = np.asarray(_triad_output_jit(model, theta, w, f, time_s / 3600.0, np.full(n, 20.0)))
-    gyro_dps = ind / units.SECONDS_PER_HOUR + gyro_noise_dps * rng.standard_normal((n, 3))
-    acc = f + acc_noise_g * rng.standard_normal((n, 3))
-    cols = {"time_s": time_s, "segment": lab}
-    for j, ch in enumerate(tp.CHANNELS):
-        cols[f"gyro_{ch}_dps"] = gyro_dps[:, j]
-    for j, ch in enumerate(tp.CHANNELS):
-        cols[f"acc_{ch}_g"] = acc[:, j]
+    cols = sensor_columns(model, theta, ws, fs, labels, dt, gyro_noise_dps, acc_noise_g, rng)
     meta = triad_meta(
         f"multiposition-sim-{seed}",
         segs,
