@@ -42,7 +42,8 @@ import jax.numpy as jnp
 import numpy as np
 from scipy import optimize, stats
 
-from gyrojax.errors import GyrojaxError
+from gyrojax.data.records import uniform_interval
+from gyrojax.errors import GyrojaxError, RecordError
 from gyrojax.units import SECONDS_PER_HOUR
 
 ONE_SIGMA = math.erf(1.0 / math.sqrt(2.0))
@@ -502,15 +503,13 @@ def static_rate_segments(records, rate_tol_dps: float = 1e-9, notes: list | None
             sel = sid == s
             if sel.sum() < 4:
                 continue
-            dt = np.diff(t[sel])
-            d = float(np.mean(dt))
-            jitter = float(np.max(np.abs(dt - d))) / d
-            if jitter > JITTER_TOLERANCE:
+            try:
+                d, jitter = uniform_interval(t[sel], JITTER_TOLERANCE)
+            except RecordError as e:
                 raise AllanError(
-                    f"{r.name}: non-uniform sampling in segment {int(s)} (steps {dt.min():g} to {dt.max():g} s, "
-                    f"jitter {100 * jitter:.0f} % of the interval > {100 * JITTER_TOLERANCE:.0f} %); the Allan "
-                    "variance needs a constant sample interval"
-                )
+                    f"{r.name}: non-uniform sampling in segment {int(s)}: {e}; the Allan variance needs a constant "
+                    "sample interval"
+                ) from None
             if jitter > 1e-6 and notes is not None:
                 notes.append(
                     f"{r.name}: timestamp jitter up to {100 * jitter:.2g} % of the interval; "
