@@ -6,8 +6,11 @@ import numpy as np
 import pytest
 from scipy import linalg
 
+from gyrojax import simulate
+from gyrojax.data import plans
+from gyrojax.inference import identify
 from gyrojax.noise import reml
-from gyrojax.noise.whiten import GMNoise, gm_loglik, gm_profile, gm_reml
+from gyrojax.noise.whiten import GMNoise, gm_loglik, gm_profile, gm_reml, whiten
 
 
 def _series(seed=0, n=600):
@@ -123,3 +126,58 @@ def test_fit_finds_the_reml_optimum():
     assert f <= float(np.min(reml.values(s, starts, True))) + s.logdet_const + 1e-9
     # the simulated drift (φ = 0.95 per ~2 s step: τ ≈ 39 s) is found within its sampling error
     assert 15.0 < theta[0] < 100.0
+
+
+def _fd_satterthwaite(res, records, free, step=0.05):
+    """The previous implementation of ν: central differences of the numpy REML and of the GLS variances, in the free
+    log-parameters (τ held when at its cap)."""
+    camp = identify.Campaign.of(records)
+    lin = identify.linearize(res.model, res.theta, camp)
+    nz = res.noise[0]
+    r, j, lab, t = identify.group_series(lin, list(range(len(records))))
+
+    def variances(moved):
+        rows = [whiten(np.column_stack([rr, jj]), ll, moved, tt)[0] for rr, jj, ll, tt in lin]
+        jw = np.concatenate([w[:, 1:] for w in rows])
+        return np.diag(np.linalg.inv(jw.T @ jw))
+
+    u0 = np.log([nz.tau_s, nz.gm_var, nz.white_var])
+    basis = np.eye(3)[free] * step
+    k = len(free)
+
+    def f(u):
+        return gm_reml(r, j, lab, t, GMNoise(*np.exp(u)))
+
+    f0 = f(u0)
+    hess = np.zeros((k, k))
+    for a in range(k):
+        hess[a, a] = (f(u0 + basis[a]) - 2 * f0 + f(u0 - basis[a])) / step**2
+        for b in range(a):
+            ea, eb = basis[a], basis[b]
+            hess[a, b] = hess[b, a] = (f(u0 + ea + eb) - f(u0 + ea - eb) - f(u0 - ea + eb) + f(u0 - ea - eb)) / (
+                4 * step * step
+            )
+    cov_u = 2.0 * np.linalg.inv(hess)
+    grad = np.column_stack(
+        [(variances(GMNoise(*np.exp(u0 + e))) - variances(GMNoise(*np.exp(u0 - e)))) / (2 * step) for e in basis]
+    )
+    v0 = variances(nz)
+    return 2.0 * v0**2 / np.einsum("ka,ab,kb->k", grad, cov_u, grad)
+
+
+def test_satterthwaite_dof_from_the_exact_hessian_matches_finite_differences():
+    """8 positions under drift as slow as a position: ν from the exact REML Hessian and exact ∂V/∂u agrees with the
+    previous finite-difference estimate (step 0.05 in log-parameters, so to its truncation error)."""
+    truth = {
+        "coefficients": {"D_F": 0.3, "D_I": 0.5, "D_O": -0.2, "D_S": 0.1},
+        "noise": {"white": 0.001, "gauss_markov": [0.05, 300.0]},
+    }
+    records = simulate(plans.eight_position(minutes=5, dt_s=2), truth, seed=3)
+    res = identify.fit(records, list(truth["coefficients"]))
+    nz = res.noise[0]
+    assert isinstance(nz, GMNoise) and res.dof_eff is not None
+    tau_max = max(np.ptp(rec.time_s) for rec in records)
+    free = [1, 2] if nz.tau_s >= 0.999 * tau_max else [0, 1, 2]
+    ref = _fd_satterthwaite(res, records, free)
+    np.testing.assert_allclose(res.dof_eff, np.maximum(ref, 1.0), rtol=0.03)
+    assert np.all(res.dof_eff < 1e4)

@@ -35,14 +35,39 @@ from scipy import stats
 
 from gyrojax.errors import ModelError
 from gyrojax.inference import adequacy
-from gyrojax.inference.identify import Campaign, FitResult, fit, linearize, residue_columns
-from gyrojax.noise.whiten import ARNoise, GMNoise, fit_noise, profile_likelihood, whiten
+from gyrojax.inference.identify import (
+    Campaign,
+    FitResult,
+    campaign_noise,
+    fit,
+    linearize,
+    noise_scale,
+    residue_columns,
+    satterthwaite_dof,
+    small_sample_factor,
+    solve,
+    stack_whitened,
+)
+from gyrojax.noise.whiten import ARNoise, GMNoise, fit_noise, whiten
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model, jacobian, record_data
 
 SLOW = ("bias_trend", "bias_temperature")
-"""Candidates that vary slowly in time and so compete with long-memory drift for the same residual structure:
-they are tested by a profile likelihood ratio with the noise re-estimated under both hypotheses."""
+"""Candidates that vary slowly in time and so compete with long-memory drift for the same residual structure. They
+get the score test of every candidate, under the diagnosis' noise model, whose Gauss–Markov τ is capped at a fraction
+of the record (:data:`gyrojax.noise.whiten.TAU_SPAN_FRACTION`): structure slower than that is not taken for noise.
+Measured on null campaigns (``python -m benchmarks.study_slow_candidates``), this is the one of three tests that keeps
+the verdict's level under Gauss–Markov drift and under a rate random walk: a Wald test with the noise re-fitted beside
+the trend (Satterthwaite ν), and a profile likelihood ratio with the noise re-fitted under both hypotheses, reject
+well above their level under the random walk, whose few low-frequency degrees of freedom the white + Gauss–Markov
+fit cannot pin down. When the campaign has drift, a significant slow candidate is also read with the drift re-fitted
+beside it (:func:`_drift_reading`); if it is not significant that way, it is ``indistinguishable`` from
+``gauss_markov`` in this campaign, and ``separated_by`` says what would tell them apart."""
+DRIFT_SEPARATION = (
+    "repeat the run from a fresh turn-on (a deterministic trend repeats, drift does not), or record for several of "
+    "the drift's correlation times"
+)
+"""What tells a slow candidate from long-memory drift when one campaign cannot."""
 COLLINEAR = 0.999  # canonical correlation above which two candidates are aliases in this plan
 UNSEEN = 1e-6  # |X⊥| / |X| below which a candidate is indistinguishable from the model
 
@@ -65,6 +90,7 @@ class Candidate:
     refused: str | None = None  # why `fit` refuses the model with this candidate added (never proposed then)
     implausible: str | None = None  # sizes beyond what real instruments have (gyrojax.physics.plausibility)
     rms_after_refit: bool = False  # rms_after is fit's own after adding the candidate (else the one-step value)
+    p_drift_refitted: float | None = None  # slow candidates: p of the Wald test with the drift re-fitted beside them
 
     def to_json(self) -> dict:
         """One entry of ``candidates`` in the diagnosis JSON (CONVENTIONS §7); ``rms_after_deg_per_h`` is in the
@@ -85,6 +111,7 @@ class Candidate:
             "implausible": self.implausible,
             "plausible": self.implausible is None,
             "rms_after_from": "refit" if self.rms_after_refit else "one-step",
+            "p_value_drift_refitted": self.p_drift_refitted,
         }
 
 
@@ -191,7 +218,7 @@ def _nuisance(t: np.ndarray) -> np.ndarray:
     return np.ones((len(t), 1))
 
 
-def _noise_models(lin, cols) -> list:
+def _noise_models(lin, cols, starts=None) -> list:
     """Per-record noise model from the residual left after projecting on the regressor columns ``cols`` and on a
     per-record offset.
 
@@ -199,8 +226,10 @@ def _noise_models(lin, cols) -> list:
     a flipped mounting gives an omitted D_O) would otherwise pass for long-memory noise and hide the very effect
     under test. It is a nuisance regressor only here; REML keeps the noise estimate unbiased when it is absent.
     Slower-than-the-record drift is kept apart from noise by the cap on τ
-    (:data:`gyrojax.noise.whiten.TAU_SPAN_FRACTION`).
+    (:data:`gyrojax.noise.whiten.TAU_SPAN_FRACTION`). ``starts``: the previous round's models, whose Gauss–Markov
+    fits start this round's (one column more changes them little).
     """
+    starts = starts or [None] * len(lin)
     scales = [max(np.sqrt(np.mean(r * r)), 1e-300) for r, *_ in lin]
     n_rec = len(lin)
     blocks = []
@@ -212,10 +241,10 @@ def _noise_models(lin, cols) -> list:
     ub = _basis(np.concatenate(blocks, axis=0))
     res = r_all - ub @ (ub.T @ r_all)
     out, i0 = [], 0
-    for (r, j, lab, t), s in zip(lin, scales):
+    for (r, j, lab, t), s, st in zip(lin, scales, starts):
         n = len(r)
         design = np.column_stack([j[:, cols], _nuisance(t)])
-        nz = fit_noise(res[i0 : i0 + n] * s, lab, t, design=design)
+        nz = fit_noise(res[i0 : i0 + n] * s, lab, t, design=design, start=st if isinstance(st, GMNoise) else None)
         out.append(nz if nz.innovation_std > 0 else ARNoise(np.zeros(0), s, s))
         i0 += n
     return out
@@ -271,31 +300,42 @@ def _score(lin, noises, model: Model, full: Model, cand, p0: int, rms_now: float
     return tested, perps, unexcited
 
 
-def _slow_lr(c: Candidate, lin, full: Model, p0: int, noises) -> None:
-    """Replace the score statistic of a slow candidate by the profile likelihood ratio, record by record.
-
-    For each record, −2 log L of [model] and of [model + candidate] (coefficients per record, noise white + GM
-    maximised in each case, τ capped as everywhere); LR = Σ difference ~ χ²(Σ added rank) when the effect is
-    absent. A trend that GM noise could mimic is then judged by how much better the data fit with it as a
-    deterministic term than with the drift re-estimated to explain it.
-    """
+def _drift_reading(c: Candidate, camp: Campaign, lin, full: Model, p0: int) -> None:
+    """The reading of a significant slow candidate with the drift re-fitted beside it: its GLS estimate ± the standard
+    error `fit` would state, and the p-value of its Wald test, into ``estimate`` and ``p_drift_refitted``."""
     cols_c = np.arange(full.size)[full.slices()[c.name]]
-    stat, df = 0.0, 0
-    for (r, j, lab, t), nz in zip(lin, noises):
-        base = np.column_stack([j[:, :p0], np.ones(len(r))])
-        alt = np.column_stack([base, j[:, cols_c]])
-        rank0 = np.linalg.matrix_rank(base / np.maximum(np.abs(base).max(axis=0), 1e-300))
-        rank1 = np.linalg.matrix_rank(alt / np.maximum(np.abs(alt).max(axis=0), 1e-300))
-        if rank1 <= rank0:
-            continue
-        start = nz if isinstance(nz, GMNoise) else None
-        l0 = profile_likelihood(r, base, lab, t, start)
-        l1 = profile_likelihood(r, alt, lab, t, start)
-        stat += max(l0 - l1, 0.0)
-        df += rank1 - rank0
-    if df:
-        logp = float(stats.chi2.logsf(stat, df))
-        c.statistic, c.df, c.p_value, c.log10_p = stat, df, math.exp(logp), logp / math.log(10)
+    c.p_drift_refitted, beta, sd = wald_beside_drift(camp, lin, np.concatenate([np.arange(p0), cols_c]), p0)
+    fx_c = fx.get(c.name)
+    est = zip(fx_c.coefficients, beta, sd, fx_c.units)
+    c.estimate = {n: {"value": float(v), "std": float(e), "unit": u} for n, v, e, u in est}
+
+
+def wald_beside_drift(camp: Campaign, lin, cols: np.ndarray, p0: int):
+    """(p-value, estimate, standard error) of the coefficients ``cols[p0:]`` by GLS with the fit's noise model
+    re-estimated with them in (:func:`gyrojax.inference.identify.campaign_noise`); Wald W / k ~ F(k, ν), ν the
+    smallest Satterthwaite degrees of freedom of those coefficients when the noise has a Gauss–Markov part."""
+    sub = [(r, j[:, cols], lab, t) for r, j, lab, t in lin]
+    noises = campaign_noise(sub, camp)
+    scales = [noise_scale(r, lab) for r, _, lab, _ in sub]
+    rw, jw = stack_whitened(sub, noises, scales)
+    step, cov = solve(jw, rw)
+    e = rw - jw @ step
+    diag = np.diag(cov)
+    dof = max(len(rw) - int(np.sum(np.isfinite(diag) & (diag > 0))), 1)
+    cov = cov * float(e @ e) / dof
+    idx = np.arange(p0, len(cols))
+    beta, v = step[idx], cov[np.ix_(idx, idx)]
+    sd = np.sqrt(np.where(np.diag(v) > 0, np.diag(v), np.nan))
+    ok = np.isfinite(sd)
+    if not ok.any():
+        return 1.0, beta, sd
+    stat = float(beta[ok] @ np.linalg.solve(v[np.ix_(ok, ok)], beta[ok]))
+    nus = np.full(len(idx), float(dof))
+    if any(isinstance(nz, GMNoise) for nz in noises):
+        nus = satterthwaite_dof(sub, camp, noises, scales)[idx]
+    k = int(ok.sum())
+    # the standard error as `fit` states it: widened by t_ν / z (gyrojax.inference.identify.small_sample_factor)
+    return float(stats.f.sf(stat / k, k, float(np.min(nus[ok])))), beta, sd * small_sample_factor(nus)
 
 
 def diagnose(
@@ -343,10 +383,12 @@ def diagnose(
     # noise model by forward selection: from the current residual, re-estimated after adding the most
     # significant candidate (so that a strong missing effect does not pass for coloured noise, and a plan whose
     # candidates span every position cannot soak the drift's low-frequency power into a saturated fit)
+    # (each round's noise fits start from the previous round's)
     extra: list[str] = []
+    noises = None
     for _round in range(4):
         cols = np.concatenate([np.arange(p0)] + [np.arange(full.size)[sl[c]] for c in extra]).astype(int)
-        noises = _noise_models(lin, cols)
+        noises = _noise_models(lin, cols, noises)
         tested, perps, unexcited = _score(lin, noises, model, full, cand, p0, res.residual_rms)
         live = [c for c in tested if c.df > 0]
         if not live:
@@ -355,12 +397,6 @@ def diagnose(
         if best.log10_p + math.log10(len(live)) >= math.log10(alpha) or best.name in extra:
             break
         extra.append(best.name)
-
-    # slow candidates: likelihood ratio with the Gauss–Markov noise re-estimated with and without the candidate
-    if any(isinstance(nz, GMNoise) for nz in noises):
-        for c in tested:
-            if c.name in SLOW and c.df > 0:
-                _slow_lr(c, lin, full, p0, noises)
 
     # aliases between candidates: collinear projected regressors
     names_t = [c.name for c in tested if c.name in perps]
@@ -392,6 +428,12 @@ def diagnose(
             break
         explaining = [c for c in explaining if c not in barred]  # shapes they would have hidden are tested again
     verdict = "missing-effect" if significant or unexplained else "adequate"
+    family = len(live) + len(shapes)
+    slow = [c for c in significant if c.name in SLOW] if any(isinstance(nz, GMNoise) for nz in noises) else []
+    for c in slow:  # beside drift: is the candidate still significant with the drift re-fitted beside it?
+        _drift_reading(c, camp, lin, full, p0)
+        if c.p_drift_refitted * family >= alpha:
+            c.indistinguishable.append("gauss_markov")
 
     # colour that no deterministic effect explains: report it as gauss_markov
     gm = _colour_candidate(res, noises, lin, alpha)
@@ -406,7 +448,10 @@ def diagnose(
             if (c.aliases or c.indistinguishable) and c.name in perps:
                 group = (c.name,) + tuple(a for a in c.aliases + c.indistinguishable if a in fx.names())
                 c.separated_by = separating_plans(model.kind, group) or adequacy.setup_measurements(group)
-    return Diagnosis(verdict, res, tested, alpha, unexcited, unexplained, proposal, len(live) + len(shapes))
+    for c in slow:
+        if "gauss_markov" in c.indistinguishable:
+            c.separated_by = [*c.separated_by, DRIFT_SEPARATION]
+    return Diagnosis(verdict, res, tested, alpha, unexcited, unexplained, proposal, family)
 
 
 def _colour_candidate(res: FitResult, noises, lin, alpha) -> Candidate | None:

@@ -39,6 +39,7 @@ from gyrojax.data.records import Record, interval_key
 from gyrojax.data.triad import TRIAD_KIND
 from gyrojax.errors import ConvergenceWarning, FormatError, ModelError, RecordError
 from gyrojax.inference.lstsq import lstsq
+from gyrojax.noise import reml
 from gyrojax.noise.whiten import (
     FIT_TAU_SPAN_FRACTION,
     ARNoise,
@@ -47,8 +48,6 @@ from gyrojax.noise.whiten import (
     fit_noise,
     gls_residual,
     gm_reml,
-    series_restarts,
-    series_span,
     whiten,
 )
 from gyrojax.physics import effects as fx
@@ -604,7 +603,7 @@ def _hash_inputs(records) -> list:
 # ---- the solver -------------------------------------------------------------------------------------------------
 
 
-def _stack(lin, noises, scales):
+def stack_whitened(lin, noises, scales):
     """Whitened, weighted stacked system from per-record (r, J, labels)."""
     rows_r, rows_j = [], []
     for (r, j, lab, t), nz, s in zip(lin, noises, scales):
@@ -717,56 +716,37 @@ INTERVAL_LEVEL = 0.97725
 """P(Z ≤ 2): standard errors are widened so that θ̂ ± 2σ keeps this one-sided level under Student's t."""
 
 
-def satterthwaite_dof(lin, campaign: Campaign, noises, scales, step: float = 0.05) -> np.ndarray:
+def satterthwaite_dof(lin, campaign: Campaign, noises, scales) -> np.ndarray:
     """Effective degrees of freedom ν_k of each coefficient's GLS variance V_k when the Gauss–Markov noise
     parameters are estimated (Satterthwaite 1946, as Giesbrecht & Burns 1985 apply it to REML fits):
     ν_k = 2 V_k² / Var(V̂_k), Var(V̂_k) ≈ ∇V_kᵀ I⁻¹ ∇V_k, with I the REML information of each group's
-    (log τ, log σ_g², log σ_w²) and ∇V_k by central differences (``step`` in the log-parameters).
+    u = (log τ, log σ_g², log σ_w²) — half the exact Hessian of −2 log L_R
+    (:func:`gyrojax.noise.reml.reml_hessian`) — and ∇V_k = −diag(V ∂(J̃ᵀJ̃)/∂u V) exact too
+    (:func:`gyrojax.noise.reml.whitened_gram`).
 
     Drift slower than a position is seen only in the scatter of the position means: an 8-position test leaves a
     handful of such degrees of freedom, and a plug-in σ̂ then covers ±2σ in ~0.88 of the cases, not 0.954.
     A τ at its cap is held fixed. Records with an AR or white model add nothing (their ν is large).
     Returns ν (dimensionless, ≥ 1; ``inf`` where no noise parameter was estimated).
     """
-
-    def variances(nz_list):
-        rw, jw = _stack(lin, nz_list, scales)
-        return np.diag(_solve(jw, rw)[1])
-
-    v0 = variances(noises)
+    rw, jw = stack_whitened(lin, noises, scales)
+    cov = solve(jw, rw)[1]
+    v0 = np.diag(cov)
     var_v = np.zeros_like(v0)
     for idx in noise_groups(campaign):
         nz = noises[idx[0]]
         if not isinstance(nz, GMNoise) or nz.gm_var <= 0 or nz.white_var <= 0:
             continue
         r, j, lab, t = group_series(lin, idx)
-        tau_max = series_span(t, series_restarts(lab, t)) / FIT_TAU_SPAN_FRACTION
-        u0 = np.log([nz.tau_s, nz.gm_var, nz.white_var])
-        free = [1, 2] if nz.tau_s >= 0.999 * tau_max else [0, 1, 2]
-        basis = np.eye(3)[free] * step
-
-        def reml(u):
-            return gm_reml(r, j, lab, t, GMNoise(*np.exp(u)))
-
-        f0 = reml(u0)
-        k = len(free)
-        hess = np.zeros((k, k))
-        for a in range(k):
-            hess[a, a] = (reml(u0 + basis[a]) - 2 * f0 + reml(u0 - basis[a])) / step**2
-            for b in range(a):
-                ea, eb = basis[a], basis[b]
-                hess[a, b] = hess[b, a] = (
-                    reml(u0 + ea + eb) - reml(u0 + ea - eb) - reml(u0 - ea + eb) + reml(u0 - ea - eb)
-                ) / (4 * step * step)
-        w, vec = np.linalg.eigh(hess)  # −2 log L_R: information = hess / 2
+        theta = (nz.tau_s, nz.gm_var, nz.white_var)
+        series = reml.prepare(r, j, lab, t, FIT_TAU_SPAN_FRACTION)
+        free = [1, 2] if nz.tau_s >= 0.999 * series.tau_max else [0, 1, 2]
+        hess = reml.reml_hessian(series, theta)[np.ix_(free, free)]
+        w, vec = np.linalg.eigh(0.5 * (hess + hess.T))  # −2 log L_R: information = hess / 2
         w = np.maximum(w, 1e-9 * max(float(w.max()), 1e-300))
         cov_u = 2.0 * (vec / w) @ vec.T
-        grad = np.zeros((len(v0), k))
-        for a in range(k):
-            for sign in (1.0, -1.0):
-                moved = GMNoise(*np.exp(u0 + sign * basis[a]))
-                grad[:, a] += sign * variances([moved if i in idx else nz_i for i, nz_i in enumerate(noises)])
-        grad /= 2 * step
+        _, dgram = reml.whitened_gram(reml.prepare(r, j, lab, t, FIT_TAU_SPAN_FRACTION, select=False), theta)
+        grad = -np.einsum("ki,ija,jk->ka", cov, dgram, cov)[:, free]  # ∂V_k/∂u = −(V ∂A/∂u V)_kk
         var_v += np.einsum("ka,ab,kb->k", grad, cov_u, grad)
     with np.errstate(divide="ignore", invalid="ignore"):
         nu = np.where(var_v > 0, 2.0 * v0**2 / var_v, np.inf)
@@ -785,12 +765,12 @@ def _rms(r) -> float:
     return float(np.sqrt(np.mean(r * r))) if len(r) else 0.0
 
 
-def _noise_scale(r, labels) -> float:
+def noise_scale(r, labels) -> float:
     """Initial per-record noise level: the high-frequency residual, floored for noise-free data."""
     return max(first_difference_std(r, labels), 1e-9 * _rms(r), 1e-15)
 
 
-def _solve(jw, rw, rank_tol=ALIAS_TOL):
+def solve(jw, rw, rank_tol=ALIAS_TOL):
     """Least-squares step and (JᵀJ)⁻¹ in normalised columns, by SVD with a rank cut
     (:func:`gyrojax.inference.lstsq.lstsq`). Floating-point residue columns (:func:`residue_columns`) get no step
     and no finite uncertainty."""
@@ -809,11 +789,11 @@ def _least_squares(model: Model, theta, campaign: Campaign, noises, scales, max_
     far from the optimum is damped instead of overshooting. The trust region is measured in report units (arcsec,
     ppm, deg/h …, the natural scale of each coefficient): scaling it by the Jacobian's columns instead lets the
     first steps wander along the weakly seen set-up angles when a record is nearly noise-free. The whitening is
-    linear in the data, so the whitened residual and Jacobian of :func:`_stack` are exact for the solver too.
+    linear in the data, so the whitened residual and Jacobian of :func:`stack_whitened` are exact for the solver too.
     """
     if model.is_linear or model.size == 0:
-        rw, jw = _stack(linearize(model, theta, campaign), noises, scales)
-        step, _ = _solve(jw, rw)
+        rw, jw = stack_whitened(linearize(model, theta, campaign), noises, scales)
+        step, _ = solve(jw, rw)
         return theta + step, 1, ""
     cache = {}
 
@@ -821,7 +801,7 @@ def _least_squares(model: Model, theta, campaign: Campaign, noises, scales, max_
         key = th.tobytes()
         if key not in cache:
             cache.clear()
-            cache[key] = _stack(linearize(model, th, campaign), noises, scales)
+            cache[key] = stack_whitened(linearize(model, th, campaign), noises, scales)
         return cache[key]
 
     sol = least_squares(
@@ -888,9 +868,9 @@ def fit(
 
     # white pass: per-record σ from the high-frequency residual; one solve, or Levenberg–Marquardt when nonlinear
     lin = linearize(model, theta, camp)
-    scales = [_noise_scale(r, lab) for r, _, lab, _ in lin]
+    scales = [noise_scale(r, lab) for r, _, lab, _ in lin]
     noises = [None] * n_rec
-    rw, jw = _stack(lin, noises, scales)
+    rw, jw = stack_whitened(lin, noises, scales)
     report = identifiability(jw, model)
     if (report["aliases"] or report["unexcited"]) and not allow_aliases:
         raise IdentifiabilityError(alias_message(report), report)
@@ -903,8 +883,8 @@ def fit(
             raise ModelError(f"a noise model in deg/h applies to gyro records, not to {kind!r}")
         noises = [noise.whitening_model(float(np.median(np.diff(t)))) for *_, t in lin]
         for _ in range(3 if not model.is_linear else 1):
-            rw, jw = _stack(lin, noises, scales)
-            step, _ = _solve(jw, rw)
+            rw, jw = stack_whitened(lin, noises, scales)
+            step, _ = solve(jw, rw)
             theta = theta + step
             lin = linearize(model, theta, camp)
     elif noise == "ar":
@@ -917,14 +897,14 @@ def fit(
         raise ModelError(f"noise must be 'ar' or 'white', got {noise!r}")
     else:
         scales = [max(float(np.std(r)), 1e-9 * _rms(r), 1e-15) for r, *_ in lin]
-    rw, jw = _stack(lin, noises, scales)
+    rw, jw = stack_whitened(lin, noises, scales)
     report = identifiability(jw, model)
     if len(rw) - report["rank"] < 1:
         raise ModelError(
             f"{len(rw)} measurement(s) for {report['rank']} coefficient(s): no degrees of freedom are left to "
             "estimate the noise, so no standard error can be stated; add samples or drop effects"
         )
-    _, cov = _solve(jw, rw)
+    _, cov = solve(jw, rw)
     dof = max(len(rw) - report["rank"], 1)
     chi2 = float(rw @ rw)
     if not known:

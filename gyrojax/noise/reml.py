@@ -26,13 +26,6 @@ Collinear regressors (the diagnosis' per-record offset beside a constant D_F col
 invertible, so the column space of X̃ is that of X, and the columns kept are those independent of the columns
 before them (|R_kk| of a QR of the normalised X above :data:`RANK_TOL`), which gives log det over the estimable
 directions exactly as a QR of X̃ would.
-
-**Status.** Tested against the numpy likelihoods of :mod:`gyrojax.noise.whiten` (values to rounding, gradient and
-Hessian against finite differences) and about 100× cheaper per evaluation, but not yet the fit's and the
-diagnosis' optimiser: found exactly, the profile likelihood ratio of the diagnosis' slow candidates
-(``bias_trend`` against Gauss–Markov drift re-estimated with it) reaches LR ≈ 17 on a null campaign with drift,
-a false alarm that the derivative-free search of :mod:`gyrojax.noise.whiten` avoids only by stopping near its start.
-Wiring this module in waits for a slow-candidate test that is honest under drift.
 """
 
 from __future__ import annotations

@@ -17,6 +17,8 @@ import numpy as np
 from scipy.linalg import solve_toeplitz
 from scipy.signal import lfilter
 
+from . import reml
+
 P_MAX = 20
 TAU_SPAN_FRACTION = 8.0
 """In the diagnosis, Gauss–Markov correlation times are capped at the record span / 8: structure slower than that
@@ -322,18 +324,6 @@ def gm_profile(r: np.ndarray, design: np.ndarray, labels: np.ndarray, times: np.
     return float(np.sum(logs) + e @ e)
 
 
-def profile_likelihood(r, design, labels, times, start: GMNoise | None = None) -> float:
-    """min over white + Gauss–Markov parameters of :func:`gm_profile`: the ML fit of a regression with GM noise."""
-    given = start
-    start = start or fit_gm(r, labels, times)
-    if start is None:
-        ok = labels >= 0
-        v = max(float(np.var(r[ok])), 1e-300)
-        start = GMNoise(float(np.ptp(times[ok])) / 20 or 1.0, 0.1 * v, 0.9 * v)
-    best = _gm_mle(r, labels, times, start, design, profile=True, grid=given is None)
-    return gm_profile(r, design, labels, times, best)
-
-
 def fit_gm(
     r: np.ndarray,
     labels: np.ndarray,
@@ -342,6 +332,7 @@ def fit_gm(
     design: np.ndarray | None = None,
     tau_span_fraction: float = TAU_SPAN_FRACTION,
     neutral_start: bool = False,
+    start: GMNoise | None = None,
 ) -> GMNoise | None:
     """White + Gauss–Markov model from the pooled autocovariance: γ_0 = σ_w² + σ_g², γ_k = σ_g² φ^k (k ≥ 1),
     φ = exp(−Δt/τ) at the median step Δt (s, from ``times``), then refined by maximum likelihood (REML when
@@ -349,7 +340,8 @@ def fit_gm(
     restart where time goes back). None when no segment has 8 samples, the residual is zero, or the
     autocovariance gives no admissible split (0 < σ_g² < γ_0) — unless ``neutral_start``, when the likelihood then
     starts from a neutral split instead (the fit's choice; the diagnosis keeps such residuals for its candidates).
-    Variances in the unit of ``r`` squared.
+    Variances in the unit of ``r`` squared. ``start``: a previous fit of a closely related residual (the diagnosis'
+    rounds) to start from instead of the moment estimate.
     """
     from scipy.optimize import minimize_scalar
 
@@ -357,6 +349,8 @@ def fit_gm(
     lens = [e - s for s, e in bounds]
     if not lens or max(lens) < 8:
         return None
+    if start is not None and start.gm_var > 0 and start.white_var > 0:
+        return _gm_mle(r, labels, times, start, design, tau_span_fraction=tau_span_fraction)
     dt0 = float(np.median(np.diff(times))) if len(times) > 1 else 1.0
     if not dt0 > 0:
         dt0 = 1.0
@@ -403,35 +397,14 @@ def _gm_mle(
     regressors of the fit are given, so that the drift the fitted coefficients absorbed is not lost from σ_g².
 
     The autocovariance fit inside short segments underestimates τ when τ is comparable to a segment; the
-    likelihood sees the correlation across the gaps between segments too.
+    likelihood sees the correlation across the gaps between segments too. Jitted JAX likelihood with exact
+    derivatives, minimised by quasi-Newton from the best of a grid of starts (:func:`gyrojax.noise.reml.fit`);
+    ``grid=False`` uses a coarser grid around ``start`` (the profile likelihood ratio refits twice per slow candidate).
     """
-    from scipy.optimize import minimize
-
-    ok = labels >= 0
-    tau_max = max(series_span(times[ok], series_restarts(labels[ok], times[ok])) / tau_span_fraction, 1e-9)
-
-    def unpack(u):
-        return GMNoise(min(float(np.exp(u[0])), tau_max), float(np.exp(u[1])), float(np.exp(u[2])))
-
-    def nll(u):
-        if np.any(np.abs(u) > 700):
-            return np.inf
-        if design is not None:
-            f = gm_profile if profile else gm_reml
-            return f(r, design, labels, times, unpack(u))
-        return gm_loglik(r, labels, times, unpack(u))[0]
-
-    # the likelihood in τ has local minima on short records: start from the best of a grid of correlation times
-    dt0 = float(np.median(np.diff(times[ok]))) if ok.sum() > 1 else 1.0
-    n_tau, fractions = (8, (0.02, 0.1, 0.3)) if grid else (5, (0.03, 0.2))
-    starts = [min(start.tau_s, tau_max)] + list(np.geomspace(max(2 * dt0, 1e-9), tau_max, n_tau))
-    total = start.gm_var + start.white_var
-    cands = [np.log([t, v * total, (1 - v) * total]) for t in starts for v in fractions]
-    cands.append(np.log([min(start.tau_s, tau_max), start.gm_var, start.white_var]))
-    u0 = min(cands, key=nll)
-    sol = minimize(nll, u0, method="Nelder-Mead", options={"xatol": 1e-3, "fatol": 1e-3, "maxiter": 300})
-    best = sol.x if sol.fun <= nll(u0) else u0
-    return unpack(best)
+    series = reml.prepare(r, design, labels, times, tau_span_fraction)
+    restricted = design is not None and not profile
+    theta, *_ = reml.fit(series, (start.tau_s, start.gm_var, start.white_var), reml=restricted, coarse=not grid)
+    return GMNoise(min(float(theta[0]), series.tau_max), float(theta[1]), float(theta[2]))
 
 
 def fit_noise(
@@ -443,6 +416,7 @@ def fit_noise(
     tau_span_fraction: float = TAU_SPAN_FRACTION,
     neutral_start: bool = False,
     prefer_gm: bool = False,
+    start: GMNoise | None = None,
 ):
     """The noise model of a residual: white + Gauss–Markov (maximum likelihood), unless an AR(p ≥ 1) model is
     better by BIC.
@@ -456,9 +430,11 @@ def fit_noise(
     on a 2-hour servo record understated the long-run variance, ±2σ coverage 0.90 against 0.967 with GM).
 
     ``r`` in its own unit (deg/h for gyro residuals, g for accelerometers), ``times`` in s, ``design`` (n, p) the fit's
-    regressors. Returns an :class:`ARNoise` or a :class:`GMNoise`.
+    regressors; ``start`` as for :func:`fit_gm`. Returns an :class:`ARNoise` or a :class:`GMNoise`.
     """
-    gm = fit_gm(r, labels, times, design=design, tau_span_fraction=tau_span_fraction, neutral_start=neutral_start)
+    gm = fit_gm(
+        r, labels, times, design=design, tau_span_fraction=tau_span_fraction, neutral_start=neutral_start, start=start
+    )
     if prefer_gm and gm is not None:
         return gm
     ar = fit_ar(r, labels, p_max)
