@@ -248,7 +248,7 @@ def enable_compilation_cache() -> None:
     import jax
 
     jax.config.update("jax_compilation_cache_dir", path)
-    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)  # every compiled function: dozens of small ones
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
 
 
