@@ -2,6 +2,7 @@
 (value), central finite differences (gradient and Hessian), the dense-covariance Gaussian likelihood (closed form),
 and the Satterthwaite ν of the previous finite-difference implementation."""
 
+import jax
 import numpy as np
 import pytest
 from scipy import linalg
@@ -80,7 +81,7 @@ def test_gradient_and_hessian_match_finite_differences(restricted):
     u = np.log(THETA)
     c = 1.0 if restricted else 0.0
     f0, g = reml.value_and_grad(u, *s.arrays, c)
-    h = np.asarray(reml.hessian(u, *s.arrays, c))
+    h = np.asarray(jax.hessian(reml.objective)(u, *s.arrays, c))
 
     def f(v):  # the numpy reference (no JAX)
         nz = GMNoise(*np.exp(v))
@@ -99,6 +100,19 @@ def test_gradient_and_hessian_match_finite_differences(restricted):
     )
     np.testing.assert_allclose(h, fd_h, rtol=2e-4, atol=2e-3)
     assert np.allclose(h, h.T, atol=1e-8 * np.abs(h).max())
+    if restricted:  # the Satterthwaite curvature: central differences of the exact gradient, against jax.hessian
+        np.testing.assert_allclose(reml.reml_hessian(s, THETA), h, rtol=1e-6, atol=1e-6 * np.abs(h).max())
+
+
+def test_whitened_gram_derivative_matches_forward_mode():
+    r, x, lab, t = _series(3)
+    s = reml.prepare(r, x, lab, t, 1.0, select=False)
+    u = np.log(THETA)
+    a, da = reml.whitened_gram(s, THETA)
+    p, d = s.rank, s.norms
+    ref = np.asarray(jax.jacfwd(reml.gram)(u, *s.arrays))[:p, :p] * np.outer(d, d)[:, :, None]
+    np.testing.assert_allclose(a, np.asarray(reml.gram(u, *s.arrays))[:p, :p] * np.outer(d, d), rtol=1e-12)
+    np.testing.assert_allclose(da, ref, rtol=1e-6, atol=1e-7 * np.abs(ref).max())
 
 
 def test_padding_does_not_change_the_likelihood():

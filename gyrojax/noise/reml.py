@@ -14,8 +14,8 @@ innovation variances
 recursions are two-level ``lax.scan`` s (about 2√N sequential steps), β is profiled out by the p×p normal equations
 in normalised columns (Cholesky), and the minimum is found by a trust-region quasi-Newton method on the exact
 gradient (reverse mode) from the best of a small grid of correlation times around the caller's start (a moment
-estimate or a previous fit). The exact Hessian (``jax.jacfwd`` twice) gives the REML information of the
-Satterthwaite degrees of freedom.
+estimate or a previous fit). The REML information of the Satterthwaite degrees of freedom is the Hessian by central
+differences of that exact gradient (:func:`reml_hessian`; tested against ``jax.hessian``).
 
 Shapes are padded to buckets (rows to m·2^k with 4 ≤ m < 8, columns to a multiple of 8) so that records of
 similar length and models of similar size reuse one compiled function: padded rows pass through the filter
@@ -319,21 +319,18 @@ def objective(u, x, dt, restart, mask, reml):
 
 
 value_and_grad = jax.jit(jax.value_and_grad(objective))
-hessian = jax.jit(jax.jacfwd(jax.jacfwd(objective)))
-"""Exact Hessian of :func:`objective` in u (forward over forward mode; compiled separately, used where the curvature
-itself is wanted: the Satterthwaite degrees of freedom)."""
 likelihood_terms_jit = jax.jit(likelihood_terms)
-
-
-def _gram(u, x, dt, restart, mask):
-    return gram_scan(jnp.exp(u), x, dt, restart, mask)[0][1:, 1:]
+HESSIAN_STEP = 1e-4
+"""Step in u of the central differences of the exact gradient (and of X̃ᵀX̃) that give the curvature: the truncation
+error is ~1e-8 relative, and the compiled first-order functions are reused instead of tracing second-order ones
+(about a second per shape in every fresh process)."""
 
 
 @jax.jit
-def gram_and_jacobian(u, x, dt, restart, mask):
-    """(X̃ᵀX̃ (P, P), ∂X̃ᵀX̃/∂u (P, P, 3)) of the normalised, padded columns of a :class:`Series` (dimensionless),
-    at u = (log τ/s, log σ_g², log σ_w²); ``dt`` the sample steps in s."""
-    return _gram(u, x, dt, restart, mask), jax.jacfwd(_gram)(u, x, dt, restart, mask)
+def gram(u, x, dt, restart, mask):
+    """X̃ᵀX̃ (P, P) of the normalised, padded columns of a :class:`Series` (dimensionless), at u = (log τ/s, log σ_g²,
+    log σ_w²); ``dt`` the sample steps in s."""
+    return gram_scan(jnp.exp(u), x, dt, restart, mask)[0][1:, 1:]
 
 
 # ---- the minimiser ------------------------------------------------------------------------------------------------
@@ -444,15 +441,32 @@ def fit(s: Series, start, reml: bool = True, coarse: bool = False):
     return np.exp(u), f + (s.logdet_const if reml else 0.0), it
 
 
-def reml_hessian(s: Series, theta) -> np.ndarray:
-    """Exact Hessian (3, 3) of −2 log L_R in u = log(τ, σ_g², σ_w²) at ``theta`` = (τ s, σ_g², σ_w²)."""
-    return np.asarray(hessian(np.log(np.asarray(theta, dtype=float)), *s.arrays, 1.0))
+def reml_hessian(s: Series, theta, step: float = HESSIAN_STEP) -> np.ndarray:
+    """Hessian (3, 3) of −2 log L_R in u = log(τ, σ_g², σ_w²) at ``theta`` = (τ s, σ_g², σ_w²): central differences
+    of the exact gradient (:data:`HESSIAN_STEP`), symmetrised."""
+    u = np.log(np.asarray(theta, dtype=float))
+    cols = []
+    for e in np.eye(3) * step:
+        gp = np.asarray(value_and_grad(u + e, *s.arrays, 1.0)[1])
+        gm = np.asarray(value_and_grad(u - e, *s.arrays, 1.0)[1])
+        cols.append((gp - gm) / (2.0 * step))
+    h = np.column_stack(cols)
+    return 0.5 * (h + h.T)
 
 
-def whitened_gram(s: Series, theta):
+def whitened_gram(s: Series, theta, step: float = HESSIAN_STEP):
     """X̃ᵀX̃ (p, p) of the whitened regressors of ``s`` in their own units and its derivatives (p, p, 3) in
-    u = log(τ, σ_g², σ_w²) (exact, forward mode) at ``theta`` = (τ s, σ_g², σ_w²)."""
-    a, da = gram_and_jacobian(np.log(np.asarray(theta, dtype=float)), *s.arrays)
+    u = log(τ, σ_g², σ_w²) at ``theta`` = (τ s, σ_g², σ_w²) (central differences of the compiled :func:`gram`,
+    :data:`HESSIAN_STEP`)."""
+    u = np.log(np.asarray(theta, dtype=float))
     p, d = s.rank, s.norms
-    a, da = np.asarray(a)[:p, :p], np.asarray(da)[:p, :p]
-    return a * np.outer(d, d), da * np.outer(d, d)[:, :, None]
+    scale = np.outer(d, d)
+    a = np.asarray(gram(u, *s.arrays))[:p, :p] * scale
+    da = np.stack(
+        [
+            (np.asarray(gram(u + e, *s.arrays)) - np.asarray(gram(u - e, *s.arrays)))[:p, :p] / (2.0 * step)
+            for e in np.eye(3) * step
+        ],
+        axis=-1,
+    )
+    return a, da * scale[:, :, None]
