@@ -4,6 +4,9 @@ from pathlib import Path
 import pytest
 
 import gyrojax  # noqa: F401  (x64 is switched on by the package, once)
+from gyrojax.cli.app import single_threaded_blas
+
+single_threaded_blas()  # two test workers on two cores: BLAS threads would only spin against each other
 
 DATA = Path(__file__).resolve().parent / "data"
 EXAMPLES = DATA / "examples"

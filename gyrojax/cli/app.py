@@ -253,6 +253,16 @@ def enable_compilation_cache() -> None:
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
 
 
+def single_threaded_blas() -> None:
+    """One BLAS thread for this process (unless ``GYROJAX_BLAS_THREADS`` says otherwise). The linear algebra here
+    is on tall, narrow matrices (samples × regressors), where threads gain little, and on a busy machine the
+    threads of OpenBLAS spin against other processes: ``gyrojax diagnose`` of the demo campaign took 9.7–15 s with
+    the default threads beside one other busy process, 5.0–5.6 s with one (``benchmarks/bench_mainloop.py``)."""
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(int(os.environ.get("GYROJAX_BLAS_THREADS", "1") or 1), user_api="blas")
+
+
 def main(argv=None) -> int:
     """Run the ``gyrojax`` command on ``argv`` (default ``sys.argv[1:]``); returns the exit code (0, 1 or 2)."""
     parser = build_parser()
@@ -267,6 +277,7 @@ def main(argv=None) -> int:
             parser.print_help()
             return 0
         enable_compilation_cache()
+        single_threaded_blas()
         return args.func(args)
     except GyrojaxError as e:
         print(f"gyrojax: error: {e}".replace("\n", " "), file=sys.stderr)

@@ -85,7 +85,7 @@ def cmd_fit(args) -> int:
     """``gyrojax fit``: fit named effects to records and print the coefficient table (report units); exit code."""
     from gyrojax.data.records import load_records
     from gyrojax.inference.identify import fit
-    from gyrojax.report.figures import fit_table
+    from gyrojax.report.text import fit_table
 
     recs = load_records(args.records)
     if getattr(args, "per_instrument", False):
@@ -122,7 +122,7 @@ def cmd_diagnose(args) -> int:
     """``gyrojax diagnose``: fit, then test every missing effect and print the verdict; exit code."""
     from gyrojax.data.records import load_records
     from gyrojax.inference.diagnose import diagnose
-    from gyrojax.report.figures import diagnosis_text
+    from gyrojax.report.text import diagnosis_text
 
     if not 0.0 < args.alpha < 1.0:
         raise UsageError(f"--alpha must lie in (0, 1), got {args.alpha}")

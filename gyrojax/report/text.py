@@ -1,0 +1,112 @@
+"""Readable text of the results: coefficient tables and diagnosis summaries, every number with its unit.
+
+No plotting library is imported here, so the command line prints a fit or a diagnosis without loading one.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from gyrojax.inference.identify import FitResult
+
+
+def _fmt(v: float, s: float | None = None) -> str:
+    if s is None or not np.isfinite(s):
+        return f"{v: .6g}"
+    if s == 0:
+        return f"{v: .6g} ± 0"
+    digits = max(0, 2 - int(math.floor(math.log10(abs(s))))) if s > 0 else 6
+    digits = min(digits, 10)
+    return f"{v: .{digits}f} ± {s:.2g}"
+
+
+def fit_table(res: FitResult) -> str:
+    """Coefficient table: name, value ± std, unit, t statistic and significance (CIGTF style)."""
+    lines = [f"fit of {', '.join(res.model.terms)} to {len(res.record_names)} record(s), {res.n_samples} samples"]
+    lines.append(f"{'coefficient':14s} {'value ± std':>28s}  {'unit':12s} {'t':>9s}  significant")
+    for c, v, s, u, t, p in zip(
+        res.coefficient_names, res.theta, res.std, res.model.coefficient_units, res.t_statistics, res.p_values
+    ):
+        sig = "yes" if np.isfinite(p) and p < 0.05 else ("—" if not np.isfinite(p) else "no")
+        lines.append(f"{c:14s} {_fmt(v, s):>28s}  {u:12s} {t:9.2f}  {sig}")
+    lines.append(f"residual RMS {res.residual_rms:.6g} deg/h; white-noise floor {res.noise_floor:.6g} deg/h")
+    idf = res.identifiability
+    cond = idf.get("condition", float("nan"))
+    lines.append(f"condition number {cond:.3g}; rank {idf.get('rank')} of {idf.get('size')}")
+    for name, nz in zip(res.record_names, res.noise):
+        if getattr(nz, "order", 0) == "gm":
+            lines.append(
+                f"  noise {name}: white {math.sqrt(nz.white_var):.3g} + Gauss–Markov "
+                f"{math.sqrt(nz.gm_var):.3g} deg/h, τ {nz.tau_s:.3g} s"
+            )
+        elif nz.order:
+            lines.append(f"  noise {name}: AR({nz.order}), innovation std {nz.innovation_std:.3g} deg/h")
+    return "\n".join(lines)
+
+
+def diagnosis_text(d, add: str | None = None) -> str:
+    """Verdict, residual against floor, and the ranked candidates with their aliases.
+
+    ``add``: the effect the caller will add, when it picks an alias of the top candidate (the plan cannot tell them
+    apart, so either explains the residual equally); default the top candidate itself.
+    """
+    lines = [
+        f"verdict: {d.verdict}   (family-wise α = {d.alpha})",
+        f"model: {', '.join(d.fit.model.terms)}",
+        f"residual RMS {d.residual_rms:.6g} deg/h; white-noise floor {d.noise_floor:.6g} deg/h",
+    ]
+    lines.append(f"{'candidate':18s} {'statistic':>12s} {'df':>3s} {'p (Holm)':>10s} {'RMS after':>12s}  aliases")
+    for c in d.candidates[:12]:
+        al = ", ".join(c.aliases) if c.aliases else ""
+        if c.separated_by:
+            al += f"  (separate with: {'; '.join(c.separated_by[:3])})"
+        lines.append(f"{c.name:18s} {c.statistic:12.4g} {c.df:3d} {c.p_adjusted:10.3g} {c.rms_after:12.6g}  {al}")
+    if d.unexcited:
+        lines.append("not excited by this plan: " + ", ".join(d.unexcited))
+    lines += adequacy_lines(d)
+    top = next((c for c in d.candidates if c.name == d.proposal), None) if hasattr(d, "proposal") else d.top
+    if d.verdict == "missing-effect" and top is not None:
+        name = add or top.name
+        terms = ",".join(d.fit.model.terms + (name,))
+        if name != top.name:
+            why = (
+                f"an alias of the top candidate {top.name!r}: this plan cannot tell them apart"
+                if name in top.aliases
+                else f"chosen instead of the top candidate {top.name!r}"
+            )
+            lines.append(f"→ add {name!r} ({why}) and refit (gyrojax fit … --terms {terms})")
+        else:
+            lines.append(f"→ add {name!r} and refit (gyrojax fit … --terms {terms})")
+    return "\n".join(lines)
+
+
+def adequacy_lines(d) -> list[str]:
+    """The lines of a diagnosis about what no named effect explains, near-aliases, and candidates that cannot be
+    proposed (refused by fit, or of implausible size) — each beside the unexplained structure
+    (:mod:`gyrojax.inference.adequacy`)."""
+    lines = []
+    for c in d.candidates:
+        if c.df > 0 and getattr(c, "indistinguishable", None) and c.p_adjusted < d.alpha:
+            sep = "; ".join(c.separated_by[:3]) or "no built-in plan"
+            lines.append(
+                f"{c.name} is indistinguishable in this test from {', '.join(c.indistinguishable)} "
+                f"(either explains the data within the critical difference); to separate them: {sep}"
+            )
+    for c in d.candidates:
+        if c.df > 0 and c.p_adjusted < d.alpha and (getattr(c, "refused", None) or getattr(c, "implausible", None)):
+            why = c.refused or f"implausible size: {c.implausible}"
+            lines.append(f"not proposed: {c.name} — {why}")
+    for s in getattr(d, "unexplained", [])[:6]:
+        tip = f"; model it with {s.to_json()['effect_option']}" if s.expression else ""
+        lines.append(f"{s.line} (χ² {s.statistic:.4g} on {s.df} df, p (Holm) {s.p_adjusted:.3g}){tip}")
+    if getattr(d, "unexplained", None) and getattr(d, "proposal", None) is None:
+        lines.append(
+            "→ no named effect explains the residual: model the structure above (gyrojax fit … --effect "
+            "'NAME=EXPR') or look for its physical cause"
+        )
+    return lines
+
+
+# ---- residual views (matplotlib) --------------------------------------------------------------------------------
