@@ -74,7 +74,8 @@ UNSEEN = 1e-6  # |X⊥| / |X| below which a candidate is indistinguishable from 
 
 @dataclass
 class Candidate:
-    """One effect the model lacks, with the evidence for it."""
+    """One effect the model lacks, with the evidence for it: the test statistic and p-values (dimensionless), the
+    residual RMS after adding it (deg/h for gyros, g for accelerometers), and its estimate in report units."""
 
     name: str
     statistic: float

@@ -766,7 +766,8 @@ def _rms(r) -> float:
 
 
 def noise_scale(r, labels) -> float:
-    """Initial per-record noise level: the high-frequency residual, floored for noise-free data."""
+    """Initial per-record noise level in the residual's unit (deg/h or g): from the residual's first differences
+    (:func:`gyrojax.noise.whiten.first_difference_std`), floored for noise-free data."""
     return max(first_difference_std(r, labels), 1e-9 * _rms(r), 1e-15)
 
 
