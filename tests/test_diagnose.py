@@ -165,3 +165,48 @@ def test_json_follows_conventions(example_campaigns):
     assert set(c) >= {"name", "statistic", "p_value", "aliases", "rms_after_deg_per_h"}
     stats = [x["log10_p"] for x in j["candidates"] if x["name"] != "gauss_markov" and x["df"] > 0]
     assert stats == sorted(stats)
+
+
+def test_wald_beside_drift_is_the_ordinary_t_test_under_white_noise():
+    """With white noise the re-fitted noise model is white, so the Wald reading of a trend is the OLS t-test of the
+    regression on the model's regressors and time: checked against scipy's Student t on a numpy least squares."""
+    from scipy import stats
+
+    from gyrojax.inference.diagnose import wald_beside_drift
+    from gyrojax.inference.identify import Campaign, fit, linearize
+    from gyrojax.physics.model import Model
+
+    truth = {"coefficients": {**BASE, "D_T": 0.004}, "noise": {"white": 0.0008}}
+    recs = simulate(plans.multiposition(24, minutes=3, dt_s=2), truth, seed=4)
+    camp = Campaign.of(recs)
+    res = fit(recs, DRIFT4, campaign=camp)
+    full = Model(tuple(DRIFT4) + ("bias_trend",), res.model.kind)
+    lin = linearize(full, np.concatenate([res.theta, [0.0]]), camp)
+    p, beta, sd = wald_beside_drift(camp, lin, np.arange(5), 4)
+    r = np.concatenate([x[0] for x in lin])
+    j = np.concatenate([x[1] for x in lin])
+    b, rss, *_ = np.linalg.lstsq(j, r, rcond=None)
+    dof = len(r) - 5
+    cov = np.linalg.inv(j.T @ j) * rss[0] / dof
+    t = b[4] / np.sqrt(cov[4, 4])
+    assert beta[0] == pytest.approx(b[4], rel=1e-6)
+    assert p == pytest.approx(2 * stats.t.sf(abs(t), dof), rel=1e-4)
+    assert sd[0] >= np.sqrt(cov[4, 4]) * (1 - 1e-9)  # the standard error as fit states it (t widening ≥ 1)
+
+
+def test_slow_drift_read_as_a_trend_is_marked_indistinguishable_from_drift():
+    """Drift far slower than the record (τ = 30,000 s on a 72-min run) passes the diagnosis' capped noise model as a
+    trend. Re-fitted beside the trend, the drift explains it: the candidate must then say it cannot be told from
+    gauss_markov drift here, and what would tell them apart."""
+    from gyrojax.inference.diagnose import DRIFT_SEPARATION
+
+    noise = {"white": 0.0008, "gauss_markov": [0.1, 30000.0]}
+    recs = simulate(plans.multiposition(24, minutes=3, dt_s=2), {"coefficients": BASE, "noise": noise}, seed=3)
+    d = diagnose(recs, DRIFT4, model_free=False)
+    c = next(c for c in d.candidates if c.name == "bias_trend")
+    assert c.p_adjusted < d.alpha  # the capped test calls it a trend ...
+    assert c.p_drift_refitted is not None and c.p_drift_refitted * d.tests >= d.alpha  # ... the re-fitted drift not
+    assert c.indistinguishable == ["gauss_markov"]
+    assert c.separated_by == [DRIFT_SEPARATION]
+    js = c.to_json()
+    assert js["p_value_drift_refitted"] == c.p_drift_refitted and "std" in js["estimate"]["D_T"]

@@ -446,8 +446,8 @@ def diagnose(
 
     if suggest_tests:
         for c in tested[:5]:
-            if (c.aliases or c.indistinguishable) and c.name in perps:
-                group = (c.name,) + tuple(a for a in c.aliases + c.indistinguishable if a in fx.names())
+            group = (c.name,) + tuple(a for a in c.aliases + c.indistinguishable if a in fx.names())
+            if len(group) > 1 and c.name in perps:
                 c.separated_by = separating_plans(model.kind, group) or adequacy.setup_measurements(group)
     for c in slow:
         if "gauss_markov" in c.indistinguishable:
