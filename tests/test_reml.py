@@ -195,3 +195,20 @@ def test_satterthwaite_dof_from_the_exact_hessian_matches_finite_differences():
     ref = _fd_satterthwaite(res, records, free)
     np.testing.assert_allclose(res.dof_eff, np.maximum(ref, 1.0), rtol=0.03)
     assert np.all(res.dof_eff < 1e4)
+
+
+def test_gradient_is_finite_across_a_clock_restart_at_short_correlation_time():
+    """Stacked records restart their clocks (a step of −span): at τ of about one step, exp(+span/τ) overflows in the
+    unselected branch of the filter's φ, which once made the reverse-mode gradient NaN (and stopped the search)."""
+    r, x, lab, t = _series(4)
+    s = reml.prepare(r, x, lab, t, 1.0)
+    u = np.log([0.5, 0.05, 1.0])  # τ 0.5 s against a restart step of about −600 s: exp(1200) overflows
+    for c in (0.0, 1.0):
+        f0, g = reml.value_and_grad(u, *s.arrays, c)
+        assert np.all(np.isfinite(np.asarray(g)))
+        step = 1e-5
+        fd = [
+            (float(reml.objective(u + e, *s.arrays, c)) - float(reml.objective(u - e, *s.arrays, c))) / (2 * step)
+            for e in np.eye(3) * step
+        ]
+        np.testing.assert_allclose(np.asarray(g), fd, rtol=1e-5, atol=1e-5)

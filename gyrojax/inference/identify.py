@@ -742,6 +742,16 @@ def satterthwaite_dof(lin, campaign: Campaign, noises, scales) -> np.ndarray:
         series = reml.prepare(r, j, lab, t, FIT_TAU_SPAN_FRACTION)
         free = [1, 2] if nz.tau_s >= 0.999 * series.tau_max else [0, 1, 2]
         hess = reml.reml_hessian(series, theta)[np.ix_(free, free)]
+        if not np.all(np.isfinite(hess)):
+            names = ", ".join(campaign.records[i].name for i in idx)
+            warnings.warn(
+                f"the REML curvature of the noise of records {names} is not finite at its estimate"
+                ": their Satterthwaite degrees of freedom are not computed and the standard errors are "
+                "not widened for the estimated noise",
+                ConvergenceWarning,
+                stacklevel=3,
+            )
+            continue
         w, vec = np.linalg.eigh(0.5 * (hess + hess.T))  # −2 log L_R: information = hess / 2
         w = np.maximum(w, 1e-9 * max(float(w.max()), 1e-300))
         cov_u = 2.0 * (vec / w) @ vec.T

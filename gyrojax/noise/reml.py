@@ -269,7 +269,9 @@ def whiten_scan(theta, x, dt, restart, mask):
     map of P_{k−1}; the filtered state x̂_k = φ_k (σ_w²/S_k) x̂_{k−1} + K_k z_k, K_k = 1 − σ_w²/S_k, an affine one.
     """
     tau, g, w = theta[0], theta[1], theta[2]
-    phi = jnp.where(restart, 0.0, jnp.exp(-dt / tau))
+    # a restart's step (negative where stacked records restart their clocks) must not reach exp: its derivative would
+    # overflow there and turn the reverse-mode gradient into NaN through the unselected branch of the where
+    phi = jnp.where(restart, 0.0, jnp.exp(-jnp.where(restart, 0.0, dt) / tau))
     f2 = phi * phi
     q = g * (1.0 - f2)
     one, zero = jnp.ones_like(phi), jnp.zeros_like(phi)
