@@ -135,11 +135,14 @@ class Record:
     @property
     def rates_dps(self) -> np.ndarray:
         """Table rates, shape (n, k), deg/s: the rate columns where given, else derived inside segments."""
-        seg = self.segment_id
+        seg = None  # the segment ids only when a rate has to be derived
         out = []
         for a in self.axis_names:
             col = self.columns.get(f"rate_{a}_dps")
-            out.append(col if col is not None else derive_rate(self.time_s, self.columns[f"angle_{a}_deg"], seg))
+            if col is None:
+                seg = self.segment_id if seg is None else seg
+                col = derive_rate(self.time_s, self.columns[f"angle_{a}_deg"], seg)
+            out.append(col)
         return np.stack(out, axis=1)
 
     @property
@@ -488,8 +491,10 @@ def diagnose_csv(csv_path: Path, raw: bytes, header: list[str], strict: bool) ->
 def _parse_csv(csv_path: Path) -> tuple[list[str], dict[str, np.ndarray]]:
     """Header and columns of a record CSV, naming the row and column of the first bad cell.
 
-    Fast path: pandas' C parser straight to float64 (exact round trip). On any failure the rows are streamed
-    again to name the first bad row and column; extra columns that are not numeric are kept as text.
+    Fast path: pandas' C parser straight to float64 (exact round trip), first without ``skipinitialspace`` (the
+    float parser skips blanks around a number itself; a quoted or ``inf`` cell after a blank fails there and takes
+    the next step), then with it. On any failure the rows are streamed again to name the first bad row and column;
+    extra columns that are not numeric are kept as text.
     """
     import io
 
@@ -499,7 +504,10 @@ def _parse_csv(csv_path: Path) -> tuple[list[str], dict[str, np.ndarray]]:
     header = parse_csv_header(csv_path, raw)
     kw = dict(skipinitialspace=True, names=header, header=0)
     try:
-        df = pd.read_csv(io.BytesIO(raw), dtype=np.float64, na_filter=False, **kw)
+        try:
+            df = pd.read_csv(io.BytesIO(raw), dtype=np.float64, na_filter=False, names=header, header=0)
+        except (ValueError, pd.errors.ParserError):
+            df = pd.read_csv(io.BytesIO(raw), dtype=np.float64, na_filter=False, **kw)
     except (ValueError, pd.errors.ParserError):
         diagnose_csv(csv_path, raw, header, strict=False)
         dtypes = {h: (np.float64 if must_be_numeric(h) else str) for h in header}
