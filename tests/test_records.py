@@ -95,3 +95,28 @@ def test_csv_cells_with_blanks_and_quotes_parse_as_the_csv_module(tmp_path, exam
         rows = list(csv.reader(text.splitlines()[1:], skipinitialspace=True))
         for j, h in enumerate(header):
             np.testing.assert_array_equal(got.columns[h], [float(r[j]) for r in rows])
+
+
+def test_csv_variants_load_the_same_values(tmp_path, example_campaigns):
+    """A byte-order mark, Windows line ends, and an extra non-ASCII text column (kept as text) take the loader's
+    other paths (bytes read and checked, text columns); the numeric columns come out equal to the plain file's."""
+    name = example_campaigns[0]["records"][0]
+    plain = (EXAMPLES / f"{name}.csv").read_bytes()
+    ref = load_record(EXAMPLES / f"{name}.json")
+    lines = plain.decode().splitlines()
+    note = [lines[0] + ",note"] + [f"{ln},{'réglé à 20 °C' if i % 3 else 'ok'}" for i, ln in enumerate(lines[1:])]
+    variants = {
+        "bom": b"\xef\xbb\xbf" + plain,
+        "crlf": plain.replace(b"\n", b"\r\n"),
+        "text-column": ("\n".join(note) + "\n").encode(),
+    }
+    for label, data in variants.items():
+        d = tmp_path / label
+        d.mkdir()
+        (d / f"{name}.csv").write_bytes(data)
+        (d / f"{name}.json").write_bytes((EXAMPLES / f"{name}.json").read_bytes())
+        got = load_record(d / f"{name}.json")
+        for k, v in ref.columns.items():
+            np.testing.assert_array_equal(got.columns[k], v, err_msg=label)
+        if label == "text-column":
+            assert got.columns["note"][1] == "réglé à 20 °C" and got.columns["note"][0] == "ok"
