@@ -187,8 +187,11 @@ def continuous_segments(time_s: np.ndarray, segment: np.ndarray | None = None) -
     dt = np.diff(time_s)
     brk = dt > GAP_FACTOR * np.median(dt)
     if segment is not None:
-        brk |= np.diff(segment) != 0
-    return np.concatenate([[0], np.cumsum(brk)]).astype(np.int64)
+        brk |= segment[1:] != segment[:-1]
+    out = np.empty(n, dtype=np.int64)
+    out[0] = 0
+    np.cumsum(brk, out=out[1:])
+    return out
 
 
 JITTER_TOL = 0.05
@@ -206,13 +209,16 @@ def uniform_interval(time_s, tol: float = JITTER_TOL) -> tuple[float, float]:
     t = np.asarray(time_s, dtype=float)
     if t.size < 2:
         raise RecordError("a sample interval needs at least two samples")
-    dt = np.diff(t)
     mean = float((t[-1] - t[0]) / (t.size - 1))
     if not mean > 0:
         raise RecordError("times must increase to define a sample interval")
-    jitter = float(np.max(np.abs(dt - mean))) / mean
+    dev = np.diff(t)
+    dev -= mean
+    np.abs(dev, out=dev)  # |step − mean|, in place (one array of n − 1 for a long record)
+    jitter = float(np.max(dev)) / mean
     if jitter > tol:
-        i = int(np.argmax(np.abs(dt - mean)))
+        i = int(np.argmax(dev))
+        dt = np.diff(t)
         raise RecordError(
             f"step {i + 1} is {dt[i]:.6g} s against a mean interval of {mean:.6g} s ({100 * jitter:.3g} % off; "
             f"logger jitter up to {100 * tol:.3g} % is accepted): a gap or a change of sample rate"
@@ -620,10 +626,10 @@ def validate_columns(meta: dict, columns: dict[str, np.ndarray], file="record.cs
 
 def _check_times(t, file) -> None:
     if len(t) > 1:
-        dt = np.diff(t)
-        if np.any(dt <= 0):
-            i = int(np.flatnonzero(dt <= 0)[0])
-            what = "repeats" if dt[i] == 0 else "decreases from"
+        bad = t[1:] <= t[:-1]  # a step that is not positive (same as diff <= 0 for finite times)
+        if np.any(bad):
+            i = int(np.flatnonzero(bad)[0])
+            what = "repeats" if t[i + 1] == t[i] else "decreases from"
             raise _err(
                 file,
                 f"row {i + 3}, column 'time_s': time {what} the previous row's {float(t[i])} (got {float(t[i + 1])}); "

@@ -81,7 +81,9 @@ def angle_series(rate, tau0):
     if isinstance(rate, np.ndarray) and not _traced(tau0):
         out = np.empty(rate.shape[0] + 1)
         out[0] = 0.0
-        np.cumsum((np.asarray(rate, dtype=np.float64) - np.mean(rate)) * tau0, out=out[1:])
+        step = np.asarray(rate, dtype=np.float64) - np.mean(rate)
+        step *= tau0
+        np.cumsum(step, out=out[1:])
         return out
     rate = jnp.asarray(rate, dtype=jnp.float64)
     return jnp.concatenate([jnp.zeros(1), jnp.cumsum((rate - jnp.mean(rate)) * tau0)])
@@ -540,7 +542,7 @@ def static_rate_segments(records, rate_tol_dps: float = 1e-9, notes: list | None
             )
         sid, y, t = r.segment_id, r.indicated, r.time_s
         # the ids count up along the record (gyrojax.data.records.continuous_segments): each piece is one run
-        starts = np.concatenate([[0], np.flatnonzero(np.diff(sid)) + 1])
+        starts = np.concatenate([[0], np.flatnonzero(sid[1:] != sid[:-1]) + 1])
         ends = np.append(starts[1:], len(sid))
         if len(starts) > 1 and notes is not None:
             notes.append(f"{r.name}: {len(starts)} continuous pieces separated by gaps, analysed separately and pooled")
