@@ -66,3 +66,57 @@ def test_load_by_either_path_and_roundtrip(tmp_path, example_campaigns):
         records.save_record(a, tmp_path)
     df = c.to_pandas()
     assert "segment_id" in df and df.attrs["name"] == name
+
+
+def test_csv_cells_with_blanks_and_quotes_parse_as_the_csv_module(tmp_path, example_campaigns):
+    """Blanks and tabs around numbers, quoted cells after a blank, exponents and signs: every cell equals
+    ``float()`` of what Python's csv module reads (skipinitialspace), whichever parsing path the loader takes."""
+    import csv
+
+    name = example_campaigns[0]["records"][0]
+    rec = load_record(EXAMPLES / f"{name}.json")
+    header = list(rec.columns)
+    rng = np.random.default_rng(3)
+    styles = ["{}", " {}", "{} ", "\t{}", '"{}"', ' "{}"', "  {}  "]
+    lines = [",".join(header)]
+    for i in range(50):
+        cells = []
+        for h in header:
+            v = repr(float(rec.columns[h][i]))
+            v = v if i % 7 else v.replace("e-", "E-")
+            v = "+" + v if i % 5 == 0 and not v.startswith("-") else v
+            cells.append(styles[rng.integers(len(styles))].format(v))
+        lines.append(",".join(cells))
+    for quoted in (False, True):
+        text = "\n".join(lines if quoted else [ln.replace('"', "") for ln in lines]) + "\n"
+        (tmp_path / f"{name}.csv").write_text(text)
+        (tmp_path / f"{name}.json").write_bytes((EXAMPLES / f"{name}.json").read_bytes())
+        got = load_record(tmp_path / f"{name}.json")
+        rows = list(csv.reader(text.splitlines()[1:], skipinitialspace=True))
+        for j, h in enumerate(header):
+            np.testing.assert_array_equal(got.columns[h], [float(r[j]) for r in rows])
+
+
+def test_csv_variants_load_the_same_values(tmp_path, example_campaigns):
+    """A byte-order mark, Windows line ends, and an extra non-ASCII text column (kept as text) take the loader's
+    other paths (bytes read and checked, text columns); the numeric columns come out equal to the plain file's."""
+    name = example_campaigns[0]["records"][0]
+    plain = (EXAMPLES / f"{name}.csv").read_bytes()
+    ref = load_record(EXAMPLES / f"{name}.json")
+    lines = plain.decode().splitlines()
+    note = [lines[0] + ",note"] + [f"{ln},{'réglé à 20 °C' if i % 3 else 'ok'}" for i, ln in enumerate(lines[1:])]
+    variants = {
+        "bom": b"\xef\xbb\xbf" + plain,
+        "crlf": plain.replace(b"\n", b"\r\n"),
+        "text-column": ("\n".join(note) + "\n").encode(),
+    }
+    for label, data in variants.items():
+        d = tmp_path / label
+        d.mkdir()
+        (d / f"{name}.csv").write_bytes(data)
+        (d / f"{name}.json").write_bytes((EXAMPLES / f"{name}.json").read_bytes())
+        got = load_record(d / f"{name}.json")
+        for k, v in ref.columns.items():
+            np.testing.assert_array_equal(got.columns[k], v, err_msg=label)
+        if label == "text-column":
+            assert got.columns["note"][1] == "réglé à 20 °C" and got.columns["note"][0] == "ok"

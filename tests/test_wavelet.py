@@ -137,3 +137,31 @@ def test_estimator_equals_allantools_and_model_matches_it():
     om = gmwm.covariance_at(spec, th, m, cnt)
     model_avar = 2 * np.asarray(gmwm.model_wv(spec, th, m))
     assert np.all(np.abs(ad**2 - model_avar) < 4 * 2 * np.sqrt(np.diag(om)))
+
+
+def test_factored_covariance_equals_the_averaged_gain_integral():
+    """Ω from the (J, K) gain factors equals the plain (J, J, K) sum of the averaged products |G_i|²|G_j|² (sin⁴
+    replaced by its mean where the grid cannot follow it: 35/128 for m_i = m_j, 7/64 for m_j = 2m_i, 9/64 otherwise,
+    3/8 sin⁴ of the other when only one is fast), to rounding, padding rows (m = 1) included."""
+    m = np.array([1, 2, 3, 4, 6, 8, 12, 16, 100, 200, 1000, 4096, 1.0, 1.0])
+    f, w = wv.frequency_grid(4096, n_points=1500)
+    spec = gmwm.ModelSpec(white=True, quantization=True, random_walk=True, n_gm=2)
+    theta = np.log([2.0, 0.3, 1e-5, 4.0, 1.0 / 50.0, 1.0, 1.0 / 2000.0])
+    spectrum = np.asarray(gmwm.full_spectrum(gmwm.expand(spec, theta), gmwm.spec_mask(spec), f))
+    counts = 10**6 - 2 * m + 1
+    fm = f[None, :] * m[:, None]
+    s4 = np.sin(np.pi * fm) ** 4
+    fast = fm > wv.OSCILLATION_AVERAGE
+    dense = np.empty((len(m), len(m)))
+    for i in range(len(m)):
+        for j in range(len(m)):
+            mean = 35 / 128 if m[i] == m[j] else (7 / 64 if max(m[i], m[j]) == 2 * min(m[i], m[j]) else 9 / 64)
+            prod = np.where(fast[i] & fast[j], mean, s4[i] * s4[j])
+            prod = np.where(fast[i] & ~fast[j], 3 / 8 * s4[j], prod)
+            prod = np.where(~fast[i] & fast[j], 3 / 8 * s4[i], prod)
+            g = prod / (m[i] ** 2 * m[j] ** 2 * np.sin(np.pi * f) ** 4)
+            dense[i, j] = 2 * 2 * np.sum(g * w * spectrum**2) / max(counts[i], counts[j])
+    om = np.asarray(wv.wv_covariance(m, counts, spectrum, f, w))
+    scale = np.sqrt(np.outer(np.diag(dense), np.diag(dense)))
+    assert np.all(np.diag(dense) > 0)
+    np.testing.assert_allclose(om / scale, dense / scale, rtol=0, atol=1e-12)

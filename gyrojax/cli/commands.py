@@ -204,7 +204,6 @@ def cmd_noise(args) -> int:
     from gyrojax.data.records import load_records
     from gyrojax.noise import allan
     from gyrojax.noise.gmwm import noise_report
-    from gyrojax.report.figures import noise_model_figure, save
 
     recs = load_records(args.records)
     notes: list[str] = []
@@ -215,7 +214,9 @@ def cmd_noise(args) -> int:
     out, res, ieee, nm = noise_report(
         segs, tau0, m_list, method=args.method, model=args.model, notes=notes, gauss_markov=args.gauss_markov
     )
-    if args.plot:
+    if args.plot:  # matplotlib is imported only when a plot is asked for
+        from gyrojax.report.figures import noise_model_figure, save
+
         save(noise_model_figure(out, title=", ".join(r.name for r in recs)), args.plot)
     if args.json:
         print(json.dumps(out))

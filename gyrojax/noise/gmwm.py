@@ -136,13 +136,25 @@ def spec_mask(spec: ModelSpec) -> np.ndarray:
     """Boolean mask of the active entries of the full layout :data:`FULL_NAMES`."""
     if spec.n_gm > G_MAX:
         raise NoiseModelError(f"at most {G_MAX} Gauss-Markov processes, got {spec.n_gm}")
-    return np.array([name in spec.names for name in FULL_NAMES])
+    return np.array(_mask_tuple(spec))
+
+
+@lru_cache(maxsize=256)
+def _mask_tuple(spec: ModelSpec) -> tuple:
+    names = spec.names
+    return tuple(name in names for name in FULL_NAMES)
 
 
 def expand(spec: ModelSpec, theta):
-    """Full log-parameter vector (zeros where inactive) from the compact θ of ``spec``."""
-    e = np.eye(len(FULL_NAMES))[:, spec_mask(spec)]  # (10, p) selection matrix: one product, cheap when eager
-    return jnp.asarray(e) @ jnp.asarray(theta, dtype=jnp.float64)
+    """Full log-parameter vector (zeros where inactive) from the compact θ of ``spec``: numpy for concrete θ (no
+    device round trip), JAX under tracing (e.g. inside ``jax.jacfwd``)."""
+    mask = spec_mask(spec)
+    if isinstance(theta, jax.core.Tracer):
+        e = np.eye(len(FULL_NAMES))[:, mask]  # (10, p) selection matrix
+        return jnp.asarray(e) @ jnp.asarray(theta, dtype=jnp.float64)
+    out = np.zeros(len(FULL_NAMES))
+    out[mask] = np.asarray(theta, dtype=np.float64)
+    return out
 
 
 @jax.jit
@@ -213,32 +225,40 @@ def latent_parameters(spec: ModelSpec, theta):
     return out
 
 
-def natural_parameters(spec: ModelSpec, theta, dt):
-    """Natural parameters (module table units: deg/√h, arcsec, deg/h/√h, deg/h/h, deg/h and s) as a flat array,
-    with their names and units; ``dt`` the sample interval in s."""
-    p = latent_parameters(spec, theta)
-    vals, names, units = [], [], []
-    if spec.white:
-        vals.append(jnp.sqrt(p["white"] * dt) / 60.0)
-        names.append("white")
-        units.append("deg/sqrt(h)")
-    if spec.quantization:
-        vals.append(jnp.sqrt(p["quantization"]) * dt)
-        names.append("quantization")
-        units.append("arcsec")
-    if spec.random_walk:
-        vals.append(jnp.sqrt(p["random_walk"] * SECONDS_PER_HOUR / dt))
-        names.append("random_walk")
-        units.append("deg/h/sqrt(h)")
-    if spec.drift:
-        vals.append(jnp.sqrt(p["drift"]) * SECONDS_PER_HOUR / dt)
-        names.append("drift")
-        units.append("deg/h/h")
+def natural_names(spec: ModelSpec) -> tuple[tuple, tuple]:
+    """Names and units of the natural parameters of ``spec``, in the order of :func:`natural_parameters`."""
+    names, units = [], []
+    for k, unit in (
+        ("white", "deg/sqrt(h)"),
+        ("quantization", "arcsec"),
+        ("random_walk", "deg/h/sqrt(h)"),
+        ("drift", "deg/h/h"),
+    ):
+        if getattr(spec, k):
+            names.append(k)
+            units.append(unit)
     for i in range(spec.n_gm):
-        vals += [jnp.sqrt(p["gm_var"][i]), dt / p["gm_rate"][i]]
         names += [f"gm{i + 1}_sigma", f"gm{i + 1}_tau"]
         units += ["deg/h", "s"]
-    return jnp.stack(vals), tuple(names), tuple(units)
+    return tuple(names), tuple(units)
+
+
+def natural_parameters(spec: ModelSpec, theta, dt):
+    """Natural parameters (module table units: deg/√h, arcsec, deg/h/√h, deg/h/h, deg/h and s) as a flat array,
+    with their names and units (:func:`natural_names`); ``dt`` the sample interval in s."""
+    p = latent_parameters(spec, theta)
+    vals = []
+    if spec.white:
+        vals.append(jnp.sqrt(p["white"] * dt) / 60.0)
+    if spec.quantization:
+        vals.append(jnp.sqrt(p["quantization"]) * dt)
+    if spec.random_walk:
+        vals.append(jnp.sqrt(p["random_walk"] * SECONDS_PER_HOUR / dt))
+    if spec.drift:
+        vals.append(jnp.sqrt(p["drift"]) * SECONDS_PER_HOUR / dt)
+    for i in range(spec.n_gm):
+        vals += [jnp.sqrt(p["gm_var"][i]), dt / p["gm_rate"][i]]
+    return (jnp.stack(vals), *natural_names(spec))
 
 
 @partial(jax.jit, static_argnums=(0,))
@@ -321,10 +341,10 @@ def levenberg_marquardt(theta0, mask, nu_hat, m, p_mat, lo, hi, n_iter: int = 80
 
 
 @jax.jit
-def model_covariance(theta, mask, m, counts, f, w, gains):
+def model_covariance(theta, mask, m, counts, f, w, factors):
     """Ω(θ): covariance of the Haar wavelet variance estimates under the model (:func:`wavelet.wv_covariance`),
-    full log-parameters θ and mask as :func:`levenberg_marquardt`."""
-    return wv.wv_covariance(m, counts, full_spectrum(theta, mask, f), f, w, gains)
+    full log-parameters θ and mask as :func:`levenberg_marquardt`; ``factors`` from :func:`wavelet.gain_factors`."""
+    return wv.wv_covariance(m, counts, full_spectrum(theta, mask, f), f, w, factors)
 
 
 # ---- starting values -------------------------------------------------------------------------------------------
@@ -380,14 +400,22 @@ def _bounds(spec: ModelSpec, m, nu_hat, n_samples):
     return np.asarray(lo), np.asarray(hi)
 
 
-def starting_values(spec: ModelSpec, m, nu_hat, p_mat, n_samples) -> np.ndarray:
+def starting_values(spec: ModelSpec, m, nu_hat, p_mat, n_samples, memo: dict | None = None) -> np.ndarray:
     """θ₀: the AR1 correlation times T (in samples, dimensionless) chosen greedily on a log grid, each new one
     with the earlier ones fixed; the variances ((deg/h)²) by weighted NNLS for those T; a variance the NNLS sets to
-    zero starts at 1e-6 of its scale."""
+    zero starts at 1e-6 of its scale.
+
+    ``memo``: a dict shared by the fits of one model selection; each greedy step is a function of the linear
+    processes, the rates already chosen and the data (m, ν̂, P), so candidates that share them reuse it."""
     m = np.asarray(m, float)
     grid = np.geomspace(0.3, 4.0 * m.max(), 28)  # T in samples
+    data_key = (m.tobytes(), np.asarray(nu_hat, float).tobytes(), np.asarray(p_mat, float).tobytes())
     rates: list[float] = []
     for _ in range(spec.n_gm):
+        key = (data_key, spec.white, spec.quantization, spec.random_walk, spec.drift, tuple(rates))
+        if memo is not None and key in memo:
+            rates.append(memo[key])
+            continue
         best = None
         for t in grid:
             if any(abs(math.log(t * r)) < 0.2 for r in rates):
@@ -396,6 +424,8 @@ def starting_values(spec: ModelSpec, m, nu_hat, p_mat, n_samples) -> np.ndarray:
             c, sse = _nnls(_basis(sub, m, [*rates, 1.0 / t]), nu_hat, p_mat)
             if best is None or sse < best[0]:
                 best = (sse, 1.0 / t)
+        if memo is not None:
+            memo[key] = best[1]
         rates.append(best[1])
     c, _ = _nnls(_basis(spec, m, rates), nu_hat, p_mat)
     lo, hi = _bounds(spec, m, nu_hat, n_samples)
@@ -486,12 +516,12 @@ class NoiseModel:
         """{name: {"value", "std", "unit", "ci95"}} of the natural parameters: standard error by the delta method
         from Cov(θ̂), 95 % interval from the normal interval of the log-parameter (better coverage for the skewed
         distributions of variances and correlation times)."""
-        vals, jac = (np.asarray(a) for a in _natural_and_jacobian(self.spec, jnp.asarray(self.theta), self.dt))
+        vals, jac = (np.asarray(a) for a in _natural_and_jacobian(self.spec, np.asarray(self.theta, float), self.dt))
         inf = ~np.isfinite(np.diag(self.cov))
         cov = self.cov_finite
         std = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", jac, cov, jac), 0.0))
         std[inf] = np.inf  # natural parameter i depends on θ_i (and, for none, on a pinned θ_j, j ≠ i)
-        _, names, units = natural_parameters(self.spec, jnp.asarray(self.theta), self.dt)
+        names, units = natural_names(self.spec)
         # 95 % interval from the log-parameter (every natural parameter is a power of e^θ_i): value·e^{±1.96 s/value}
         out = {}
         for k, v, s, u in zip(names, vals, std, units):
@@ -503,8 +533,8 @@ class NoiseModel:
     def avar(self, taus_s):
         """Model Allan variance, (deg/h)², at ``taus_s`` (s): 2ν²(τ/Δt)."""
         m = np.asarray(taus_s, float) / self.dt
-        mp = jnp.asarray(_pad(m.ravel(), padded_length(m.size), 1.0))
-        out = np.asarray(full_wv(expand(self.spec, self.theta), jnp.asarray(spec_mask(self.spec)), mp))
+        mp = _pad(m.ravel(), padded_length(m.size), 1.0)
+        out = np.asarray(full_wv(expand(self.spec, self.theta), spec_mask(self.spec), mp))
         return 2.0 * out[: m.size].reshape(m.shape)
 
     def adev(self, taus_s):
@@ -519,13 +549,13 @@ class NoiseModel:
     def _adev_jacobian(self, taus_s) -> np.ndarray:
         """∂σ_model(τ)/∂θ, (len(taus), p), compiled once for every model (full layout, masked)."""
         m = np.asarray(taus_s, float).ravel() / self.dt
-        mp = jnp.asarray(_pad(m, padded_length(m.size), 1.0))
+        mp = _pad(m, padded_length(m.size), 1.0)
         mask = spec_mask(self.spec)
-        return np.asarray(_full_adev_jacobian(expand(self.spec, self.theta), jnp.asarray(mask), mp))[: m.size, mask]
+        return np.asarray(_full_adev_jacobian(expand(self.spec, self.theta), mask, mp))[: m.size, mask]
 
     def term_adev(self, taus_s) -> dict:
         """Each process's own Allan deviation (deg/h) at ``taus_s``."""
-        comp = component_wv(self.spec, jnp.asarray(self.theta), np.asarray(taus_s, float) / self.dt)
+        comp = component_wv(self.spec, np.asarray(self.theta, float), np.asarray(taus_s, float) / self.dt)
         return {k: np.sqrt(2.0 * np.asarray(v)) for k, v in comp.items()}
 
     @property
@@ -699,12 +729,12 @@ def _pad(x, length: int, fill: float):
 
 
 class _Grid:
-    """Frequency grid and pairwise Haar gains for the covariance Ω at the (padded) half-widths of one estimate."""
+    """Frequency grid and Haar gain factors for the covariance Ω at the (padded) half-widths of one estimate."""
 
     def __init__(self, m):
         jp = padded_length(len(m))
         self.f, self.w = wv.frequency_grid(np.max(m), n_points=GRID_POINTS)
-        self.gains = wv.averaged_gains(jnp.asarray(_pad(m, jp, 1.0)), self.f)
+        self.factors = wv.gain_factors(_pad(m, jp, 1.0), self.f)
 
 
 def covariance_at(spec: ModelSpec, theta, m, counts) -> np.ndarray:
@@ -713,70 +743,40 @@ def covariance_at(spec: ModelSpec, theta, m, counts) -> np.ndarray:
     j = len(m)
     jp = padded_length(j)
     grid = _Grid(np.asarray(m))
-    mp = jnp.asarray(_pad(m, jp, 1.0))
-    cp = jnp.asarray(_pad(counts, jp, float(np.max(counts))))
-    om = model_covariance(expand(spec, theta), jnp.asarray(spec_mask(spec)), mp, cp, grid.f, grid.w, grid.gains)
+    mp = _pad(m, jp, 1.0)
+    cp = _pad(counts, jp, float(np.max(counts)))
+    om = model_covariance(expand(spec, theta), spec_mask(spec), mp, cp, grid.f, grid.w, grid.factors)
     return np.asarray(om)[:j, :j]
 
 
 def _scatter(idx, values, fill: float = 0.0):
     out = np.full(len(FULL_NAMES), fill)
     out[idx] = values
-    return jnp.asarray(out)
+    return out
 
 
 def fit_spec(
-    spec: ModelSpec, est: WaveletVariance, omega=None, method: str = "gmwm", grid=None, n_steps: int = 2
+    spec: ModelSpec,
+    est: WaveletVariance,
+    omega=None,
+    method: str = "gmwm",
+    grid=None,
+    n_steps: int = 2,
+    memo: dict | None = None,
 ) -> NoiseModel:
     """Fit one model by GMWM (``method='gmwm'``) or AVLR (``'avlr'``) to the wavelet variance ``est``.
 
     ``omega``: a fixed weighting covariance (e.g. for model comparison); default: the two-step efficient
-    weights Ω(θ̂) (``n_steps`` re-evaluations after a first fit with diagonal weights ν̂⁴·m/M).
+    weights Ω(θ̂) (``n_steps`` re-evaluations after a first fit with diagonal weights ν̂⁴·m/M). ``grid`` and
+    ``memo`` (:func:`starting_values`) let the fits of one selection share work; neither changes the result.
     """
+    theta, p_mat, om, m, lo, hi = _fit_theta(spec, est, omega, method, grid, n_steps, memo)
     j = len(est.m)
-    jp = padded_length(j)
-    m = jnp.asarray(_pad(est.m, jp, 1.0))  # padding: m = 1, ν̂ = 0, zero rows of P (no weight)
-    nu = jnp.asarray(_pad(est.nu2, jp, 0.0))
-    counts = jnp.asarray(_pad(est.counts, jp, float(np.max(est.counts))))
-    grid = grid or _Grid(est.m)
-
-    def padp(p):
-        out = np.zeros((jp, jp))
-        out[:j, :j] = p
-        return jnp.asarray(out)
-
-    def omega_at(th):
-        return np.asarray(model_covariance(th, mask, m, counts, grid.f, grid.w, grid.gains))[:j, :j]
-
-    lo, hi = _bounds(spec, est.m, est.nu2, est.n_samples)
-    if spec.n_params > len(est.m):
-        raise NoiseModelError(f"model {spec.label()} has {spec.n_params} parameters for {len(est.m)} scales")
-    diag = np.diag(est.nu2**2 * est.m / est.counts)
-    if method == "avlr":
-        p_mat = np.diag(1.0 / est.nu2)
-    elif method == "gmwm":
-        p_mat = whitening_matrix(diag if omega is None else omega)
-    else:
-        raise NoiseModelError(f"method must be 'gmwm' or 'avlr', got {method!r}")
-    mask = jnp.asarray(spec_mask(spec))
-    idx = np.flatnonzero(spec_mask(spec))
-    lo_f = _scatter(idx, lo)
-    hi_f = _scatter(idx, hi)
-    theta = expand(spec, starting_values(spec, est.m, est.nu2, p_mat, est.n_samples))
-    theta, _ = levenberg_marquardt(theta, mask, nu, m, padp(p_mat), lo_f, hi_f)
-    om = omega
-    if method == "gmwm" and omega is None:
-        for _ in range(n_steps):
-            om = omega_at(theta)
-            p_mat = whitening_matrix(om)
-            theta, _ = levenberg_marquardt(theta, mask, nu, m, padp(p_mat), lo_f, hi_f)
-    if om is None or method == "avlr":
-        om = omega_at(theta)
-    theta = jnp.asarray(np.asarray(theta)[idx])
-    r = np.asarray(p_mat @ (est.nu2 - np.asarray(model_wv(spec, theta, m))[:j]))
+    mask = spec_mask(spec)
+    idx = np.flatnonzero(mask)
+    r = _weighted_residual(spec, theta, est, p_mat, m)
     d = np.asarray(full_wv_jacobian(expand(spec, theta), mask, m))[:j, idx]
     pd = p_mat @ d
-    theta = np.asarray(theta)
     # parameters pinned at a bound carry no information (their standard error is reported as infinite)
     at_bound = (theta <= lo + 1e-6) | (theta >= hi - 1e-6)
     free = ~at_bound
@@ -791,6 +791,55 @@ def fit_spec(
     return NoiseModel(spec, theta, cov, est.dt, method, est, om, float(r @ r))
 
 
+def _weighted_residual(spec: ModelSpec, theta, est: WaveletVariance, p_mat, m_padded) -> np.ndarray:
+    """P(ν̂ − ν(θ)) at the J scales of ``est`` (``m_padded`` the padded half-widths of the compiled ν)."""
+    return np.asarray(p_mat @ (est.nu2 - np.asarray(model_wv(spec, theta, m_padded))[: len(est.m)]))
+
+
+def _fit_theta(spec: ModelSpec, est: WaveletVariance, omega, method: str, grid, n_steps: int, memo):
+    """The minimisation of :func:`fit_spec`: (θ̂ compact, P, Ω, padded m, lower and upper bounds of θ)."""
+    j = len(est.m)
+    jp = padded_length(j)
+    m = _pad(est.m, jp, 1.0)  # padding: m = 1, ν̂ = 0, zero rows of P (no weight)
+    nu = _pad(est.nu2, jp, 0.0)
+    counts = _pad(est.counts, jp, float(np.max(est.counts)))
+    grid = grid or _Grid(est.m)
+
+    def padp(p):
+        out = np.zeros((jp, jp))
+        out[:j, :j] = p
+        return out
+
+    def omega_at(th):
+        return np.asarray(model_covariance(th, mask, m, counts, grid.f, grid.w, grid.factors))[:j, :j]
+
+    lo, hi = _bounds(spec, est.m, est.nu2, est.n_samples)
+    if spec.n_params > len(est.m):
+        raise NoiseModelError(f"model {spec.label()} has {spec.n_params} parameters for {len(est.m)} scales")
+    diag = np.diag(est.nu2**2 * est.m / est.counts)
+    if method == "avlr":
+        p_mat = np.diag(1.0 / est.nu2)
+    elif method == "gmwm":
+        p_mat = whitening_matrix(diag if omega is None else omega)
+    else:
+        raise NoiseModelError(f"method must be 'gmwm' or 'avlr', got {method!r}")
+    mask = spec_mask(spec)
+    idx = np.flatnonzero(mask)
+    lo_f = _scatter(idx, lo)
+    hi_f = _scatter(idx, hi)
+    theta = expand(spec, starting_values(spec, est.m, est.nu2, p_mat, est.n_samples, memo))
+    theta, _ = levenberg_marquardt(theta, mask, nu, m, padp(p_mat), lo_f, hi_f)
+    om = omega
+    if method == "gmwm" and omega is None:
+        for _ in range(n_steps):
+            om = omega_at(theta)
+            p_mat = whitening_matrix(om)
+            theta, _ = levenberg_marquardt(theta, mask, nu, m, padp(p_mat), lo_f, hi_f)
+    if om is None or method == "avlr":
+        om = omega_at(theta)
+    return np.asarray(theta)[idx], p_mat, om, m, lo, hi
+
+
 def select_model(est: WaveletVariance, candidates=DEFAULT_CANDIDATES, method: str = "gmwm") -> NoiseModel:
     """Fit every candidate and return the one of least WIC = Q(θ̂; Ω_ref) + 2p (module doc), refitted with its own
     efficient weights; ``selection`` lists every candidate's criterion. Candidates with more parameters than
@@ -799,14 +848,17 @@ def select_model(est: WaveletVariance, candidates=DEFAULT_CANDIDATES, method: st
     if not cands:
         raise NoiseModelError(f"{len(est.m)} scales are too few for any candidate model")
     grid = _Grid(est.m)
+    memo: dict = {}
     largest = max(cands, key=lambda c: c.n_params)
-    ref = fit_spec(largest, est, method="gmwm", grid=grid)
+    ref = fit_spec(largest, est, method="gmwm", grid=grid, memo=memo)
     rows = []
-    for c in cands:
-        f = fit_spec(c, est, omega=ref.omega, method="gmwm", grid=grid)
-        rows.append({"model": c.label(), "objective": f.objective, "wic": f.objective + 2 * c.n_params})
+    for c in cands:  # only the criterion of each candidate is needed: no Jacobian, no covariance
+        theta, p_mat, _, m, _, _ = _fit_theta(c, est, ref.omega, "gmwm", grid, 2, memo)
+        r = _weighted_residual(c, theta, est, p_mat, m)
+        objective = float(r @ r)
+        rows.append({"model": c.label(), "objective": objective, "wic": objective + 2 * c.n_params})
     best = min(range(len(cands)), key=lambda i: rows[i]["wic"])
-    out = fit_spec(cands[best], est, method=method, grid=grid)
+    out = fit_spec(cands[best], est, method=method, grid=grid, memo=memo)
     out.selection = rows
     return out
 

@@ -146,45 +146,44 @@ def frequency_grid(m_max, points_per_decade: int = 400, n_points: int | None = N
     w[1:] += h / 2
     w = w * f
     w[0] += f_lo  # [0, f_lo]
-    return jnp.asarray(f), jnp.asarray(w)
+    return f, w
 
 
 OSCILLATION_AVERAGE = 20.0
 """f·m above which sin⁴(πfm) is replaced by its mean in the covariance integral (the grid cannot follow it)."""
 
 
-def averaged_gains(ms, f):
-    """|G_i|²|G_j|² for every pair (i, j) of half-widths ``ms`` on the grid ``f``: (J, J, K).
+@jax.jit
+def gain_factors(ms, f):
+    """Factors (a, b), each (J, K), of the averaged products |G_i|²|G_j|² on the grid ``f`` (half-widths ``ms``).
 
-    Where both oscillate faster than the grid (f·m > :data:`OSCILLATION_AVERAGE`), sin⁴(πfm_i) sin⁴(πfm_j) is
-    replaced by its mean: 35/128 for m_i = m_j, 7/64 for m_j = 2m_i (shared harmonic), 9/64 otherwise.
+    With a_ik = s_ik/(m_i² sin²πf_k), s_ik = sin⁴(πf_k m_i) where the grid follows it and its mean 3/8 where it
+    oscillates faster (f·m > :data:`OSCILLATION_AVERAGE`), and b_ik = [f_k m_i > OSCILLATION_AVERAGE]/(m_i² sin²πf_k):
+    |G_i|²|G_j|² ≈ a_i a_j + (μ_ij − 9/64) b_i b_j, where μ_ij, the mean of sin⁴(πfm_i) sin⁴(πfm_j) when both
+    oscillate fast, is 35/128 for m_i = m_j, 7/64 for m_j = 2m_i (shared harmonic) and 9/64 = (3/8)² otherwise.
+    The (J, J, K) products are never formed: :func:`wv_covariance` needs two (J, K)·(K, J) products.
     """
     ms = jnp.asarray(ms, dtype=jnp.float64)
     s2f = jnp.sin(jnp.pi * f) ** 2
     fast = f[None, :] * ms[:, None] > OSCILLATION_AVERAGE
-    s4 = jnp.sin(jnp.pi * f[None, :] * ms[:, None]) ** 4  # (J, K)
-    exact = s4[:, None, :] * s4[None, :, :]
-    mi, mj = ms[:, None], ms[None, :]
-    mean = jnp.where(mi == mj, 35.0 / 128.0, jnp.where((mj == 2 * mi) | (mi == 2 * mj), 7.0 / 64.0, 9.0 / 64.0))
-    both_fast = fast[:, None, :] & fast[None, :, :]
-    one_fast_i = fast[:, None, :] & ~fast[None, :, :]
-    one_fast_j = ~fast[:, None, :] & fast[None, :, :]
-    val = jnp.where(both_fast, mean[:, :, None], exact)
-    val = jnp.where(one_fast_i, 3.0 / 8.0 * s4[None, :, :], val)
-    val = jnp.where(one_fast_j, 3.0 / 8.0 * s4[:, None, :], val)
-    return val / (mi * mi * mj * mj)[:, :, None] / (s2f * s2f)[None, None, :]
+    s4 = jnp.sin(jnp.pi * f[None, :] * ms[:, None]) ** 4
+    scale = (ms * ms)[:, None] * s2f[None, :]
+    return jnp.where(fast, 3.0 / 8.0, s4) / scale, jnp.where(fast, 1.0, 0.0) / scale
 
 
-def wv_covariance(ms, counts, spectrum, f, w, gains=None):
+def wv_covariance(ms, counts, spectrum, f, w, factors=None):
     """Asymptotic covariance (J, J) of the Haar wavelet variance estimates at half-widths ``ms`` (Percival 1995).
 
     ``counts`` the number of coefficients M of each estimate; ``spectrum`` S(f) of the rate series on the grid
-    ``f`` with weights ``w`` (:func:`frequency_grid`); ``gains`` from :func:`averaged_gains` (recomputed if None).
-    Cov_ij = (2/max(M_i, M_j)) · 2∫₀^½ |G_i|²|G_j|² S² df, in (deg/h)⁴.
+    ``f`` with weights ``w`` (:func:`frequency_grid`); ``factors`` from :func:`gain_factors` (recomputed if None).
+    Cov_ij = (2/max(M_i, M_j)) · 2∫₀^½ |G_i|²|G_j|² S² df, in (deg/h)⁴, the fast oscillations averaged.
     """
-    if gains is None:
-        gains = averaged_gains(ms, f)
-    integral = 2.0 * jnp.einsum("ijk,k->ij", gains, w * spectrum * spectrum)
+    ms = jnp.asarray(ms, dtype=jnp.float64)
+    a, b = gain_factors(ms, f) if factors is None else factors
+    c = w * spectrum * spectrum
+    mi, mj = ms[:, None], ms[None, :]
+    harmonic = jnp.where(mi == mj, 35.0 / 128.0, jnp.where((mj == 2 * mi) | (mi == 2 * mj), 7.0 / 64.0, 9.0 / 64.0))
+    integral = 2.0 * ((a * c) @ a.T + (harmonic - 9.0 / 64.0) * ((b * c) @ b.T))
     counts = jnp.asarray(counts, dtype=jnp.float64)
     return 2.0 * integral / jnp.maximum(counts[:, None], counts[None, :])
 
