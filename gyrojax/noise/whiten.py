@@ -350,7 +350,7 @@ def fit_gm(
     if not lens or max(lens) < 8:
         return None
     if start is not None and start.gm_var > 0 and start.white_var > 0:
-        return _gm_mle(r, labels, times, start, design, tau_span_fraction=tau_span_fraction)
+        return _gm_mle(r, labels, times, start, design, grid=False, tau_span_fraction=tau_span_fraction)
     dt0 = float(np.median(np.diff(times))) if len(times) > 1 else 1.0
     if not dt0 > 0:
         dt0 = 1.0
@@ -388,22 +388,19 @@ def _gm_mle(
     times,
     start: GMNoise,
     design=None,
-    profile: bool = False,
     grid: bool = True,
     tau_span_fraction: float = TAU_SPAN_FRACTION,
 ) -> GMNoise:
-    # grid=False: a coarser grid of starts (the profile likelihood ratio refits twice per slow candidate)
     """Refine a white + Gauss–Markov model by maximising the exact (Kalman) likelihood — restricted (REML) when the
     regressors of the fit are given, so that the drift the fitted coefficients absorbed is not lost from σ_g².
 
     The autocovariance fit inside short segments underestimates τ when τ is comparable to a segment; the
     likelihood sees the correlation across the gaps between segments too. Jitted JAX likelihood with exact
     derivatives, minimised by quasi-Newton from the best of a grid of starts (:func:`gyrojax.noise.reml.fit`);
-    ``grid=False`` uses a coarser grid around ``start`` (the profile likelihood ratio refits twice per slow candidate).
+    ``grid=False`` uses a coarser grid around ``start`` (a previous fit of a closely related residual).
     """
     series = reml.prepare(r, design, labels, times, tau_span_fraction)
-    restricted = design is not None and not profile
-    theta, *_ = reml.fit(series, (start.tau_s, start.gm_var, start.white_var), reml=restricted, coarse=not grid)
+    theta, *_ = reml.fit(series, (start.tau_s, start.gm_var, start.white_var), reml=design is not None, coarse=not grid)
     return GMNoise(min(float(theta[0]), series.tau_max), float(theta[1]), float(theta[2]))
 
 
