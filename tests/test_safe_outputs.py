@@ -244,3 +244,22 @@ def test_chunked_fit_static_positions_without_rate_columns(tmp_path):
     got = fit_chunked(path, terms, chunk_rows=50)
     np.testing.assert_allclose(got.theta, ref.theta, rtol=1e-9)
     np.testing.assert_allclose(got.std, ref.std, rtol=1e-9)
+
+
+def test_compilation_cache_location_follows_the_environment(monkeypatch, tmp_path):
+    """The CLI's persistent compilation cache: GYROJAX_NO_CACHE turns it off, GYROJAX_CACHE_DIR places it, otherwise
+    it lives under XDG_CACHE_HOME (or ~/.cache) in gyrojax/jax."""
+    from gyrojax.cli.app import cache_dir
+
+    for var in ("GYROJAX_NO_CACHE", "GYROJAX_CACHE_DIR", "XDG_CACHE_HOME"):
+        monkeypatch.delenv(var, raising=False)
+    monkeypatch.setenv("HOME", str(tmp_path))
+    assert cache_dir() == str(tmp_path / ".cache" / "gyrojax" / "jax")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert cache_dir() == str(tmp_path / "xdg" / "gyrojax" / "jax")
+    monkeypatch.setenv("GYROJAX_CACHE_DIR", str(tmp_path / "here"))
+    assert cache_dir() == str(tmp_path / "here")
+    monkeypatch.setenv("GYROJAX_NO_CACHE", "0")
+    assert cache_dir() == str(tmp_path / "here")
+    monkeypatch.setenv("GYROJAX_NO_CACHE", "1")
+    assert cache_dir() is None
