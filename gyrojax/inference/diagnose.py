@@ -437,7 +437,7 @@ def diagnose(
             c.indistinguishable.append("gauss_markov")
 
     # colour that no deterministic effect explains: report it as gauss_markov
-    gm = _colour_candidate(res, noises, lin, alpha)
+    gm = _colour_candidate(noises, lin, alpha)
     if gm is not None:
         if significant:
             tested.insert(len(significant), gm)
@@ -455,7 +455,7 @@ def diagnose(
     return Diagnosis(verdict, res, tested, alpha, unexcited, unexplained, proposal, family)
 
 
-def _colour_candidate(res: FitResult, noises, lin, alpha) -> Candidate | None:
+def _colour_candidate(noises, lin, alpha) -> Candidate | None:
     """Likelihood-ratio test of the AR noise model against white noise, pooled over records."""
     stat, df, rms_acc, n_acc = 0.0, 0, 0.0, 0
     for nz, (r, *_) in zip(noises, lin):
