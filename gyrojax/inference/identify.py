@@ -720,9 +720,9 @@ def satterthwaite_dof(lin, campaign: Campaign, noises, scales) -> np.ndarray:
     """Effective degrees of freedom ν_k of each coefficient's GLS variance V_k when the Gauss–Markov noise
     parameters are estimated (Satterthwaite 1946, as Giesbrecht & Burns 1985 apply it to REML fits):
     ν_k = 2 V_k² / Var(V̂_k), Var(V̂_k) ≈ ∇V_kᵀ I⁻¹ ∇V_k, with I the REML information of each group's
-    u = (log τ, log σ_g², log σ_w²) — half the exact Hessian of −2 log L_R
-    (:func:`gyrojax.noise.reml.reml_hessian`) — and ∇V_k = −diag(V ∂(J̃ᵀJ̃)/∂u V) exact too
-    (:func:`gyrojax.noise.reml.whitened_gram`).
+    u = (log τ, log σ_g², log σ_w²) — half the Hessian of −2 log L_R, by central differences of its exact gradient
+    (:func:`gyrojax.noise.reml.reml_hessian`) — and ∇V_k = −diag(V ∂(J̃ᵀJ̃)/∂u V), the derivative by central
+    differences of the compiled whitened Gram matrix (:func:`gyrojax.noise.reml.whitened_gram`).
 
     Drift slower than a position is seen only in the scatter of the position means: an 8-position test leaves a
     handful of such degrees of freedom, and a plug-in σ̂ then covers ±2σ in ~0.88 of the cases, not 0.954.
