@@ -126,7 +126,7 @@ def whiten(x: np.ndarray, labels: np.ndarray, noise, times: np.ndarray | None = 
         if times is None:
             raise ValueError("whitening under a Gauss–Markov model needs the measurement times")
         keep = np.flatnonzero(labels >= 0)
-        w, _ = kalman_whiten(x[keep], times[keep], noise, series_restarts(labels[keep], times[keep]))
+        w, _ = kalman_whiten(x[keep], times[keep], noise, reml.series_restarts(times[keep]))
         return w, keep
     p = noise.order
     b = np.concatenate([[1.0], -noise.phi]) / (noise.innovation_std if noise.innovation_std > 0 else 1.0)
@@ -241,31 +241,13 @@ def kalman_whiten(x: np.ndarray, times: np.ndarray, nz: GMNoise, restart: np.nda
     return (w[:, 0] if x.ndim == 1 else w), np.asarray(logs)
 
 
-def series_restarts(labels: np.ndarray, times: np.ndarray) -> np.ndarray:
-    """Rows where an independent series starts: the first row, or ``times`` (s) not increasing (stacked channels)."""
-    out = np.zeros(len(labels), dtype=bool)
-    if len(labels):
-        out[0] = True
-        out[1:] = np.diff(times) <= 0
-    return out
-
-
-def series_span(times: np.ndarray, restart: np.ndarray) -> float:
-    """Longest time span (s) of the independent series in ``times`` (each starts where ``restart`` is set)."""
-    if not len(times):
-        return 1.0
-    starts = np.flatnonzero(restart)
-    ends = np.append(starts[1:], len(times))
-    return float(max(np.ptp(times[s:e]) for s, e in zip(starts, ends))) or 1.0
-
-
 def gm_loglik(r: np.ndarray, labels: np.ndarray, times: np.ndarray, nz: GMNoise) -> tuple[float, int]:
     """Exact Gaussian −2 log-likelihood (without the 2π term) of r under ``nz``, and the sample count.
 
     ``r`` and ``nz`` in the same units (e.g. deg/h and (deg/h)²), ``times`` in s, ``labels`` −1 for excluded rows.
     """
     ok = labels >= 0
-    w, logs = kalman_whiten(r[ok], times[ok], nz, series_restarts(labels[ok], times[ok]))
+    w, logs = kalman_whiten(r[ok], times[ok], nz, reml.series_restarts(times[ok]))
     return float(np.sum(logs) + w @ w), int(ok.sum())
 
 
@@ -307,7 +289,7 @@ def gm_reml(r: np.ndarray, design: np.ndarray, labels: np.ndarray, times: np.nda
     """
     ok = labels >= 0
     x = np.column_stack([r[ok], design[ok]])
-    w, logs = kalman_whiten(x, times[ok], nz, series_restarts(labels[ok], times[ok]))
+    w, logs = kalman_whiten(x, times[ok], nz, reml.series_restarts(times[ok]))
     e, logdet = gls_residual(w[:, 0], w[:, 1:])
     return float(np.sum(logs) + e @ e + logdet)
 
@@ -319,7 +301,7 @@ def gm_profile(r: np.ndarray, design: np.ndarray, labels: np.ndarray, times: np.
     """
     ok = labels >= 0
     x = np.column_stack([r[ok], design[ok]])
-    w, logs = kalman_whiten(x, times[ok], nz, series_restarts(labels[ok], times[ok]))
+    w, logs = kalman_whiten(x, times[ok], nz, reml.series_restarts(times[ok]))
     e, _ = gls_residual(w[:, 0], w[:, 1:])
     return float(np.sum(logs) + e @ e)
 
