@@ -256,8 +256,8 @@ def cmd_design(args) -> int:
     import numpy as np
 
     from gyrojax.data import plans
-    from gyrojax.data.io import atomic_write_text
     from gyrojax.planning.optimal import SDF9, Noise, criterion_values, design, static_fisher, table_text
+    from gyrojax.protocol import atomic_write_text
 
     out = Path(args.out)
     if out.exists() and not args.force:
@@ -482,9 +482,9 @@ def cmd_apply(args) -> int:
     """``gyrojax apply FIT.json RECORDS --out DIR``: write calibrated body rates (deg/s) of imu-triad records."""
     import numpy as np
 
-    from gyrojax.data.io import atomic_write_text
     from gyrojax.data.records import load_records
     from gyrojax.inference.triad import load_triad_fit
+    from gyrojax.protocol import atomic_write_text
 
     fit_res = load_triad_fit(args.fit)
     out = Path(args.out)

@@ -19,8 +19,8 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from gyrojax import units
-from gyrojax.data.io import is_finite_number, read_json_file
 from gyrojax.errors import PlanError
+from gyrojax.protocol import is_finite_number, read_json_file
 
 PLAN_FORMAT = "gyrojax-plan-1"
 DEFAULT_LATITUDE = 39.98  # Beijing, the site of the example campaigns

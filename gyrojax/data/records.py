@@ -16,10 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-from gyrojax.data.io import is_finite_number
 from gyrojax.data.triad import is_triad, validate_triad_columns, validate_triad_meta
 from gyrojax.errors import RecordError
 from gyrojax.physics.effects import ACCEL, INSTRUMENT_KINDS, SDF, TDF
+from gyrojax.protocol import is_finite_number
 
 FORMAT = "gyrojax-record-1"
 AXIS_TOL = 1e-6

@@ -24,8 +24,8 @@ from __future__ import annotations
 import numpy as np
 
 from gyrojax import units
-from gyrojax.data.io import is_finite_number
 from gyrojax.errors import RecordError
+from gyrojax.protocol import is_finite_number
 
 TRIAD_KIND = "imu-triad"
 """Instrument kind of a three-axis IMU record (CONVENTIONS §5 extension)."""

@@ -6,10 +6,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from gyrojax.data.io import is_finite_number, read_json_file
 from gyrojax.errors import TruthError
 from gyrojax.noise.processes import validate_noise
 from gyrojax.physics import effects as fx
+from gyrojax.protocol import is_finite_number, read_json_file
 
 SETUP_SIZES = {"table_tilt": 2, "table_azimuth": 1, "encoder_harmonic": 4}
 

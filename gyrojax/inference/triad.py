@@ -42,13 +42,13 @@ import numpy as np
 from scipy import stats
 
 from gyrojax import units
-from gyrojax.data.io import atomic_write_text
 from gyrojax.data.records import Record
 from gyrojax.data.triad import TRIAD_KIND, acc_g, axis_vector, gyro_dph
 from gyrojax.errors import ModelError
 from gyrojax.inference.identify import IdentifiabilityError, check_one_instrument, residue_columns
 from gyrojax.noise.whiten import pooled_autocovariance
 from gyrojax.physics import triad as tp
+from gyrojax.protocol import atomic_write_text
 
 DEFAULT_STATIC_TERMS = ("D_F", "D_I", "D_O", "D_S")
 DEFAULT_ROTATION_TERMS = DEFAULT_STATIC_TERMS + ("sf_error", "ia_misalignment")

@@ -54,7 +54,6 @@ import numpy as np
 
 from gyrojax import units
 from gyrojax.data import plans as plans_mod
-from gyrojax.data.io import atomic_write_bytes, atomic_write_text, read_json_file
 from gyrojax.data.records import Record
 from gyrojax.data.truth import SETUP_SIZES
 from gyrojax.errors import GyrojaxError
@@ -73,6 +72,7 @@ from gyrojax.physics.model import (
     record_data,
     setup_values,
 )
+from gyrojax.protocol import atomic_write_bytes, atomic_write_text, read_json_file
 
 STUDY_FORMAT = "gyrojax-mc-study-1"
 SDF_NINE_TERMS = ("D_F", "D_I", "D_O", "D_S", "D_II", "D_SS", "D_IO", "D_IS", "D_OS")

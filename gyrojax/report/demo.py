@@ -27,11 +27,11 @@ import numpy as np
 
 from gyrojax import report
 from gyrojax.data import plans
-from gyrojax.data.io import atomic_write_text
 from gyrojax.data.records import save_record
 from gyrojax.errors import GyrojaxError
 from gyrojax.inference.diagnose import diagnose
 from gyrojax.inference.identify import Campaign, fit
+from gyrojax.protocol import atomic_write_text
 from gyrojax.simulation.simulator import simulate
 
 START_TERMS = ("D_F", "D_I", "D_S")

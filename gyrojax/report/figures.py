@@ -198,7 +198,7 @@ def save(fig, path) -> None:
     """Save a figure to PNG atomically (110 dpi); works headless, never touches pyplot."""
     import io
 
-    from gyrojax.data.io import atomic_write_bytes
+    from gyrojax.protocol import atomic_write_bytes
 
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)
