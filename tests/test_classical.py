@@ -2,7 +2,7 @@
 example campaigns.
 
 The formulas of the book are transcribed here independently of gyrojax.classical (in the book's own symbols, then
-converted with CONVENTIONS §2: D_x(book) = −D_I, D_y = −D_O, D_z = −D_S, g_book = −a). Where a printed formula is
+converted with conventions §2: D_x(book) = −D_I, D_y = −D_O, D_z = −D_S, g_book = −a). Where a printed formula is
 wrong, the test transcribes the printed version too and asserts that it disagrees with the record, naming the
 misprint by its equation number.
 """
@@ -84,7 +84,7 @@ def tumble_drift(rec):
 
 def hu_3_14_3_16(D, g, flipped):
     """Hu 3-14 (normal) / 3-16 (flipped) as corrected, in book symbols; returns harmonics in *our* angle (B → −B)."""
-    bx, by, bz = -D["D_I"], -D["D_O"], -D["D_S"]  # CONVENTIONS §2 book sign note
+    bx, by, bz = -D["D_I"], -D["D_O"], -D["D_S"]  # conventions §2 book sign note
     Dxx, Dzz, Dxy, Dxz, Dyz = D["D_II"], D["D_SS"], D["D_IO"], D["D_IS"], D["D_OS"]
     sg = 1.0 if flipped else -1.0  # flipped: g_y = +g sinφ, g_z = +g cosφ cosθ
     A0 = D["D_F"] + sg * by * g * S + 0.5 * (Dxx + Dzz) * g * g * C * C

@@ -147,7 +147,7 @@ def test_full_temperature_plan_sequence_and_simulation():
     means = [float(np.mean(r.indicated)) for r in recs]
     temps = [float(np.mean(r.temperature_C)) for r in recs]
     assert temps == pytest.approx([23.0, 60.0, -45.0, 18.0])
-    # hot − cold difference of the indicated rate is D_TEMP·105 °C (CONVENTIONS §6 bias_temperature)
+    # hot − cold difference of the indicated rate is D_TEMP·105 °C (conventions §6 bias_temperature)
     assert means[1] - means[2] == pytest.approx(0.01 * 105, rel=1e-9)
     ramp = thermal.full_temperature_plan(base, soak_ramp_c=5.0)
     assert ramp.runs[1].temperature_C == (60.0, 55.0) and ramp.runs[2].temperature_C == (-45.0, -40.0)
