@@ -427,6 +427,9 @@ def test_torquer_linearity_table():
     # the mean at 17.171). The 5 mA row is the only one the rest of the table does not support.
     assert bad == [5]
     assert round(lin[1], 2) == -0.01
-    assert all(round(17.171 + d, 3) == 17.171 for d in (0.003 / 8, 0.0037 / 8))  # a corrected K_5 keeps K
+    # a corrected K_5 (17.1725, inside that range) keeps K = 17.171 and makes every printed row reproduce
+    K, lin = classical.torquer_linearity([K_n[0], 17.1725, *K_n[2:]], mean_decimals=3)
+    assert K == printed_K and round(lin[1], 2) == 0.01
+    assert [c for c, x, p in zip(currents, lin, printed_lin, strict=True) if abs(round(x, 2) - p) > 1e-9] == []
     # servo method: K = −ω_y / i_y (附 3-5)
     assert classical.torquer_scale_factor(-17.184 * 5, 5) == pytest.approx(17.184, abs=1e-12)

@@ -106,9 +106,14 @@ def test_navigation_error_with_and_without_compensation():
     unc = np.asarray(thermal.navigation_position_error(dt, temp, gyro, accel))
     # uncompensated: residuals −65e-5 g and +0.39 °/h (the 20 °C values removed) through the Schuler loop
     # (Titterton Table 12.3)
+    # (Titterton Table 12.3: accelerometer bias B → B (1 − cos ω_s t)/ω_s², horizontal gyro drift δω →
+    # R_0 δω (t − sin ω_s t / ω_s); ω_s = √(g0/R_0), R_0 the WGS-84 equatorial radius)
     t = np.arange(n + 1) * dt
-    ref = system.position_sensitivities(t, lat=np.deg2rad(45.0))
-    expected = ref[:, 2] * -65e-5 * units.G0 + ref[:, 0] * 0.39 * units.DEG_PER_H
+    r0, g0 = 6378137.0, 9.80665
+    ws = np.sqrt(g0 / r0)
+    accel_part = -65e-5 * g0 * (1 - np.cos(ws * t)) / ws**2
+    gyro_part = r0 * 0.39 * np.pi / 180 / 3600 * (t - np.sin(ws * t) / ws)
+    expected = accel_part + gyro_part
     np.testing.assert_allclose(unc, expected, rtol=1e-8, atol=1e-9)  # closed form t − sin(ω_s t)/ω_s cancels at t→0
     # compensated with a model fitted from runs that carry 2e-5 g / 0.02 °/h turn-on offsets
     fits = []
