@@ -26,7 +26,7 @@ def _assert_decidable(recs, model, hidden, truth, white):
     """The one campaign decides the test: the score test's power for ``hidden`` at its size is ≥ 0.999 at the
     first Holm step (tests/power.py, the noncentrality from the conventions' regressors and scipy's ncx2)."""
     lam = pw.noncentrality(recs, model, hidden, truth, white)
-    power = pw.power(lam, len(pw.COEFFICIENTS[hidden]), 0.01, FAMILY)
+    power = pw.power(lam, len(pw.COEFFICIENTS[hidden]), 0.01, FAMILY, pw.margin(hidden))
     assert power >= 0.999, f"power {power:.4f} for {hidden} (λ = {lam:.1f}): one campaign cannot decide this test"
 
 

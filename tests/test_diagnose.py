@@ -7,9 +7,10 @@ and tests/independent_writer.py.
 How the hidden-effect tests are decided: each runs one campaign (one seed, or the vendored data), after asserting
 that the campaign's design gives the diagnosis' score test a power ≥ 0.999 for the hidden effect at its true size
 (tests/power.py: the noncentrality from the whitened regressors, written from the conventions alone, and scipy's
-noncentral χ² at the first Holm step α/FAMILY). A failure of the verdict is then a failure of the code, not a draw
-that went astray (at most 1 in 1000). The refit's 'adequate' verdict is a null test at family-wise level α = 0.01;
-the top candidate being the hidden effect (or an alias it names) is checked at the one seed."""
+noncentral χ² at the first Holm step α/FAMILY, counting on 0.9 of the noncentrality, half of it for effects slow in
+time). A failure of the verdict is then a failure of the code, not a draw that went astray (at most 1 in 1000).
+The refit's 'adequate' verdict is a null test at family-wise level α = 0.01; the top candidate being the hidden
+effect (or an alias it names) is checked at the one seed."""
 
 import numpy as np
 import pytest
@@ -33,7 +34,7 @@ def _check_hidden(records, terms, hidden, truth, white):
     """``truth``: every coefficient of the campaign in report units (set-up angles as delta_E … in arcsec);
     ``white``: its angle random walk, deg/√h."""
     lam = pw.noncentrality(records, terms, hidden, truth, white)
-    power = pw.power(lam, len(pw.COEFFICIENTS[hidden]), ALPHA, FAMILY)
+    power = pw.power(lam, len(pw.COEFFICIENTS[hidden]), ALPHA, FAMILY, pw.margin(hidden))
     assert power >= 0.999, f"this campaign cannot decide the test: power {power:.4f} for {hidden} (λ = {lam:.1f})"
     d = diagnose(records, terms, alpha=ALPHA)
     assert d.tests <= FAMILY, d.tests
@@ -177,7 +178,7 @@ def test_json_follows_conventions(example_campaigns):
     # the campaign's truth holds D_IS and D_II, which the model lacks: the verdict is definite (power, as above,
     # for D_IS with D_II among the nuisance terms: the harder test)
     lam = pw.noncentrality(recs, DRIFT4 + ["D_II"], "D_IS", camp["truth"], camp["noise"]["white"])
-    assert pw.power(lam, 1, ALPHA, FAMILY) >= 0.999, lam
+    assert pw.power(lam, 1, ALPHA, FAMILY, pw.margin("D_IS")) >= 0.999, lam
     j = diagnose(recs, DRIFT4).to_json()
     assert j["verdict"] == "missing-effect"
     assert j["family_size"] <= FAMILY

@@ -34,8 +34,10 @@ def test_inputs_at_rest_are_earth_rate_and_gravity():
 
 def test_power_is_the_noncentral_chi2_tail_at_the_first_holm_step():
     crit = stats.chi2.isf(0.01 / 30, 1)
-    assert pw.power(50.0, 1, 0.01, 30) == pytest.approx(stats.ncx2.sf(crit, 1, 50.0))
+    assert pw.power(50.0, 1, 0.01, 30, margin=1.0) == pytest.approx(stats.ncx2.sf(crit, 1, 50.0))
+    assert pw.power(100.0, 1, 0.01, 30) == pytest.approx(pw.power(50.0, 1, 0.01, 30, margin=1.0))  # half of λ
     z = stats.norm.isf(0.01 / 30 / 2)  # χ²₁(λ) > z² ⇔ |N(√λ, 1)| > z
-    assert pw.power(50.0, 1, 0.01, 30) == pytest.approx(
+    assert pw.power(50.0, 1, 0.01, 30, margin=1.0) == pytest.approx(
         stats.norm.sf(z - np.sqrt(50)) + stats.norm.cdf(-z - np.sqrt(50))
     )
+    assert pw.margin("bias_temperature") == pw.SLOW_MARGIN < pw.margin("D_O") == pw.MARGIN <= 1.0
