@@ -13,15 +13,10 @@ from scipy import stats
 from gyrojax.data import plans
 from gyrojax.data.records import save_record
 from gyrojax.errors import ConvergenceWarning, FormatError
-from gyrojax.inference.identify import (
-    INTERVAL_LEVEL,
-    RESULT_VERSION,
-    Campaign,
-    FitResult,
-    fit,
-    linearize,
-    result_from_json,
-)
+from gyrojax.inference.campaign import Campaign, linearize
+from gyrojax.inference.identify import fit
+from gyrojax.inference.noisefit import INTERVAL_LEVEL
+from gyrojax.inference.result import RESULT_VERSION, FitResult, result_from_json
 from gyrojax.physics.model import Model
 from gyrojax.simulation.simulator import simulate
 

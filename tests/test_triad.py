@@ -11,7 +11,8 @@ import pytest
 from gyrojax import units
 from gyrojax.data.records import Record, load_record, save_record
 from gyrojax.errors import ModelError, RecordError
-from gyrojax.inference.identify import IdentifiabilityError, fit
+from gyrojax.inference.identifiability import IdentifiabilityError
+from gyrojax.inference.identify import fit
 from gyrojax.inference.triad import fit_triad, long_run_variance
 from gyrojax.montecarlo.triad import ferraris_coverage, mems_truth
 from gyrojax.physics import triad as tp

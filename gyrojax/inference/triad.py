@@ -45,7 +45,8 @@ from gyrojax import units
 from gyrojax.data.records import Record
 from gyrojax.data.triad import TRIAD_KIND, acc_g, axis_vector, gyro_dph
 from gyrojax.errors import ModelError
-from gyrojax.inference.identify import IdentifiabilityError, check_one_instrument, residue_columns
+from gyrojax.inference.campaign import check_one_instrument
+from gyrojax.inference.identifiability import IdentifiabilityError, residue_columns
 from gyrojax.noise.whiten import pooled_autocovariance
 from gyrojax.physics import triad as tp
 from gyrojax.protocol import atomic_write_text
@@ -517,7 +518,7 @@ def fit_triad(
       noise_q: per-channel long-run noise variance (deg/h)² per sample, instead of estimating it.
 
     Returns: a :class:`TriadFit`; coefficients ``<name>[<channel>]`` in report units.
-    Raises: :class:`~gyrojax.inference.identify.IdentifiabilityError` naming what the segments cannot separate.
+    Raises: :class:`~gyrojax.inference.identifiability.IdentifiabilityError` naming what the segments cannot separate.
     """
     recs = [records] if isinstance(records, Record) else list(records)
     if not recs:
