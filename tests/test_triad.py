@@ -100,7 +100,7 @@ def test_static_only_session_refuses_scale_factor():
     meta["segments"] = keep
     seg = np.where(np.isin(rec.columns["segment"], list(labels)), rec.columns["segment"], -1)
     static = Record(meta, {**rec.columns, "segment": seg})
-    with pytest.raises(IdentifiabilityError, match=r"not excited: E_SF\[x\]"):
+    with pytest.raises(IdentifiabilityError, match=r"not excited by this plan: E_SF\[x\]"):
         fit_triad(static, ["D_F", "D_I", "sf_error"], earth_rate=False)
     # with the Earth rate, static faces do excite the scale factor: by 15 deg/h, hence a σ of a few 10^5 ppm
     weak = fit_triad(static, ["D_F", "D_I", "sf_error"])

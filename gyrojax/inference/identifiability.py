@@ -41,13 +41,21 @@ def residue_columns(jw: np.ndarray, tol: float = RESIDUE_TOL) -> np.ndarray:
 
 
 def identifiability(jw: np.ndarray, model: Model, tol: float = ALIAS_TOL) -> dict:
-    """Rank, condition number and alias groups of a (whitened) regressor matrix.
+    """Rank, condition number and alias groups of a (whitened) regressor matrix whose columns are the coefficients
+    of ``model``, grouped by effect (:func:`alias_analysis`)."""
+    names = model.coefficient_names
+    return alias_analysis(jw, names, [fx.effect_of_coefficient(c) for c in names], model.terms, tol)
+
+
+def alias_analysis(jw: np.ndarray, names, labels, order=None, tol: float = ALIAS_TOL) -> dict:
+    """Rank, condition number and alias groups of a (whitened) regressor matrix ``jw`` (m, p).
 
     Columns are normalised first, so the condition number measures correlation, not units. An alias group is the
-    set of effects whose coefficients carry weight (|v| > 0.05) in a right singular vector whose singular value is
+    set of labels whose columns carry weight (|v| > 0.05) in a right singular vector whose singular value is
     below ``tol`` × the largest: a combination of their regressors that the plan leaves (nearly) unseen.
+    ``names[k]`` names column k and ``labels[k]`` is what it is reported under (its effect, or the column itself);
+    groups are listed in ``order`` (default: the labels' first appearance).
     """
-    names = model.coefficient_names
     if jw.shape[1] == 0:
         return {"rank": 0, "size": 0, "condition": 1.0, "aliases": [], "unexcited": []}
     norms = np.sqrt((jw * jw).sum(axis=0))
@@ -58,7 +66,7 @@ def identifiability(jw: np.ndarray, model: Model, tol: float = ALIAS_TOL) -> dic
     smax = s[0] if s.size else 1.0
     small = s < tol * smax
     groups: list[set] = []
-    coef_to_effect = {c: fx.effect_of_coefficient(c) for c in names}
+    coef_to_effect = dict(zip(names, labels))
     for i in np.flatnonzero(small):
         v = vt[i]
         members = {coef_to_effect[names[k]] for k in np.flatnonzero(np.abs(v) > 0.05)}
@@ -67,7 +75,7 @@ def identifiability(jw: np.ndarray, model: Model, tol: float = ALIAS_TOL) -> dic
             members |= g
             groups.remove(g)
         groups.append(members)
-    order = {t: i for i, t in enumerate(model.terms)}
+    order = {t: i for i, t in enumerate(dict.fromkeys(labels) if order is None else order)}
     alias_groups = [sorted(g, key=order.get) for g in groups if len(g) > 1 or g & set(unexcited)]
     positive = s[s > 0]
     return {
@@ -80,16 +88,13 @@ def identifiability(jw: np.ndarray, model: Model, tol: float = ALIAS_TOL) -> dic
     }
 
 
-def alias_message(report: dict) -> str:
+def alias_message(report: dict, remedy: str = "add positions/mountings that separate them") -> str:
     """The message of :class:`IdentifiabilityError` for a report of :func:`identifiability`: the alias groups, the
-    unexcited effects, the rank, and what to do about them."""
+    unexcited effects, the rank, and what to do about them (``remedy``: what would separate them)."""
     parts = []
     for g in report["aliases"]:
         parts.append(" + ".join(g))
     msg = "this plan cannot tell apart: " + "; ".join(f"[{p}]" for p in parts) if parts else ""
     if report["unexcited"]:
         msg += ("; " if msg else "") + "not excited by this plan: " + ", ".join(report["unexcited"])
-    return (
-        f"{msg} (rank {report['rank']} of {report['size']}); drop all but one effect of each group, "
-        "or add positions/mountings that separate them"
-    )
+    return f"{msg} (rank {report['rank']} of {report['size']}); drop all but one effect of each group, or {remedy}"

@@ -1,7 +1,7 @@
 """Joint calibration of a MEMS gyro triad from static poses and known-angle rotations, with honest σ.
 
 Each channel is an SDF-like rate gyro (:mod:`gyrojax.physics.triad`); the three are fitted jointly from the
-segments of ``imu-triad`` records (:mod:`gyrojax.data.triad`):
+segments of ``imu-triad`` records (:mod:`gyrojax.data.triad`, as arrays by :mod:`gyrojax.data.triad_segments`):
 
 * **static pose** k: the mean indicated rate of each channel over the pose, modelled at the pose's mean specific
   force (accelerometer, g) with the inertial rate of a body at rest, the Earth rate (below);
@@ -12,7 +12,9 @@ segments of ``imu-triad`` records (:mod:`gyrojax.data.triad`):
   rate-nonlinear ones (E_A, E_2) use the shape to first order.
 
 Every coefficient enters linearly, so one generalized-least-squares solve fits them (exact derivatives by
-``jax.jacfwd`` of the same measurement model). The covariance of the segment means is built from
+``jax.jacfwd`` of the same measurement model), through the one rank-cut least-squares core
+(:func:`gyrojax.inference.solver.solve`) after the one identifiability analysis
+(:func:`gyrojax.inference.identifiability.alias_analysis`). The covariance of the segment means is built from
 
 * each channel's **long-run noise variance** q_c, estimated from the static residuals by a Bartlett-window
   (Newey–West 1987) sum of the pooled autocovariance, so filtered, correlated MEMS noise gives honest pose means
@@ -43,189 +45,19 @@ from scipy import stats
 
 from gyrojax import units
 from gyrojax.data.records import Record
-from gyrojax.data.triad import TRIAD_KIND, acc_g, axis_vector, gyro_dph
+from gyrojax.data.triad import TRIAD_KIND, acc_g, gyro_dph
+from gyrojax.data.triad_segments import triad_segments
 from gyrojax.errors import ModelError
 from gyrojax.inference.campaign import check_one_instrument
-from gyrojax.inference.identifiability import IdentifiabilityError, residue_columns
+from gyrojax.inference.identifiability import IdentifiabilityError, alias_analysis, alias_message, residue_columns
+from gyrojax.inference.solver import solve
 from gyrojax.noise.whiten import pooled_autocovariance
 from gyrojax.physics import triad as tp
 from gyrojax.protocol import atomic_write_text
 
 DEFAULT_STATIC_TERMS = ("D_F", "D_I", "D_O", "D_S")
 DEFAULT_ROTATION_TERMS = DEFAULT_STATIC_TERMS + ("sf_error", "ia_misalignment")
-ALIAS_TOL = 1e-7
 NW_MAX_LAG = 50  # samples: longest autocovariance lag of the long-run variance (MEMS filters span a few samples)
-
-
-# ---- segments of the records as arrays -------------------------------------------------------------------------
-
-
-@dataclass
-class Segment:
-    """One measurement group: a static pose or a rotation (three rows of the measurement vector, one per channel).
-
-    ``y`` (3,) mean indicated rate, deg/h; ``w`` (n, 3) body rate (deg/h) and ``a`` (n, 3) specific force (g) of the
-    model; ``t_h`` (n,) h; ``temp`` (n,) °C; ``extra`` (3, 3) covariance added to the noise (heading, angle), deg²/h²;
-    ``n`` samples averaged; ``kind`` ``"static"`` or ``"rotation"``; ``name`` for reports.
-    """
-
-    kind: str
-    name: str
-    y: np.ndarray
-    w: np.ndarray
-    a: np.ndarray
-    t_h: np.ndarray
-    temp: np.ndarray
-    n: int
-    extra: np.ndarray
-    record: str = ""
-    info: dict = field(default_factory=dict)
-
-
-@dataclass
-class Move:
-    """A gravity-to-gravity move (imu_tk): gyro samples ``g`` (n, 3) deg/h and specific force ``a`` (n, 3) g between
-    two static poses whose Up directions in the body frame are ``u_from`` and ``u_to`` (unit vectors, from the
-    accelerometer); ``dt`` s; ``var_dir`` the variance (rad², per axis) of the two directions' noise."""
-
-    name: str
-    g: np.ndarray
-    a: np.ndarray
-    dt: float
-    u_from: np.ndarray
-    u_to: np.ndarray
-    var_dir: float
-    earth_var: float = 0.0
-
-
-def _earth(record: Record, earth_rate: bool | None):
-    """(vertical rate Ω sin φ in deg/h or None when unknown/off, horizontal magnitude bound in deg/h, mode text)."""
-    on = record.meta.get("earth_rate", True) if earth_rate is None else earth_rate
-    if not on:
-        return 0.0, 0.0, "off"
-    lat = record.meta["site"].get("latitude_deg")
-    omega = units.OMEGA_IE_DEG_PER_H
-    if lat is None:  # the site averaged over the sphere: E[cos² φ] = 2/3
-        return None, omega * math.sqrt(2.0 / 3.0), "latitude unknown"
-    phi = math.radians(float(lat))
-    return omega * math.sin(phi), omega * math.cos(phi), f"latitude {float(lat):g} deg"
-
-
-def triad_segments(record: Record, earth_rate: bool | None = None):
-    """The static and rotation segments of one triad record as :class:`Segment` s, the per-segment static residual
-    series (deg/h, (n, 3), for the noise estimate), the Earth-rate mode (module doc) and the :class:`Move` s."""
-    gyro = gyro_dph(record)
-    acc = acc_g(record)
-    t = np.asarray(record.time_s, dtype=float)
-    temp = record.columns.get("temperature_C")
-    temp = np.full(len(t), 20.0) if temp is None else np.asarray(temp, dtype=float)
-    seg = np.asarray(record.columns["segment"]).astype(int)
-    vertical, horizontal, mode = _earth(record, earth_rate)
-    g_site = float(record.meta["site"]["gravity_mps2"]) / units.G0
-    out, resid, moves = [], [], []
-    for spec in record.meta["segments"]:
-        sel = np.flatnonzero(seg == spec["label"])
-        if spec["type"] == "move":
-            mv = _move(record, spec, gyro, acc, t, seg)
-            # Up is fixed to the Earth, the gyro integrates the inertial rate: over the move the Earth turns Up by
-            # Ω_h T about a horizontal axis of unknown heading, variance (Ω_h T)²/2 per component
-            mv.earth_var = (horizontal * len(mv.g) * mv.dt * units.DEG_PER_H) ** 2 / 2.0
-            moves.append(mv)
-            continue
-        if len(sel) < 2:
-            raise ModelError(f"{record.name}: segment {spec['label']} has {len(sel)} sample(s); at least 2 are needed")
-        name = spec.get("name", f"{spec['type']}-{spec['label']}")
-        g = gyro[sel]
-        a = acc[sel] if acc is not None else None
-        th = t[sel] / units.SECONDS_PER_HOUR
-        if spec["type"] == "static":
-            if a is not None:
-                a_mean = a.mean(axis=0)
-                u = a_mean / np.linalg.norm(a_mean)
-            else:
-                u = axis_vector(spec["up"])
-                a_mean = u * g_site
-            w = np.zeros((1, 3)) if vertical is None else (vertical * u)[None, :]
-            extra = 0.5 * horizontal**2 * (np.eye(3) - np.outer(u, u))
-            out.append(
-                Segment(
-                    "static",
-                    name,
-                    g.mean(axis=0),
-                    w,
-                    a_mean[None, :],
-                    th.mean()[None],
-                    temp[sel].mean()[None],
-                    len(sel),
-                    extra,
-                    record.name,
-                    {"up": u},
-                )
-            )
-            resid.append(g - g.mean(axis=0))
-        else:  # rotation of a known angle about a body axis, history unknown
-            n_axis = axis_vector(spec["axis"])
-            shape = g @ n_axis
-            total = float(shape.sum())
-            direction = spec.get("direction", "from-data")
-            sign = {"positive": 1.0, "negative": -1.0}.get(direction, math.copysign(1.0, total))
-            if direction == "from-data" and abs(total) == 0.0:
-                raise ModelError(
-                    f"{record.name}: rotation segment {spec['label']} shows no rotation about {spec['axis']}"
-                )
-            dt = (t[sel[-1]] - t[sel[0]]) / (len(sel) - 1)
-            theta_deg = sign * float(spec["angle_deg"])
-            # body rate (deg/h): n Θ s(t) / Σ s dt, so that Σ ω dt = n Θ (deg·h/h = deg, times 3600 s/h)
-            w = np.outer(shape / total * theta_deg * units.SECONDS_PER_HOUR / dt, n_axis) * (1.0 if total else 0.0)
-            if vertical is not None and a is not None:
-                w = w + vertical * a / np.linalg.norm(a, axis=1, keepdims=True)
-            a_rot = a if a is not None else np.tile(n_axis * sign * 0.0, (len(sel), 1))
-            span = len(sel) * dt
-            sd = float(spec.get("angle_std_deg", 0.0)) * units.SECONDS_PER_HOUR / span  # angle error as a mean rate
-            # the horizontal Earth rate (unknown heading) turns with the body: its mean over the rotation is
-            # |m| Ω_h with m = mean(exp(i φ(t))) over the angle history's shape; uniform heading ⇒ covariance
-            # (Ω_h² |m|² / 2) (I − n nᵀ) (0 for a uniform full turn, up to the static value for a slow start/stop)
-            phase = np.radians(theta_deg) * np.cumsum(shape) / total
-            m2 = float(abs(np.mean(np.exp(1j * phase))) ** 2)
-            nn = np.outer(n_axis, n_axis)
-            extra = sd**2 * nn + 0.5 * horizontal**2 * m2 * (np.eye(3) - nn)
-            out.append(
-                Segment(
-                    "rotation",
-                    name,
-                    g.mean(axis=0),
-                    w,
-                    a_rot,
-                    th,
-                    temp[sel],
-                    len(sel),
-                    extra,
-                    record.name,
-                    {"angle_deg": theta_deg, "axis": n_axis.tolist(), "duration_s": span},
-                )
-            )
-    return out, resid, mode, moves
-
-
-def _move(record: Record, spec: dict, gyro, acc, t, seg) -> Move:
-    """The :class:`Move` of a ``move`` segment (module doc of :mod:`gyrojax.data.triad`)."""
-    if acc is None:
-        raise ModelError(f"{record.name}: move segment {spec['label']} needs the accelerometer (acc_<c>_g columns)")
-
-    def pose(label):
-        a = acc[seg == label]
-        m = a.mean(axis=0)
-        return m / np.linalg.norm(m), float(a.var(axis=0).mean()) / len(a) / float(m @ m)
-
-    sel = np.flatnonzero(seg == spec["label"])
-    if len(sel) < 2:
-        raise ModelError(f"{record.name}: move segment {spec['label']} has {len(sel)} sample(s)")
-    u0, v0 = pose(spec["from"])
-    u1, v1 = pose(spec["to"])
-    # the samples of the move plus the boundary samples, so that the integration spans the whole motion
-    lo, hi = max(sel[0] - 1, 0), min(sel[-1] + 2, len(t))
-    dt = (t[hi - 1] - t[lo]) / max(hi - lo - 1, 1)
-    return Move(spec.get("name", f"move-{spec['label']}"), gyro[lo:hi], acc[lo:hi], float(dt), u0, u1, v0 + v1)
 
 
 def linear_matrices(model, theta):
@@ -485,7 +317,7 @@ def segment_means(model, theta, arrays):
 
 
 def pack_segments(segments) -> tuple:
-    """The ``arrays`` of :func:`segment_means` from :class:`Segment` s."""
+    """The ``arrays`` of :func:`segment_means` from :class:`~gyrojax.data.triad_segments.TriadSegment` s."""
     w = np.concatenate([s.w for s in segments])
     a = np.concatenate([s.a for s in segments])
     t = np.concatenate([s.t_h for s in segments])
@@ -565,12 +397,12 @@ def fit_triad(
     move_w = _move_whitening(moves, q)
     packed = pack_moves(moves) if moves else None
     if moves:  # Gauss–Newton on the linear rows and the moves' direction residuals (2 whitened rows per move)
-        theta = _svd_step(lin_j, lin_r)  # statics (+ rotations): bias and g-terms; scale factor nominal
+        theta = solve(lin_j, lin_r)[0]  # statics (+ rotations): bias and g-terms; scale factor nominal
         for _ in range(30):
             mr, mj = _move_rows(model, theta, packed, move_w)
             rw = np.concatenate([lin_r - lin_j @ theta, mr])
             jw = np.concatenate([lin_j, mj])
-            step = _svd_step(jw, rw)
+            step = solve(jw, rw)[0]
             theta = theta + step
             # converged when no coefficient moves by more than 1e-6 of its own standard error (whitened columns)
             if np.max(np.abs(step) * np.sqrt((jw * jw).sum(axis=0))) < 1e-6:
@@ -578,47 +410,21 @@ def fit_triad(
         mr, mj = _move_rows(model, theta, packed, move_w)
         rw = np.concatenate([lin_r - lin_j @ theta, mr])
         jw = np.concatenate([lin_j, mj])
-    residue = residue_columns(jw)
-    not_excited = [names[i] for i in np.flatnonzero(residue)]
-    jw = np.where(residue, 0.0, jw)
-    norms = np.sqrt((jw * jw).sum(axis=0))
-    z = jw / np.where(norms > 0, norms, 1.0)
-    u, sv, vt = np.linalg.svd(z, full_matrices=False)
-    keep = sv >= ALIAS_TOL * sv[0]
-    groups = []
-    for k in np.flatnonzero(~keep):
-        members = [names[i] for i in np.flatnonzero(np.abs(vt[k]) > 0.05) if not residue[i]]
-        if members:
-            groups.append(members)
-    if (groups or not_excited) and not allow_aliases:
-        msg = "; ".join("[" + " + ".join(g) + "]" for g in groups)
-        msg = ("these segments cannot tell apart: " + msg) if msg else ""
-        if not_excited:
-            msg += ("; " if msg else "") + "not excited: " + ", ".join(not_excited)
-        raise IdentifiabilityError(
-            msg + "; drop effects, or add poses/rotations that separate them",
-            {"aliases": groups, "unexcited": not_excited},
-        )
-    sinv = np.where(keep, 1.0 / np.where(keep, sv, 1.0), 0.0)
-    theta = theta + (vt.T * sinv) @ (u.T @ rw) / np.where(norms > 0, norms, 1.0)
-    cov = ((vt.T * sinv**2) @ vt) / np.outer(np.where(norms > 0, norms, 1.0), np.where(norms > 0, norms, 1.0))
+    report = alias_analysis(jw, names, names)
+    not_excited = report["unexcited"]
+    if (report["aliases"] or not_excited) and not allow_aliases:
+        raise IdentifiabilityError(alias_message(report, "add poses/rotations that separate them"), report)
+    step, cov = solve(jw, rw)  # rank-cut SVD in normalised columns; unseen coefficients get NaN rows and columns
+    theta = theta + step
+    bad = ~np.isfinite(np.diag(cov))
     if moves:
         mr, _ = _move_rows(model, theta, packed, move_w)
-        rw = np.concatenate([lin_r - lin_j @ theta, mr])
-        jw_full = np.concatenate([lin_j, np.zeros((len(mr), lin_j.shape[1]))])
-        e_all = rw
+        e = np.concatenate([lin_r - lin_j @ theta, mr])
     else:
-        jw_full = None
-    bad = residue.copy()
-    if not keep.all():
-        bad |= np.abs(vt[~keep]).max(axis=0) > 0.05
-    cov[bad, :] = np.nan
-    cov[:, bad] = np.nan
-    e = e_all if moves else rw - jw @ theta
-    dof = int(len(rw) - keep.sum())
+        e = rw - np.where(residue_columns(jw), 0.0, jw) @ theta
+    dof = int(len(e) - report["rank"])
     chi2 = float(e @ e)
     raw_res = y - base - jac @ np.where(bad, 0.0, theta)
-    del jw_full
     mode = " / ".join(sorted(modes))
     notes = []
     if "latitude unknown" in modes and any(t == "D_I" for t in model.terms):
@@ -652,16 +458,6 @@ def fit_triad(
         counts_per_dps=k or None,
         notes=notes,
     )
-
-
-def _svd_step(jw, rw):
-    """Minimum-norm least-squares step in normalised columns (a rank cut at :data:`ALIAS_TOL`)."""
-    norms = np.sqrt((jw * jw).sum(axis=0))
-    sc = np.where(norms > 0, norms, 1.0)
-    u, sv, vt = np.linalg.svd(jw / sc, full_matrices=False)
-    keep = sv >= ALIAS_TOL * sv[0]
-    sinv = np.where(keep, 1.0 / np.where(keep, sv, 1.0), 0.0)
-    return (vt.T * sinv) @ (u.T @ rw) / sc
 
 
 def _move_whitening(moves, q) -> list:
