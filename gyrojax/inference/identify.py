@@ -46,6 +46,7 @@ from gyrojax.inference.noisefit import (
 )
 from gyrojax.inference.result import FitResult
 from gyrojax.inference.solver import solve, stack_whitened, weighted_least_squares
+from gyrojax.inference.triad import fit_triad
 from gyrojax.noise.whiten import ARNoise, GMNoise
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model
@@ -69,13 +70,69 @@ def fit(
     terms=None,
     *,
     kind: str | None = None,
-    noise: str = "ar",
+    noise=None,
+    allow_aliases: bool = False,
+    theta0=None,
+    max_iter: int = 30,
+    campaign: Campaign | None = None,
+    earth_rate: bool | None = None,
+):
+    """The one public fit: the records' instrument kind chooses the fit, and every option is honoured by it or
+    refused with one :class:`~gyrojax.errors.ModelError` naming the options it cannot honour.
+
+    * Turntable records (``sdf``, ``tdf``, ``accel``, ``fog``, ``rlg``), or a ``campaign``: :func:`fit_campaign`
+      (all options but ``earth_rate``; a record's Earth rate follows its site). ``noise`` ``None`` means ``"ar"``.
+    * ``imu-triad`` records: :func:`gyrojax.inference.triad.fit_triad` with ``terms``, ``allow_aliases``,
+      ``earth_rate``, ``max_iter`` (iterations of the gravity-to-gravity moves) and ``noise``: ``None`` (the
+      long-run variance estimated from the static poses) or the three channels' long-run variances, (deg/h)² per
+      sample. ``kind`` (other than ``"imu-triad"``), ``theta0`` and the turntable noise choices are refused.
+
+    Returns: a :class:`~gyrojax.inference.result.FitResult`, or a :class:`~gyrojax.inference.triad.TriadFit`.
+    """
+    if campaign is None and _is_triad(records):
+        refused = []
+        if kind not in (None, TRIAD_KIND):
+            refused.append(f"kind={kind!r}")
+        if theta0 is not None:
+            refused.append("theta0 (every triad coefficient is linear: there is no start to give)")
+        if isinstance(noise, str) or hasattr(noise, "whitening_model"):
+            refused.append(
+                f"noise={noise!r} (a triad's noise is the long-run variance of each channel: None, or three variances)"
+            )
+        if refused:
+            raise ModelError(f"the fit of imu-triad records cannot honour {'; '.join(refused)}")
+        return fit_triad(
+            records, terms, earth_rate=earth_rate, allow_aliases=allow_aliases, noise_q=noise, max_iter=max_iter
+        )
+    if earth_rate is not None:
+        raise ModelError(
+            "earth_rate applies to imu-triad records; the Earth rate of a turntable record follows its site "
+            "(JSON key site.latitude_deg)"
+        )
+    return fit_campaign(
+        records,
+        terms,
+        kind=kind,
+        noise="ar" if noise is None else noise,
+        allow_aliases=allow_aliases,
+        theta0=theta0,
+        max_iter=max_iter,
+        campaign=campaign,
+    )
+
+
+def fit_campaign(
+    records,
+    terms=None,
+    *,
+    kind: str | None = None,
+    noise="ar",
     allow_aliases: bool = False,
     theta0=None,
     max_iter: int = 30,
     campaign: Campaign | None = None,
 ) -> FitResult:
-    """Fit the named effects ``terms`` to ``records`` jointly (CONVENTIONS §6 names).
+    """Fit the named effects ``terms`` to turntable ``records`` jointly (CONVENTIONS §6 names).
 
     Args:
       records: a :class:`Record`, or a list of records of one instrument kind (any plans, mountings, modes).
@@ -87,15 +144,13 @@ def fit(
       allow_aliases: return a minimum-norm fit instead of raising when the plan cannot separate some effects
         (those coefficients then have no finite standard error).
       theta0: starting coefficients (report units) for the nonlinear set-up effects.
+      max_iter: iterations of the nonlinear solver (Jacobian evaluations per coefficient).
+      campaign: the records already built into a :class:`Campaign` (``records`` is then not read).
 
     Returns: a :class:`FitResult`.
 
     Raises: :class:`IdentifiabilityError` naming the effects the plan cannot tell apart.
     """
-    if campaign is None and _is_triad(records):  # a hand-moved IMU: per-channel fit (gyrojax.inference.triad)
-        from gyrojax.inference.triad import fit_triad
-
-        return fit_triad(records, terms, allow_aliases=allow_aliases)
     camp = campaign or Campaign.of(records)
     kind = kind or camp.kind
     model = Model.of(terms if terms is not None else DEFAULT_TERMS[kind], kind)

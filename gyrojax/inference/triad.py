@@ -338,6 +338,7 @@ def fit_triad(
     earth_rate: bool | None = None,
     allow_aliases: bool = False,
     noise_q=None,
+    max_iter: int = 30,
 ) -> TriadFit:
     """Fit per-channel SDF coefficients of a gyro triad to ``imu-triad`` records of one instrument (module doc).
 
@@ -348,6 +349,7 @@ def fit_triad(
       earth_rate: override the records' ``earth_rate`` (False: no Earth rate in the model or the covariance).
       allow_aliases: return a minimum-norm fit instead of raising when the segments cannot separate some effects.
       noise_q: per-channel long-run noise variance (deg/h)² per sample, instead of estimating it.
+      max_iter: iterations of the fit of gravity-to-gravity moves (the only nonlinear part).
 
     Returns: a :class:`TriadFit`; coefficients ``<name>[<channel>]`` in report units.
     Raises: :class:`~gyrojax.inference.identifiability.IdentifiabilityError` naming what the segments cannot separate.
@@ -377,7 +379,7 @@ def fit_triad(
             f"drop {[t for t in model.terms if t not in LINEAR_TERMS]}"
         )
     names = [tp.channel_name(c, ch) for ch in tp.CHANNELS for c in model.coefficient_names]
-    q = long_run_variance(resid) if noise_q is None else np.asarray(noise_q, dtype=float)
+    q = long_run_variance(resid) if noise_q is None else _channel_variances(noise_q)
 
     arrays = pack_segments(segments)
     theta0 = jnp.zeros(3 * model.size)
@@ -398,7 +400,7 @@ def fit_triad(
     packed = pack_moves(moves) if moves else None
     if moves:  # Gauss–Newton on the linear rows and the moves' direction residuals (2 whitened rows per move)
         theta = solve(lin_j, lin_r)[0]  # statics (+ rotations): bias and g-terms; scale factor nominal
-        for _ in range(30):
+        for _ in range(max_iter):
             mr, mj = _move_rows(model, theta, packed, move_w)
             rw = np.concatenate([lin_r - lin_j @ theta, mr])
             jw = np.concatenate([lin_j, mj])
@@ -458,6 +460,20 @@ def fit_triad(
         counts_per_dps=k or None,
         notes=notes,
     )
+
+
+def _channel_variances(noise_q) -> np.ndarray:
+    """A given long-run noise variance of each channel, (deg/h)² per sample, checked: three finite values > 0."""
+    try:
+        q = np.asarray(noise_q, dtype=float)
+    except (TypeError, ValueError):
+        q = np.zeros(0)
+    if q.shape != (3,) or not np.all(np.isfinite(q)) or not np.all(q > 0):
+        raise ModelError(
+            f"the triad noise is the long-run variance of each channel x, y, z: three finite numbers > 0 "
+            f"((deg/h)² per sample), got {noise_q!r}"
+        )
+    return q
 
 
 def _move_whitening(moves, q) -> list:
