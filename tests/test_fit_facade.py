@@ -8,7 +8,7 @@ from gyrojax import load_record
 from gyrojax.errors import ModelError
 from gyrojax.inference.identify import fit
 from gyrojax.inference.result import FitResult
-from gyrojax.inference.triad import TriadFit
+from gyrojax.inference.triad_result import TriadFit
 from gyrojax.montecarlo.triad import mems_truth
 from gyrojax.simulation.triad import simulate_ferraris
 

@@ -87,7 +87,7 @@ def fit(
       long-run variance estimated from the static poses) or the three channels' long-run variances, (deg/h)² per
       sample. ``kind`` (other than ``"imu-triad"``), ``theta0`` and the turntable noise choices are refused.
 
-    Returns: a :class:`~gyrojax.inference.result.FitResult`, or a :class:`~gyrojax.inference.triad.TriadFit`.
+    Returns: a :class:`~gyrojax.inference.result.FitResult`, or a :class:`~gyrojax.inference.triad_result.TriadFit`.
     """
     if campaign is None and _is_triad(records):
         refused = []

@@ -3,7 +3,6 @@ its JSON (CONVENTIONS §7) and the saved file it is read back from."""
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -12,13 +11,14 @@ import jax.numpy as jnp
 import numpy as np
 from scipy import stats
 
+from gyrojax import protocol
 from gyrojax.data.records import Record
 from gyrojax.errors import FormatError, ModelError
+from gyrojax.inference.formats import LEGACY_FORMAT, RESULT_FORMAT, RESULT_VERSION, fit_kind
 from gyrojax.inference.noisefit import small_sample_factor
-from gyrojax.noise.whiten import ARNoise, first_difference_std
+from gyrojax.noise.whiten import ARNoise, GMNoise, first_difference_std, noise_from_json, noise_to_json
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model, predict_jit, record_data
-from gyrojax.protocol import atomic_write_text
 
 
 @dataclass
@@ -112,6 +112,10 @@ class FitResult:
             n += len(r)
         return float(np.sqrt(acc / n)) if n else float("nan")
 
+    def _stored_residuals(self) -> list:
+        """The residuals of each record, or ``None`` for each when they were not kept (a loaded result)."""
+        return self.residuals if len(self.residuals) == len(self.record_names) else [None] * len(self.record_names)
+
     def units(self) -> dict:
         """Coefficient name -> report unit (``"deg/h"``, ``"deg/h/g"``, ``"ppm"``, ``"arcsec"`` …)."""
         return dict(zip(self.coefficient_names, self.model.coefficient_units))
@@ -147,11 +151,10 @@ class FitResult:
                 {
                     "name": n,
                     "path": p,
-                    "n": int(len(r)),
-                    "residual_rms": float(np.sqrt(np.mean(r * r))),
+                    **({"n": int(len(r)), "residual_rms": float(np.sqrt(np.mean(r * r)))} if r is not None else {}),
                     "noise_model": _noise_json(nz),
                 }
-                for n, p, r, nz in zip(self.record_names, self.record_paths, self.residuals, self.noise)
+                for n, p, r, nz in zip(self.record_names, self.record_paths, self._stored_residuals(), self.noise)
             ],
             "instrument": self.model.kind,
             "correlation": [[_num(x) for x in row] for row in corr],
@@ -169,26 +172,27 @@ class FitResult:
         }
 
     def save(self, path, force: bool = False) -> Path:
-        """Write :meth:`to_json` plus ``theta`` and ``cov`` to ``path`` atomically, tagged with
-        :data:`RESULT_FORMAT` and :data:`RESULT_VERSION`; an existing file is an error unless ``force``.
-        :meth:`load` reads it back. Returns the path."""
-        p = Path(path)
-        if p.exists() and not force:
-            raise ModelError(f"{p}: exists; pass force=True (or --force) to overwrite")
+        """Write :meth:`to_json` plus what :meth:`load` needs to rebuild the result (``theta``, ``cov``, the noise
+        model of each record, the whole identifiability report, the Satterthwaite degrees of freedom) to ``path``
+        atomically as strict JSON (``null`` for non-finite), tagged :data:`RESULT_FORMAT` version
+        :data:`RESULT_VERSION` (:func:`gyrojax.protocol.save`); an existing file is an error unless ``force``.
+        The residuals and segment labels of each record are not stored. Returns the path."""
         d = self.to_json()
-        d["format"] = RESULT_FORMAT
-        d["format_version"] = RESULT_VERSION
-        d["theta"] = [float(x) for x in self.theta]
-        d["cov"] = [[float(x) for x in row] for row in self.cov]
-        atomic_write_text(p, json.dumps(d, indent=1, allow_nan=True) + "\n")
-        return p
+        d["theta"] = self.theta
+        d["cov"] = self.cov
+        d["record_names"] = list(self.record_names)
+        d["record_paths"] = list(self.record_paths)
+        d["noise_models"] = [noise_to_json(nz) for nz in self.noise]
+        d["identifiability"] = dict(self.identifiability)
+        d["dof_eff"] = None if self.dof_eff is None else np.asarray(self.dof_eff, dtype=float)  # ∞ saved as null
+        return protocol.save(path, d, RESULT_FORMAT, RESULT_VERSION, force=force)
 
     @classmethod
     def load(cls, path) -> "FitResult":
-        """A result written by :meth:`save`: model, estimates, covariance, degrees of freedom, convergence and the
-        input hashes (residuals are not stored, so :attr:`residuals` is empty). Raises
-        :class:`~gyrojax.errors.FormatError` naming the file and the key when it is not a gyrojax fit result of
-        a version this gyrojax reads."""
+        """A result written by :meth:`save`, equal to the saved one but for the residuals and labels, which are not
+        stored (:attr:`residuals` and :attr:`labels` are empty). Raises :class:`~gyrojax.errors.FormatError` naming
+        the file and the key when it is not a gyrojax fit result of a version this gyrojax reads, and saying so
+        when it is an imu-triad fit."""
         return result_from_json(load_result(path), where=str(path))
 
     # -- using the result --
@@ -239,67 +243,59 @@ def _num(x):
     return x if math.isfinite(x) else None
 
 
-RESULT_FORMAT = "gyrojax-fit"
-"""The ``format`` key of a saved fit result (:meth:`FitResult.save`)."""
-RESULT_VERSION = 1
-"""The ``format_version`` this gyrojax writes; it reads versions up to this one (``gyrojax-fit-1`` files of 0.2
-carry the version in the format string)."""
-
-
 def load_result(path) -> dict:
-    """A saved fit result as a dict (its ``theta``/``cov`` arrays restore the numbers), after checking its format
-    and version; :class:`~gyrojax.errors.FormatError` naming the file and the key otherwise."""
-    try:
-        d = json.loads(Path(path).read_text(encoding="utf-8"))
-    except json.JSONDecodeError as e:
-        raise FormatError(f"{path}: not JSON ({e.msg} at line {e.lineno}); not a gyrojax fit result") from None
-    if not isinstance(d, dict):
-        raise FormatError(f"{path}: not a gyrojax fit result (a JSON object with key 'format' is expected)")
-    fmt, version = d.get("format"), d.get("format_version")
-    if fmt == "gyrojax-fit-1" and version is None:  # 0.2 wrote the version into the format string
-        fmt, version = RESULT_FORMAT, 1
-    if fmt != RESULT_FORMAT:
-        raise FormatError(f"{path}: key 'format' is {_plain(fmt)}, not {RESULT_FORMAT!r}; not a gyrojax fit result")
-    if not isinstance(version, int) or isinstance(version, bool) or not 1 <= version <= RESULT_VERSION:
+    """A saved fit result as a dict, after checking its format and version (:func:`gyrojax.protocol.check`; the
+    0.2 files tagged ``gyrojax-fit-1`` are version 1); :class:`~gyrojax.errors.FormatError` naming the file and the
+    key otherwise, and naming an imu-triad fit as such."""
+    d = protocol.read_json_file(path, FormatError, "a gyrojax fit result")
+    if fit_kind(d) == "triad":
         raise FormatError(
-            f"{path}: key 'format_version' is {_plain(version)}; this gyrojax reads versions 1 to {RESULT_VERSION}"
+            f"{path}: an imu-triad fit (format {d.get('format')!r}), not a turntable fit result; read it with "
+            "gyrojax.inference.triad_result.load_triad_fit"
         )
-    for key in ("terms", "theta", "cov", "records", "n_samples"):
-        if key not in d:
-            raise FormatError(f"{path}: key {key!r} is missing from the fit result")
+    d = protocol.check(d, RESULT_FORMAT, RESULT_VERSION, str(path), legacy={LEGACY_FORMAT: (RESULT_FORMAT, 1)})
+    protocol.require(d, ("terms", "theta", "cov", "records", "n_samples"), str(path))
     return d
 
 
-def _plain(v) -> str:
-    """A value as a message shows it: strings quoted, numbers plain, absence as 'absent'."""
-    return "absent" if v is None else repr(v) if isinstance(v, str) else str(v)
-
-
 def result_from_json(d: dict, where: str = "fit result") -> FitResult:
-    """Rebuild a :class:`FitResult` (estimates, covariance, fit statistics; residuals are not stored) from the dict
-    of a saved result (:func:`load_result`). ``where`` names the source in error messages."""
+    """Rebuild a :class:`FitResult` from the dict of a saved result (:func:`load_result`): everything but the
+    residuals and labels. Files before version 2 kept each noise model only as its summary (``records[i]
+    .noise_model``): white + Gauss–Markov comes back from it, an AR model with unknown (NaN) coefficients.
+    ``where`` names the source in error messages."""
     try:
         model = Model(tuple(d["terms"]), d.get("instrument", fx.SDF))
-        theta = np.asarray(d["theta"], dtype=float)
-        cov = np.asarray(d["cov"], dtype=float)
+        theta = protocol.floats(d["theta"])
+        cov = protocol.floats(d["cov"])
+        records = d["records"]
+        names = d.get("record_names", [r["name"] for r in records])
+        paths = d.get("record_paths", [r.get("path") for r in records])
+        noises = (
+            [noise_from_json(n) for n in d["noise_models"]]
+            if "noise_models" in d
+            else [_noise_of_summary(r.get("noise_model", {})) for r in records]
+        )
     except (KeyError, TypeError, ValueError) as e:
-        raise FormatError(f"{where}: cannot rebuild the fit ({e})") from None
+        raise FormatError(f"{where}: cannot rebuild the fit ({type(e).__name__}: {e})") from None
     if theta.shape != (model.size,) or cov.shape != (model.size, model.size):
         raise FormatError(
             f"{where}: keys 'theta' {list(theta.shape)} and 'cov' {list(cov.shape)} do not match the "
             f"{model.size} coefficients of {list(model.terms)}"
         )
     fit_stats = d.get("fit", {})
+    report = dict(d.get("identifiability", {}))
+    if "condition" in report and report["condition"] is None:
+        report["condition"] = math.inf  # a singular plan's condition number, saved as null
     return FitResult(
         model,
         theta,
         cov,
         [],
         [],
-        [r["name"] for r in d["records"]],
-        [r.get("path") for r in d["records"]],
-        [ARNoise(np.zeros(0), 1.0, 1.0) for _ in d["records"]],
-        d.get("identifiability", {}),
+        list(names),
+        list(paths),
+        noises,
+        report,
         d["n_samples"],
         iterations=int(fit_stats.get("iterations", 1)),
         converged=bool(fit_stats.get("converged", True)),
@@ -311,6 +307,16 @@ def result_from_json(d: dict, where: str = "fit result") -> FitResult:
     )
 
 
+def _noise_of_summary(s: dict):
+    """A noise model from its summary in a file before version 2 (:func:`_noise_json`)."""
+    if s.get("kind") == "white+gauss_markov":
+        return GMNoise(float(s["tau_s"]), float(s["gauss_markov_std"]) ** 2, float(s["white_std"]) ** 2)
+    return ARNoise(np.full(int(s["ar_order"]), np.nan), float(s["innovation_std"]), float(s["std"]))
+
+
 def _dof_eff_of(d: dict):
+    """The Satterthwaite ν of each coefficient (``null`` is ∞), or ``None`` when the fit estimated none."""
+    if "dof_eff" in d:
+        return None if d["dof_eff"] is None else np.array([np.inf if v is None else v for v in d["dof_eff"]], float)
     nus = [d["coefficients"].get(c, {}).get("dof_eff") for c in d.get("coefficients", {})]
     return None if not nus or any(v is None for v in nus) else np.array(nus, dtype=float)

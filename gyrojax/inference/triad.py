@@ -34,10 +34,6 @@ the Earth turns Up unseen by Ω_h T (T the move's duration): a variance (Ω_h T)
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, field
-from pathlib import Path
-
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -45,15 +41,15 @@ from scipy import stats
 
 from gyrojax import units
 from gyrojax.data.records import Record
-from gyrojax.data.triad import TRIAD_KIND, acc_g, gyro_dph
+from gyrojax.data.triad import TRIAD_KIND
 from gyrojax.data.triad_segments import triad_segments
 from gyrojax.errors import ModelError
 from gyrojax.inference.campaign import check_one_instrument
 from gyrojax.inference.identifiability import IdentifiabilityError, alias_analysis, alias_message, residue_columns
 from gyrojax.inference.solver import solve
+from gyrojax.inference.triad_result import TriadFit
 from gyrojax.noise.whiten import pooled_autocovariance
 from gyrojax.physics import triad as tp
-from gyrojax.protocol import atomic_write_text
 
 DEFAULT_STATIC_TERMS = ("D_F", "D_I", "D_O", "D_S")
 DEFAULT_ROTATION_TERMS = DEFAULT_STATIC_TERMS + ("sf_error", "ia_misalignment")
@@ -137,160 +133,6 @@ def long_run_variance(resid: list[np.ndarray], max_lag: int = NW_MAX_LAG) -> np.
         gam, _ = pooled_autocovariance(r_all[:, c], bounds, lag)
         q[c] = max(gam[0] + 2.0 * float(w @ gam[1:]), gam[0] / 10.0) / shrink
     return q
-
-
-# ---- the fit ---------------------------------------------------------------------------------------------------
-
-
-@dataclass
-class TriadFit:
-    """Per-channel coefficients of a gyro triad with their covariance, the matrix forms and fit statistics."""
-
-    model: object
-    names: list
-    theta: np.ndarray
-    cov: np.ndarray
-    segments: list
-    residuals: np.ndarray  # (m,) raw residual of each segment mean, deg/h
-    noise_q: np.ndarray
-    chi2: float
-    dof: int
-    earth_mode: str
-    record_names: list
-    not_excited: list
-    counts_per_dps: float | None = None
-    notes: list = field(default_factory=list)
-
-    @property
-    def std(self) -> np.ndarray:
-        """Standard error of each coefficient, report units (NaN where the plan does not excite it)."""
-        return np.sqrt(np.clip(np.diag(self.cov), 0.0, None))
-
-    @property
-    def values(self) -> dict:
-        """``{"D_F[x]": value, …}`` in report units."""
-        return dict(zip(self.names, map(float, self.theta)))
-
-    @property
-    def stds(self) -> dict:
-        """``{"D_F[x]": std, …}`` in report units."""
-        return dict(zip(self.names, map(float, self.std)))
-
-    def units(self) -> dict:
-        """Coefficient name → report unit."""
-        u = self.model.coefficient_units
-        return {tp.channel_name(c, ch): uu for ch in tp.CHANNELS for c, uu in zip(self.model.coefficient_names, u)}
-
-    @property
-    def residual_rms(self) -> float:
-        """RMS of the segment-mean residuals, deg/h."""
-        return float(np.sqrt(np.mean(self.residuals**2))) if self.residuals.size else float("nan")
-
-    def matrices(self) -> dict:
-        """b (deg/h), S, G (deg/h/g) of ω_ind = S ω + G a + b (:func:`gyrojax.physics.triad.matrices`)."""
-        return tp.matrices(self.values)
-
-    def apply(self, record: Record) -> np.ndarray:
-        """Calibrated body rates (n, 3) deg/h of a triad record: ω = S⁻¹ (ω_ind − b − G a) (the linear model; the
-        Earth rate is part of ω, as a navigator wants it). Refuses rate-nonlinear effects and missing
-        accelerometer columns when G ≠ 0."""
-        nonlin = [
-            t for t in self.model.terms if t in ("sf_asymmetry", "sf_quadratic", "bias_trend", "bias_temperature")
-        ]
-        if nonlin:
-            raise ModelError(f"apply inverts the linear model only; this fit has {nonlin}: refit without them")
-        m = self.matrices()
-        g = gyro_dph(record)
-        a = acc_g(record)
-        if a is None:
-            if np.any(m["G"] != 0):
-                raise ModelError(f"{record.name}: the fit has g-sensitivity but the record has no acc_<c>_g columns")
-            a = np.zeros_like(g)
-        return np.linalg.solve(m["S"], (g - m["b"] - a @ m["G"].T).T).T
-
-    def to_json(self) -> dict:
-        """The fit JSON (CONVENTIONS §7 shape, per-channel names ``D_F[x]``), with the matrix forms."""
-        from gyrojax import __version__
-
-        coeffs = {}
-        unit = self.units()
-        for n, v, s in zip(self.names, self.theta, self.std):
-            coeffs[n] = {"value": float(v), "std": _num(s), "unit": unit[n]}
-        m = self.matrices()
-        k = self.counts_per_dps or 1.0
-        ic = tp.imucal_form(m, k, rotation_sign=-1.0)
-        kal = tp.kalibr_form(m)
-        p = float(stats.chi2.sf(self.chi2, self.dof)) if self.dof > 0 else float("nan")
-        return {
-            "terms": list(self.model.terms),
-            "instrument": TRIAD_KIND,
-            "channels": list(tp.CHANNELS),
-            "coefficients": coeffs,
-            "residual_rms_deg_per_h": self.residual_rms,
-            "n_samples": int(sum(s.n for s in self.segments)),
-            "records": [{"name": n} for n in self.record_names],
-            "not_excited": list(self.not_excited),
-            "matrices": {
-                "model": "omega_ind = S omega + G a + b (deg/h, a in g)",
-                "b_deg_per_h": m["b"].tolist(),
-                "S": m["S"].tolist(),
-                "G_deg_per_h_per_g": m["G"].tolist(),
-                "imucal": {
-                    "model": "raw = K_g R_g omega + K_ga a + b_g (omega deg/s, a m/s^2 with grav 9.81, raw counts); "
-                    "R_g for imucal's default expected_angle -360",
-                    "counts_per_dps": k,
-                    **{key: np.asarray(v).tolist() for key, v in ic.items() if key.startswith(("K", "R", "b"))},
-                },
-                "kalibr": {
-                    "model": "omega_m = C_gyro_i M omega + A a + b (rad/s, a m/s^2)",
-                    **{key: np.asarray(v).tolist() for key, v in kal.items() if key in ("C_gyro_i", "M", "A", "b")},
-                },
-            },
-            "earth_rate": {"mode": self.earth_mode, "rate_deg_per_h": units.OMEGA_IE_DEG_PER_H},
-            "noise": {
-                ch: {"long_run_std_deg_per_h_sqrt_sample": float(np.sqrt(q))}
-                for ch, q in zip(tp.CHANNELS, self.noise_q)
-            },
-            "segments": [
-                {"name": s.name, "kind": s.kind, "n": s.n, "residual_deg_per_h": r.tolist(), **_jsonable(s.info)}
-                for s, r in zip(self.segments, self.residuals.reshape(-1, 3))
-            ],
-            "fit": {"chi2": self.chi2, "dof": self.dof, "p_value": _num(p)},
-            "notes": list(self.notes),
-            "gyrojax_version": __version__,
-        }
-
-    def save(self, path, force: bool = False) -> Path:
-        """Write :meth:`to_json` with ``theta``/``cov``/``names`` (format ``gyrojax-fit-1``) atomically."""
-        import json
-
-        p = Path(path)
-        if p.exists() and not force:
-            raise ModelError(f"{p}: exists; pass force=True (or --force) to overwrite")
-        d = self.to_json()
-        d.update(format="gyrojax-fit-1", names=list(self.names), theta=[float(x) for x in self.theta])
-        d["cov"] = [[_num(x) for x in row] for row in self.cov]
-        atomic_write_text(p, json.dumps(d, indent=1) + "\n")
-        return p
-
-    def text(self) -> str:
-        """A coefficient table, one row per coefficient and channel."""
-        lines = [f"{'coefficient':14s} {'value':>14s} {'std':>12s}  unit"]
-        u = self.units()
-        for n, v, s in zip(self.names, self.theta, self.std):
-            lines.append(f"{n:14s} {v:14.6g} {s:12.4g}  {u[n]}")
-        lines.append(f"earth rate: {self.earth_mode}; chi2 {self.chi2:.3g} on {self.dof} dof")
-        lines.extend(f"note: {n}" for n in self.notes)
-        return "\n".join(lines)
-
-
-def _jsonable(d: dict) -> dict:
-    return {k: (np.asarray(v).tolist() if isinstance(v, np.ndarray) else v) for k, v in d.items()}
-
-
-def _num(x):
-    x = float(x)
-    return x if math.isfinite(x) else None
 
 
 def is_triad_input(records) -> bool:
@@ -520,43 +362,3 @@ def _move_rows(model, theta, packed, whitening):
     rows = [p.T @ r[i] / sd for i, (p, sd) in enumerate(whitening)]
     jacs = [p.T @ j[i] / sd for i, (p, sd) in enumerate(whitening)]
     return np.concatenate(rows), np.concatenate(jacs)
-
-
-def load_triad_fit(path) -> TriadFit:
-    """A triad fit saved by :meth:`TriadFit.save` (estimates and covariance; segment residuals are not kept)."""
-    import json
-
-    p = Path(path)
-    try:
-        d = json.loads(p.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as e:  # unreadable, not UTF-8, not JSON
-        raise ModelError(f"{p}: cannot read a fit result ({e})") from None
-    if d.get("format") != "gyrojax-fit-1" or d.get("instrument") != TRIAD_KIND or "theta" not in d:
-        raise ModelError(f"{p}: not a saved imu-triad fit (save one with `gyrojax fit RECORDS --save FIT.json`)")
-    try:
-        return _triad_fit_of(d)
-    except (KeyError, TypeError, ValueError, IndexError) as e:
-        raise ModelError(
-            f"{p}: a damaged imu-triad fit ({type(e).__name__}: {e}); save it again with `fit --save`"
-        ) from None
-
-
-def _triad_fit_of(d: dict) -> TriadFit:
-    model = tp.channel_model(d["terms"])
-    cov = np.array([[np.nan if x is None else x for x in row] for row in d["cov"]], dtype=float)
-    return TriadFit(
-        model,
-        list(d["names"]),
-        np.asarray(d["theta"], dtype=float),
-        cov,
-        [],
-        np.zeros(0),
-        np.zeros(3),
-        float(d["fit"]["chi2"]),
-        int(d["fit"]["dof"]),
-        d["earth_rate"]["mode"],
-        [r["name"] for r in d["records"]],
-        list(d.get("not_excited", [])),
-        counts_per_dps=d["matrices"]["imucal"].get("counts_per_dps"),
-        notes=list(d.get("notes", [])),
-    )
