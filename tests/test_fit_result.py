@@ -263,3 +263,20 @@ def test_fit_and_triad_fit_readers_name_each_others_files(rlg_ladder, tmp_path):
     legacy.write_text(json.dumps(d))
     with pytest.raises(FormatError, match="an imu-triad fit"):
         FitResult.load(legacy)
+
+
+class _KnownNoise:
+    """A given noise model (as ``gyrojax noise`` makes one): white 0.5 deg/√h at every sample interval."""
+
+    def whitening_model(self, dt_s):
+        return GMNoise(1.0, 0.0, (60.0 * 0.5) ** 2 / dt_s)
+
+
+def test_known_noise_fit_is_damped_and_reports_its_status(rlg_ladder):
+    """The known-noise GLS pass uses the one damped method too: from Ω_L = 5 deg/h it reaches the lock-in (the
+    undamped step lands in the dead band, test above), and stopped after one iteration it says so."""
+    res = fit(rlg_ladder, ["D_F", "lock_in"], noise=_KnownNoise(), theta0=[0.0, 5.0])
+    assert res.converged and abs(res.values["Omega_L"] - LOCK_IN) < 4 * res.stds["Omega_L"]
+    with pytest.warns(ConvergenceWarning, match="did not converge"):
+        stopped = fit(rlg_ladder, ["D_F", "lock_in"], noise=_KnownNoise(), theta0=[0.0, 5.0], max_iter=1)
+    assert not stopped.converged and "Levenberg–Marquardt stopped" in stopped.convergence_note

@@ -11,7 +11,7 @@ import pytest
 
 from gyrojax import units
 from gyrojax.data.records import Record, load_record, save_record
-from gyrojax.errors import ModelError, RecordError
+from gyrojax.errors import ConvergenceWarning, ModelError, RecordError
 from gyrojax.inference.identifiability import IdentifiabilityError
 from gyrojax.inference.identify import fit
 from gyrojax.inference.triad import fit_triad, long_run_variance
@@ -205,3 +205,19 @@ def test_reads_the_0_2_triad_fit_files(tmp_path):
     back = load_triad_fit(old)
     assert_same(back, res, skip=("segments", "noise_q", "counts_per_dps"))
     np.testing.assert_allclose(back.noise_q, res.noise_q, rtol=1e-14)
+
+
+def test_moves_fit_that_stops_early_says_so(tmp_path):
+    """The moves are fitted by the one damped method (Levenberg–Marquardt); its status is the fit's: with one
+    iteration allowed it stops, warns, and the result, its JSON and its file say why."""
+    rec = simulate_multiposition(TRUTH, poses=10, seed=5)
+    done = fit_triad(rec)
+    assert done.converged and done.convergence_note == "" and done.iterations > 1
+    with pytest.warns(ConvergenceWarning, match="did not converge"):
+        res = fit(rec, max_iter=1)  # through the facade: max_iter reaches the triad fit
+    assert not res.converged and "Levenberg–Marquardt stopped" in res.convergence_note
+    j = res.to_json()["fit"]
+    assert j["converged"] is False and "evaluations" in j["reason"]
+    assert "not converged" in res.text()
+    back = load_triad_fit(res.save(tmp_path / "stopped.json"))
+    assert back.converged is False and back.convergence_note == res.convergence_note

@@ -174,11 +174,9 @@ def fit_campaign(
         if kind == fx.ACCEL:
             raise ModelError(f"a noise model in deg/h applies to gyro records, not to {kind!r}")
         noises = [noise.whitening_model(float(np.median(np.diff(t)))) for *_, t in lin]
-        for _ in range(3 if not model.is_linear else 1):
-            rw, jw = stack_whitened(lin, noises, scales)
-            step, _ = solve(jw, rw)
-            theta = theta + step
-            lin = linearize(model, theta, camp)
+        theta, it_gls, why_gls = weighted_least_squares(model, theta, camp, noises, scales, max_iter)
+        it, why = it + it_gls, why or why_gls
+        lin = linearize(model, theta, camp)
     elif noise == "ar":
         noises = campaign_noise(lin, camp)
         theta, it_gls, why_gls = weighted_least_squares(model, theta, camp, noises, scales, max_iter)

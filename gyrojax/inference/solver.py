@@ -53,25 +53,35 @@ def weighted_least_squares(model: Model, theta, campaign: Campaign, noises, scal
         rw, jw = stack_whitened(linearize(model, theta, campaign), noises, scales)
         step, _ = solve(jw, rw)
         return theta + step, 1, ""
+    return damped_least_squares(
+        lambda th: stack_whitened(linearize(model, th, campaign), noises, scales), theta, max_iter * (model.size + 1)
+    )
+
+
+def damped_least_squares(system, theta0, max_nfev: int):
+    """θ minimising |r(θ)|² by Levenberg–Marquardt (``scipy.optimize.least_squares``, method ``"lm"``, MINPACK)
+    with the exact Jacobian: ``system(θ)`` returns (r, J), r the whitened residual "y − f(θ)" and J = ∂f/∂θ, whitened
+    alike. The trust region is measured in the coefficients' own units (``x_scale=1``). At most ``max_nfev``
+    evaluations. Returns (θ, evaluations, why it did not converge: scipy's status message, or ``""``)."""
     cache = {}
 
-    def system(th):
+    def cached(th):
         key = th.tobytes()
         if key not in cache:
             cache.clear()
-            cache[key] = stack_whitened(linearize(model, th, campaign), noises, scales)
+            cache[key] = system(th)
         return cache[key]
 
     sol = least_squares(
-        lambda th: -system(th)[0],
-        np.asarray(theta, dtype=float),
-        jac=lambda th: system(th)[1],
+        lambda th: -cached(th)[0],
+        np.asarray(theta0, dtype=float),
+        jac=lambda th: cached(th)[1],
         method="lm",
         x_scale=1.0,
         xtol=1e-12,
         ftol=1e-12,
         gtol=1e-12,
-        max_nfev=max_iter * (model.size + 1),
+        max_nfev=max_nfev,
     )
     why = "" if sol.status > 0 else f"Levenberg–Marquardt stopped after {sol.nfev} evaluations: {sol.message}"
     return np.asarray(sol.x, dtype=float), int(sol.nfev), why

@@ -34,6 +34,8 @@ the Earth turns Up unseen by Ω_h T (T the move's duration): a variance (Ω_h T)
 
 from __future__ import annotations
 
+import warnings
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -43,10 +45,10 @@ from gyrojax import units
 from gyrojax.data.records import Record
 from gyrojax.data.triad import TRIAD_KIND
 from gyrojax.data.triad_segments import triad_segments
-from gyrojax.errors import ModelError
+from gyrojax.errors import ConvergenceWarning, ModelError
 from gyrojax.inference.campaign import check_one_instrument
 from gyrojax.inference.identifiability import IdentifiabilityError, alias_analysis, alias_message, residue_columns
-from gyrojax.inference.solver import solve
+from gyrojax.inference.solver import damped_least_squares, solve
 from gyrojax.inference.triad_result import TriadFit
 from gyrojax.noise.whiten import pooled_autocovariance
 from gyrojax.physics import triad as tp
@@ -191,7 +193,8 @@ def fit_triad(
       earth_rate: override the records' ``earth_rate`` (False: no Earth rate in the model or the covariance).
       allow_aliases: return a minimum-norm fit instead of raising when the segments cannot separate some effects.
       noise_q: per-channel long-run noise variance (deg/h)² per sample, instead of estimating it.
-      max_iter: iterations of the fit of gravity-to-gravity moves (the only nonlinear part).
+      max_iter: iterations of the fit of gravity-to-gravity moves (the only nonlinear part): at most this many
+        evaluations of the moves' residual by Levenberg–Marquardt (about one per iteration; 5 to 10 suffice).
 
     Returns: a :class:`TriadFit`; coefficients ``<name>[<channel>]`` in report units.
     Raises: :class:`~gyrojax.inference.identifiability.IdentifiabilityError` naming what the segments cannot separate.
@@ -240,20 +243,16 @@ def fit_triad(
     theta = np.zeros(3 * model.size)
     move_w = _move_whitening(moves, q)
     packed = pack_moves(moves) if moves else None
-    if moves:  # Gauss–Newton on the linear rows and the moves' direction residuals (2 whitened rows per move)
+    iterations, why = 1, ""
+    if moves:  # Levenberg–Marquardt on the linear rows and the moves' direction residuals (2 whitened rows per move)
+
+        def system(th):
+            mr, mj = _move_rows(model, th, packed, move_w)
+            return np.concatenate([lin_r - lin_j @ th, mr]), np.concatenate([lin_j, mj])
+
         theta = solve(lin_j, lin_r)[0]  # statics (+ rotations): bias and g-terms; scale factor nominal
-        for _ in range(max_iter):
-            mr, mj = _move_rows(model, theta, packed, move_w)
-            rw = np.concatenate([lin_r - lin_j @ theta, mr])
-            jw = np.concatenate([lin_j, mj])
-            step = solve(jw, rw)[0]
-            theta = theta + step
-            # converged when no coefficient moves by more than 1e-6 of its own standard error (whitened columns)
-            if np.max(np.abs(step) * np.sqrt((jw * jw).sum(axis=0))) < 1e-6:
-                break
-        mr, mj = _move_rows(model, theta, packed, move_w)
-        rw = np.concatenate([lin_r - lin_j @ theta, mr])
-        jw = np.concatenate([lin_j, mj])
+        theta, iterations, why = damped_least_squares(system, theta, max_iter)  # ≈ one evaluation per iteration
+        rw, jw = system(theta)
     report = alias_analysis(jw, names, names)
     not_excited = report["unexcited"]
     if (report["aliases"] or not_excited) and not allow_aliases:
@@ -284,6 +283,8 @@ def fit_triad(
             f"p {stats.chi2.sf(chi2, dof):.2g}): bias shifts between poses or a missing effect; the standard errors "
             "assume the noise model and may be too small"
         )
+    if why:
+        warnings.warn(f"triad fit with moves did not converge: {why}", ConvergenceWarning, stacklevel=2)
     scales = {float(r.meta["instrument"].get("gyro_counts_per_dps") or 0.0) for r in recs}
     k = scales.pop() if len(scales) == 1 else None
     return TriadFit(
@@ -301,6 +302,9 @@ def fit_triad(
         not_excited,
         counts_per_dps=k or None,
         notes=notes,
+        iterations=iterations,
+        converged=not why,
+        convergence_note=why,
     )
 
 

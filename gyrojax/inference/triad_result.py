@@ -36,6 +36,9 @@ class TriadFit:
     not_excited: list
     counts_per_dps: float | None = None
     notes: list = field(default_factory=list)
+    iterations: int = 1  # evaluations of the moves' Levenberg–Marquardt fit (1: no moves, one linear solve)
+    converged: bool = True
+    convergence_note: str = ""  # why the moves' fit did not converge ("" when it did)
 
     @property
     def std(self) -> np.ndarray:
@@ -131,7 +134,14 @@ class TriadFit:
                 {"name": s.name, "kind": s.kind, "n": s.n, "residual_deg_per_h": r.tolist(), **_jsonable(s.info)}
                 for s, r in zip(self.segments, self.residuals.reshape(-1, 3))
             ],
-            "fit": {"chi2": self.chi2, "dof": self.dof, "p_value": protocol.strict(p)},
+            "fit": {
+                "chi2": self.chi2,
+                "dof": self.dof,
+                "p_value": protocol.strict(p),
+                "iterations": self.iterations,
+                "converged": self.converged,
+                **({"reason": self.convergence_note} if not self.converged else {}),
+            },
             "notes": list(self.notes),
             "gyrojax_version": __version__,
         }
@@ -160,6 +170,8 @@ class TriadFit:
         for n, v, s in zip(self.names, self.theta, self.std):
             lines.append(f"{n:14s} {v:14.6g} {s:12.4g}  {u[n]}")
         lines.append(f"earth rate: {self.earth_mode}; chi2 {self.chi2:.3g} on {self.dof} dof")
+        if not self.converged:
+            lines.append(f"not converged: {self.convergence_note}")
         lines.extend(f"note: {n}" for n in self.notes)
         return "\n".join(lines)
 
@@ -222,4 +234,7 @@ def _triad_fit_of(d: dict) -> TriadFit:
         list(d.get("not_excited", [])),
         counts_per_dps=d.get("counts_per_dps", d["matrices"]["imucal"].get("counts_per_dps")),
         notes=list(d.get("notes", [])),
+        iterations=int(d["fit"].get("iterations", 1)),
+        converged=bool(d["fit"].get("converged", True)),
+        convergence_note=str(d["fit"].get("reason", "")),
     )
