@@ -21,8 +21,27 @@ from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model, predict_jit, record_data
 
 
+class Estimates:
+    """The views every fit result shares, from its ``theta``, ``cov`` and ``coefficient_names``."""
+
+    @property
+    def std(self) -> np.ndarray:
+        """Standard error of each coefficient, report units, θ order (NaN for an unseen direction)."""
+        return np.sqrt(np.clip(np.diag(self.cov), 0.0, None))
+
+    @property
+    def values(self) -> dict:
+        """Coefficient name -> estimate, report units (:meth:`units`)."""
+        return dict(zip(self.coefficient_names, map(float, self.theta)))
+
+    @property
+    def stds(self) -> dict:
+        """Coefficient name -> standard error, report units."""
+        return dict(zip(self.coefficient_names, map(float, self.std)))
+
+
 @dataclass
-class FitResult:
+class FitResult(Estimates):
     """Estimates with units, standard errors, correlation, residuals per record and fit statistics."""
 
     model: Model
@@ -48,21 +67,6 @@ class FitResult:
     def coefficient_names(self):
         """Coefficient names in θ order (:attr:`gyrojax.physics.model.Model.coefficient_names`)."""
         return self.model.coefficient_names
-
-    @property
-    def std(self) -> np.ndarray:
-        """Standard error of each coefficient, report units, θ order (NaN for an unseen direction)."""
-        return np.sqrt(np.clip(np.diag(self.cov), 0.0, None))
-
-    @property
-    def values(self) -> dict:
-        """Coefficient name -> estimate, report units (:meth:`units`)."""
-        return dict(zip(self.coefficient_names, map(float, self.theta)))
-
-    @property
-    def stds(self) -> dict:
-        """Coefficient name -> standard error, report units."""
-        return dict(zip(self.coefficient_names, map(float, self.std)))
 
     @property
     def correlation(self) -> np.ndarray:

@@ -15,11 +15,12 @@ from gyrojax.data.records import Record
 from gyrojax.data.triad import TRIAD_KIND, acc_g, gyro_dph
 from gyrojax.errors import FormatError, ModelError
 from gyrojax.inference.formats import LEGACY_FORMAT, TRIAD_FORMAT, TRIAD_VERSION, fit_kind
+from gyrojax.inference.result import Estimates
 from gyrojax.physics import triad as tp
 
 
 @dataclass
-class TriadFit:
+class TriadFit(Estimates):
     """Per-channel coefficients of a gyro triad with their covariance, the matrix forms and fit statistics."""
 
     model: object
@@ -41,19 +42,9 @@ class TriadFit:
     convergence_note: str = ""  # why the moves' fit did not converge ("" when it did)
 
     @property
-    def std(self) -> np.ndarray:
-        """Standard error of each coefficient, report units (NaN where the plan does not excite it)."""
-        return np.sqrt(np.clip(np.diag(self.cov), 0.0, None))
-
-    @property
-    def values(self) -> dict:
-        """``{"D_F[x]": value, …}`` in report units."""
-        return dict(zip(self.names, map(float, self.theta)))
-
-    @property
-    def stds(self) -> dict:
-        """``{"D_F[x]": std, …}`` in report units."""
-        return dict(zip(self.names, map(float, self.std)))
+    def coefficient_names(self) -> list:
+        """Per-channel coefficient names ``D_F[x]`` … in θ order (the keys of :attr:`values`, :attr:`stds`)."""
+        return self.names
 
     def units(self) -> dict:
         """Coefficient name → report unit."""
