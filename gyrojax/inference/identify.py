@@ -1,5 +1,9 @@
 """Identification: joint fits of named effects to one or many records, with honest uncertainties.
 
+:func:`fit` is the one public entry: the records' instrument kind chooses the fit (turntable records:
+:func:`fit_campaign`, below; ``imu-triad`` records: :func:`gyrojax.inference.triad.fit_triad`), and an option the
+chosen fit cannot honour is refused, never dropped.
+
 The measurement model of every record (:func:`gyrojax.physics.model.predict`) is linearised by ``jax.jacfwd``; the
 stacked system is solved by one least-squares step when every effect is linear in its coefficients; the set-up
 effects, which enter through the kinematics, are fitted by Levenberg–Marquardt (``scipy.optimize.least_squares``,
@@ -229,5 +233,6 @@ def fit_campaign(
 
 
 def fit_per_instrument(records, terms=None, **kw) -> dict:
-    """One :func:`fit` per instrument (:func:`instrument_id`), never pooled: ``{id: FitResult}``."""
+    """One :func:`fit` per instrument (:func:`~gyrojax.inference.campaign.instrument_id`), never pooled:
+    ``{id: FitResult or TriadFit}``."""
     return {k: fit(v, terms, **kw) for k, v in split_by_instrument(records).items()}
