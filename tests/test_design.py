@@ -12,7 +12,7 @@ import pytest
 
 from gyrojax.data import plans
 from gyrojax.errors import ModelError
-from gyrojax.inference.identify import Campaign, linearize
+from gyrojax.inference.campaign import Campaign, linearize
 from gyrojax.noise.processes import gauss_markov, random_drift, white
 from gyrojax.physics.model import Model, record_data
 from gyrojax.planning import optimal as D
