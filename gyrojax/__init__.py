@@ -54,9 +54,9 @@ _FLAT = {
     "register": "gyrojax.physics.registry:register",
     "Model": "gyrojax.physics.model:Model",
     "predict": "gyrojax.physics.model:predict",
-    "record_data": "gyrojax.physics.model:record_data",
+    "record_data": "gyrojax.data.arrays:record_data",
     # data
-    "Record": "gyrojax.data.records:Record",
+    "Record": "gyrojax.data.record:Record",
     "load_record": "gyrojax.data.records:load_record",
     "load_records": "gyrojax.data.records:load_records",
     "save_record": "gyrojax.data.records:save_record",

@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 
 from gyrojax.data import plans
+from gyrojax.data.arrays import record_data
 from gyrojax.errors import ModelError
 from gyrojax.inference.identify import Campaign, linearize
 from gyrojax.noise.processes import gauss_markov, random_drift, white
-from gyrojax.physics.model import Model, record_data
+from gyrojax.physics.model import Model
 from gyrojax.planning import optimal as D
 from gyrojax.simulation.simulator import simulate
 

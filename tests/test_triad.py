@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from gyrojax import units
-from gyrojax.data.records import Record, load_record, save_record
+from gyrojax.data.record import Record
+from gyrojax.data.records import load_record, save_record
 from gyrojax.errors import ModelError, RecordError
 from gyrojax.inference.identify import IdentifiabilityError, fit
 from gyrojax.inference.triad import fit_triad, long_run_variance

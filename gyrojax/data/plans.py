@@ -19,7 +19,8 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from gyrojax import units
-from gyrojax.errors import PlanError
+from gyrojax.data.schema import FORMAT, validate_meta
+from gyrojax.errors import PlanError, RecordError
 from gyrojax.protocol import is_finite_number, read_json_file
 
 PLAN_FORMAT = "gyrojax-plan-1"
@@ -427,8 +428,6 @@ def plan_to_json(plan: Plan) -> str:
 
 def validate_plan(plan: Plan, where: str = "plan") -> Plan:
     """Check a plan's numbers and each run's geometry (as the record it will become); errors name the key."""
-    from gyrojax.data.records import FORMAT, RecordError, validate_meta
-
     if not is_finite_number(plan.latitude_deg) or not -90.0 <= plan.latitude_deg <= 90.0:
         raise PlanError(f"{where}: key 'latitude_deg' must be a number in [-90, 90], got {plan.latitude_deg!r}")
     g = plan.gravity_mps2

@@ -34,7 +34,9 @@ import numpy as np
 from scipy import stats
 from scipy.optimize import least_squares
 
-from gyrojax.data.records import Record, interval_key
+from gyrojax.data.arrays import record_data
+from gyrojax.data.record import Record
+from gyrojax.data.timebase import interval_key
 from gyrojax.data.triad import TRIAD_KIND
 from gyrojax.errors import ConvergenceWarning, FormatError, ModelError, RecordError
 from gyrojax.inference.lstsq import lstsq
@@ -50,7 +52,7 @@ from gyrojax.noise.whiten import (
     whiten,
 )
 from gyrojax.physics import effects as fx
-from gyrojax.physics.model import Model, RecordData, check_servo, jacobian_jit, predict_jit, record_data
+from gyrojax.physics.model import Model, RecordData, check_servo, jacobian_jit, predict_jit
 from gyrojax.protocol import atomic_write_text
 
 ALIAS_TOL = 1e-7  # singular value / largest below this: a direction the plan cannot see

@@ -42,7 +42,7 @@ import numpy as np
 from scipy import stats
 
 from gyrojax import units
-from gyrojax.data.records import Record
+from gyrojax.data.record import Record
 from gyrojax.data.triad import TRIAD_KIND, acc_g, axis_vector, gyro_dph
 from gyrojax.errors import ModelError
 from gyrojax.inference.identify import IdentifiabilityError, check_one_instrument, residue_columns

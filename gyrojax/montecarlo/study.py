@@ -54,7 +54,8 @@ import numpy as np
 
 from gyrojax import units
 from gyrojax.data import plans as plans_mod
-from gyrojax.data.records import Record
+from gyrojax.data.arrays import record_data
+from gyrojax.data.record import Record
 from gyrojax.data.truth import SETUP_SIZES
 from gyrojax.errors import GyrojaxError
 from gyrojax.inference.lstsq import lstsq, lstsq_normal
@@ -69,7 +70,6 @@ from gyrojax.physics.model import (
     indicated_output,
     instrument_inputs,
     predict,
-    record_data,
     setup_values,
 )
 from gyrojax.protocol import atomic_write_bytes, atomic_write_text, read_json_file

@@ -66,9 +66,10 @@ import numpy as np
 import optax
 
 from gyrojax.data import plans
+from gyrojax.data.arrays import record_data
 from gyrojax.errors import ModelError
 from gyrojax.physics import effects as fx
-from gyrojax.physics.model import Model, RecordData, jacobian, record_data
+from gyrojax.physics.model import Model, RecordData, jacobian
 
 TIME_EFFECTS = ("bias_trend", "bias_temperature")
 SDF9 = ("D_F", "D_I", "D_O", "D_S", "D_II", "D_SS", "D_IO", "D_IS", "D_OS")

@@ -38,7 +38,8 @@ def measurement_inputs(record) -> dict:
     temperature, segment. Servo intervals are placed at their first sample."""
     import jax.numpy as jnp
 
-    from gyrojax.physics.model import Model, instrument_inputs, record_data, setup_values
+    from gyrojax.data.arrays import record_data
+    from gyrojax.physics.model import Model, instrument_inputs, setup_values
 
     d = record_data(record)
     x = instrument_inputs(d, setup_values(Model((), d.kind), jnp.zeros(0)))
