@@ -10,7 +10,7 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-from gyrojax.cli.app import UsageError, parse_gm, parse_options, parse_terms
+from gyrojax.cli.args import UsageError, parse_gm, parse_options, parse_terms
 
 
 def effects_from_args(args, kind: str) -> list[str]:
