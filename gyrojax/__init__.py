@@ -83,7 +83,7 @@ _FLAT = {
     # Monte Carlo
     "Study": "gyrojax.montecarlo.study:Study",
     "load_study": "gyrojax.montecarlo.study:load_study",
-    "run_study": "gyrojax.montecarlo.study:run_study",
+    "run_study": "gyrojax.montecarlo.runner:run_study",
 }
 
 __all__ = [

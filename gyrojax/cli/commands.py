@@ -336,7 +336,8 @@ def cmd_mc(args) -> int:
     import jax
 
     from gyrojax.errors import GyrojaxError
-    from gyrojax.montecarlo.study import StudyError, load_study, run_study
+    from gyrojax.montecarlo.runner import run_study
+    from gyrojax.montecarlo.study import StudyError, load_study
 
     first = jax.process_index() == 0
     err, study, out = None, None, Path(args.out)
@@ -371,7 +372,7 @@ def cmd_mc(args) -> int:
 
 
 def _write_mc(res, out: Path, args) -> None:
-    from gyrojax.montecarlo.study import save_result, summarize
+    from gyrojax.montecarlo.results import save_result, summarize
 
     files = save_result(res, out, force=args.force)
     summ = summarize(res)
@@ -396,7 +397,8 @@ def cmd_mc_merge(args) -> int:
     """``gyrojax mc-merge DIR… --out DIR``: one result from results of disjoint draw ranges of one study."""
     import numpy as np
 
-    from gyrojax.montecarlo.study import StudyError, load_result, merge_results
+    from gyrojax.montecarlo.results import load_result, merge_results
+    from gyrojax.montecarlo.study import StudyError
 
     out = Path(args.out)
     if not args.force and (out / "study.json").exists():

@@ -281,7 +281,7 @@ def design_figure(rows: list[dict]):
 
 def montecarlo_figure(res, summary):
     """Histogram of the normalised errors (θ̂−θ)/σ̂ (dimensionless) against N(0,1), and ±1σ/±2σ coverage per
-    coefficient; ``res`` a :class:`gyrojax.montecarlo.study.StudyResult`, ``summary`` its summary table. Returns
+    coefficient; ``res`` a :class:`gyrojax.montecarlo.results.StudyResult`, ``summary`` its summary table. Returns
     the figure."""
     z = (res.estimate - res.truth_of_fit()) / res.std
     s = summary
