@@ -79,7 +79,7 @@ _FLAT = {
     "allan": "gyrojax.noise.allan:allan",
     # planning
     "design": "gyrojax.planning.optimal:design",
-    "compare_plans": "gyrojax.planning.optimal:compare",
+    "compare_plans": "gyrojax.planning.baselines:compare",
     # Monte Carlo
     "Study": "gyrojax.montecarlo.study:Study",
     "load_study": "gyrojax.montecarlo.study:load_study",

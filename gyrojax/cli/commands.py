@@ -256,7 +256,10 @@ def cmd_design(args) -> int:
     import numpy as np
 
     from gyrojax.data import plans
-    from gyrojax.planning.optimal import SDF9, Noise, criterion_values, design, static_fisher, table_text
+    from gyrojax.planning.baselines import table_text
+    from gyrojax.planning.criteria import criterion_values
+    from gyrojax.planning.fisher import Noise, static_fisher
+    from gyrojax.planning.optimal import SDF9, design
     from gyrojax.protocol import atomic_write_text
 
     out = Path(args.out)

@@ -263,7 +263,7 @@ def allan_figure(res, fit, title: str = "Allan deviation"):
 
 def design_figure(rows: list[dict]):
     """Bar chart of the Cramér–Rao standard deviations (report units, log scale) of each coefficient per plan;
-    ``rows`` as from :func:`gyrojax.planning.optimal.compare`. Returns the figure."""
+    ``rows`` as from :func:`gyrojax.planning.baselines.compare`. Returns the figure."""
     names = list(rows[0]["std"])
     fig, ax = _figure(figsize=(10, 4))
     w = 0.8 / len(rows)
