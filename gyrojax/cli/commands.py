@@ -376,9 +376,16 @@ def cmd_mc(args) -> int:
 
 def _write_mc(res, out: Path, args) -> None:
     from gyrojax.montecarlo.results import save_result, summarize
+    from gyrojax.montecarlo.study import StudyError
+    from gyrojax.report import figures
 
+    plot = out / "coverage.png"
+    if not args.force and plot.exists():
+        raise StudyError(f"{plot} exists; use --force to overwrite")
     files = save_result(res, out, force=args.force)
     summ = summarize(res)
+    figures.save(figures.montecarlo_figure(res, summ), plot)
+    files = {"study": files["study"], "summary": files["summary"], "plot": str(plot), "draws": files["draws"]}
     if args.json:
         print(
             json.dumps(

@@ -73,11 +73,13 @@ def summarize(res: StudyResult):
 
 
 def save_result(res: StudyResult, out_dir, force: bool = False) -> dict:
-    """Write draws (Parquet if pyarrow is importable, else CSV), the study JSON, the summary and the plot."""
+    """Write draws (Parquet if pyarrow is importable, else CSV), the study JSON and the summary into ``out_dir``;
+    returns the paths by role. No figure: ``gyrojax mc`` draws ``coverage.png`` with
+    :func:`gyrojax.report.figures.montecarlo_figure`."""
     import io as _io
 
     out = Path(out_dir)
-    names = {"study": out / "study.json", "summary": out / "summary.csv", "plot": out / "coverage.png"}
+    names = {"study": out / "study.json", "summary": out / "summary.csv"}
     try:
         import pyarrow  # noqa: F401
 
@@ -99,9 +101,6 @@ def save_result(res: StudyResult, out_dir, force: bool = False) -> dict:
     d["draws"] = int(len(res.draw))
     atomic_write_text(names["study"], json.dumps(d, indent=1))
     atomic_write_text(names["summary"], summarize(res).to_csv(index=False, float_format="%.6g"))
-    from gyrojax.report import figures
-
-    figures.save(figures.montecarlo_figure(res, summarize(res)), names["plot"])
     return {k: str(v) for k, v in names.items()}
 
 
