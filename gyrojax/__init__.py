@@ -64,7 +64,7 @@ _FLAT = {
     "load_truth": "gyrojax.data.truth:load_truth",
     "truth_from_dict": "gyrojax.data.truth:truth_from_dict",
     "Plan": "gyrojax.data.plans:Plan",
-    "load_plan": "gyrojax.data.plans:load_plan",
+    "load_plan": "gyrojax.data.planfile:load_plan",
     # simulation
     "simulate": "gyrojax.simulation.simulator:simulate",
     # inference

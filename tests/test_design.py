@@ -12,6 +12,7 @@ import pytest
 
 from gyrojax.data import plans
 from gyrojax.data.arrays import record_data
+from gyrojax.data.planfile import load_plan
 from gyrojax.errors import ModelError
 from gyrojax.inference.identify import Campaign, linearize
 from gyrojax.noise.processes import gauss_markov, random_drift, white
@@ -203,7 +204,7 @@ def test_cli_design_writes_a_runnable_plan(tmp_path, capsys):
     assert rc == 0
     rep = json.loads(capsys.readouterr().out)
     assert rep["design"]["criterion"] == "D"
-    plan = plans.load_plan(out)
+    plan = load_plan(out)
     assert len(plan.runs[0].segments) == 8
     rc = main(["simulate", str(out), "--out", str(tmp_path / "recs")])
     assert rc == 0

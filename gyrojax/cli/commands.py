@@ -45,6 +45,7 @@ def cmd_plans(args) -> int:
 
 def _plan_from_arg(arg: str, options: dict):
     from gyrojax.data import plans
+    from gyrojax.data.planfile import load_plan
 
     if arg in plans.BUILDERS:
         return plans.build(arg, **options)
@@ -52,7 +53,7 @@ def _plan_from_arg(arg: str, options: dict):
     if p.suffix == ".json" or p.exists():
         if options:
             raise UsageError("--option applies to built-in plans only, not to a plan file")
-        return plans.load_plan(p)
+        return load_plan(p)
     raise UsageError(f"{arg!r} is neither a built-in plan ({', '.join(plans.BUILDERS)}) nor a plan file")
 
 
@@ -256,6 +257,7 @@ def cmd_design(args) -> int:
     import numpy as np
 
     from gyrojax.data import plans
+    from gyrojax.data.planfile import plan_to_json
     from gyrojax.planning.baselines import table_text
     from gyrojax.planning.criteria import criterion_values
     from gyrojax.planning.fisher import Noise, static_fisher
@@ -297,7 +299,7 @@ def cmd_design(args) -> int:
         lbfgs_steps=args.lbfgs_steps,
     )
     plan = res.plan()
-    atomic_write_text(out, plans.plan_to_json(plan))
+    atomic_write_text(out, plan_to_json(plan))
     summary = res.summary()
     rows = []
     if args.positions in plans.MULTIPOSITION_SETS:
