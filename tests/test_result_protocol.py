@@ -13,7 +13,8 @@ import pytest
 
 from gyrojax.data import plans
 from gyrojax.data.planfile import load_plan, plan_to_json, save_plan
-from gyrojax.errors import FormatError, PlanError
+from gyrojax.data.truth import Truth, load_truth, save_truth, truth_from_dict
+from gyrojax.errors import FormatError, PlanError, TruthError
 
 
 def _strict(path):
@@ -84,3 +85,39 @@ def test_plan_of_another_format_or_a_later_version_is_refused(edit, key, tmp_pat
     with pytest.raises(PlanError, match=key) as info:
         load_plan(tmp_path / "p.json")
     assert "p.json" in str(info.value)
+
+
+# ---- truths ---------------------------------------------------------------------------------------------------------
+
+
+def test_truth_round_trip(tmp_path):
+    truth = truth_from_dict(
+        {
+            "coefficients": {"D_F": 0.42, "D_I": -0.61, "E_SF": 150.0},
+            "setup": {"table_tilt": [3.0, -2.0], "table_azimuth": 5.0, "encoder_harmonic": [1, 0, 0, 2]},
+            "noise": {"white": 0.0015, "gauss_markov": [0.004, 900.0]},
+        }
+    )
+    p = save_truth(truth, tmp_path / "truth.json")
+    assert _tag(p) == (["format", "format_version"], "gyrojax-truth", 1)
+    assert load_truth(p) == truth
+    assert load_truth(save_truth(Truth(), tmp_path / "empty.json")) == Truth()
+
+
+def test_truth_files_without_a_tag_load(tmp_path):
+    # the CONVENTIONS §8 example, as another tool writes it: no format key
+    doc = {
+        "coefficients": {"D_F": 0.42, "D_I": 0.61, "D_IS": 0.052, "E_SF": 150.0, "M_O": 120.0, "D_T": 0.01},
+        "setup": {"table_tilt": [0.0, 90.0], "table_azimuth": 0.0, "encoder_harmonic": [0, 0, 0, 0]},
+        "noise": {"white": 0.0015, "gauss_markov": [0.004, 900.0], "random_walk": 0.0, "quantization": 0.0},
+    }
+    (tmp_path / "t.json").write_text(json.dumps(doc))
+    t = load_truth(tmp_path / "t.json")
+    assert t.coefficients == doc["coefficients"] and t.setup["table_tilt"] == (0.0, 90.0)
+    assert load_truth(save_truth(t, tmp_path / "again.json")) == t
+
+
+def test_truth_of_a_later_version_is_refused(tmp_path):
+    (tmp_path / "t.json").write_text(json.dumps({"format": "gyrojax-truth", "format_version": 2, "coefficients": {}}))
+    with pytest.raises(TruthError, match="format_version"):
+        load_truth(tmp_path / "t.json")
