@@ -15,6 +15,8 @@ from gyrojax.data import plans
 from gyrojax.data.planfile import load_plan, plan_to_json, save_plan
 from gyrojax.data.truth import Truth, load_truth, save_truth, truth_from_dict
 from gyrojax.errors import FormatError, PlanError, TruthError
+from gyrojax.montecarlo.results import RESULT_FILE, StudyResult, load_result, save_result
+from gyrojax.montecarlo.study import Study, StudyError, load_study, save_study, study_from_dict
 
 
 def _strict(path):
@@ -121,3 +123,91 @@ def test_truth_of_a_later_version_is_refused(tmp_path):
     (tmp_path / "t.json").write_text(json.dumps({"format": "gyrojax-truth", "format_version": 2, "coefficients": {}}))
     with pytest.raises(TruthError, match="format_version"):
         load_truth(tmp_path / "t.json")
+
+
+# ---- studies and their results --------------------------------------------------------------------------------------
+
+STUDY = {
+    "plan": "multiposition",
+    "plan_options": {"n": 8, "minutes": 1, "dt_s": 5},
+    "terms": ["D_F", "D_I", "D_O"],
+    "priors": {"D_F": {"normal": [0, 1]}, "D_I": {"uniform": [-1, 1]}, "D_O": 0.3},
+    "setup": {"table_tilt": {"normal": [0, 20]}},
+    "noise": {"white": 0.01, "gauss_markov": [0.1, 30.0]},
+    "draws": 90,
+    "seed": 5,
+    "chunk": 16,
+    "solver": "qr",
+}
+
+
+def test_study_round_trip(tmp_path):
+    study = study_from_dict(STUDY)
+    p = save_study(study, tmp_path / "study.json")
+    assert _tag(p) == (["format", "format_version"], "gyrojax-mc-study", 1)
+    assert load_study(p) == study
+    assert study_from_dict(json.loads(study.to_json())) == study
+
+
+@pytest.mark.parametrize("tag", [{}, {"format": "gyrojax-mc-study-1"}], ids=["untagged", "before-the-protocol"])
+def test_study_files_without_the_new_tag_load(tag, tmp_path):
+    (tmp_path / "s.json").write_text(json.dumps({**tag, **STUDY}))
+    assert load_study(tmp_path / "s.json") == study_from_dict(STUDY)
+
+
+def test_study_of_a_later_version_is_refused(tmp_path):
+    (tmp_path / "s.json").write_text(json.dumps({"format": "gyrojax-mc-study", "format_version": 9, **STUDY}))
+    with pytest.raises(StudyError, match="format_version"):
+        load_study(tmp_path / "s.json")
+
+
+def _result(study: Study, n: int = 7) -> StudyResult:
+    """A result with arrays of every kind a run produces (no run needed: the files are what is tested)."""
+    rng = np.random.default_rng(3)
+    fit = ("D_F", "D_I", "D_O")
+    truth = fit + ("table_tilt_x", "table_tilt_y")
+    std = rng.uniform(0.1, 1.0, (n, 3))
+    std[2, 1] = np.nan  # a draw whose σ̂ is not finite must survive the files
+    return StudyResult(
+        study,
+        truth,
+        fit,
+        np.arange(100, 100 + n),
+        rng.normal(size=(n, len(truth))),
+        rng.normal(size=(n, 3)),
+        std,
+        rng.uniform(size=n),
+        compile_s=1.25,
+        run_s=0.5,
+    )
+
+
+def test_study_result_round_trip(tmp_path):
+    res = _result(replace_draws(study_from_dict(STUDY), 1000))  # the study asked for more draws than were run
+    files = save_result(res, tmp_path / "res")
+    assert _tag(tmp_path / "res" / RESULT_FILE) == (["format", "format_version"], "gyrojax-mc-result", 1)
+    assert _tag(tmp_path / "res" / "study.json")[1:] == ("gyrojax-mc-study", 1)
+    assert load_study(files["study"]).draws == 7  # study.json re-runs the result as written
+    assert_same(load_result(tmp_path / "res"), res, "result")
+    with pytest.raises(StudyError, match="exists"):
+        save_result(res, tmp_path / "res")
+
+
+def replace_draws(study: Study, draws: int) -> Study:
+    return dataclasses.replace(study, draws=draws)
+
+
+def test_result_directories_before_the_protocol_load(tmp_path):
+    res = _result(study_from_dict(STUDY))
+    save_result(res, tmp_path / "res")
+    (tmp_path / "res" / RESULT_FILE).unlink()  # a directory as gyrojax mc wrote it before result.json
+    old = load_result(tmp_path / "res")
+    assert_same(old, dataclasses.replace(res, study=replace_draws(res.study, 7), compile_s=0.0, run_s=0.0), "result")
+
+
+def test_result_of_a_later_version_is_refused(tmp_path):
+    save_result(_result(study_from_dict(STUDY)), tmp_path / "res")
+    p = tmp_path / "res" / RESULT_FILE
+    p.write_text(json.dumps({**json.loads(p.read_text()), "format_version": 2}))
+    with pytest.raises(StudyError, match="format_version"):
+        load_result(tmp_path / "res")

@@ -387,7 +387,7 @@ def _write_mc(res, out: Path, args) -> None:
     files = save_result(res, out, force=args.force)
     summ = summarize(res)
     figures.save(figures.montecarlo_figure(res, summ), plot)
-    files = {"study": files["study"], "summary": files["summary"], "plot": str(plot), "draws": files["draws"]}
+    files = {"study": files["study"], "summary": files["summary"], "plot": str(plot), **files}
     if args.json:
         print(
             json.dumps(

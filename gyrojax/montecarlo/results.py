@@ -5,13 +5,14 @@ back, and the merge of results of disjoint draw ranges. Figures are :mod:`gyroja
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
-from gyrojax.montecarlo.study import Study, StudyError, load_study
+from gyrojax import protocol
+from gyrojax.errors import FormatError
+from gyrojax.montecarlo.study import STUDY_FORMAT, STUDY_VERSION, Study, StudyError, load_study, study_from_dict
 from gyrojax.protocol import atomic_write_bytes, atomic_write_text
 
 
@@ -72,10 +73,18 @@ def summarize(res: StudyResult):
     return pd.DataFrame(rows)
 
 
+RESULT_FORMAT = "gyrojax-mc-result"
+RESULT_VERSION = 1
+RESULT_FILE = "result.json"
+"""The file of a result directory that says what it holds: the study, the coefficient columns, the draws table
+and the timings (s). Directories written before it (``study.json`` + the draws table) still load."""
+
+
 def save_result(res: StudyResult, out_dir, force: bool = False) -> dict:
-    """Write draws (Parquet if pyarrow is importable, else CSV), the study JSON and the summary into ``out_dir``;
-    returns the paths by role. No figure: ``gyrojax mc`` draws ``coverage.png`` with
-    :func:`gyrojax.report.figures.montecarlo_figure`."""
+    """Write draws (Parquet if pyarrow is importable, else CSV), the study JSON (``draws`` = the draws written, so
+    that it re-runs this result), the summary and ``result.json`` (``RESULT_FORMAT``) into ``out_dir``; returns the
+    paths by role. :func:`load_result` reads the directory back equal. No figure: ``gyrojax mc`` draws
+    ``coverage.png`` with :func:`gyrojax.report.figures.montecarlo_figure`."""
     import io as _io
 
     out = Path(out_dir)
@@ -86,6 +95,7 @@ def save_result(res: StudyResult, out_dir, force: bool = False) -> dict:
         names["draws"] = out / "draws.parquet"
     except ImportError:
         names["draws"] = out / "draws.csv"
+    names["result"] = out / RESULT_FILE
     if not force:
         clash = [str(p) for p in names.values() if p.exists()]
         if clash:
@@ -99,21 +109,41 @@ def save_result(res: StudyResult, out_dir, force: bool = False) -> dict:
         atomic_write_text(names["draws"], df.to_csv(index=False, float_format="%.17g"))
     d = res.study.to_dict()
     d["draws"] = int(len(res.draw))
-    atomic_write_text(names["study"], json.dumps(d, indent=1))
+    atomic_write_text(names["study"], protocol.dumps(d, STUDY_FORMAT, STUDY_VERSION))
     atomic_write_text(names["summary"], summarize(res).to_csv(index=False, float_format="%.6g"))
+    manifest = {
+        "study": res.study.to_dict(),
+        "truth_names": list(res.truth_names),
+        "fit_names": list(res.fit_names),
+        "draws_file": names["draws"].name,
+        "compile_s": res.compile_s,
+        "run_s": res.run_s,
+    }
+    protocol.save(names["result"], manifest, RESULT_FORMAT, RESULT_VERSION, force=True)  # clashes checked above
     return {k: str(v) for k, v in names.items()}
 
 
 def load_result(out_dir) -> StudyResult:
-    """A result written by :func:`save_result`: its study JSON and its draws table (Parquet or CSV). Errors name
-    the directory and the file."""
+    """A result written by :func:`save_result`, whole: its ``result.json`` and its draws table (Parquet or CSV);
+    a directory without ``result.json`` (written before it) from its study JSON and draws table, with zero timings.
+    Errors name the directory and the file."""
     import pandas as pd
 
     out = Path(out_dir)
-    study = load_study(out / "study.json")
-    table = out / "draws.parquet"
-    if not table.exists():
-        table = out / "draws.csv"
+    manifest = None
+    if (out / RESULT_FILE).exists():
+        try:
+            manifest = protocol.load(out / RESULT_FILE, RESULT_FORMAT, RESULT_VERSION)
+            protocol.require(manifest, ("study", "truth_names", "fit_names", "draws_file"), str(out / RESULT_FILE))
+        except FormatError as e:
+            raise StudyError(str(e)) from None
+        study = study_from_dict(manifest["study"], f"{out / RESULT_FILE}: key 'study'")
+        table = out / str(manifest["draws_file"])
+    else:
+        study = load_study(out / "study.json")
+        table = out / "draws.parquet"
+        if not table.exists():
+            table = out / "draws.csv"
     if not table.exists():
         raise StudyError(f"{out}: no draws.parquet or draws.csv (not a directory written by gyrojax mc)")
     try:
@@ -121,11 +151,16 @@ def load_result(out_dir) -> StudyResult:
     except (OSError, ValueError) as e:
         raise StudyError(f"{table}: cannot be read as a draws table ({e})") from None
     cols = list(df.columns)
-    truth = tuple(c[: -len("_truth")] for c in cols if c.endswith("_truth"))
-    fit = tuple(c[: -len("_estimate")] for c in cols if c.endswith("_estimate"))
-    missing = [c for c in ["draw", "rms"] + [f"{f}_std" for f in fit] if c not in cols]
+    if manifest is None:
+        truth = tuple(c[: -len("_truth")] for c in cols if c.endswith("_truth"))
+        fit = tuple(c[: -len("_estimate")] for c in cols if c.endswith("_estimate"))
+    else:
+        truth, fit = tuple(manifest["truth_names"]), tuple(manifest["fit_names"])
+    need = ["draw", "rms"] + [f"{c}_truth" for c in truth] + [f"{c}_{k}" for c in fit for k in ("estimate", "std")]
+    missing = [c for c in need if c not in cols]
     if missing or not truth or not fit:
         raise StudyError(f"{table}: missing column {missing[0] if missing else '<coefficient>_truth/_estimate'!r}")
+    timing = [float(manifest.get(k) or 0.0) if manifest else 0.0 for k in ("compile_s", "run_s")]
     return StudyResult(
         study,
         truth,
@@ -135,6 +170,7 @@ def load_result(out_dir) -> StudyResult:
         df[[f"{c}_estimate" for c in fit]].to_numpy(dtype=float),
         df[[f"{c}_std" for c in fit]].to_numpy(dtype=float),
         df["rms"].to_numpy(dtype=float),
+        *timing,
     )
 
 

@@ -8,19 +8,23 @@ the draws are made by :mod:`gyrojax.montecarlo.pipeline`, run by :mod:`gyrojax.m
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
 
+from gyrojax import protocol
 from gyrojax.data import plans as plans_mod
 from gyrojax.data.truth import SETUP_SIZES
-from gyrojax.errors import GyrojaxError
+from gyrojax.errors import FormatError, GyrojaxError
 from gyrojax.noise.processes import validate_noise
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model
 from gyrojax.protocol import read_json_file
 
-STUDY_FORMAT = "gyrojax-mc-study-1"
+STUDY_FORMAT = "gyrojax-mc-study"
+STUDY_VERSION = 1
+STUDY_LEGACY = {"gyrojax-mc-study-1": (STUDY_FORMAT, 1)}
+"""Format strings of study files written before the result protocol, and the version they stand for."""
 SDF_NINE_TERMS = ("D_F", "D_I", "D_O", "D_S", "D_II", "D_SS", "D_IO", "D_IS", "D_OS")
 """The SDF drift model less D_OO: in a 1 g test a_I² + a_O² + a_S² = 1, so D_F, D_II, D_OO, D_SS are aliased."""
 
@@ -51,20 +55,22 @@ class Study:
     solver: str = "cholesky"
 
     def to_dict(self) -> dict:
-        """The study as a JSON-ready dict (the study file format, ``STUDY_FORMAT``)."""
+        """The study as a JSON-ready dict (the study file format, ``STUDY_FORMAT`` version ``STUDY_VERSION``)."""
         d = asdict(self)
         d["terms"] = list(self.terms)
         d["noise"] = {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.noise.items()}
-        d["format"] = STUDY_FORMAT
+        d[protocol.FORMAT_KEY] = STUDY_FORMAT
+        d[protocol.VERSION_KEY] = STUDY_VERSION
         return d
 
     def to_json(self) -> str:
-        """The study file text (indented JSON of :meth:`to_dict`)."""
-        return json.dumps(self.to_dict(), indent=1)
+        """The study file text (strict JSON of :meth:`to_dict`, ``format``/``format_version`` first)."""
+        return protocol.dumps(self.to_dict(), STUDY_FORMAT, STUDY_VERSION)
 
 
 _STUDY_KEYS = (
     "format",
+    "format_version",
     "plan",
     "plan_options",
     "terms",
@@ -131,8 +137,14 @@ def study_from_dict(d, where: str = "study") -> Study:
     for k in d:
         if k not in _STUDY_KEYS:
             raise StudyError(f"{where}: unknown key {k!r}; valid: {', '.join(_STUDY_KEYS)}")
-    if d.get("format", STUDY_FORMAT) != STUDY_FORMAT:
-        raise StudyError(f"{where}: key 'format' must be {STUDY_FORMAT!r}, got {d.get('format')!r}")
+    if protocol.FORMAT_KEY in d or protocol.VERSION_KEY in d:  # a hand-written study may leave the tag out
+        try:
+            protocol.check(d, STUDY_FORMAT, STUDY_VERSION, where, STUDY_LEGACY)
+        except FormatError as e:
+            old = ", ".join(repr(k) for k in STUDY_LEGACY)
+            raise StudyError(
+                f"{e} (study files: {STUDY_FORMAT!r} version {STUDY_VERSION}, or the older {old})"
+            ) from None
     if "plan" not in d:
         raise StudyError(f"{where}: missing required key 'plan' (a built-in plan name)")
     if d["plan"] not in plans_mod.BUILDERS:
@@ -190,3 +202,9 @@ def study_from_dict(d, where: str = "study") -> Study:
 def load_study(path) -> Study:
     """Load and validate a study from a JSON file (errors name the file and the key)."""
     return study_from_dict(read_json_file(path, StudyError, "a study"), str(path))
+
+
+def save_study(study: Study, path, force: bool = False) -> Path:
+    """Write ``study`` to ``path`` (strict JSON, atomically; an existing file only with ``force``);
+    :func:`load_study` reads it back equal. Returns the path."""
+    return protocol.save(path, study.to_dict(), STUDY_FORMAT, STUDY_VERSION, force=force)
