@@ -17,6 +17,11 @@ from gyrojax.data.truth import Truth, load_truth, save_truth, truth_from_dict
 from gyrojax.errors import FormatError, PlanError, TruthError
 from gyrojax.montecarlo.results import RESULT_FILE, StudyResult, load_result, save_result
 from gyrojax.montecarlo.study import Study, StudyError, load_study, save_study, study_from_dict
+from gyrojax.physics.model import Model
+from gyrojax.planning.criteria import Criterion
+from gyrojax.planning.designfile import load_design, save_design
+from gyrojax.planning.fisher import Noise, Table
+from gyrojax.planning.optimal import DesignResult
 
 
 def _strict(path):
@@ -211,3 +216,42 @@ def test_result_of_a_later_version_is_refused(tmp_path):
     p.write_text(json.dumps({**json.loads(p.read_text()), "format_version": 2}))
     with pytest.raises(StudyError, match="format_version"):
         load_result(tmp_path / "res")
+
+
+# ---- designs --------------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("table", ["two-axis", "fixture"])
+@pytest.mark.parametrize("criterion", ["D", "A:D_F=2,D_I=1", "detect:D_OO=0.03"])
+def test_design_round_trip(table, criterion, tmp_path):
+    model = Model.of(["D_F", "D_I", "D_O", "D_S", "D_II", "D_SS"])
+    tab = Table.two_axis() if table == "two-axis" else Table.fixture()
+    rng = np.random.default_rng(1)
+    a = rng.normal(size=(6, 6))
+    n = 5
+    res = DesignResult(
+        rng.uniform(0, 360, (n, len(tab.axis_names))),
+        rng.uniform(100, 900, n),
+        -12.5,
+        Criterion.parse(criterion, model),
+        model,
+        tab,
+        Noise(0.01, (0.05, 300.0)),
+        2.0,
+        np.array([3.0, 2.0, np.nan, 1.0]),
+        1e-7,
+        rng.normal(size=3),
+        a @ a.T,
+        {"compile_s": 2.0, "run_s": 0.25},
+    )
+    p = save_design(res, tmp_path / "design.json")
+    assert _tag(p) == (["format", "format_version"], "gyrojax-design", 1)
+    back = load_design(p)
+    assert_same(back, res, "design")
+    assert back.plan() == res.plan()
+
+
+def test_design_of_another_format_is_refused(tmp_path):
+    save_plan(plans.fixed_position(hours=0.01), tmp_path / "plan.json")
+    with pytest.raises(FormatError, match="'format'"):
+        load_design(tmp_path / "plan.json")
