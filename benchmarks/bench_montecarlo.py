@@ -13,7 +13,7 @@ draw's normal variates (the floor of any Monte Carlo of this size), and peak mem
 chunked run.
 
 The plan is static, so the pipeline reduces each draw to per-position sums of the per-sample noise
-(:func:`gyrojax.montecarlo.study.constant_runs`; the same estimates to rounding). The sample-level JAX path, which
+(:func:`gyrojax.montecarlo.pipeline.constant_runs`; the same estimates to rounding). The sample-level JAX path, which
 evaluates the kinematics and regressors at every sample as numpy does, is timed beside it for comparison.
 """
 
