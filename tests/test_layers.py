@@ -251,10 +251,10 @@ def edges():
 
 def test_the_graph_is_seen():
     found = {(e.importer, e.imported) for e in imports(ROOT, PACKAGE)}
-    # anchors: an eager import, a lazy one inside a function, a relative-free `from package import module`
+    # anchors: an eager import, a lazy one inside a function, `from gyrojax import module`
     assert ("gyrojax.data.records", "gyrojax.data.schema") in found
     assert ("gyrojax.cli.app", "gyrojax.cli.commands") in found  # lazy, inside _command
-    assert ("gyrojax.data.truth", "gyrojax.noise.processes") in found
+    assert ("gyrojax.data.planfile", "gyrojax.protocol") in found
 
 
 def test_no_import_cycle_between_modules(edges):
