@@ -112,7 +112,7 @@ def test_truth_round_trip(tmp_path):
 
 
 def test_truth_files_without_a_tag_load(tmp_path):
-    # the CONVENTIONS §8 example, as another tool writes it: no format key
+    # the conventions §8 example, as another tool writes it: no format key
     doc = {
         "coefficients": {"D_F": 0.42, "D_I": 0.61, "D_IS": 0.052, "E_SF": 150.0, "M_O": 120.0, "D_T": 0.01},
         "setup": {"table_tilt": [0.0, 90.0], "table_azimuth": 0.0, "encoder_harmonic": [0, 0, 0, 0]},
