@@ -11,7 +11,9 @@ import pytest
 from gyrojax import simulate
 from gyrojax.cli.app import main
 from gyrojax.data import plans
-from gyrojax.data.records import Record, interval_key, save_record, uniform_interval
+from gyrojax.data.record import Record
+from gyrojax.data.records import save_record
+from gyrojax.data.timebase import interval_key, uniform_interval
 from gyrojax.errors import ModelError, RecordError
 from gyrojax.inference.campaign import Campaign
 from gyrojax.inference.diagnose import diagnose

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from gyrojax import units
-from gyrojax.data.records import Record, load_record, save_record
+from gyrojax.data.record import Record
+from gyrojax.data.records import load_record, save_record
 from gyrojax.errors import ConvergenceWarning, ModelError, RecordError
 from gyrojax.inference.identifiability import IdentifiabilityError
 from gyrojax.inference.identify import fit

@@ -10,11 +10,12 @@ from dataclasses import dataclass, field
 import jax.numpy as jnp
 import numpy as np
 
-from gyrojax.data.records import Record
+from gyrojax.data.arrays import record_data
+from gyrojax.data.record import Record
 from gyrojax.data.triad import TRIAD_KIND
 from gyrojax.errors import ModelError, RecordError
 from gyrojax.physics import effects as fx
-from gyrojax.physics.model import Model, RecordData, check_servo, jacobian_jit, predict_jit, record_data
+from gyrojax.physics.model import Model, RecordData, check_servo, jacobian_jit, predict_jit
 
 
 def measurement_labels(record: Record, data: RecordData) -> np.ndarray:

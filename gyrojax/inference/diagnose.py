@@ -33,6 +33,7 @@ import jax.numpy as jnp
 import numpy as np
 from scipy import stats
 
+from gyrojax.data.arrays import record_data
 from gyrojax.errors import ModelError
 from gyrojax.inference import adequacy
 from gyrojax.inference.campaign import Campaign, linearize
@@ -43,7 +44,7 @@ from gyrojax.inference.result import FitResult
 from gyrojax.inference.solver import solve, stack_whitened
 from gyrojax.noise.whiten import ARNoise, GMNoise, fit_noise, whiten
 from gyrojax.physics import effects as fx
-from gyrojax.physics.model import Model, jacobian, record_data
+from gyrojax.physics.model import Model, jacobian
 
 SLOW = ("bias_trend", "bias_temperature")
 """Candidates that vary slowly in time and so compete with long-memory drift for the same residual structure. They

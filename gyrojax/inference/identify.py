@@ -35,7 +35,7 @@ import warnings
 
 import numpy as np
 
-from gyrojax.data.records import Record
+from gyrojax.data.record import Record
 from gyrojax.data.triad import TRIAD_KIND
 from gyrojax.errors import ConvergenceWarning, ModelError
 from gyrojax.inference.campaign import Campaign, check_terms, input_hashes, linearize, split_by_instrument

@@ -8,7 +8,7 @@ import warnings
 import numpy as np
 from scipy import stats
 
-from gyrojax.data.records import interval_key
+from gyrojax.data.timebase import interval_key
 from gyrojax.errors import ConvergenceWarning
 from gyrojax.inference.campaign import Campaign
 from gyrojax.inference.solver import solve, stack_whitened

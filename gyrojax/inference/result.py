@@ -12,13 +12,14 @@ import numpy as np
 from scipy import stats
 
 from gyrojax import protocol
-from gyrojax.data.records import Record
+from gyrojax.data.arrays import record_data
+from gyrojax.data.record import Record
 from gyrojax.errors import FormatError, ModelError
 from gyrojax.inference.formats import LEGACY_FORMAT, RESULT_FORMAT, RESULT_VERSION, fit_kind
 from gyrojax.inference.noisefit import small_sample_factor
 from gyrojax.noise.whiten import ARNoise, GMNoise, first_difference_std, noise_from_json, noise_to_json
 from gyrojax.physics import effects as fx
-from gyrojax.physics.model import Model, predict_jit, record_data
+from gyrojax.physics.model import Model, predict_jit
 
 
 class Estimates:

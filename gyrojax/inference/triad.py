@@ -42,7 +42,7 @@ import numpy as np
 from scipy import stats
 
 from gyrojax import units
-from gyrojax.data.records import Record
+from gyrojax.data.record import Record
 from gyrojax.data.triad import TRIAD_KIND
 from gyrojax.data.triad_segments import triad_segments
 from gyrojax.errors import ConvergenceWarning, ModelError
