@@ -13,7 +13,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyrojax.data import plans
-from gyrojax.inference.identify import Campaign, linearize
+from gyrojax.inference.campaign import Campaign, linearize
 from gyrojax.noise.processes import random_drift
 from gyrojax.physics.model import Model
 from gyrojax.planning import baselines, criteria, fisher

@@ -71,8 +71,8 @@ _FLAT = {
     # simulation
     "simulate": "gyrojax.simulation.simulator:simulate",
     # inference
-    "Campaign": "gyrojax.inference.identify:Campaign",
-    "FitResult": "gyrojax.inference.identify:FitResult",
+    "Campaign": "gyrojax.inference.campaign:Campaign",
+    "FitResult": "gyrojax.inference.result:FitResult",
     "fit": "gyrojax.inference.identify:fit",
     "Diagnosis": "gyrojax.inference.diagnose:Diagnosis",
     "diagnose": "gyrojax.inference.diagnose:diagnose",

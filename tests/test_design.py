@@ -14,7 +14,7 @@ from gyrojax.data import plans
 from gyrojax.data.arrays import record_data
 from gyrojax.data.planfile import load_plan
 from gyrojax.errors import ModelError
-from gyrojax.inference.identify import Campaign, linearize
+from gyrojax.inference.campaign import Campaign, linearize
 from gyrojax.noise.processes import gauss_markov, random_drift, white
 from gyrojax.physics.model import Model
 from gyrojax.planning import criteria, fisher

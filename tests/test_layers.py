@@ -62,8 +62,6 @@ ALLOWED = {
 MAX_LINES = 600
 LONG_ALLOWED = {
     # modules other helpers are splitting now (issue 23); the lead empties this after merging
-    "gyrojax/inference/identify.py",
-    "gyrojax/inference/triad.py",
     "gyrojax/noise/gmwm.py",
 }
 

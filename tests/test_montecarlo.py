@@ -20,6 +20,7 @@ import pytest
 from gyrojax.cli import app as cli
 from gyrojax.data import plans
 from gyrojax.inference import identify
+from gyrojax.inference.noisefit import small_sample_factor
 from gyrojax.montecarlo import pipeline, results, runner
 from gyrojax.montecarlo import study as mc
 from gyrojax.physics.model import predict, predict_jit
@@ -240,7 +241,7 @@ def test_slow_drift_on_eight_positions_small_sample_standard_errors():
         f = identify.fit(pipeline.draw_records(pipe, d), terms)
         z.append((f.theta - truth[d]) / f.std)
         nu_d = f.dof_eff if f.dof_eff is not None else np.full(len(terms), np.inf)
-        var_plain.append((f.std / identify.small_sample_factor(nu_d)) ** 2)
+        var_plain.append((f.std / small_sample_factor(nu_d)) ** 2)
         nu.append(nu_d)
     z, var_plain, nu = np.array(z), np.array(var_plain), np.array(nu)
     inside = (np.abs(z) <= 2.0).mean()

@@ -16,7 +16,8 @@ import pytest
 from gyrojax.data import plans
 from gyrojax.data.record import Record
 from gyrojax.errors import GyrojaxError
-from gyrojax.inference.identify import IdentifiabilityError, fit
+from gyrojax.inference.identifiability import IdentifiabilityError
+from gyrojax.inference.identify import fit
 from gyrojax.simulation.simulator import simulate
 
 LADDER_TRUTH = {"D_F": 1e-5, "E_SF": 150.0, "M_O": 120.0, "M_S": -80.0}

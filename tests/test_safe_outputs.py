@@ -18,7 +18,8 @@ from gyrojax.data.record import Record
 from gyrojax.data.records import load_record, save_record
 from gyrojax.errors import GyrojaxError, ModelError, RecordError
 from gyrojax.inference.bigfit import fit_chunked
-from gyrojax.inference.identify import IdentifiabilityError, fit
+from gyrojax.inference.identifiability import IdentifiabilityError
+from gyrojax.inference.identify import fit
 from gyrojax.simulation.simulator import simulate
 
 NAME = "ccw-up"  # the run of a one-run polar tumble

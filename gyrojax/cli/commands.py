@@ -497,7 +497,7 @@ def cmd_apply(args) -> int:
     import numpy as np
 
     from gyrojax.data.records import load_records
-    from gyrojax.inference.triad import load_triad_fit
+    from gyrojax.inference.triad_result import load_triad_fit
     from gyrojax.protocol import atomic_write_text
 
     fit_res = load_triad_fit(args.fit)

@@ -320,9 +320,10 @@ def build_pipeline(study: Study, plan=None, records=None) -> Pipeline:
 
 def identifiable_terms(records, candidates, kind: str = fx.SDF):
     """The candidates a plan can separate: (kept, dropped) after greedily dropping, from each alias group of
-    :func:`gyrojax.inference.identify.identifiability` on the noise-free regressors, every member but the first listed
-    (and every unexcited effect). E.g. a 1 g test keeps D_F of D_F, D_II, D_OO, D_SS only after dropping one."""
-    from gyrojax.inference.identify import identifiability
+    :func:`gyrojax.inference.identifiability.identifiability` on the noise-free regressors, every member but the
+    first listed (and every unexcited effect). E.g. a 1 g test keeps D_F of D_F, D_II, D_OO, D_SS only after
+    dropping one."""
+    from gyrojax.inference.identifiability import identifiability
     from gyrojax.physics.model import jacobian_jit
 
     terms = list(Model.of(candidates, kind).terms)

@@ -17,6 +17,8 @@ import numpy as np
 from scipy.linalg import solve_toeplitz
 from scipy.signal import lfilter
 
+from gyrojax.errors import FormatError
+
 from . import reml
 
 P_MAX = 20
@@ -191,6 +193,48 @@ class GMNoise:
     def variance_ratio(self) -> float:
         """σ²/s² as for :class:`ARNoise` (dimensionless; 1 for white noise)."""
         return self.std**2 / self.innovation_std**2
+
+
+def noise_to_json(nz) -> dict:
+    """A record's noise model (:class:`GMNoise` or :class:`ARNoise`) as JSON data, exact; :func:`noise_from_json`
+    reads it back equal. Variances in the residual's unit squared, τ in s."""
+    if isinstance(nz, GMNoise):
+        return {
+            "kind": "gauss_markov",
+            "tau_s": float(nz.tau_s),
+            "gm_var": float(nz.gm_var),
+            "white_var": float(nz.white_var),
+        }
+    if isinstance(nz, ARNoise):
+        return {
+            "kind": "ar",
+            "phi": np.asarray(nz.phi, dtype=float).tolist(),
+            "innovation_std": float(nz.innovation_std),
+            "std": float(nz.std),
+        }
+    raise TypeError(f"not a record noise model: {type(nz).__name__}")
+
+
+def noise_from_json(d: dict):
+    """The :class:`GMNoise` or :class:`ARNoise` of :func:`noise_to_json`; ``null`` numbers (non-finite) are NaN.
+    Raises :class:`~gyrojax.errors.FormatError` naming the key that is missing or wrong."""
+
+    def num(key):
+        v = d.get(key, "missing")
+        if v is not None and not isinstance(v, (int, float)) or isinstance(v, bool):
+            raise FormatError(f"noise model: key {key!r} is {v!r}, not a number")
+        return np.nan if v is None else float(v)
+
+    kind = d.get("kind") if isinstance(d, dict) else None
+    if kind == "gauss_markov":
+        return GMNoise(num("tau_s"), num("gm_var"), num("white_var"))
+    if kind == "ar":
+        phi = d.get("phi")
+        if not isinstance(phi, list) or not all(x is None or isinstance(x, (int, float)) for x in phi):
+            raise FormatError(f"noise model: key 'phi' is {phi!r}, not a list of numbers")
+        phi = np.array([np.nan if x is None else x for x in phi], dtype=float)
+        return ARNoise(phi, num("innovation_std"), num("std"))
+    raise FormatError(f"noise model: key 'kind' is {kind!r}, not 'gauss_markov' or 'ar'")
 
 
 def _kalman_scan(x, phi, white_var, gm_var):

@@ -160,8 +160,8 @@ def static_fisher(model: Model, table: Table, angles_rad, dwell_s, noise: Noise,
 
 
 def record_fisher(model: Model, records, noise: Noise, theta=None) -> np.ndarray:
-    """F = Σ Jᵀ J / σ² from records (white noise, σ² = (60 N)²/Δt per measurement) via ``identify.linearize``."""
-    from gyrojax.inference.identify import Campaign, linearize
+    """F = Σ Jᵀ J / σ² from records (white noise, σ² = (60 N)²/Δt per measurement) via ``campaign.linearize``."""
+    from gyrojax.inference.campaign import Campaign, linearize
 
     camp = Campaign.of(records)
     theta = np.zeros(model.size) if theta is None else np.asarray(theta, float)

@@ -12,7 +12,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.ticker import NullFormatter, ScalarFormatter
 
-from gyrojax.inference.identify import FitResult
+from gyrojax.inference.result import FitResult
 
 
 class _Figure(Figure):
