@@ -55,8 +55,6 @@ ALLOWED = {
     # import is gone, so that the entry is removed with it.
     ("gyrojax.noise.allan", "gyrojax.data.records"): "noise-one makes Allan work on arrays (issue 23); the lead "
     "removes this entry after merging",
-    ("gyrojax.inference.identify", "gyrojax.inference.triad"): "split-inference breaks identify <-> triad with the "
-    "fit facade (issue 23); the lead removes this entry after merging",
 }
 
 MAX_LINES = 600
