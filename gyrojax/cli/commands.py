@@ -503,6 +503,8 @@ def cmd_import(args) -> int:
     else:
         print(f"{path}: {rec.n} samples; segments " + ", ".join(f"{v} {k}" for k, v in summary.items()))
         print(f"rests: {import_summary(report)}")
+        for d in report.get("dropped", []):
+            print(f"  dropped {d['start_s']:.2f}–{d['end_s']:.2f} s: {d['reason']} ({d['detail']})")
         for note in report.get("notes", []):
             print(f"note: {note}")
     return 0
@@ -514,7 +516,7 @@ def import_summary(report: dict) -> str:
         return f"{report['rests_found']} faces and {report['rotations']} rotations from the {report['sections']}"
     from gyrojax.data.segments import rest_summary
 
-    return rest_summary(report)
+    return rest_summary(report, details=False)
 
 
 def cmd_apply(args) -> int:

@@ -17,6 +17,7 @@ the calibration is kept in the record's JSON under ``accelerometer_calibration``
 from __future__ import annotations
 
 import json
+import numbers
 from pathlib import Path
 
 import numpy as np
@@ -152,7 +153,7 @@ def _section_bounds(name, v, where: str) -> tuple[int, int]:
     if isinstance(v, dict) and set(v) == {"start", "end"}:
         v = [v["start"], v["end"]]
     ok = isinstance(v, (list, tuple)) and len(v) == 2
-    ok = ok and all(isinstance(i, (int, float)) and not isinstance(i, bool) and float(i).is_integer() for i in v)
+    ok = ok and all(isinstance(i, numbers.Real) and not isinstance(i, bool) and float(i).is_integer() for i in v)
     if not ok:
         raise RecordError(
             f'{where}: section {name!r} must be [start, end] or {{"start": s, "end": e}} sample indices, got {v!r}'

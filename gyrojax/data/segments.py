@@ -61,11 +61,11 @@ def default_threshold(m: int) -> float:
 
 @dataclass(frozen=True)
 class RestDetection:
-    """What :func:`detect_rests` found: ``intervals`` (start, end) sample ranges (end exclusive) of the rests kept,
-    ``dropped`` the candidate rests it did not keep (``start_s``, ``end_s``, ``reason``: ``"too short"`` or
-    ``"too noisy"``, ``detail``), ``joined`` the gaps (``start_s``, ``end_s``) across which two rests were joined into
-    one (the gyro quiet throughout: the accelerometer was disturbed — a tap — but nothing turned), the settings it
-    used and the rest noise σ per channel (input units)."""
+    """What :func:`detect_rests` found: ``intervals`` (start, end) sample ranges (end exclusive) of the rests kept;
+    ``dropped`` the candidate rests it did not keep (``start_s``, ``end_s``: the quiet run widened by half a window
+    at each end; ``reason``: ``"too short"`` or ``"too noisy"``; ``detail``); ``joined`` the gaps (``start_s``,
+    ``end_s``) across which two rests were joined into one (the gyro quiet throughout: the accelerometer was
+    disturbed — a tap — but nothing turned); the settings it used and the rest noise σ per channel (input units)."""
 
     intervals: list
     dropped: list
@@ -94,14 +94,15 @@ class RestDetection:
         return rest_summary(self.to_json())
 
 
-def rest_summary(report: dict) -> str:
-    """One line from :meth:`RestDetection.to_json`: rests found, candidates dropped and why, rests joined."""
+def rest_summary(report: dict, details: bool = True) -> str:
+    """One line from :meth:`RestDetection.to_json`: rests found, candidates dropped (and, with ``details``, each
+    one's time and reason), rests joined."""
     s = (
         f"{report['rests_found']} rests found (window {report['window_s']:g} s, threshold "
         f"{report['static_threshold']:.3g}× the rest noise variance, shortest {report['min_rest_s']:g} s); "
         f"{len(report['dropped'])} candidate rests dropped"
     )
-    if report["dropped"]:
+    if report["dropped"] and details:
         s += ": " + "; ".join(
             f"{d['start_s']:.2f}–{d['end_s']:.2f} s {d['reason']} ({d['detail']})" for d in report["dropped"]
         )
@@ -205,18 +206,19 @@ def detect_rests(
             elif e2 > s2:
                 short.append((s2, e2))
         keep += found
-        c2s, c2e = trimmed(cs, ce)
-        if found or c2e - c2s < m:  # a candidate shorter than a window is a move's turning point, not a rest
+        if found or ce - cs < m // 2:  # quiet for less than half a window: a flicker at a move's edge, not a rest
             continue
+        c2s, c2e = trimmed(cs, ce)
         if c2e - c2s < min_n:
-            reason, detail = "too short", f"{(c2e - c2s) / rate_hz:.2f} s < {min_rest_s:g} s"
+            reason, detail = "too short", f"{max(c2e - c2s, 0) / rate_hz:.2f} s after trimming < {min_rest_s:g} s"
         elif short:
             longest = max(e - s for s, e in short)
             reason, detail = "too short", f"its quiet part lasts {longest / rate_hz:.2f} s < {min_rest_s:g} s"
         else:
             med = float(np.median(ratio[cs:ce]))
             reason, detail = "too noisy", f"variance {med:.3g}× the rest noise > threshold {thr:.3g}"
-        dropped.append({"start_s": c2s / rate_hz, "end_s": c2e / rate_hz, "reason": reason, "detail": detail})
+        span = max(cs - trim, 0) / rate_hz, min(ce + trim, n) / rate_hz  # the pause as the sensor saw it
+        dropped.append({"start_s": span[0], "end_s": span[1], "reason": reason, "detail": detail})
     keep, joined = _join_gyro_quiet(sorted(keep), ratio_gyro, thr, rate_hz)
     return RestDetection(
         intervals=[(int(s), int(e)) for s, e in keep],
