@@ -545,3 +545,27 @@ def test_import_csv_api_reports_in_meta(session, tmp_path):
     path = write_log(tmp_path / "log.csv", log_columns(rec))
     imp = import_csv(path, dict(p.split("=") for p in MAP.split(",")), delimiter=",")
     assert imp.meta["import"]["rests_found"] == 36 and imp.meta["import"]["notes"] == []
+
+
+def test_xsens_rests_are_poses_and_the_gaps_between_them_turn():
+    """imu_tk's Xsens recording (real data): each rest found is still (its raw gyro scatter that of the initial
+    rest) and each pair of consecutive rests points in different directions (the accelerometer means, less
+    their offset, ≥ 2° apart), so no rest was split and none is a pause inside a move — the 38th, 208.4–211.7 s,
+    included."""
+    from .test_triad_imutk import IMUTK
+
+    acc = np.loadtxt(IMUTK / "xsens_acc.mat.gz")[:, 1:]
+    gyr = np.loadtxt(IMUTK / "xsens_gyro.mat.gz")[:, 1:]
+    det = detect_rests(acc, 100.0, gyro=gyr)
+    assert len(det.intervals) == 38
+    assert any(abs(s / 100 - 208.4) < 0.2 and abs(e / 100 - 211.7) < 0.2 for s, e in det.intervals)
+    still = gyr[: 50 * 100].std(axis=0)
+    for s, e in det.intervals:
+        assert np.all(gyr[s:e].std(axis=0) < 1.3 * still), (s, e)
+    means = np.array([acc[s:e].mean(axis=0) for s, e in det.intervals])
+    # the accelerometer's offset (unsigned counts) from the sphere through the means: |m − c|² = r²
+    sol = np.linalg.lstsq(np.column_stack([2 * means, np.ones(len(means))]), (means**2).sum(axis=1), rcond=None)[0]
+    ups = means - sol[:3]
+    for u, v in zip(ups[:-1], ups[1:]):
+        angle = np.degrees(np.arccos(np.clip(u @ v / np.linalg.norm(u) / np.linalg.norm(v), -1, 1)))
+        assert angle > 2.0, angle

@@ -200,12 +200,12 @@ def read_sections(sections, where: str = "sections") -> dict:
     return {k: _section_bounds(k, v, where) for k, v in sections.items()}
 
 
-def _sections_to_parts(n: int, sections: dict, where: str) -> np.ndarray:
+def _sections_to_parts(n: int, sections: dict, where: str, session: str) -> np.ndarray:
     """Part name per row from ``{name: (start, end)}``; sections must lie inside the rows and not overlap."""
     part = np.full(n, "", dtype=object)
     for k, (s, e) in sorted(sections.items(), key=lambda kv: kv[1]):
         if not 0 <= s < e <= n:
-            raise RecordError(f"{where}: section {k!r} = [{s}, {e}] lies outside the {n} samples")
+            raise RecordError(f"{where}: section {k!r} = [{s}, {e}] lies outside the {n} samples of {session}")
         clash = sorted(set(part[s:e]) - {""})
         if clash:
             raise RecordError(f"{where}: section {k!r} = [{s}, {e}] overlaps section {clash[0]!r}")
@@ -285,7 +285,8 @@ def import_imucal(
         if "part" in df.columns:
             raise RecordError(f"{where}: has a 'part' column and a section list (--sections) was given; give one")
         spans = read_sections(sections)
-        df = df.assign(part=_sections_to_parts(len(df), spans, where))  # imucal's iloc: rows in file order
+        swhere = str(sections) if isinstance(sections, (str, Path)) else "sections"
+        df = df.assign(part=_sections_to_parts(len(df), spans, swhere, where))  # imucal's iloc: rows in file order
         source = f"section list ({len(spans)} sections)"
     elif "part" in df.columns:
         source = "'part' column"
