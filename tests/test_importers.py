@@ -364,12 +364,15 @@ def test_semicolon_log_with_a_jittering_receive_time_and_a_wrapping_sample_count
     assert "jitters" in text and "a sample counter (sample=COL with --rate-hz)" in text
 
 
-@pytest.mark.parametrize("delim, flag", [("\t", "tab"), (",", ","), (";", ";"), ("\t", None)])
-def test_delimiters_and_a_millisecond_time_column(session, tmp_path, capsys, delim, flag):
+@pytest.mark.parametrize(
+    "delim, flag, name",
+    [("\t", "tab", "log.txt"), (",", ",", "log.csv"), (";", ";", "log.csv"), ("\t", None, "log.tsv.gz")],
+)
+def test_delimiters_and_a_millisecond_time_column(session, tmp_path, capsys, delim, flag, name):
     rec, _ = session
     cols = log_columns(rec)
     cols["t"] = np.round(rec.time_s * 1e3, 6)
-    path = write_log(tmp_path / "log.txt", cols, delimiter=delim)
+    path = write_log(tmp_path / name, cols, delimiter=delim)  # numpy gzips a name ending .gz
     argv = [
         "import",
         "csv",

@@ -67,10 +67,15 @@ DELIMITERS = {",": ",", ";": ";", "tab": "\t", "\t": "\t", "\\t": "\t"}
 def sniff_delimiter(path, lines: int = 20) -> str:
     """The delimiter (``,``, ``;`` or tab) that splits the first ``lines`` non-empty lines of a text file into the
     same number (≥ 2) of fields, the most fields when several do; :class:`RecordError` naming the file otherwise."""
+    import bz2
+    import gzip
+    import lzma
+
+    opener = {".gz": gzip.open, ".bz2": bz2.open, ".xz": lzma.open}.get(Path(path).suffix.lower(), open)
     try:
-        with open(path, encoding="utf-8") as fh:
+        with opener(path, "rt", encoding="utf-8") as fh:
             head = [ln for ln in (fh.readline() for _ in range(4 * lines)) if ln.strip()][:lines]
-    except (OSError, UnicodeDecodeError) as e:
+    except (OSError, UnicodeDecodeError, EOFError, lzma.LZMAError) as e:
         raise RecordError(f"{path}: not a readable text table ({str(e).strip()[:120]})") from None
     best, fields = None, 1
     for d in (",", ";", "\t"):
@@ -82,6 +87,14 @@ def sniff_delimiter(path, lines: int = 20) -> str:
             f"{path}: cannot tell its delimiter (none of ',', ';', tab splits its first lines alike); give --delimiter"
         )
     return best
+
+
+def file_stem(path) -> str:
+    """A file's name without its extension and a compression suffix (``log.tsv.gz`` → ``log``)."""
+    p = Path(path)
+    if p.suffix.lower() in (".gz", ".bz2", ".xz"):
+        p = Path(p.stem)
+    return p.stem
 
 
 def read_table(path, delimiter: str | None = None, notes: list | None = None):
@@ -96,7 +109,7 @@ def read_table(path, delimiter: str | None = None, notes: list | None = None):
     elif delimiter in DELIMITERS:
         sep = DELIMITERS[delimiter]
     else:
-        raise RecordError(f"delimiter {delimiter!r}: give ',', ';', 'tab' or 'auto'")
+        raise RecordError(f"--delimiter {delimiter!r}: give ',', ';', 'tab' or 'auto'")
     try:
         return pd.read_csv(path, sep=sep)
     except (UnicodeDecodeError, ValueError, pd.errors.ParserError, pd.errors.EmptyDataError) as e:
@@ -345,7 +358,7 @@ def import_imucal(
         "notes": notes,
     }
     meta = triad_meta(
-        name or (Path(where).stem if where != "session" else "imucal-session"),
+        name or (file_stem(where) if where != "session" else "imucal-session"),
         segs,
         latitude_deg=latitude_deg,
         gravity_mps2=gravity_mps2,
@@ -732,7 +745,7 @@ def import_csv(
         gyr,
         gyro_unit=gyro_unit,
         acc_unit=acc_unit,
-        name=name or Path(path).stem,
+        name=name or file_stem(path),
         source=str(path),
         notes=notes,
         **kw,
