@@ -525,6 +525,7 @@ def test_an_uncalibrated_accelerometer_is_calibrated_with_a_note(session, tmp_pa
         assert 4.0 < excess < 5.5 and f"|a| at rest is {excess:+.2f} % from the local g" in text, (excess, text)
     (imp,) = load_records(tmp_path / "o")
     assert imp.meta["accelerometer_calibration"]["raw_unit"] == unit
+    assert imp.meta["import"]["accelerometer"]["calibrated_here"] is True
     truth = _pose_ups(rec)
     found = _pose_ups(imp)
     assert len(found) == 36
@@ -561,6 +562,8 @@ def test_a_calibrated_accelerometer_is_kept_as_it_is(session):
     acc, gyr = sensors(rec)
     imp = triad_from_arrays(rec.time_s, acc, gyr)
     assert "accelerometer_calibration" not in imp.meta and imp.meta["import"]["notes"] == []
+    check = imp.meta["import"]["accelerometer"]
+    assert check["calibrated_here"] is False and 0 < check["max_rest_magnitude_error"] < 1e-3
     assert np.array_equal(imp.columns["acc_z_g"], acc[:, 2])
 
 

@@ -474,9 +474,10 @@ def accelerometer_in_g(
     acc_g_per_count: float | None = None,
     acc_bias0=None,
     where: str = "accelerometer",
-) -> tuple[np.ndarray, dict | None, list[str]]:
+) -> tuple[np.ndarray, dict | None, list[str], dict]:
     """The accelerometer in g, never taken as calibrated on trust: returns (specific force (n, 3) in g, its
-    calibration or None, notes).
+    calibration or None, notes, the check: ``unit``, ``calibrated_here``, ``max_rest_magnitude_error`` of the
+    result, relative to the local g).
 
     ``counts``: calibrated by imu_tk's 9-parameter model (:func:`gyrojax.data.segments.ellipsoid_accelerometer`)
     fitted to |a| = g over the rests, started from a sphere through the rest means (:func:`sphere_fit`, so any
@@ -496,7 +497,8 @@ def accelerometer_in_g(
         mag = np.linalg.norm(means * scale, axis=1) / g_units - 1.0
         worst = float(mag[np.argmax(np.abs(mag))])
         if abs(worst) <= ACC_CALIBRATED_TOL:
-            return acc * scale, None, notes
+            check = {"unit": acc_unit, "calibrated_here": False, "max_rest_magnitude_error": abs(worst)}
+            return acc * scale, None, notes, check
         med = float(np.median(np.linalg.norm(means, axis=1)))
         if abs(float(np.median(mag))) > ACC_UNIT_TOL:
             raise RecordError(
@@ -541,7 +543,8 @@ def accelerometer_in_g(
         "params": params.tolist(),
         "rms_magnitude_error": rms,
     }
-    return acc_cal, calib, notes
+    check = {"unit": acc_unit, "calibrated_here": True, "max_rest_magnitude_error": float(np.abs(resid).max())}
+    return acc_cal, calib, notes, check
 
 
 def jitter_note(t: np.ndarray, where: str) -> str | None:
@@ -596,7 +599,7 @@ def triad_from_arrays(
     if len(iv) < 9:
         raise RecordError(f"{source}: found {len(iv)} static poses; the calibration needs at least 9 ({det.summary()})")
     notes = list(notes or [])
-    acc_cal, calib, acc_notes = accelerometer_in_g(
+    acc_cal, calib, acc_notes, acc_check = accelerometer_in_g(
         acc,
         iv,
         acc_unit,
@@ -622,7 +625,7 @@ def triad_from_arrays(
     cols.update(gcols)
     for j, c in enumerate(CHANNELS):
         cols[f"acc_{c}_g"] = acc_cal[:, j]
-    extra = {"import": {"source": source, **det.to_json(), "notes": notes}}
+    extra = {"import": {"source": source, **det.to_json(), "accelerometer": acc_check, "notes": notes}}
     if calib is not None:
         extra["accelerometer_calibration"] = calib
     meta = triad_meta(
