@@ -236,6 +236,17 @@ def test_the_threshold_is_relative_to_the_records_own_noise(session):
     assert len(noisier.intervals) == 36
 
 
+@pytest.mark.parametrize("lsb_over_sigma", [1.0, 3.0, 7.0])
+def test_rests_of_a_gyro_quieter_than_its_lsb_are_found(session, lsb_over_sigma):
+    """Counts of a gyro whose noise is a fraction of its LSB: most rest windows hold one value; the rest noise is
+    then the quantisation's, LSB²/12, and the rests are found whole."""
+    rec, _ = session
+    acc, gyr = sensors(rec)
+    lsb = 0.07 * lsb_over_sigma
+    det = detect_rests(acc, 100.0, gyro=np.round(gyr / lsb))
+    assert len(det.intervals) == 36 and det.dropped == [], det.summary()
+
+
 def test_a_long_white_noise_rest_is_never_split():
     """The default threshold leaves a rest of white noise whole: 10 min at 100 Hz of three channels each, against
     a threshold of 1.5 (what an absolute tuning to a quiet window might give) that splits it."""

@@ -112,15 +112,23 @@ def rest_summary(report: dict, details: bool = True) -> str:
     return s
 
 
-def _noise_variance(v: np.ndarray, m: int, rest: np.ndarray | None) -> np.ndarray:
+def quantum(x: np.ndarray) -> np.ndarray:
+    """Per column of ``x`` (n, k), the smallest non-zero step between samples (the LSB of quantised data)."""
+    d = np.abs(np.diff(np.asarray(x, dtype=float), axis=0))
+    d = np.where(d > 0, d, np.inf)
+    q = d.min(axis=0) if len(d) else np.full(x.shape[1], np.inf)
+    return np.where(np.isfinite(q), q, 0.0)
+
+
+def _noise_variance(v: np.ndarray, m: int, rest: np.ndarray | None, floor: np.ndarray) -> np.ndarray:
     """Per-channel variance of the rest noise from rolling variances ``v`` (n, 3) of ``m``-sample windows (scaled to
     be unbiased): the median window of the rest samples ``rest`` (or, on the first pass, the 10 % quantile of all
     windows, which lies among the rests when at least a tenth of the record rests), divided by the same quantile
-    of χ²_{m−1}/(m−1)."""
+    of χ²_{m−1}/(m−1); at least ``floor`` (the quantisation noise, LSB²/12: a sensor quieter than its LSB)."""
     q = 0.5 if rest is not None and rest.sum() >= m else 0.1
     sel = v[rest] if q == 0.5 else v
     level = np.quantile(sel, q, axis=0) * (m - 1) / stats.chi2.ppf(q, m - 1)
-    return np.maximum(level, 1e-300)
+    return np.maximum(level, np.maximum(floor, 1e-300))
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
@@ -182,11 +190,12 @@ def detect_rests(
     thr = default_threshold(m) if threshold is None else float(threshold)
     sensors = [("acc", acc)] + ([("gyro", np.asarray(gyro, dtype=float))] if gyro is not None else [])
     var = {k: rolling_variance(x, m) * m / (m - 1) for k, x in sensors}
+    floor = {k: quantum(x) ** 2 / 12.0 for k, x in sensors}
     rest, noise = None, {}
     for _ in range(3):  # quietest windows first, then the median window of the rests found; converges in two
         ratio = np.zeros(n)
         for k, v in var.items():
-            noise[k] = _noise_variance(v, m, rest)
+            noise[k] = _noise_variance(v, m, rest, floor[k])
             ratio = np.maximum(ratio, (v / noise[k]).mean(axis=1))
         rest = ratio <= thr
     ratio_gyro = (var["gyro"] / noise["gyro"]).mean(axis=1) if "gyro" in var else None
