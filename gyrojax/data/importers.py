@@ -726,7 +726,8 @@ def import_csv(
             bad = np.flatnonzero(np.diff(t_col) <= 0)
             if bad.size:
                 raise RecordError(
-                    f"{path}: row {bad[0] + 3}, column {time_col!r}: time does not increase ({t_col[bad[0] + 1]!r})"
+                    f"{path}: row {bad[0] + 3}, column {time_col!r}: time does not increase ({t_col[bad[0] + 1]!r}); "
+                    "a receive time? map the log's sample counter instead (sample=COL with --rate-hz)"
                 )
         note = jitter_note(t_col, f"time column {time_col!r}")
         if note and "sample" in mapping:
