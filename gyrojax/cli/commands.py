@@ -511,7 +511,7 @@ def cmd_import(args) -> int:
 
 
 def import_summary(report: dict) -> str:
-    """One line of an import report: rests found, candidates dropped and why, with their times."""
+    """One line of an import report: the rests found (or the sections read) and how many candidates were dropped."""
     if "sections" in report:
         return f"{report['rests_found']} faces and {report['rotations']} rotations from the {report['sections']}"
     from gyrojax.data.segments import rest_summary
