@@ -10,6 +10,7 @@ import re
 
 import numpy as np
 import pytest
+from scipy import stats
 
 from gyrojax import units
 from gyrojax.cli.app import main
@@ -247,6 +248,23 @@ def test_the_threshold_is_relative_to_the_records_own_noise(session):
     assert scaled.intervals == base.intervals
     noisier = detect_rests(acc * 3 + 0.003 * np.random.default_rng(2).standard_normal(acc.shape), 100.0, gyro=gyr * 3)
     assert len(noisier.intervals) == 36
+
+
+def test_coloured_rest_noise_raises_the_threshold_and_keeps_the_rest_whole():
+    """At 1 kHz behind a 40 Hz low-pass filter (a MEMS DLPF) a 0.2 s window holds ~16 independent samples per
+    channel, not 200: the threshold follows the rest windows' measured spread (χ²_ν/ν, ν from it), so 2 min of rest
+    stay one rest, where the white-noise threshold of 200 samples splits them."""
+    from scipy import signal
+
+    rng = np.random.default_rng(0)
+    b, a = signal.butter(2, 40.0 / 500.0)
+    acc = np.array([0.0, 0.0, 1.0]) + signal.lfilter(b, a, 0.002 * rng.standard_normal((120000, 3)), axis=0)
+    gyr = signal.lfilter(b, a, 0.1 * rng.standard_normal((120000, 3)), axis=0)
+    det = detect_rests(acc, 1000.0, gyro=gyr)
+    assert det.intervals == [(0, 120000)], det.summary()
+    white = float(stats.chi2.isf(1e-6, 200) / 200)
+    assert all(v > 1.2 * white for v in det.threshold.values()), det.threshold
+    assert len(detect_rests(acc, 1000.0, gyro=gyr, threshold=white).intervals) > 1
 
 
 @pytest.mark.parametrize("lsb_over_sigma", [1.0, 3.0, 7.0])

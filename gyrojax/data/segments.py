@@ -5,7 +5,8 @@
 gyro (better for hand-held moves, which can be slow and smooth), are below ``threshold`` times the variance of the
 rests' own noise. That noise is estimated from the record itself, channel by channel and robustly (from its quietest
 windows, then from the median window of the rests found), so the threshold is a multiple of the sensor's own noise,
-not an absolute number tuned to one sensor. Runs shorter than a minimum are dropped and every run is trimmed by half
+not an absolute number tuned to one sensor; by default the multiple that one window of that noise exceeds with
+probability 10⁻⁶, from the spread of the rests' own windows (:func:`window_dof`). Runs shorter than a minimum are dropped and every run is trimmed by half
 a window at each end next to a move, so no sample of a move is taken for rest. What it drops, it reports.
 
 :func:`ellipsoid_accelerometer` fits the 9-parameter accelerometer model of imu_tk (bias, scale, three
@@ -52,11 +53,23 @@ def window_samples(window_s: float, rate_hz: float) -> int:
     return max(5, 2 * int(round(window_s * rate_hz / 2)) + 1)
 
 
-def default_threshold(m: int) -> float:
-    """The default rest threshold for a window of ``m`` samples, in multiples of the rest noise variance: the ratio
-    that the variance of one window of white rest noise exceeds with probability :data:`FALSE_ALARM`,
-    χ²_{m−1}/(m−1) — the worst case of the three channels of a sensor fully correlated (3.27 at 100 Hz, 0.2 s)."""
-    return float(stats.chi2.isf(FALSE_ALARM, m - 1) / (m - 1))
+def default_threshold(dof: float) -> float:
+    """The default rest threshold, in multiples of the rest noise variance, for windows whose variance has ``dof``
+    degrees of freedom: the ratio that one window of rest noise, χ²_dof/dof, exceeds with probability
+    :data:`FALSE_ALARM` (3.27 for the 20 of a 0.2 s window of white noise at 100 Hz)."""
+    return float(stats.chi2.isf(FALSE_ALARM, dof) / dof)
+
+
+def window_dof(ratio: np.ndarray, m: int) -> float:
+    """Degrees of freedom of the rest windows' variance ratio ``ratio`` (samples at rest), from its spread:
+    χ²_ν/ν has variance 2/ν, the spread taken robustly (interquartile range / 1.349). At most m − 1, the value of
+    white noise with the three channels fully correlated; fewer when the noise is coloured (a sensor's low-pass
+    filter: at 1 kHz behind a 40 Hz filter a 0.2 s window holds about 16 independent samples, not 200)."""
+    if len(ratio) < 4 * m:
+        return float(m - 1)
+    q1, q3 = np.quantile(ratio, [0.25, 0.75])
+    sd = (q3 - q1) / 1.349
+    return float(np.clip(2.0 / sd**2, 1.0, m - 1)) if sd > 0 else float(m - 1)
 
 
 @dataclass(frozen=True)
@@ -65,14 +78,15 @@ class RestDetection:
     ``dropped`` the candidate rests it did not keep (``start_s``, ``end_s``: the quiet run widened by half a window
     at each end; ``reason``: ``"too short"`` or ``"too noisy"``; ``detail``); ``joined`` the gaps (``start_s``,
     ``end_s``) across which two rests were joined into one (the gyro quiet throughout: the accelerometer was
-    disturbed — a tap — but nothing turned); the settings it used and the rest noise σ per channel (input units)."""
+    disturbed — a tap — but nothing turned); the settings it used (``threshold`` per sensor) and the rest noise σ
+    per channel (input units)."""
 
     intervals: list
     dropped: list
     joined: list
     rate_hz: float
     window_s: float
-    threshold: float
+    threshold: dict
     min_rest_s: float
     noise: dict = field(default_factory=dict)
 
@@ -99,7 +113,8 @@ def rest_summary(report: dict, details: bool = True) -> str:
     one's time and reason), rests joined."""
     s = (
         f"{report['rests_found']} rests found (window {report['window_s']:g} s, threshold "
-        f"{report['static_threshold']:.3g}× the rest noise variance, shortest {report['min_rest_s']:g} s); "
+        + ", ".join(f"{k} {v:.3g}" for k, v in report["static_threshold"].items())
+        + f"× the rest noise variance, shortest {report['min_rest_s']:g} s); "
         f"{len(report['dropped'])} candidate rests dropped"
     )
     if report["dropped"] and details:
@@ -137,7 +152,7 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(edges[::2].tolist(), edges[1::2].tolist()))
 
 
-def _join_gyro_quiet(keep, ratio_gyro, thr, rate_hz):
+def _join_gyro_quiet(keep, ratio_gyro, rate_hz):
     """Join consecutive rests whose gap never lifts the gyro's windowed variance above the threshold: nothing
     turned between them (a tap disturbed the accelerometer), so they are one pose. Returns (rests, joined gaps)."""
     if ratio_gyro is None or not keep:
@@ -145,7 +160,7 @@ def _join_gyro_quiet(keep, ratio_gyro, thr, rate_hz):
     out, joined = [keep[0]], []
     for s, e in keep[1:]:
         ps, pe = out[-1]
-        if np.all(ratio_gyro[pe:s] <= thr):
+        if np.all(ratio_gyro[pe:s] <= 1.0):
             out[-1] = (ps, e)
             joined.append({"start_s": pe / rate_hz, "end_s": s / rate_hz})
         else:
@@ -168,7 +183,8 @@ def detect_rests(
       acc: (n, 3) accelerometer samples (any unit); gyro: (n, 3) gyro samples (any unit), optional.
       rate_hz: sample rate, Hz. window_s: variance window, s (at least 5 samples).
       threshold: a sample rests when the windowed variance of each sensor, averaged over its channels in units of
-        each channel's rest noise variance, is at most this (default :func:`default_threshold`).
+        each channel's rest noise variance, is at most this (default: :func:`default_threshold` of the rest windows'
+        degrees of freedom, :func:`window_dof`, per sensor).
       min_rest_s: shortest rest kept, s, after trimming half a window at each end next to a move.
     """
     acc = np.asarray(acc, dtype=float)
@@ -187,18 +203,19 @@ def detect_rests(
     m = window_samples(window_s, rate_hz)
     if n < 2 * m:
         raise RecordError(f"the static detector needs at least two windows ({2 * m} samples); the record has {n}")
-    thr = default_threshold(m) if threshold is None else float(threshold)
     sensors = [("acc", acc)] + ([("gyro", np.asarray(gyro, dtype=float))] if gyro is not None else [])
     var = {k: rolling_variance(x, m) * m / (m - 1) for k, x in sensors}
     floor = {k: quantum(x) ** 2 / 12.0 for k, x in sensors}
-    rest, noise = None, {}
+    rest, noise, thr, r = None, {}, {}, {}
     for _ in range(3):  # quietest windows first, then the median window of the rests found; converges in two
-        ratio = np.zeros(n)
         for k, v in var.items():
             noise[k] = _noise_variance(v, m, rest, floor[k])
-            ratio = np.maximum(ratio, (v / noise[k]).mean(axis=1))
-        rest = ratio <= thr
-    ratio_gyro = (var["gyro"] / noise["gyro"]).mean(axis=1) if "gyro" in var else None
+            r[k] = (v / noise[k]).mean(axis=1)
+            dof = window_dof(r[k][rest], m) if rest is not None else m - 1.0
+            thr[k] = default_threshold(dof) if threshold is None else float(threshold)
+        ratio = np.max([r[k] / thr[k] for k in var], axis=0)  # in thresholds: at rest when ≤ 1
+        rest = ratio <= 1.0
+    ratio_gyro = r["gyro"] / thr["gyro"] if "gyro" in var else None
     trim = m // 2
     keep, dropped = [], []
     min_n = min_rest_s * rate_hz
@@ -206,7 +223,7 @@ def detect_rests(
     def trimmed(s, e):
         return (s + trim if s > 0 else s), (e - trim if e < n else e)
 
-    for cs, ce in _runs(ratio <= CANDIDATE_FACTOR * thr):
+    for cs, ce in _runs(ratio <= CANDIDATE_FACTOR):
         found, short = [], []
         for s, e in _runs(rest[cs:ce]):
             s2, e2 = trimmed(cs + s, cs + e)
@@ -224,18 +241,19 @@ def detect_rests(
             longest = max(e - s for s, e in short)
             reason, detail = "too short", f"its quiet part lasts {longest / rate_hz:.2f} s < {min_rest_s:g} s"
         else:
-            med = float(np.median(ratio[cs:ce]))
-            reason, detail = "too noisy", f"variance {med:.3g}× the rest noise > threshold {thr:.3g}"
+            k = max(var, key=lambda k: float(np.median(r[k][cs:ce] / thr[k])))
+            med = float(np.median(r[k][cs:ce]))
+            reason, detail = "too noisy", f"{k} variance {med:.3g}× its rest noise > threshold {thr[k]:.3g}"
         span = max(cs - trim, 0) / rate_hz, min(ce + trim, n) / rate_hz  # the pause as the sensor saw it
         dropped.append({"start_s": span[0], "end_s": span[1], "reason": reason, "detail": detail})
-    keep, joined = _join_gyro_quiet(sorted(keep), ratio_gyro, thr, rate_hz)
+    keep, joined = _join_gyro_quiet(sorted(keep), ratio_gyro, rate_hz)
     return RestDetection(
         intervals=[(int(s), int(e)) for s, e in keep],
         dropped=dropped,
         joined=joined,
         rate_hz=float(rate_hz),
         window_s=m / float(rate_hz),
-        threshold=thr,
+        threshold={k: float(v) for k, v in thr.items()},
         min_rest_s=float(min_rest_s),
         noise={k: np.sqrt(v) for k, v in noise.items()},
     )
