@@ -6,8 +6,9 @@ gyro (better for hand-held moves, which can be slow and smooth), are below ``thr
 rests' own noise. That noise is estimated from the record itself, channel by channel and robustly (from its quietest
 windows, then from the median window of the rests found), so the threshold is a multiple of the sensor's own noise,
 not an absolute number tuned to one sensor; by default the multiple that one window of that noise exceeds with
-probability 10⁻⁶, from the spread of the rests' own windows (:func:`window_dof`). Runs shorter than a minimum are dropped and every run is trimmed by half
-a window at each end next to a move, so no sample of a move is taken for rest. What it drops, it reports.
+probability 10⁻⁶, from the spread of the rests' own windows (:func:`window_dof`). Runs shorter than a minimum are
+dropped and every run is trimmed by half a window at each end next to a move, so no sample of a move is taken for
+rest. What it drops, it reports.
 
 :func:`ellipsoid_accelerometer` fits the 9-parameter accelerometer model of imu_tk (bias, scale, three
 non-orthogonality angles) by requiring every static pose's calibrated specific force to have the magnitude of
