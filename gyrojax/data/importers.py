@@ -3,15 +3,18 @@
 
 * :func:`import_imucal` — imucal's Ferraris sessions (mad-lab-fau/imucal): a table with columns
   ``acc_x, acc_y, acc_z, gyr_x, gyr_y, gyr_z`` and either a ``part`` column naming the sections (``x_p``, ``x_a``, …,
-  ``x_rot``, …: imucal's annotated sessions) or a separate section list of sample ranges.
+  ``x_rot``, …: imucal's annotated sessions) or imucal's section list (:func:`read_sections`).
 * :func:`import_imutk` — imu_tk's ASCII files (one sample per line: time, then three values), accelerometer and
-  gyroscope apart; static poses by the variance detector of :mod:`gyrojax.data.segments`, the moves between them
-  as gravity-to-gravity segments.
-* :func:`import_csv` — any CSV, with a column mapping.
+  gyroscope apart; rests by the variance detector of :mod:`gyrojax.data.segments`, the moves between them as
+  gravity-to-gravity segments.
+* :func:`import_csv` — any delimited log, with a column mapping; its clock a time column (s, ms, µs) or a sample
+  counter with its rate.
 
-The accelerometer is calibrated by the importer (Ferraris' six faces: raw = A a + b by least squares; imu_tk:
-an ellipsoid fit over the static poses) and written in g, so that the gyro fit sees the specific force of each pose;
-the calibration is kept in the record's JSON under ``accelerometer_calibration``.
+The accelerometer is never taken as calibrated on trust (:func:`accelerometer_in_g`): calibrated by the importer
+(Ferraris' six faces: raw = A a + b by least squares; imu_tk's ellipsoid over the rests) or checked against g, and
+written in g, so that the gyro fit sees the specific force of each pose; a calibration is kept in the record's JSON
+under ``accelerometer_calibration``. Every importer reports what it read under ``import`` in the record's JSON: the
+rests found, the candidates dropped and why, the rests joined, the accelerometer check and its notes.
 """
 
 from __future__ import annotations
