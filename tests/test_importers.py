@@ -350,6 +350,8 @@ def test_imucal_section_list_imports_as_the_part_column(form, imucal_by_part, tm
     argv = ["import", "imucal", str(session), "--sections", str(spath), "--gyro-scale", str(IMUCAL_SCALE)]
     assert main(argv + ["--rate-hz", "204.8", "--out", str(tmp_path / "o"), "--name", "annotated_session"]) == 0
     assert "9 sections" in capsys.readouterr().out
+    # the six faces calibrate the accelerometer: 18 equations, 12 unknowns, each face's |a| = g to < 0.5 %
+    assert imucal_by_part.meta["import"]["accelerometer"]["max_rest_magnitude_error"] < 5e-3
     (rec,) = load_records(tmp_path / "o")
     for k, v in imucal_by_part.columns.items():
         assert np.array_equal(rec.columns[k], v), k

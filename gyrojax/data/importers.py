@@ -352,12 +352,19 @@ def import_imucal(
     cols.update(gcols)
     for c, j in zip(CHANNELS, range(3)):
         cols[f"acc_{c}_g"] = acc_cal[:, j]
+    face_err = [abs(np.linalg.norm(acc_cal[part == f].mean(axis=0)) / g_units - 1.0) for f in FERRARIS_FACES]
     report = {
         "source": where,
         "sections": source,
         "rests_found": len(FERRARIS_FACES),
         "rotations": len(FERRARIS_ROTATIONS),
         "dropped": [],
+        "joined": [],
+        "accelerometer": {
+            "unit": "raw",
+            "calibrated_here": True,
+            "max_rest_magnitude_error": float(max(face_err)),
+        },
         "notes": notes,
     }
     meta = triad_meta(
