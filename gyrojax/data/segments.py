@@ -113,7 +113,7 @@ def rest_summary(report: dict, details: bool = True) -> str:
     """One line from :meth:`RestDetection.to_json`: rests found, candidates dropped (and, with ``details``, each
     one's time and reason), rests joined."""
     s = (
-        f"{report['rests_found']} rests found (window {report['window_s']:g} s, threshold "
+        f"{report['rests_found']} rests found (window {report['window_s']:.3g} s, threshold "
         + ", ".join(f"{k} {v:.3g}" for k, v in report["static_threshold"].items())
         + f"× the rest noise variance, shortest {report['min_rest_s']:g} s); "
         f"{len(report['dropped'])} candidate rests dropped"
