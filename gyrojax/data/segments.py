@@ -50,7 +50,8 @@ def rolling_variance(x: np.ndarray, window: int) -> np.ndarray:
 
 
 def window_samples(window_s: float, rate_hz: float) -> int:
-    """Samples in the centred variance window: 2·round(window_s·rate/2) + 1, at least 5."""
+    """Samples in the centred variance window of ``window_s`` s at ``rate_hz`` Hz: 2·round(window_s·rate_hz/2) + 1,
+    at least 5."""
     return max(5, 2 * int(round(window_s * rate_hz / 2)) + 1)
 
 
@@ -111,7 +112,7 @@ class RestDetection:
 
 def rest_summary(report: dict, details: bool = True) -> str:
     """One line from :meth:`RestDetection.to_json`: rests found, candidates dropped (and, with ``details``, each
-    one's time and reason), rests joined."""
+    one's start and end in s and its reason), rests joined."""
     s = (
         f"{report['rests_found']} rests found (window {report['window_s']:.3g} s, threshold "
         + ", ".join(f"{k} {v:.3g}" for k, v in report["static_threshold"].items())
