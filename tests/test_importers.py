@@ -484,8 +484,6 @@ def test_delimiters_and_a_millisecond_time_column(session, tmp_path, capsys, del
 )
 def test_an_option_an_importer_does_not_take_is_refused(fmt, option, tmp_path, capsys):
     inputs = {"imucal": ["a.csv"], "imutk": ["a.mat", "g.mat"], "csv": ["a.csv", "--map", MAP]}[fmt]
-    if fmt == "csv" and option[0] == "--map":
-        pytest.skip("csv takes --map")
     rc = main(["import", fmt, *inputs, *option, "--out", str(tmp_path / "o")])
     err = capsys.readouterr().err
     assert rc == 2 and err.count("\n") == 1, err
