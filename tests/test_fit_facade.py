@@ -1,12 +1,15 @@
 """The one public ``fit``: it dispatches by instrument kind, honours every option the chosen fit can honour and
 refuses the others with one ModelError naming them (never a silent drop)."""
 
+import copy
+
 import numpy as np
 import pytest
 
 from gyrojax import load_record
+from gyrojax.data.records import Record
 from gyrojax.errors import ModelError
-from gyrojax.inference.identify import fit
+from gyrojax.inference.identify import fit, fit_per_instrument
 from gyrojax.inference.result import FitResult
 from gyrojax.inference.triad_result import TriadFit
 from gyrojax.montecarlo.triad import mems_truth
@@ -95,3 +98,12 @@ def test_turntable_noise_default_is_the_ar_fit(turntable):
     assert isinstance(by_default, FitResult)
     assert np.array_equal(by_default.theta, explicit.theta) and np.array_equal(by_default.cov, explicit.cov)
     assert not np.array_equal(by_default.cov, white.cov)  # the option reaches the fit
+
+
+def test_per_instrument_fits_go_through_the_facade(triad):
+    """Two IMUs in one list: one triad fit each, never pooled (instrument.id decides)."""
+    meta = copy.deepcopy(triad.meta)
+    meta["instrument"]["id"] = "imu-2"
+    fits = fit_per_instrument([triad, Record(meta, dict(triad.columns))])
+    assert len(fits) == 2 and all(isinstance(f, TriadFit) for f in fits.values())
+    assert all(f.record_names == [triad.name] for f in fits.values())

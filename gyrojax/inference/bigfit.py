@@ -35,12 +35,13 @@ from gyrojax.errors import GyrojaxError, ModelError, RecordError
 from gyrojax.inference.identifiability import ALIAS_TOL, IdentifiabilityError, alias_message, identifiability
 from gyrojax.inference.identify import DEFAULT_TERMS
 from gyrojax.inference.lstsq import lstsq_normal
+from gyrojax.inference.result import Estimates
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model, jacobian_jit, predict_jit
 
 
 @dataclass
-class ChunkedFit:
+class ChunkedFit(Estimates):
     """Estimates (report units), standard errors and fit statistics of :func:`fit_chunked`."""
 
     model: Model
@@ -52,19 +53,9 @@ class ChunkedFit:
     chunks: int
 
     @property
-    def std(self) -> np.ndarray:
-        """Standard errors in coefficient order, report units (those of ``theta``)."""
-        return np.sqrt(np.clip(np.diag(self.cov), 0.0, None))
-
-    @property
-    def values(self) -> dict:
-        """Estimates by coefficient name, report units (deg/h, deg/h/g, ppm, …)."""
-        return dict(zip(self.model.coefficient_names, map(float, self.theta)))
-
-    @property
-    def stds(self) -> dict:
-        """Standard errors by coefficient name, report units."""
-        return dict(zip(self.model.coefficient_names, map(float, self.std)))
+    def coefficient_names(self):
+        """Coefficient names in θ order (the keys of :attr:`values`, :attr:`stds`)."""
+        return self.model.coefficient_names
 
 
 def _check_chunk(meta, cols, csv_path, offset: int, prev_t: float | None):

@@ -52,7 +52,8 @@ def alias_analysis(jw: np.ndarray, names, labels, order=None, tol: float = ALIAS
 
     Columns are normalised first, so the condition number measures correlation, not units. An alias group is the
     set of labels whose columns carry weight (|v| > 0.05) in a right singular vector whose singular value is
-    below ``tol`` × the largest: a combination of their regressors that the plan leaves (nearly) unseen.
+    below ``tol`` × the largest: a combination of their regressors that the plan leaves (nearly) unseen. Columns
+    that are only floating-point residue (:func:`residue_columns`) are listed as ``unexcited`` instead.
     ``names[k]`` names column k and ``labels[k]`` is what it is reported under (its effect, or the column itself);
     groups are listed in ``order`` (default: the labels' first appearance).
     """
@@ -69,7 +70,11 @@ def alias_analysis(jw: np.ndarray, names, labels, order=None, tol: float = ALIAS
     coef_to_effect = dict(zip(names, labels))
     for i in np.flatnonzero(small):
         v = vt[i]
-        members = {coef_to_effect[names[k]] for k in np.flatnonzero(np.abs(v) > 0.05)}
+        # residue columns are reported as unexcited, not as aliases: several of them span a degenerate null space
+        # whose singular vectors mix them arbitrarily (and with any exact alias), which would invent groups
+        members = {coef_to_effect[names[k]] for k in np.flatnonzero((np.abs(v) > 0.05) & ~residue)}
+        if not members:
+            continue
         merged = [g for g in groups if g & members]
         for g in merged:
             members |= g

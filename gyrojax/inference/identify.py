@@ -210,7 +210,8 @@ def fit_campaign(
         cov = cov * np.outer(g, g)  # Student-t widening: θ̂ ± 2σ keeps its coverage when ν is small
     noise_models = [nz if nz is not None else ARNoise(np.zeros(0), s, s) for nz, s in zip(noises, scales)]
     if why:
-        warnings.warn(f"fit of {', '.join(model.terms)} did not converge: {why}", ConvergenceWarning, stacklevel=2)
+        # stacklevel 3: the caller of the public fit (the facade) is the line to blame
+        warnings.warn(f"fit of {', '.join(model.terms)} did not converge: {why}", ConvergenceWarning, stacklevel=3)
     return FitResult(
         model=model,
         theta=theta,

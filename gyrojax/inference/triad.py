@@ -284,7 +284,7 @@ def fit_triad(
             "assume the noise model and may be too small"
         )
     if why:
-        warnings.warn(f"triad fit with moves did not converge: {why}", ConvergenceWarning, stacklevel=2)
+        warnings.warn(f"triad fit with moves did not converge: {why}", ConvergenceWarning, stacklevel=3)
     scales = {float(r.meta["instrument"].get("gyro_counts_per_dps") or 0.0) for r in recs}
     k = scales.pop() if len(scales) == 1 else None
     return TriadFit(
