@@ -10,11 +10,12 @@
 * :func:`import_csv` — any delimited log, with a column mapping; its clock a time column (s, ms, µs) or a sample
   counter with its rate.
 
-The accelerometer is never taken as calibrated on trust (:func:`accelerometer_in_g`): calibrated by the importer
-(Ferraris' six faces: raw = A a + b by least squares; imu_tk's ellipsoid over the rests) or checked against g, and
-written in g, so that the gyro fit sees the specific force of each pose; a calibration is kept in the record's JSON
-under ``accelerometer_calibration``. Every importer reports what it read under ``import`` in the record's JSON: the
-rests found, the candidates dropped and why, the rests joined, the accelerometer check and its notes.
+The accelerometer is never taken as calibrated on trust (:func:`~gyrojax.data.accelcheck.accelerometer_in_g`):
+calibrated by the importer (Ferraris' six faces: raw = A a + b by least squares; imu_tk's ellipsoid over the rests)
+or checked against g, and written in g, so that the gyro fit sees the specific force of each pose; a calibration is
+kept in the record's JSON under ``accelerometer_calibration``. Every importer reports what it read under ``import``
+in the record's JSON: the rests found, the candidates dropped and why, the rests joined, the accelerometer check and
+its notes.
 """
 
 from __future__ import annotations
@@ -26,6 +27,8 @@ from pathlib import Path
 import numpy as np
 
 from gyrojax import units
+from gyrojax.data.accelcheck import accelerometer_in_g
+from gyrojax.data.logs import TIME_UNITS, file_stem, jitter_note, numeric_columns, read_table, time_from_counter
 from gyrojax.data.record import Record
 from gyrojax.data.segments import MIN_REST_S
 from gyrojax.data.triad import CHANNELS, TRIAD_KIND, validate_triad_columns, validate_triad_meta
@@ -61,77 +64,6 @@ def ferraris_accelerometer(means: dict, g: float = 1.0) -> tuple[np.ndarray, np.
         rhs.append(np.asarray(means[f], dtype=float))
     sol, *_ = np.linalg.lstsq(np.array(rows), np.array(rhs), rcond=None)
     return sol[:3].T, sol[3]
-
-
-DELIMITERS = {",": ",", ";": ";", "tab": "\t", "\t": "\t", "\\t": "\t"}
-"""The delimiters of ``--delimiter`` (``auto``: detected from the file's first lines)."""
-
-
-def sniff_delimiter(path, lines: int = 20) -> str:
-    """The delimiter (``,``, ``;`` or tab) that splits the first ``lines`` non-empty lines of a text file into the
-    same number (≥ 2) of fields, the most fields when several do; :class:`RecordError` naming the file otherwise."""
-    import bz2
-    import gzip
-    import lzma
-
-    opener = {".gz": gzip.open, ".bz2": bz2.open, ".xz": lzma.open}.get(Path(path).suffix.lower(), open)
-    try:
-        with opener(path, "rt", encoding="utf-8") as fh:
-            head = [ln for ln in (fh.readline() for _ in range(4 * lines)) if ln.strip()][:lines]
-    except (OSError, UnicodeDecodeError, EOFError, lzma.LZMAError) as e:
-        raise RecordError(f"{path}: not a readable text table ({str(e).strip()[:120]})") from None
-    best, fields = None, 1
-    for d in (",", ";", "\t"):
-        counts = {ln.count(d) for ln in head}
-        if len(counts) == 1 and (c := counts.pop()) + 1 > fields:
-            best, fields = d, c + 1
-    if best is None:
-        raise RecordError(
-            f"{path}: cannot tell its delimiter (none of ',', ';', tab splits its first lines alike); give --delimiter"
-        )
-    return best
-
-
-def file_stem(path) -> str:
-    """A file's name without its extension and a compression suffix (``log.tsv.gz`` → ``log``)."""
-    p = Path(path)
-    if p.suffix.lower() in (".gz", ".bz2", ".xz"):
-        p = Path(p.stem)
-    return p.stem
-
-
-def read_table(path, delimiter: str | None = None, notes: list | None = None):
-    """A delimited text file as a pandas DataFrame; ``delimiter`` one of :data:`DELIMITERS` or None/``"auto"``
-    (detected, and said in ``notes``). :class:`RecordError` naming the file when it is not a readable table."""
-    import pandas as pd
-
-    if delimiter in (None, "auto"):
-        sep = sniff_delimiter(path)
-        if notes is not None:
-            notes.append(f"delimiter {'tab' if sep == chr(9) else repr(sep)} detected (--delimiter to choose another)")
-    elif delimiter in DELIMITERS:
-        sep = DELIMITERS[delimiter]
-    else:
-        raise RecordError(f"--delimiter {delimiter!r}: give ',', ';', 'tab' or 'auto'")
-    try:
-        return pd.read_csv(path, sep=sep)
-    except (UnicodeDecodeError, ValueError, pd.errors.ParserError, pd.errors.EmptyDataError) as e:
-        raise RecordError(f"{path}: not a readable {sep!r}-separated table ({str(e).strip()[:120]})") from None
-
-
-def numeric_columns(df, cols: list, where: str):
-    """The columns ``cols`` of ``df`` as an (n, k) float array; :class:`RecordError` naming the first row and column
-    that is not a finite number (rows counted as in the file, the header being row 1)."""
-    import pandas as pd
-
-    arr = df[cols].apply(pd.to_numeric, errors="coerce").to_numpy(dtype=float)
-    bad = ~np.isfinite(arr)
-    if bad.any():
-        i, j = np.argwhere(bad)[0]
-        cell = df[cols[j]].iloc[i]
-        hint = " (a decimal comma? the file's numbers need a '.')" if isinstance(cell, str) and "," in cell else ""
-        raise RecordError(f"{where}: row {i + 2}, column {cols[j]!r} is not a finite number: {cell!r}{hint}")
-    return arr
 
 
 def triad_meta(
@@ -458,122 +390,6 @@ def import_imutk(
     )
 
 
-ACC_CALIBRATED_TOL = 0.01
-"""A calibrated accelerometer reads |a| = g at every rest within this fraction (consumer MEMS after calibration:
-0.1–0.5 %; the poses' means have noise far below it). Beyond it the accelerometer is calibrated here."""
-ACC_UNIT_TOL = 0.25
-"""Beyond this fraction off g at rest the unit given is wrong, not the sensor's calibration (a 25 % gain error is
-no accelerometer's); the import is refused."""
-
-
-def sphere_fit(points: np.ndarray) -> tuple[np.ndarray, float]:
-    """Centre and radius of the sphere through ``points`` (k, 3) by linear least squares,
-    |p − c|² = r² ⇔ 2 p·c + (r² − |c|²) = |p|² (closed form; starts the ellipsoid fit in any unit)."""
-    a = np.column_stack([2.0 * points, np.ones(len(points))])
-    sol, *_ = np.linalg.lstsq(a, (points**2).sum(axis=1), rcond=None)
-    c = sol[:3]
-    return c, float(np.sqrt(max(sol[3] + c @ c, 0.0)))
-
-
-def accelerometer_in_g(
-    acc: np.ndarray,
-    intervals: list,
-    acc_unit: str,
-    g_units: float,
-    *,
-    acc_g_per_count: float | None = None,
-    acc_bias0=None,
-    where: str = "accelerometer",
-) -> tuple[np.ndarray, dict | None, list[str], dict]:
-    """The accelerometer in g, never taken as calibrated on trust: returns (specific force (n, 3) in g, its
-    calibration or None, notes, the check: ``unit``, ``calibrated_here``, ``max_rest_magnitude_error`` of the
-    result, relative to the local g).
-
-    ``counts``: calibrated by imu_tk's 9-parameter model (:func:`gyrojax.data.segments.ellipsoid_accelerometer`)
-    fitted to |a| = g over the rests, started from a sphere through the rest means (:func:`sphere_fit`, so any
-    offset and unit works: signed or unsigned counts, even m/s²) or from ``acc_bias0``/``acc_g_per_count``.
-    ``g`` and ``m/s^2``: the rests' |a| is checked against the local g; within :data:`ACC_CALIBRATED_TOL` the data
-    are taken as calibrated, beyond it calibrated as counts are (with a note), beyond :data:`ACC_UNIT_TOL` refused
-    (a unit mistake). Refused too when the calibration leaves |a| ≠ g by more than :data:`ACC_CALIBRATED_TOL` rms
-    or the rests do not point in three dimensions."""
-    from gyrojax.data.segments import ellipsoid_accelerometer, imutk_acc_model
-
-    if acc_unit not in ("g", "m/s^2", "counts"):
-        raise RecordError(f"accelerometer unit (--acc-unit) must be 'g', 'm/s^2' or 'counts', got {acc_unit!r}")
-    means = np.array([acc[s:e].mean(axis=0) for s, e in intervals])
-    notes = []
-    if acc_unit != "counts":
-        scale = 1.0 if acc_unit == "g" else 1.0 / units.G0
-        mag = np.linalg.norm(means * scale, axis=1) / g_units - 1.0
-        worst = float(mag[np.argmax(np.abs(mag))])
-        if abs(worst) <= ACC_CALIBRATED_TOL:
-            check = {"unit": acc_unit, "calibrated_here": False, "max_rest_magnitude_error": abs(worst)}
-            return acc * scale, None, notes, check
-        med = float(np.median(np.linalg.norm(means, axis=1)))
-        if abs(float(np.median(mag))) > ACC_UNIT_TOL:
-            raise RecordError(
-                f"{where}: the accelerometer reads |a| = {med:.4g} {acc_unit} at rest (median of {len(means)} rests), "
-                f"{100 * float(np.median(mag)):+.0f} % from the local g: is --acc-unit {acc_unit} right "
-                "(g, m/s^2, or counts to calibrate)?"
-            )
-        notes.append(
-            f"the accelerometer is not calibrated: |a| at rest is {100 * float(np.median(mag)):+.2f} % from the "
-            f"local g (median; {100 * mag.min():+.2f} to {100 * mag.max():+.2f} % over {len(means)} rests); "
-            "calibrated here by imu_tk's 9-parameter ellipsoid"
-        )
-    if len(means) >= 2:
-        _, sv, _ = np.linalg.svd(means - means.mean(axis=0))
-    if len(means) < 9 or sv[2] < 1e-3 * sv[0]:
-        raise RecordError(
-            f"{where}: the accelerometer needs calibrating (--acc-unit {acc_unit}) and {len(means)} rests that do not "
-            "point in three dimensions cannot calibrate its 9 parameters; give calibrated g"
-        )
-    centre, radius = sphere_fit(means)
-    bias0 = centre if acc_bias0 is None else np.asarray(acc_bias0, dtype=float)
-    scale0 = acc_g_per_count or g_units / (radius or float(np.linalg.norm(means[0] - bias0)))
-    params = ellipsoid_accelerometer(means, g_units, scale0, bias0)
-    acc_cal = imutk_acc_model(params, acc)
-    resid = np.linalg.norm(imutk_acc_model(params, means), axis=1) / g_units - 1.0
-    rms = float(np.sqrt(np.mean(resid**2)))
-    if rms > ACC_CALIBRATED_TOL:
-        raise RecordError(
-            f"{where}: imu_tk's ellipsoid calibration of the accelerometer leaves |a| off g by {100 * rms:.2g} % rms "
-            f"over {len(means)} rests: not one accelerometer in --acc-unit {acc_unit}, or rests that are not at rest"
-        )
-    notes.append(
-        f"accelerometer ({acc_unit}) calibrated by imu_tk's ellipsoid over {len(means)} rests: scale "
-        + ", ".join(f"{v:.5g}" for v in params[3:6])
-        + f" g per {acc_unit if acc_unit != 'counts' else 'count'}, bias "
-        + ", ".join(f"{v:.4g}" for v in params[6:9])
-        + f"; |a| = g to {100 * rms:.2g} % rms"
-    )
-    calib = {
-        "model": "imu_tk: a = T K (raw - b) in g; params alpha_yz, alpha_zy, alpha_zx, s_x..s_z, b_x..b_z",
-        "raw_unit": acc_unit,
-        "params": params.tolist(),
-        "rms_magnitude_error": rms,
-    }
-    check = {"unit": acc_unit, "calibrated_here": True, "max_rest_magnitude_error": float(np.abs(resid).max())}
-    return acc_cal, calib, notes, check
-
-
-def jitter_note(t: np.ndarray, where: str) -> str | None:
-    """A note when the time steps of ``t`` (s) jitter (rms deviation from their median above 1 % of it, or a step off
-    by more than a quarter of it; None otherwise): the fit takes a segment's samples as evenly spaced between its
-    ends, so a receive-time jitter enters the moves' durations."""
-    dt = np.diff(np.asarray(t, dtype=float))
-    med = float(np.median(dt))
-    dev = np.abs(dt - med)
-    if med <= 0 or (np.sqrt(np.mean(dev**2)) <= 0.01 * med and dev.max() <= 0.25 * med):
-        return None
-    return (
-        f"{where} jitters: steps {1e3 * dt.min():.3g}–{1e3 * dt.max():.3g} ms around a median of {1e3 * med:.3g} ms "
-        f"({100 * np.mean(dev > 0.05 * med):.2g} % of the steps off by > 5 %, rms {1e3 * np.sqrt(np.mean(dev**2)):.2g} "
-        "ms); the fit spaces each segment's samples evenly between its ends: a sample counter (sample=COL with "
-        "--rate-hz) is the better clock if the log has one"
-    )
-
-
 def triad_from_arrays(
     t,
     acc,
@@ -656,31 +472,6 @@ def triad_from_arrays(
 CSV_KEYS = ("time", "time_s", "sample", "gyro_x", "gyro_y", "gyro_z", "acc_x", "acc_y", "acc_z")
 """Keys of :func:`import_csv`'s column mapping: ``time`` (``time_s`` the same), ``sample`` (a sample counter), the
 six sensor channels."""
-TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6}
-
-
-def time_from_counter(c: np.ndarray, rate_hz: float | None, where: str) -> np.ndarray:
-    """Times (s) from a gap-free sample counter at ``rate_hz`` counts per second: every step the same positive
-    integer (a counter that wraps to 0 is unwrapped); :class:`RecordError` naming the row of a gap otherwise."""
-    if not rate_hz or not rate_hz > 0:
-        raise RecordError(f"{where}: a sample counter needs its rate: give --rate-hz (counts per second)")
-    c = np.asarray(c, dtype=float)
-    if np.any(c != np.round(c)):
-        i = int(np.flatnonzero(c != np.round(c))[0])
-        raise RecordError(f"{where}: row {i + 2}: the sample counter holds {c[i]!r}, not an integer")
-    d = np.diff(c)
-    if d.size and np.any(d < 0):  # a wrapping counter: modulo the largest value seen + 1
-        period = c.max() + 1
-        d = np.where(d < 0, d + period, d)
-    step = float(np.median(d)) if d.size else 1.0
-    bad = np.flatnonzero(d != step)
-    if step <= 0 or bad.size:
-        i = int(bad[0]) if bad.size else 0
-        raise RecordError(
-            f"{where}: row {i + 3}: the sample counter steps from {c[i]:g} to {c[i + 1]:g} (its step is {step:g}): "
-            "a gap or repeat; a gap-free counter is needed"
-        )
-    return np.concatenate([[0.0], np.cumsum(d)]) / float(rate_hz)
 
 
 def import_csv(
