@@ -55,6 +55,9 @@ from gyrojax.physics import triad as tp
 
 DEFAULT_STATIC_TERMS = ("D_F", "D_I", "D_O", "D_S")
 DEFAULT_ROTATION_TERMS = DEFAULT_STATIC_TERMS + ("sf_error", "ia_misalignment")
+MAX_NOISE_PASSES = 8  # fits at fixed noise, the noise updated with the fitted S between them (2–3 suffice)
+NOISE_PASS_TOL = 1e-10  # relative change of S below which the noise is settled (χ² then changes by ≲ 1e-10)
+MOVE_DIVERGED_DEG = 10.0  # median angle left at the moves above which the fit of the moves has diverged
 NW_MAX_LAG = 50  # samples: longest autocovariance lag of the long-run variance (MEMS filters span a few samples)
 
 
@@ -231,28 +234,50 @@ def fit_triad(
     base = np.asarray(segment_means_jit(model, theta0, arrays))
     jac = np.asarray(segment_jacobian_jit(model, theta0, arrays))
     y = np.concatenate([s.y for s in segments])
-    # whitening by the Cholesky factor of each segment's 3×3 covariance block
-    rw, jw = np.empty_like(y), np.empty_like(jac)
-    for i, s in enumerate(segments):
-        block = np.diag(q / s.n) + s.extra
-        low = np.linalg.cholesky(block)
-        sl = slice(3 * i, 3 * i + 3)
-        rw[sl] = np.linalg.solve(low, y[sl] - base[sl])
-        jw[sl] = np.linalg.solve(low, jac[sl])
-    lin_r, lin_j = rw, jw
-    theta = np.zeros(3 * model.size)
-    move_w = _move_whitening(moves, q)
     packed = pack_moves(moves) if moves else None
-    iterations, why = 1, ""
-    if moves:  # Levenberg–Marquardt on the linear rows and the moves' direction residuals (2 whitened rows per move)
+    # the noise of every row in indicated units at the fitted S (whiten_segments, _move_whitening): the model is
+    # linear in S, so a record whose nominal scale is off by k gives the same fit with S, b, G times k, the same χ²
+    theta = np.zeros(3 * model.size)
+    if moves and not any(s.kind == "rotation" for s in segments):
+        # statics alone see S only through the vertical Earth rate (≤ 15 deg/h): the start holds S = I and fits
+        # bias and g-terms, the moves then find S (a free S would split Ω sin φ into absurd scale and misalignment)
+        free = np.array([not _scale_coefficient(n) for n in names])
+    else:
+        free = np.ones(len(names), dtype=bool)
+    lin_r, lin_j = whiten_segments(segments, y - base, jac, q, np.eye(3))
+    theta[free] = solve(lin_j[:, free], lin_r)[0]
+    iterations, why, s_prev = 0, "", None
+    # S is seen by rotations or moves only; without them the body-rate covariances stay at the nominal scale
+    passes = MAX_NOISE_PASSES if moves or any(s.kind == "rotation" for s in segments) else 1
+    for _pass in range(passes):  # fixed noise per pass; the passes update it with the fitted S
+        s_mat = np.asarray(linear_matrices(model, jnp.asarray(theta))[1]) if passes > 1 else np.eye(3)
+        if s_prev is not None and np.max(np.abs(s_mat - s_prev)) <= NOISE_PASS_TOL * np.max(np.abs(s_prev)):
+            break
+        _check_scale_matrix(s_mat)
+        s_prev = s_mat
+        lin_r, lin_j = whiten_segments(segments, y - base, jac, q, s_mat)
+        if moves:  # Levenberg–Marquardt on the linear rows and the moves' direction residuals (2 rows per move)
+            move_w = _move_whitening(moves, q, s_mat)
 
-        def system(th):
-            mr, mj = _move_rows(model, th, packed, move_w)
-            return np.concatenate([lin_r - lin_j @ th, mr]), np.concatenate([lin_j, mj])
+            def system(th, lin_r=lin_r, lin_j=lin_j, move_w=move_w):
+                mr, mj = _move_rows(model, th, packed, move_w)
+                return np.concatenate([lin_r - lin_j @ th, mr]), np.concatenate([lin_j, mj])
 
-        theta = solve(lin_j, lin_r)[0]  # statics (+ rotations): bias and g-terms; scale factor nominal
-        theta, iterations, why = damped_least_squares(system, theta, max_iter)  # ≈ one evaluation per iteration
+            theta, n_eval, why = damped_least_squares(system, theta, max_iter)
+            iterations += n_eval
+            if why:
+                break
+        else:
+            theta = np.zeros(3 * model.size) + solve(lin_j, lin_r)[0]
+            iterations += 1
+    else:
+        if passes > 1:
+            why = why or f"the noise did not settle with the fitted scale in {MAX_NOISE_PASSES} passes"
+    if moves:
         rw, jw = system(theta)
+    else:
+        rw, jw = lin_r, lin_j
+        theta = np.zeros(3 * model.size)
     report = alias_analysis(jw, names, names)
     not_excited = report["unexcited"]
     if (report["aliases"] or not_excited) and not allow_aliases:
@@ -261,6 +286,7 @@ def fit_triad(
     theta = theta + step
     bad = ~np.isfinite(np.diag(cov))
     if moves:
+        _check_moves_converged(model, theta, packed, moves)
         mr, _ = _move_rows(model, theta, packed, move_w)
         e = np.concatenate([lin_r - lin_j @ theta, mr])
     else:
@@ -322,15 +348,66 @@ def _channel_variances(noise_q) -> np.ndarray:
     return q
 
 
-def _move_whitening(moves, q) -> list:
+def _scale_coefficient(name: str) -> bool:
+    """True for the coefficients of S (E_SF, M_O, M_S of any channel)."""
+    return tp.split_channel_name(name)[0] in ("E_SF", "M_O", "M_S")
+
+
+def whiten_segments(segments, resid, jac, q, s_mat):
+    """Whitened residual and Jacobian rows of the segment means, by the Cholesky factor of each segment's 3×3
+    covariance diag(q / n) + S E Sᵀ: q the channels' long-run noise (indicated units, (deg/h)²), E the segment's
+    covariance of body rates (heading, angle error; deg²/h²) seen through the scale-and-misalignment matrix S."""
+    rw, jw = np.empty_like(resid), np.empty_like(jac)
+    for i, seg in enumerate(segments):
+        low = np.linalg.cholesky(np.diag(q / seg.n) + s_mat @ seg.extra @ s_mat.T)
+        sl = slice(3 * i, 3 * i + 3)
+        rw[sl] = np.linalg.solve(low, resid[sl])
+        jw[sl] = np.linalg.solve(low, jac[sl])
+    return rw, jw
+
+
+def _check_scale_matrix(s_mat) -> None:
+    """Refuse a fitted S that no gyro triad has (left-handed, or a singular value outside 0.2–5): the fit of the
+    moves has diverged, and its numbers are not an answer."""
+    sv = np.linalg.svd(s_mat, compute_uv=False)
+    if np.linalg.det(s_mat) <= 0 or sv.min() < 0.2 or sv.max() > 5.0:
+        raise ModelError(
+            f"the triad fit with moves diverged: the fitted scale-and-misalignment matrix has singular values "
+            f"{np.array2string(sv, precision=3)} and determinant {np.linalg.det(s_mat):.3g} (a triad's are near 1); "
+            "check the record's latitude, the nominal gyro scale and the move segments"
+        )
+
+
+def move_angles_deg(model, theta, packed) -> np.ndarray:
+    """Angle (deg) between each move's measured final Up and the Up carried by the calibrated rates at θ."""
+    r = np.asarray(moves_residual_jit(model, jnp.asarray(theta), *packed))
+    return np.degrees(2.0 * np.arcsin(np.clip(np.linalg.norm(r, axis=1) / 2.0, 0.0, 1.0)))
+
+
+def _check_moves_converged(model, theta, packed, moves) -> None:
+    """Refuse a fit of the moves that leaves them far off (median > :data:`MOVE_DIVERGED_DEG`): diverged."""
+    _check_scale_matrix(np.asarray(linear_matrices(model, jnp.asarray(theta))[1]))
+    ang = move_angles_deg(model, theta, packed)
+    if np.median(ang) > MOVE_DIVERGED_DEG:
+        worst = int(np.argmax(ang))
+        raise ModelError(
+            f"the triad fit with moves diverged: the fitted model leaves the moves {np.median(ang):.3g} deg off in "
+            f"the median (worst {moves[worst].name}: {ang[worst]:.3g} deg); check the record's latitude, the nominal "
+            "gyro scale and the move segments"
+        )
+
+
+def _move_whitening(moves, q, s_mat) -> list:
     """Per move: (P (3, 2) basis ⟂ u_to, σ (rad) of each of the two residual components). The variance is the
-    gyro noise integrated over the move (mean long-run variance of the channels × n dt²), the noise of the two Up
-    directions, and the Earth turning Up unseen during the move (:attr:`Move.earth_var`, heading unknown)."""
+    gyro noise integrated over the move — in calibrated units, S⁻¹ diag(q) S⁻ᵀ, its mean over the three axes
+    (the body turns during the move) × n dt² — the noise of the two Up directions, and the Earth turning Up
+    unseen during the move (:attr:`Move.earth_var`, heading unknown)."""
     out = []
-    q_mean = float(np.mean(q))
+    s_inv = np.linalg.inv(s_mat)
+    q_cal = float(np.trace(s_inv @ np.diag(q) @ s_inv.T)) / 3.0
     for m in moves:
         n = len(m.g)
-        angle_var = q_mean * n * m.dt**2 * units.DEG_PER_H**2
+        angle_var = q_cal * n * m.dt**2 * units.DEG_PER_H**2
         var = angle_var + m.earth_var + m.var_dir
         u = m.u_to
         a = np.eye(3)[int(np.argmin(np.abs(u)))]

@@ -71,14 +71,25 @@ def ferraris_coverage(draws: int, latitude_known: bool = True, angle_std_deg: fl
     return np.array(hits)
 
 
-def multiposition_coverage(draws: int, poses: int = 12, truth=None) -> np.ndarray:
+EARTH_MODES = ("latitude unknown", "latitude known", "off")
+"""How a simulated session with moves holds the Earth rate: in the motion with the latitude unknown to the fit
+(``null``) or given to it, or out of the motion and the record."""
+
+
+def multiposition_coverage(
+    draws: int, poses: int = 12, truth=None, earth: str = "latitude unknown", first_seed: int = 0
+) -> np.ndarray:
     """Inside-±2σ indicator, shape (draws, 21), of simulated imu_tk-style sessions (``poses`` static poses of random
-    attitude, gravity-to-gravity moves between them, latitude unknown to the fit) fitted by the triad fit; the
-    g-terms compared with the truth plus the vertical Earth rate they absorb ((Ω sin φ / |a|) S, deg/h/g)."""
+    attitude, gravity-to-gravity moves between them) fitted by the triad fit, the Earth rate as ``earth`` says
+    (:data:`EARTH_MODES`); with the latitude unknown the g-terms are compared with the truth plus the vertical Earth
+    rate they absorb ((Ω sin φ / |a|) S, deg/h/g). Seeds ``first_seed`` … ``first_seed + draws − 1``."""
+    if earth not in EARTH_MODES:
+        raise ValueError(f"earth must be one of {EARTH_MODES}, got {earth!r}")
     truth = truth or mems_truth()
-    want = with_vertical_earth_rate(truth)
+    want = with_vertical_earth_rate(truth) if earth == "latitude unknown" else dict(truth)
+    kw = {"earth_rate": earth != "off", "fit_latitude": earth == "latitude known", "latitude_deg": LATITUDE}
     hits = []
-    for seed in range(draws):
-        res = fit_triad(simulate_multiposition(truth, poses=poses, seed=seed, latitude_deg=LATITUDE))
+    for seed in range(first_seed, first_seed + draws):
+        res = fit_triad(simulate_multiposition(truth, poses=poses, seed=seed, **kw))
         hits.append([abs(res.values[q] - want[q]) <= 2 * res.stds[q] for q in truth])
     return np.array(hits)

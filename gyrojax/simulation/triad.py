@@ -201,13 +201,15 @@ def simulate_multiposition(
     latitude_deg: float = 49.6,
     gravity_mps2: float = 9.81,
     earth_rate: bool = True,
+    fit_latitude: bool = False,
     seed: int = 0,
 ) -> Record:
     """An imu_tk-style session as an ``imu-triad`` record: ``poses`` static poses of random attitude, each joined to
     the next by a gravity-to-gravity ``move`` segment (a turn about the fixed body axis that takes one attitude to
     the next, rate profile ∝ sin(π t / T) whose samples sum to the angle). Gyro channels indicate the triad model
     plus white noise (deg/s); accelerometers the true specific force (g) plus white noise. ``earth_rate=False``
-    leaves the Earth rate out of the motion and the record (for exact round trips). Times in s (``static_s`` and
+    leaves the Earth rate out of the motion and the record (for exact round trips); ``fit_latitude`` writes the
+    site latitude into the record (else ``null``: unknown to the fit). Times in s (``static_s`` and
     ``move_s`` one duration, or one per pose and per move), latitude in deg."""
     rng = np.random.default_rng(seed)
     model = tp.channel_model(terms)
@@ -238,7 +240,7 @@ def simulate_multiposition(
     meta = triad_meta(
         f"multiposition-sim-{seed}",
         segs,
-        latitude_deg=None,
+        latitude_deg=latitude_deg if fit_latitude else None,
         gravity_mps2=gravity_mps2,
         notes="simulated multi-position session with gravity-to-gravity moves (gyrojax.simulation.triad)",
     )
