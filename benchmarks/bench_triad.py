@@ -5,13 +5,14 @@
    per-channel bias, g-sensitivity, scale-factor error and misalignment of MEMS size) fitted by
    :func:`gyrojax.inference.triad.fit_triad`; printed: the fraction of the 21 coefficients × draws inside θ̂ ± 2σ̂
    (0.9545 for an honest σ̂), under three settings: latitude known; latitude unknown (D_I then holds Ω sin φ);
-   hand angle error σ_Θ = 0.5° declared and simulated; and imu_tk-style sessions (12 random poses, gravity-to-gravity
-   moves between them, latitude unknown; :func:`gyrojax.montecarlo.triad.multiposition_coverage`).
+   hand angle error σ_Θ = 0.5° declared and simulated; and imu_tk-style sessions (``--poses`` random poses,
+   gravity-to-gravity moves between them; :func:`gyrojax.montecarlo.triad.multiposition_coverage`) with the
+   latitude known, unknown and the Earth rate off.
 2. Speed: the vendored imucal session (tests/data/imucal) calibrated by imucal's FerrarisCalibration and by
    gyrojax (import + fit, warm: the fit compiled once), as a ratio. imucal is an optional dependency (``bench``
    extra); without it only the gyrojax time is printed.
 
-    python -m benchmarks.bench_triad [--draws 400] [--moves-draws 200] [--repeat 20]
+    python -m benchmarks.bench_triad [--draws 400] [--moves-draws 200] [--poses 20] [--repeat 20]
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ import numpy as np
 
 from gyrojax.data.importers import import_imucal
 from gyrojax.inference.triad import fit_triad
-from gyrojax.montecarlo.triad import ferraris_coverage, multiposition_coverage
+from gyrojax.montecarlo.triad import EARTH_MODES, ferraris_coverage, multiposition_coverage
 
 SESSION = Path(__file__).resolve().parent.parent / "tests" / "data" / "imucal" / "annotated_session.csv"
 
@@ -62,6 +63,7 @@ def main(argv=None) -> None:
     p = argparse.ArgumentParser()
     p.add_argument("--draws", type=int, default=400)
     p.add_argument("--moves-draws", type=int, default=200)
+    p.add_argument("--poses", type=int, default=20)
     p.add_argument("--repeat", type=int, default=20)
     a = p.parse_args(argv)
     sd = math.sqrt(0.9545 * 0.0455 / (21 * a.draws))
@@ -78,13 +80,15 @@ def main(argv=None) -> None:
             f"  {label:26s} {h.mean():.4f} (independent-draw sd {sd:.4f}); per coefficient {per.min():.3f}–"
             f"{per.max():.3f}; {time.perf_counter() - t0:.1f} s"
         )
-    t0 = time.perf_counter()
-    h = multiposition_coverage(a.moves_draws)
-    per = h.mean(axis=0)
-    print(
-        f"  {'12 poses + 11 moves (imu_tk)':26s} {h.mean():.4f} ({a.moves_draws} draws); per coefficient "
-        f"{per.min():.3f}–{per.max():.3f}; {time.perf_counter() - t0:.1f} s"
-    )
+    for earth in EARTH_MODES:
+        t0 = time.perf_counter()
+        h = multiposition_coverage(a.moves_draws, poses=a.poses, earth=earth)
+        per = h.mean(axis=0)
+        label = f"{a.poses} poses + moves, {earth}"
+        print(
+            f"  {label:26s} {h.mean():.4f} ({a.moves_draws} draws); per coefficient "
+            f"{per.min():.3f}–{per.max():.3f}; {time.perf_counter() - t0:.1f} s"
+        )
     tg = time_gyrojax(a.repeat)
     ti = time_imucal(a.repeat)
     print(f"imucal session (9413 samples): gyrojax import+fit {1e3 * tg:.1f} ms (warm)", end="")
