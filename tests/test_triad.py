@@ -180,7 +180,7 @@ def test_monte_carlo_coverage_of_a_ferraris_session():
 
 
 def test_saved_triad_fit_loads_back_whole(tmp_path):
-    """Strict JSON tagged gyrojax-triad-fit 1; everything but the segments' sample arrays (documented as not
+    """Strict JSON tagged gyrojax-triad-fit 2; everything but the segments' sample arrays (documented as not
     stored) comes back equal, also with an unseen coefficient (NaN covariance)."""
     rec = simulate_ferraris(TRUTH, seed=8)
     fits = [
@@ -191,7 +191,7 @@ def test_saved_triad_fit_loads_back_whole(tmp_path):
     for i, res in enumerate(fits):
         path = res.save(tmp_path / f"triad{i}.json")
         d = strict_json(path.read_text())
-        assert d["format"] == "gyrojax-triad-fit" and d["format_version"] == 1
+        assert d["format"] == "gyrojax-triad-fit" and d["format_version"] == 2
         back = load_triad_fit(path)
         assert back.segments == []
         assert_same(back, res, skip=("segments",))

@@ -12,8 +12,9 @@ RESULT_VERSION = 2
 exact noise models, the Satterthwaite degrees of freedom and strict JSON)."""
 TRIAD_FORMAT = "gyrojax-triad-fit"
 """The ``format`` of a saved imu-triad fit (:meth:`gyrojax.inference.triad_result.TriadFit.save`)."""
-TRIAD_VERSION = 1
-"""The ``format_version`` of :data:`TRIAD_FORMAT` this gyrojax writes."""
+TRIAD_VERSION = 2
+"""The ``format_version`` of :data:`TRIAD_FORMAT` this gyrojax writes; it reads 1 to this one (version 2 added the
+variance components and the per-segment residuals, whitened and in natural units)."""
 LEGACY_FORMAT = "gyrojax-fit-1"
 """The ``format`` of 0.2's saved fits, turntable and imu-triad alike (the version was part of the tag)."""
 

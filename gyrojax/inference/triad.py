@@ -49,6 +49,7 @@ from gyrojax.errors import ConvergenceWarning, ModelError
 from gyrojax.inference.campaign import check_one_instrument
 from gyrojax.inference.identifiability import IdentifiabilityError, alias_analysis, alias_message, residue_columns
 from gyrojax.inference.solver import damped_least_squares, solve
+from gyrojax.inference.triad_components import Group, estimate_components
 from gyrojax.inference.triad_result import TriadFit
 from gyrojax.noise.whiten import pooled_autocovariance
 from gyrojax.physics import triad as tp
@@ -186,6 +187,7 @@ def fit_triad(
     allow_aliases: bool = False,
     noise_q=None,
     max_iter: int = 30,
+    components: bool = True,
 ) -> TriadFit:
     """Fit per-channel SDF coefficients of a gyro triad to ``imu-triad`` records of one instrument (module doc).
 
@@ -198,6 +200,8 @@ def fit_triad(
       noise_q: per-channel long-run noise variance (deg/h)² per sample, instead of estimating it.
       max_iter: iterations of the fit of gravity-to-gravity moves (the only nonlinear part): at most this many
         evaluations of the moves' residual by Levenberg–Marquardt (about one per iteration; 5 to 10 suffice).
+      components: in a session with moves, estimate a per-pose bias scatter and a per-move angle noise by REML
+        (:mod:`gyrojax.inference.triad_components`) and let σ carry them (False: white noise only).
 
     Returns: a :class:`TriadFit`; coefficients ``<name>[<channel>]`` in report units.
     Raises: :class:`~gyrojax.inference.identifiability.IdentifiabilityError` naming what the segments cannot separate.
@@ -273,7 +277,22 @@ def fit_triad(
     else:
         if passes > 1:
             why = why or f"the noise did not settle with the fitted scale in {MAX_NOISE_PASSES} passes"
+    tau2 = {}
     if moves:
+        base_w = (lin_r, lin_j, move_w)  # the white-noise model's rows: its χ² says how poor that model is
+        if components and not why:
+            groups = _component_groups(model, segments, y - base, jac, q, s_mat, theta, packed, move_w)
+            tau2 = estimate_components(groups)
+        if any(v > 0 for v in tau2.values()):  # refit with the components in the covariance
+            lin_r, lin_j = whiten_segments(segments, y - base, jac, q, s_mat, tau2.get("pose", 0.0))
+            move_w = _move_whitening(moves, q, s_mat, tau2.get("move", 0.0))
+
+            def system(th, lin_r=lin_r, lin_j=lin_j, move_w=move_w):
+                mr, mj = _move_rows(model, th, packed, move_w)
+                return np.concatenate([lin_r - lin_j @ th, mr]), np.concatenate([lin_j, mj])
+
+            theta, n_eval, why = damped_least_squares(system, theta, max_iter)
+            iterations += n_eval
         rw, jw = system(theta)
     else:
         rw, jw = lin_r, lin_j
@@ -287,13 +306,15 @@ def fit_triad(
     bad = ~np.isfinite(np.diag(cov))
     if moves:
         _check_moves_converged(model, theta, packed, moves)
-        mr, _ = _move_rows(model, theta, packed, move_w)
-        e = np.concatenate([lin_r - lin_j @ theta, mr])
+        lr0, lj0, mw0 = base_w
+        mr, _ = _move_rows(model, theta, packed, mw0)
+        e = np.concatenate([lr0 - lj0 @ theta, mr])
     else:
         e = rw - np.where(residue_columns(jw), 0.0, jw) @ theta
     dof = int(len(e) - report["rank"])
     chi2 = float(e @ e)
     raw_res = y - base - jac @ np.where(bad, 0.0, theta)
+    seg_rows = _segment_residuals(segments, e, raw_res, moves, model, theta, packed, mw0 if moves else None)
     mode = " / ".join(sorted(modes))
     notes = []
     if "latitude unknown" in modes and any(t == "D_I" for t in model.terms):
@@ -304,10 +325,18 @@ def fit_triad(
             "its mean square over the sites of the sphere, (2/3) (15.04 deg/h)^2"
         )
     if dof > 0 and stats.chi2.sf(chi2, dof) < 0.01:
+        comp = _components_report(tau2)
+        if any(v > 0 for v in comp.values()):
+            tail = "the standard errors include the variance components estimated by REML: " + ", ".join(
+                f"{k} {v:.3g}" for k, v in comp.items()
+            )
+        else:
+            tail = "the standard errors assume the noise model and may be too small"
+        drivers = ", ".join(f"{r['name']} ({r['chi2']:.3g})" for r in sorted(seg_rows, key=lambda r: -r["chi2"])[:3])
         notes.append(
             f"the segment means scatter more than the sample noise explains (chi2 {chi2:.3g} on {dof} dof, "
-            f"p {stats.chi2.sf(chi2, dof):.2g}): bias shifts between poses or a missing effect; the standard errors "
-            "assume the noise model and may be too small"
+            f"p {stats.chi2.sf(chi2, dof):.2g}; largest shares: {drivers}): bias shifts between poses, hand-move "
+            f"errors or a missing effect; {tail}"
         )
     if why:
         warnings.warn(f"triad fit with moves did not converge: {why}", ConvergenceWarning, stacklevel=3)
@@ -331,6 +360,8 @@ def fit_triad(
         iterations=iterations,
         converged=not why,
         convergence_note=why,
+        variance_components=_components_report(tau2),
+        segment_residuals=seg_rows,
     )
 
 
@@ -353,13 +384,14 @@ def _scale_coefficient(name: str) -> bool:
     return tp.split_channel_name(name)[0] in ("E_SF", "M_O", "M_S")
 
 
-def whiten_segments(segments, resid, jac, q, s_mat):
+def whiten_segments(segments, resid, jac, q, s_mat, pose_var: float = 0.0):
     """Whitened residual and Jacobian rows of the segment means, by the Cholesky factor of each segment's 3×3
     covariance diag(q / n) + S E Sᵀ: q the channels' long-run noise (indicated units, (deg/h)²), E the segment's
-    covariance of body rates (heading, angle error; deg²/h²) seen through the scale-and-misalignment matrix S."""
+    covariance of body rates (heading, angle error; deg²/h²) seen through the scale-and-misalignment matrix S;
+    ``pose_var`` the per-pose bias scatter τ_b² I₃ added to every static pose ((deg/h)²)."""
     rw, jw = np.empty_like(resid), np.empty_like(jac)
     for i, seg in enumerate(segments):
-        low = np.linalg.cholesky(np.diag(q / seg.n) + s_mat @ seg.extra @ s_mat.T)
+        low = np.linalg.cholesky(_segment_cov(seg, q, s_mat) + (pose_var if seg.kind == "static" else 0.0) * np.eye(3))
         sl = slice(3 * i, 3 * i + 3)
         rw[sl] = np.linalg.solve(low, resid[sl])
         jw[sl] = np.linalg.solve(low, jac[sl])
@@ -397,18 +429,88 @@ def _check_moves_converged(model, theta, packed, moves) -> None:
         )
 
 
-def _move_whitening(moves, q, s_mat) -> list:
+def _components_report(tau2: dict) -> dict:
+    """The REML components as standard deviations in report units (empty when none were estimated)."""
+    out = {}
+    if "pose" in tau2:
+        out["pose_bias_scatter_deg_per_h"] = float(np.sqrt(tau2["pose"]))
+    if "move" in tau2:
+        out["move_angle_noise_deg"] = float(np.degrees(np.sqrt(tau2["move"])))
+    return out
+
+
+def _segment_residuals(segments, e, raw_res, moves, model, theta, packed, move_w) -> list:
+    """Per segment (poses, rotations, then moves): the residual whitened by the white-noise model (its rows of
+    χ², dimensionless), in natural units (deg/h for poses and rotations; deg for a move: its two direction
+    components and the angle between measured and carried Up) and its share of χ²."""
+    rows = []
+    for i, seg in enumerate(segments):
+        w = e[3 * i : 3 * i + 3]
+        rows.append(
+            {
+                "name": seg.name,
+                "kind": seg.kind,
+                "whitened": w.tolist(),
+                "natural": raw_res[3 * i : 3 * i + 3].tolist(),
+                "unit": "deg/h",
+                "chi2": float(w @ w),
+            }
+        )
+    if moves:
+        r = np.asarray(moves_residual_jit(model, jnp.asarray(theta), *packed))
+        ang = move_angles_deg(model, theta, packed)
+        off = 3 * len(segments)
+        for k, (m, (p, _sd)) in enumerate(zip(moves, move_w)):
+            w = e[off + 2 * k : off + 2 * k + 2]
+            rows.append(
+                {
+                    "name": m.name,
+                    "kind": "move",
+                    "whitened": w.tolist(),
+                    "natural": np.degrees(p.T @ r[k]).tolist(),
+                    "angle_deg": float(ang[k]),
+                    "unit": "deg",
+                    "chi2": float(w @ w),
+                }
+            )
+    return rows
+
+
+def _segment_cov(seg, q, s_mat) -> np.ndarray:
+    """White-noise covariance (3, 3) of a segment's mean, indicated units (:func:`whiten_segments`)."""
+    return np.diag(q / seg.n) + s_mat @ seg.extra @ s_mat.T
+
+
+def _component_groups(model, segments, resid, jac, q, s_mat, theta, packed, move_w) -> list:
+    """The rows of the fit at θ as :class:`~gyrojax.inference.triad_components.Group` s, natural units: each
+    segment's 3 rows (static poses carry the bias-scatter component), each move's 2 direction rows (the angle
+    noise component)."""
+    groups = []
+    for i, seg in enumerate(segments):
+        sl = slice(3 * i, 3 * i + 3)
+        kind = "pose" if seg.kind == "static" else ""
+        groups.append(Group(_segment_cov(seg, q, s_mat), resid[sl] - jac[sl] @ theta, jac[sl], kind))
+    th = jnp.asarray(theta)
+    r = np.asarray(moves_residual_jit(model, th, *packed))
+    j = -np.asarray(moves_jacobian_jit(model, th, *packed))
+    for k, (p, sd) in enumerate(move_w):
+        groups.append(Group(sd**2 * np.eye(2), p.T @ r[k], p.T @ j[k], "move"))
+    return groups
+
+
+def _move_whitening(moves, q, s_mat, angle_var_extra: float = 0.0) -> list:
     """Per move: (P (3, 2) basis ⟂ u_to, σ (rad) of each of the two residual components). The variance is the
     gyro noise integrated over the move — in calibrated units, S⁻¹ diag(q) S⁻ᵀ, its mean over the three axes
     (the body turns during the move) × n dt² — the noise of the two Up directions, and the Earth turning Up
-    unseen during the move (:attr:`Move.earth_var`, heading unknown)."""
+    unseen during the move (:attr:`Move.earth_var`, heading unknown); ``angle_var_extra`` the per-move angle noise
+    τ_m² (rad², :mod:`gyrojax.inference.triad_components`)."""
     out = []
     s_inv = np.linalg.inv(s_mat)
     q_cal = float(np.trace(s_inv @ np.diag(q) @ s_inv.T)) / 3.0
     for m in moves:
         n = len(m.g)
         angle_var = q_cal * n * m.dt**2 * units.DEG_PER_H**2
-        var = angle_var + m.earth_var + m.var_dir
+        var = angle_var + m.earth_var + m.var_dir + angle_var_extra
         u = m.u_to
         a = np.eye(3)[int(np.argmin(np.abs(u)))]
         e1 = np.cross(u, a)

@@ -40,6 +40,14 @@ class TriadFit(Estimates):
     iterations: int = 1  # evaluations of the moves' Levenberg–Marquardt fit (1: no moves, one linear solve)
     converged: bool = True
     convergence_note: str = ""  # why the moves' fit did not converge ("" when it did)
+    variance_components: dict = field(default_factory=dict)  # REML: pose bias scatter deg/h, move angle noise deg
+    segment_residuals: list = field(default_factory=list)  # per pose/rotation/move: whitened, natural, chi2
+
+    def chi2_drivers(self, top: int = 3) -> list:
+        """The segments with the largest share of χ² (white-noise model): [(name, share)], largest first."""
+        rows = sorted(self.segment_residuals, key=lambda r: -r["chi2"])[:top]
+        total = sum(r["chi2"] for r in self.segment_residuals) or 1.0
+        return [(r["name"], r["chi2"] / total) for r in rows]
 
     @property
     def coefficient_names(self) -> list:
@@ -125,6 +133,8 @@ class TriadFit(Estimates):
                 {"name": s.name, "kind": s.kind, "n": s.n, "residual_deg_per_h": r.tolist(), **_jsonable(s.info)}
                 for s, r in zip(self.segments, self.residuals.reshape(-1, 3))
             ],
+            "variance_components": dict(self.variance_components),
+            "segment_residuals": [dict(r) for r in self.segment_residuals],
             "fit": {
                 "chi2": self.chi2,
                 "dof": self.dof,
@@ -161,6 +171,13 @@ class TriadFit(Estimates):
         for n, v, s in zip(self.names, self.theta, self.std):
             lines.append(f"{n:14s} {v:14.6g} {s:12.4g}  {u[n]}")
         lines.append(f"earth rate: {self.earth_mode}; chi2 {self.chi2:.3g} on {self.dof} dof")
+        if self.segment_residuals and self.dof > 0 and stats.chi2.sf(self.chi2, self.dof) < 0.01:
+            lines.append("chi2 driven by: " + ", ".join(f"{n} ({100 * f:.0f} %)" for n, f in self.chi2_drivers()))
+        if any(v > 0 for v in self.variance_components.values()):
+            lines.append(
+                "sigma include the variance components (REML): "
+                + ", ".join(f"{k} {v:.3g}" for k, v in self.variance_components.items())
+            )
         if not self.converged:
             lines.append(f"not converged: {self.convergence_note}")
         lines.extend(f"note: {n}" for n in self.notes)
@@ -228,4 +245,6 @@ def _triad_fit_of(d: dict) -> TriadFit:
         iterations=int(d["fit"].get("iterations", 1)),
         converged=bool(d["fit"].get("converged", True)),
         convergence_note=str(d["fit"].get("reason", "")),
+        variance_components={k: float(v) for k, v in d.get("variance_components", {}).items()},  # version 2
+        segment_residuals=[dict(r) for r in d.get("segment_residuals", [])],
     )

@@ -66,16 +66,19 @@ def turn_samples(c0, axis, angle_rad: float, n: int, dt: float, omega_l, f_l):
     return w, f
 
 
-def sensor_columns(model, theta, ws, fs, labels, dt, gyro_noise_dps, acc_noise_g, rng) -> dict:
+def sensor_columns(model, theta, ws, fs, labels, dt, gyro_noise_dps, acc_noise_g, rng, extra=None) -> dict:
     """The CSV columns of a simulated session (``time_s`` s, ``segment``, ``gyro_*_dps`` deg/s, ``acc_*_g`` g) from
     the pieces of true body rate ``ws`` (deg/h) and specific force ``fs`` (g) with their segment labels: the triad
-    model's indicated rates plus white noise, the accelerometers' true specific force plus white noise."""
+    model's indicated rates plus white noise, the accelerometers' true specific force plus white noise; ``extra``
+    (pieces like ``ws``, deg/h) is added to the indicated rates (what the model leaves out)."""
     w = np.concatenate(ws)
     f = np.concatenate(fs)
     lab = np.concatenate(labels).astype(float)
     n = len(w)
     time_s = np.arange(n) * dt
     ind = np.asarray(_triad_output_jit(model, theta, w, f, time_s / 3600.0, np.full(n, 20.0)))
+    if extra is not None:
+        ind = ind + np.concatenate(extra)
     gyro_dps = ind / units.SECONDS_PER_HOUR + gyro_noise_dps * rng.standard_normal((n, 3))
     acc = f + acc_noise_g * rng.standard_normal((n, 3))
     cols = {"time_s": time_s, "segment": lab}
@@ -202,6 +205,8 @@ def simulate_multiposition(
     gravity_mps2: float = 9.81,
     earth_rate: bool = True,
     fit_latitude: bool = False,
+    move_error_deg: float = 0.0,
+    bias_step_dph: float = 0.0,
     seed: int = 0,
 ) -> Record:
     """An imu_tk-style session as an ``imu-triad`` record: ``poses`` static poses of random attitude, each joined to
@@ -209,7 +214,11 @@ def simulate_multiposition(
     the next, rate profile ∝ sin(π t / T) whose samples sum to the angle). Gyro channels indicate the triad model
     plus white noise (deg/s); accelerometers the true specific force (g) plus white noise. ``earth_rate=False``
     leaves the Earth rate out of the motion and the record (for exact round trips); ``fit_latitude`` writes the
-    site latitude into the record (else ``null``: unknown to the fit). Times in s (``static_s`` and
+    site latitude into the record (else ``null``: unknown to the fit). What the model leaves out, as hand sessions
+    have it: ``move_error_deg`` an angle error of each move (N(0, σ²) about each body axis, an indicated rate
+    over the move's last 5 %, where the body has nearly stopped, so that it is δφ in the final attitude) and
+    ``bias_step_dph`` a bias step at each move (a new level N(0, σ²) per channel about the truth's bias, held from
+    the move through the next pose; deg/h). Times in s (``static_s`` and
     ``move_s`` one duration, or one per pose and per move), latitude in deg."""
     rng = np.random.default_rng(seed)
     model = tp.channel_model(terms)
@@ -219,7 +228,8 @@ def simulate_multiposition(
     omega_l = units.OMEGA_IE_DEG_PER_H * np.array([0.0, math.cos(lat), math.sin(lat)]) * (1.0 if earth_rate else 0.0)
     f_l = np.array([0.0, 0.0, gravity_mps2 / units.G0])
     atts = [random_attitude(rng) for _ in range(poses)]
-    ws, fs, labels, segs = [], [], [], []
+    ws, fs, labels, segs, extra = [], [], [], [], []
+    step = np.zeros(3)
     n_static = np.broadcast_to(np.round(np.asarray(static_s, dtype=float) * rate_hz).astype(int), (poses,))
     n_moves = np.broadcast_to(np.round(np.asarray(move_s, dtype=float) * rate_hz).astype(int), (max(poses - 1, 1),))
     for k, c in enumerate(atts):
@@ -227,6 +237,7 @@ def simulate_multiposition(
         ws.append(np.tile(c.T @ omega_l, (n, 1)))
         fs.append(np.tile(c.T @ f_l, (n, 1)))
         labels.append(np.full(n, 2 * k))
+        extra.append(np.tile(step, (n, 1)))
         segs.append({"label": 2 * k, "type": "static", "name": f"pose-{k}"})
         if k + 1 == poses:
             break
@@ -235,8 +246,16 @@ def simulate_multiposition(
         ws.append(w)
         fs.append(f)
         labels.append(np.full(int(n_moves[k]), 2 * k + 1))
+        if bias_step_dph:  # a new bias level, independent of the last, from this move on
+            step = bias_step_dph * rng.standard_normal(3)
+        nm = int(n_moves[k])
+        burst = np.zeros((nm, 3))
+        if move_error_deg:  # over the last 5 % of the move, where the body has nearly stopped: δφ in the end frame
+            tail = max(nm // 20, 1)
+            burst[-tail:] = move_error_deg * rng.standard_normal(3) * units.SECONDS_PER_HOUR / (tail * dt)
+        extra.append(step + burst)
         segs.append({"label": 2 * k + 1, "type": "move", "name": f"move-{k}-{k + 1}", "from": 2 * k, "to": 2 * k + 2})
-    cols = sensor_columns(model, theta, ws, fs, labels, dt, gyro_noise_dps, acc_noise_g, rng)
+    cols = sensor_columns(model, theta, ws, fs, labels, dt, gyro_noise_dps, acc_noise_g, rng, extra)
     meta = triad_meta(
         f"multiposition-sim-{seed}",
         segs,
