@@ -7,7 +7,8 @@
    (0.9545 for an honest σ̂), under three settings: latitude known; latitude unknown (D_I then holds Ω sin φ);
    hand angle error σ_Θ = 0.5° declared and simulated; and imu_tk-style sessions (``--poses`` random poses,
    gravity-to-gravity moves between them; :func:`gyrojax.montecarlo.triad.multiposition_coverage`) with the
-   latitude known, unknown and the Earth rate off.
+   latitude known, unknown and the Earth rate off, and with the latitude known under hand-session misfit (0.5° angle
+   error per move, 30 deg/h bias steps: σ honest through the REML variance components).
 2. Speed: the vendored imucal session (tests/data/imucal) calibrated by imucal's FerrarisCalibration and by
    gyrojax (import + fit, warm: the fit compiled once), as a ratio. imucal is an optional dependency (``bench``
    extra); without it only the gyrojax time is printed.
@@ -89,6 +90,14 @@ def main(argv=None) -> None:
             f"  {label:26s} {h.mean():.4f} ({a.moves_draws} draws); per coefficient "
             f"{per.min():.3f}–{per.max():.3f}; {time.perf_counter() - t0:.1f} s"
         )
+    t0 = time.perf_counter()  # hand-session misfit: 0.5° per move, 30 deg/h bias steps (REML components)
+    h = multiposition_coverage(
+        a.moves_draws, poses=a.poses, earth="latitude known", move_error_deg=0.5, bias_step_dph=30.0
+    )
+    print(
+        f"  {'0.5 deg moves, bias steps':26s} {h.mean():.4f} ({a.moves_draws} draws); per coefficient "
+        f"{h.mean(axis=0).min():.3f}–{h.mean(axis=0).max():.3f}; {time.perf_counter() - t0:.1f} s"
+    )
     tg = time_gyrojax(a.repeat)
     ti = time_imucal(a.repeat)
     print(f"imucal session (9413 samples): gyrojax import+fit {1e3 * tg:.1f} ms (warm)", end="")

@@ -77,17 +77,26 @@ EARTH_MODES = ("latitude unknown", "latitude known", "off")
 
 
 def multiposition_coverage(
-    draws: int, poses: int = 12, truth=None, earth: str = "latitude unknown", first_seed: int = 0
+    draws: int,
+    poses: int = 12,
+    truth=None,
+    earth: str = "latitude unknown",
+    first_seed: int = 0,
+    move_error_deg: float = 0.0,
+    bias_step_dph: float = 0.0,
 ) -> np.ndarray:
     """Inside-±2σ indicator, shape (draws, 21), of simulated imu_tk-style sessions (``poses`` static poses of random
     attitude, gravity-to-gravity moves between them) fitted by the triad fit, the Earth rate as ``earth`` says
     (:data:`EARTH_MODES`); with the latitude unknown the g-terms are compared with the truth plus the vertical Earth
-    rate they absorb ((Ω sin φ / |a|) S, deg/h/g). Seeds ``first_seed`` … ``first_seed + draws − 1``."""
+    rate they absorb ((Ω sin φ / |a|) S, deg/h/g). Seeds ``first_seed`` … ``first_seed + draws − 1``;
+    ``move_error_deg`` and ``bias_step_dph`` plant what the white-noise model leaves out (hand-move angle errors,
+    bias steps; :func:`~gyrojax.simulation.triad.simulate_multiposition`)."""
     if earth not in EARTH_MODES:
         raise ValueError(f"earth must be one of {EARTH_MODES}, got {earth!r}")
     truth = truth or mems_truth()
     want = with_vertical_earth_rate(truth) if earth == "latitude unknown" else dict(truth)
     kw = {"earth_rate": earth != "off", "fit_latitude": earth == "latitude known", "latitude_deg": LATITUDE}
+    kw.update(move_error_deg=move_error_deg, bias_step_dph=bias_step_dph)
     hits = []
     for seed in range(first_seed, first_seed + draws):
         res = fit_triad(simulate_multiposition(truth, poses=poses, seed=seed, **kw))
