@@ -26,7 +26,7 @@ import hashlib
 import json
 import math
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import jax.numpy as jnp
@@ -39,10 +39,9 @@ from gyrojax.data.triad import TRIAD_KIND
 from gyrojax.errors import ConvergenceWarning, FormatError, ModelError, RecordError
 from gyrojax.inference.lstsq import lstsq
 from gyrojax.noise import reml
+from gyrojax.noise.spec import NoiseSpec
 from gyrojax.noise.whiten import (
     FIT_TAU_SPAN_FRACTION,
-    ARNoise,
-    GMNoise,
     first_difference_std,
     fit_noise,
     gls_residual,
@@ -304,7 +303,7 @@ class FitResult:
     labels: list
     record_names: list
     record_paths: list
-    noise: list  # noise model of each record (GMNoise or ARNoise; the records of one noise group share one)
+    noise: list  # noise model of each record (NoiseSpec; the records of one noise group share one)
     identifiability: dict
     n_samples: int
     iterations: int = 1
@@ -494,16 +493,16 @@ class FitResult:
 
 
 def _noise_json(nz) -> dict:
-    if getattr(nz, "order", 0) == "gm":
+    if nz.gauss_markov:
         return {
             "kind": "white+gauss_markov",
-            "white_std": float(np.sqrt(nz.white_var)),
-            "gauss_markov_std": float(np.sqrt(nz.gm_var)),
-            "tau_s": float(nz.tau_s),
+            "white_std": float(np.sqrt(nz.white_variance)),
+            "gauss_markov_std": float(np.sqrt(nz.gm_variance)),
+            "tau_s": float(nz.gm_tau),
             "innovation_std": nz.innovation_std,
-            "std": nz.std,
+            "std": nz.stationary_std,
         }
-    return {"kind": "ar", "ar_order": int(nz.order), "innovation_std": nz.innovation_std, "std": nz.std}
+    return {"kind": "ar", "ar_order": int(nz.order), "innovation_std": nz.innovation_std, "std": nz.stationary_std}
 
 
 def _num(x):
@@ -570,7 +569,7 @@ def result_from_json(d: dict, where: str = "fit result") -> FitResult:
         [],
         [r["name"] for r in d["records"]],
         [r.get("path") for r in d["records"]],
-        [ARNoise(np.zeros(0), 1.0, 1.0) for _ in d["records"]],
+        [NoiseSpec.from_sample_variances(1.0, 1.0) for _ in d["records"]],
         d.get("identifiability", {}),
         d["n_samples"],
         iterations=int(fit_stats.get("iterations", 1)),
@@ -658,15 +657,14 @@ def campaign_noise(lin, campaign: Campaign) -> list:
     is dropped (:data:`WHITE_LR_CRITICAL`).
 
     ``lin`` as from :func:`linearize` (residuals in the output unit, deg/h or g; times in s). Returns one
-    :class:`~gyrojax.noise.whiten.GMNoise` or :class:`~gyrojax.noise.whiten.ARNoise` per record (variances in the
-    output unit
-    squared, τ in s); records of one group share the same object.
+    :class:`~gyrojax.noise.spec.NoiseSpec` per record, white + Gauss–Markov or AR (per-sample variances in the
+    output unit squared, τ in s); records of one group share the same object.
     """
     noises = [None] * len(lin)
     for idx in noise_groups(campaign):
         r, j, lab, t = group_series(lin, idx)
         nz = fit_noise(r, lab, t, design=j, tau_span_fraction=FIT_TAU_SPAN_FRACTION, neutral_start=True, prefer_gm=True)
-        if isinstance(nz, GMNoise):
+        if nz.gauss_markov:
             nz = _white_unless_drift(r, j, lab, t, nz)
         for i in idx:
             noises[i] = nz
@@ -678,7 +676,7 @@ WHITE_LR_CRITICAL = 2.71
 ½χ²₀ + ½χ²₁, the null law of a variance on its boundary."""
 
 
-def _white_unless_drift(r, j, lab, t, gm: GMNoise):
+def _white_unless_drift(r, j, lab, t, gm: NoiseSpec):
     """White noise instead of ``gm`` when the pooled REML cannot tell the drift from white (ratio below
     :data:`WHITE_LR_CRITICAL`). On white data a Gauss–Markov variance is estimated on its boundary, so positive by
     construction, and it would widen the standard errors of position means for nothing (8-position, white noise:
@@ -690,10 +688,10 @@ def _white_unless_drift(r, j, lab, t, gm: GMNoise):
     var = float(e @ e) / max(int(ok.sum()) - rank, 1)
     if var <= 0:
         return gm
-    white = GMNoise(gm.tau_s, 0.0, var)  # REML optimum of white noise: |ẽ|²/(n − p)
+    white = NoiseSpec.from_sample_variances(var, gm.dt_s, method="reml")  # REML optimum of white noise: |ẽ|²/(n − p)
     if gm_reml(r, j, lab, t, white) - gm_reml(r, j, lab, t, gm) >= WHITE_LR_CRITICAL:
         return gm
-    return ARNoise(np.zeros(0), float(np.sqrt(var)), float(np.sqrt(var)))
+    return white.with_status(gm.converged, gm.reason)
 
 
 def group_series(lin, idx):
@@ -735,12 +733,12 @@ def satterthwaite_dof(lin, campaign: Campaign, noises, scales) -> np.ndarray:
     var_v = np.zeros_like(v0)
     for idx in noise_groups(campaign):
         nz = noises[idx[0]]
-        if not isinstance(nz, GMNoise) or nz.gm_var <= 0 or nz.white_var <= 0:
+        if not nz.gauss_markov or nz.gm_variance <= 0 or nz.white_variance <= 0:
             continue
         r, j, lab, t = group_series(lin, idx)
-        theta = (nz.tau_s, nz.gm_var, nz.white_var)
+        theta = nz.whitening_theta()
         series = reml.prepare(r, j, lab, t, FIT_TAU_SPAN_FRACTION)
-        free = [1, 2] if nz.tau_s >= 0.999 * series.tau_max else [0, 1, 2]
+        free = [1, 2] if nz.gm_tau >= 0.999 * series.tau_max else [0, 1, 2]
         hess = reml.reml_hessian(series, theta)[np.ix_(free, free)]
         if not np.all(np.isfinite(hess)):
             names = ", ".join(campaign.records[i].name for i in idx)
@@ -832,10 +830,10 @@ def _least_squares(model: Model, theta, campaign: Campaign, noises, scales, max_
 
 def _noise_not_converged(noises) -> str:
     """Reason a noise model's fit did not converge (an object with ``converged`` False), or ``""``."""
-    bad = [nz for nz in noises if nz is not None and getattr(nz, "converged", True) is False]
+    bad = [nz for nz in noises if nz is not None and not nz.converged]
     if not bad:
         return ""
-    return "the noise model's fit did not converge" + (f" ({bad[0].note})" if getattr(bad[0], "note", "") else "")
+    return "the noise model's fit did not converge" + (f" ({bad[0].reason})" if bad[0].reason else "")
 
 
 def fit(
@@ -855,9 +853,10 @@ def fit(
       records: a :class:`Record`, or a list of records of one instrument kind (any plans, mountings, modes).
       terms: effect names (or coefficient names); default: D_F, D_I, D_O, D_S for an SDF gyro.
       noise: ``"ar"`` (GLS with a white + Gauss–Markov or AR noise model per group of records, :func:`campaign_noise`;
-        default), ``"white"`` (WLS, one σ per record), or a given noise model with a ``whitening_model(dt_s)``
-        method (e.g. :class:`gyrojax.noise.gmwm.NoiseModel` from ``gyrojax noise``): GLS with that covariance, not
-        re-estimated, and the standard errors not rescaled by the residual χ² (the noise is known).
+        default), ``"white"`` (WLS, one σ per record), or a given noise model (a
+        :class:`gyrojax.noise.spec.NoiseSpec` of white + at most one Gauss–Markov term, e.g. from ``gyrojax noise``):
+        GLS with that covariance, not re-estimated, and the standard errors not rescaled by the residual χ² (the
+        noise is known).
       allow_aliases: return a minimum-norm fit instead of raising when the plan cannot separate some effects
         (those coefficients then have no finite standard error).
       theta0: starting coefficients (report units) for the nonlinear set-up effects.
@@ -888,11 +887,12 @@ def fit(
     theta, it, why = _least_squares(model, theta, camp, noises, scales, max_iter)
     lin = linearize(model, theta, camp)
     # noise model and GLS pass
-    known = hasattr(noise, "whitening_model")  # a given noise model (e.g. gmwm.NoiseModel): GLS, not re-estimated
+    known = isinstance(noise, NoiseSpec)  # a given noise model (e.g. from gyrojax noise): GLS, not re-estimated
     if known:
         if kind == fx.ACCEL:
             raise ModelError(f"a noise model in deg/h applies to gyro records, not to {kind!r}")
-        noises = [noise.whitening_model(float(np.median(np.diff(t)))) for *_, t in lin]
+        noise.whitening_theta(1.0)  # white + at most one Gauss-Markov process, or a NoiseModelError naming the rest
+        noises = [replace(noise, dt_s=float(np.median(np.diff(t)))) for *_, t in lin]
         for _ in range(3 if not model.is_linear else 1):
             rw, jw = stack_whitened(lin, noises, scales)
             step, _ = solve(jw, rw)
@@ -921,11 +921,14 @@ def fit(
     if not known:
         cov = cov * chi2 / dof  # the noise levels were estimated: scale by the pooled reduced χ² of the whitened fit
     dof_eff = None
-    if noise == "ar" and any(isinstance(nz, GMNoise) for nz in noises):
+    if noise == "ar" and any(nz.gauss_markov for nz in noises):
         dof_eff = satterthwaite_dof(lin, camp, noises, scales)
         g = small_sample_factor(dof_eff)
         cov = cov * np.outer(g, g)  # Student-t widening: θ̂ ± 2σ keeps its coverage when ν is small
-    noise_models = [nz if nz is not None else ARNoise(np.zeros(0), s, s) for nz, s in zip(noises, scales)]
+    noise_models = [
+        nz if nz is not None else NoiseSpec.from_sample_variances(s * s, reml.sample_interval(t), method="ar")
+        for nz, s, (*_, t) in zip(noises, scales, lin)
+    ]
     if why:
         warnings.warn(f"fit of {', '.join(model.terms)} did not converge: {why}", ConvergenceWarning, stacklevel=2)
     return FitResult(

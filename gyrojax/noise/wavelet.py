@@ -217,32 +217,3 @@ def haar_wv(segments, m_list):
         cnt[ok] += np.asarray(c)
     with np.errstate(invalid="ignore"):
         return num / cnt, cnt
-
-
-def simulate_components(key, n: int, components: dict):
-    """A sum of latent processes of n samples (per-sample parametrisation of the module table), JAX.
-
-    ``components``: ``white`` s², ``quantization`` q², ``random_walk`` g², ``drift`` w², ``gauss_markov`` list of
-    (s², a). Used by the tests and the Monte Carlo benchmark (independent of :mod:`gyrojax.noise.processes`).
-    """
-    keys = jax.random.split(key, 5)
-    y = jnp.zeros(n)
-    if components.get("white", 0.0) > 0:
-        y = y + jnp.sqrt(components["white"]) * jax.random.normal(keys[0], (n,))
-    if components.get("quantization", 0.0) > 0:
-        e = jnp.sqrt(components["quantization"]) * jax.random.normal(keys[1], (n + 1,))
-        y = y + e[1:] - e[:-1]
-    if components.get("random_walk", 0.0) > 0:
-        y = y + jnp.cumsum(jnp.sqrt(components["random_walk"]) * jax.random.normal(keys[2], (n,)))
-    if components.get("drift", 0.0) > 0:
-        y = y + jnp.sqrt(components["drift"]) * jnp.arange(n)
-    for i, (s2, a) in enumerate(components.get("gauss_markov", ())):
-        k = jax.random.fold_in(keys[3], i)
-        phi = math.exp(-a)
-        e = jax.random.normal(k, (n,))
-        e = e.at[0].multiply(1.0 / math.sqrt(1.0 - phi * phi))  # stationary start
-        x = jax.lax.associative_scan(
-            lambda p, q: (p[0] * q[0], q[0] * p[1] + q[1]), (jnp.full(n, phi).at[0].set(0.0), e)
-        )[1]
-        y = y + math.sqrt(s2 * (1.0 - phi * phi)) * x
-    return y
