@@ -22,6 +22,7 @@ from scipy import stats
 
 from gyrojax.noise import allan, gmwm
 from gyrojax.noise import gmwm_model as gm
+from gyrojax.noise.processes import simulate
 from gyrojax.noise.readoff import noise_report
 from gyrojax.noise.spec import NoiseSpec
 
@@ -45,7 +46,7 @@ def best_of(f, k=3):
 
 
 def speed(n=1_000_000):
-    y = np.asarray(NOISE.simulate(jax.random.PRNGKey(0), np.arange(n) * DT, dt_white=DT))
+    y = np.asarray(simulate(NOISE, jax.random.PRNGKey(0), np.arange(n) * DT, dt_white=DT))
     t = time.perf_counter()
     gmwm.fit_gmwm(y, DT, model=SPEC)
     first = time.perf_counter() - t
@@ -86,7 +87,7 @@ def speed(n=1_000_000):
 def coverage(draws=500, n=2**18):
     th = gm.theta_from_natural(SPEC, TRUE, DT)
     times = np.arange(n) * DT
-    sim = jax.jit(lambda k: NOISE.simulate(k, times, dt_white=DT))
+    sim = jax.jit(lambda k: simulate(NOISE, k, times, dt_white=DT))
     z, inside, rel = [], [], []
     t = time.perf_counter()
     for d in range(draws):

@@ -14,6 +14,7 @@ from scipy import stats
 
 from gyrojax.noise import allan, gmwm, readoff
 from gyrojax.noise import gmwm_model as gm
+from gyrojax.noise.processes import simulate
 from gyrojax.noise.spec import NoiseModelError, NoiseSpec
 
 DT = 0.01
@@ -29,7 +30,7 @@ def _noise(values):
 
 
 def _series(n, seed, spec=SPEC, values=TRUE, dt=DT):
-    return np.asarray(_noise(values).simulate(jax.random.PRNGKey(seed), np.arange(n) * dt, dt_white=dt))
+    return np.asarray(simulate(_noise(values), jax.random.PRNGKey(seed), np.arange(n) * dt, dt_white=dt))
 
 
 @pytest.fixture(scope="module")
@@ -177,7 +178,7 @@ def test_monte_carlo_coverage():
     n, draws = 2**18, 100
     th = gm.theta_from_natural(SPEC, TRUE, DT)
     t = np.arange(n) * DT
-    sim = jax.jit(lambda k: _noise(TRUE).simulate(k, t, dt_white=DT))
+    sim = jax.jit(lambda k: simulate(_noise(TRUE), k, t, dt_white=DT))
     z = []
     for d in range(draws):
         m = gmwm.fit_gmwm(np.asarray(sim(jax.random.PRNGKey(100 + d))), DT, model=SPEC)

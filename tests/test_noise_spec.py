@@ -13,6 +13,7 @@ import pytest
 from scipy import integrate
 
 from gyrojax.errors import TruthError
+from gyrojax.noise.processes import simulate
 from gyrojax.noise.spec import BI_FACTOR, NoiseModelError, NoiseSpec
 
 
@@ -81,7 +82,7 @@ def test_simulated_drift_has_the_model_adev():
     dt, n, draws = 0.5, 4096, 200
     spec = NoiseSpec(white=0.02, quantization=2.0, random_walk=1.5, gauss_markov=((3.0, 40.0),))
     t = np.arange(n) * dt
-    gen = jax.jit(lambda k: spec.simulate(k, t, dt_white=dt))
+    gen = jax.jit(lambda k: simulate(spec, k, t, dt_white=dt))
     m = 2 ** np.arange(9)
     avs = []
     for d in range(draws):

@@ -45,6 +45,7 @@ import numpy as np
 from scipy import optimize, stats
 
 from gyrojax.noise import wavelet as wv
+from gyrojax.noise.allan import overlapping_avar
 from gyrojax.noise.gmwm_model import (
     DEFAULT_CANDIDATES,
     FULL_NAMES,
@@ -214,6 +215,28 @@ def starting_values(spec: ModelSpec, m, nu_hat, p_mat, n_samples, memo: dict | N
 # ---- the fit ---------------------------------------------------------------------------------------------------
 
 
+def haar_wv(segments, m_list):
+    """Empirical Haar wavelet variance ((deg/h)²) of one or several rate series at half-widths ``m_list``.
+
+    Returns (ν̂², M): several independent segments are pooled as Σ_j M_j ν̂²_j / Σ_j M_j over the segments long
+    enough for each m (2m ≤ n_j); ν̂² = σ̂²_A/2 (overlapping Allan variance, allantools ``oadev``²/2).
+    """
+    if isinstance(segments, (np.ndarray, jnp.ndarray)) and np.ndim(segments) == 1:
+        segments = [segments]
+    m = np.asarray(m_list, dtype=np.int64)
+    num = np.zeros(len(m))
+    cnt = np.zeros(len(m))
+    for s in segments:
+        ok = 2 * m <= len(s)
+        if not ok.any():
+            continue
+        avar, c = overlapping_avar(np.asarray(s, float), 1.0, m[ok])
+        num[ok] += np.asarray(avar) / 2.0 * np.asarray(c)
+        cnt[ok] += np.asarray(c)
+    with np.errstate(invalid="ignore"):
+        return num / cnt, cnt
+
+
 @dataclass
 class WaveletVariance:
     """Empirical Haar wavelet variance ν̂² ((deg/h)²) at half-widths ``m`` (samples), ``counts`` coefficients,
@@ -234,7 +257,7 @@ class WaveletVariance:
         if n < 16:
             raise NoiseModelError(f"a GMWM fit needs at least 16 samples, got {n}")
         m = wv.dyadic_m(n) if m is None else np.asarray(m, dtype=np.int64)
-        nu2, cnt = wv.haar_wv(segments, m)
+        nu2, cnt = haar_wv(segments, m)
         ok = cnt > 0
         return cls(m[ok], nu2[ok], cnt[ok], float(dt), int(sum(len(s) for s in segments)))
 

@@ -95,10 +95,10 @@ def bias_instability(key, dt_s, b, tau_min, tau_max, n_poles=6):
 
 def random_drift(key, time_s, noise: dict, dt_white=None):
     """:func:`simulate` of a truth file's noise dict (CONVENTIONS §8)."""
-    return simulate(key, time_s, NoiseSpec.from_truth(noise), dt_white)
+    return simulate(NoiseSpec.from_truth(noise), key, time_s, dt_white)
 
 
-def simulate(key, time_s, spec: NoiseSpec, dt_white=None):
+def simulate(spec: NoiseSpec, key, time_s, dt_white=None):
     """Sum of the random-drift processes of ``spec`` on the sample times ``time_s`` (deg/h): the one noise
     simulator.
 

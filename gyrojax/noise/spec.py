@@ -36,6 +36,7 @@ import numpy as np
 
 from gyrojax import protocol
 from gyrojax.errors import GyrojaxError, TruthError
+from gyrojax.noise import wavelet as wv
 from gyrojax.units import SECONDS_PER_HOUR
 
 FORMAT = "gyrojax-noise-model"
@@ -290,8 +291,6 @@ class NoiseSpec:
             for i, (s, t) in enumerate(self.gauss_markov):
                 out[f"gm{i + 1}"] = gauss_markov_avar(tau, s, t)
             return out
-        from gyrojax.noise import wavelet as wv
-
         dt = self.dt_s
         m = tau / dt
         lat = {
@@ -356,13 +355,6 @@ class NoiseSpec:
             return (1.0, 0.0, w)
         s, t = self.gauss_markov[0]
         return (t, s * s, w)
-
-    # -- simulation
-    def simulate(self, key, time_s, dt_white=None):
-        """A draw of the drift (deg/h) at the sample times ``time_s`` (:func:`gyrojax.noise.processes.simulate`)."""
-        from gyrojax.noise import processes
-
-        return processes.simulate(key, time_s, self, dt_white)
 
     # -- truth files (CONVENTIONS §8)
     @classmethod
