@@ -294,3 +294,16 @@ def test_adev_affine_invariance(a, b, seed):
     m = [1, 2, 5, 30, 99]
     ref = np.asarray(allan.overlapping_adev(y, 0.5, m))
     np.testing.assert_allclose(allan.overlapping_adev(a * y + b, 0.5, m), abs(a) * ref, rtol=1e-8)
+
+
+def test_gauss_markov_search_cut_short_is_not_converged(monkeypatch):
+    """The bounded search for the Gauss–Markov T stopped after one iteration: the IEEE 952 fit says it did not
+    converge, with scipy's message, instead of passing for a fit."""
+    y = _simulate(jax.random.PRNGKey(0), 36000, 1.0, white=0.001, gm=(0.05, 100.0))
+    res = allan.allan(y, 1.0)
+    real = allan.optimize.minimize_scalar
+    monkeypatch.setattr(allan.optimize, "minimize_scalar", lambda *a, **k: real(*a, **{**k, "options": {"maxiter": 1}}))
+    fit = allan.fit_noise_model(res.taus_s, res.avar, res.edf, gauss_markov=True)
+    assert not fit.converged and fit.reason.startswith("bounded search for the Gauss-Markov tau: Maximum number")
+    monkeypatch.setattr(allan.optimize, "minimize_scalar", real)
+    assert allan.fit_noise_model(res.taus_s, res.avar, res.edf, gauss_markov=True).converged

@@ -378,9 +378,10 @@ def fit_noise_model(
     use_gm = bool(gauss_markov)
     gm_grid = np.geomspace(taus.min() / 2.0, taus.max() * 2.0, 24)
 
-    status: list = []  # (converged, message) of each bounded search for T
+    status: list = []  # (converged, message) of the bounded search for T of the last solve (the returned model)
 
     def solve(names, use_gm):
+        status.clear()
         cols = [term_basis(t, taus) for t in names]
         if not use_gm:
             c, cov, sse = _wnnls(np.stack(cols, axis=1), avar, edf)
@@ -423,7 +424,7 @@ def fit_noise_model(
         d = np.where(vals > 0, 1.0 / (2.0 * vals), np.inf)
     cov_nat = np.where(np.outer(d, d) == np.inf, np.inf, cov[: len(vals), : len(vals)] * np.outer(d, d))
     ok = all(st for st, _ in status)
-    reason = "" if ok else "; ".join(m for st, m in status if not st)
+    reason = "" if ok else f"bounded search for the Gauss-Markov tau: {status[0][1]}"
     return NoiseSpec(
         **values,
         gauss_markov=(gm,) if gm is not None else (),
