@@ -16,6 +16,8 @@ one Gauss–Markov term (``method`` "reml"), whitened exactly by the Kalman filt
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 from scipy.signal import lfilter
 
@@ -297,6 +299,33 @@ def _gm_mle(
     tau = min(float(theta[0]), series.tau_max)
     spec = NoiseSpec.from_sample_variances(float(theta[2]), series.dt0, [(float(theta[1]), tau)], method="reml")
     return spec.with_status(ok, why)
+
+
+def with_reml_covariance(nz: NoiseSpec, r, design, labels, times, tau_span_fraction: float) -> NoiseSpec:
+    """``nz`` (white + Gauss–Markov, fitted by REML to ``r`` with ``design``) with the covariance of its natural
+    parameters (N, σ, T): 2H⁻¹ in u = log(τ, σ_g², σ_w²) (H the Hessian of −2 log L_R,
+    :func:`gyrojax.noise.reml.reml_hessian`), by the delta method (∂N/∂u_w = N/2, ∂σ/∂u_g = σ/2, ∂T/∂u_τ = T). A T at
+    its cap is pinned (infinite variance); a non-finite curvature leaves every variance infinite."""
+    if not nz.gauss_markov or nz.gm_variance <= 0 or nz.white_variance <= 0:
+        return nz
+    series = reml.prepare(r, design, labels, times, tau_span_fraction)
+    theta = nz.whitening_theta()
+    free = [1, 2] if theta[0] >= 0.999 * series.tau_max else [0, 1, 2]
+    cov_u = np.full((3, 3), 0.0)
+    np.fill_diagonal(cov_u, np.inf)
+    hess = reml.reml_hessian(series, theta)[np.ix_(free, free)]
+    if np.all(np.isfinite(hess)):
+        w, vec = np.linalg.eigh(0.5 * (hess + hess.T))
+        w = np.maximum(w, 1e-9 * max(float(w.max()), 1e-300))
+        cov_u[np.ix_(free, free)] = 2.0 * (vec / w) @ vec.T
+    (sigma, tau), n = nz.gauss_markov[0], nz.white
+    g = np.array([n / 2.0, sigma / 2.0, tau])  # natural (white, gm1_sigma, gm1_tau) per u (w, g, τ)
+    order = [2, 1, 0]
+    cu = cov_u[np.ix_(order, order)]
+    with np.errstate(invalid="ignore"):
+        cov = np.where(np.isfinite(cu), cu * np.outer(g, g), np.inf)
+    cov[~np.isfinite(cu) & ~np.eye(3, dtype=bool)] = 0.0
+    return replace(nz, cov=cov, cov_names=("white", "gm1_sigma", "gm1_tau"))
 
 
 def fit_noise(
