@@ -6,16 +6,21 @@ PYTHON ?= $(shell for p in python3.11 python3.12 python3.13 python3; do \
 VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
+# The lock: every package version `make test` and `make demo` install (pip constraints, all extras). Refreshed only
+# deliberately, by `make lock`, after the suite passed with the newest versions (`make test-latest`).
+LOCK   := constraints.txt
+LATEST := .venv-latest
+NEED_PYTHON = @test -n "$(PYTHON)" || { echo "need Python >= 3.11 (python3.11, 3.12, 3.13 or python3); or run: make PYTHON=/path/to/python ..."; exit 2; }
 
-.PHONY: demo test test-all lint docs bench clean venv
+.PHONY: demo test test-latest lock lint docs bench clean venv
 
 $(PY):
-	@test -n "$(PYTHON)" || { echo "need Python >= 3.11 (python3.11, 3.12, 3.13 or python3); or run: make PYTHON=/path/to/python ..."; exit 2; }
+	$(NEED_PYTHON)
 	$(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet --upgrade pip -c $(LOCK)
 
-$(STAMP): $(PY) pyproject.toml
-	$(PY) -m pip install --quiet -e ".[test]"
+$(STAMP): $(PY) pyproject.toml $(LOCK)
+	$(PY) -m pip install --quiet -c $(LOCK) -e ".[test]"
 	@touch $(STAMP)
 
 venv: $(STAMP)
@@ -27,17 +32,34 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(PY) -m pytest -q -n 2 --dist loadfile --durations=20 tests
 
+# the whole suite with the newest versions the registries serve (no lock), in a venv of its own
+test-latest:
+	$(NEED_PYTHON)
+	rm -rf $(LATEST)
+	$(PYTHON) -m venv $(LATEST)
+	$(LATEST)/bin/python -m pip install --quiet --upgrade pip
+	$(LATEST)/bin/python -m pip install --quiet --upgrade -e ".[test,bench,docs]"
+	$(LATEST)/bin/python -m pip list --format=freeze --exclude-editable
+	$(LATEST)/bin/python -m pytest -q -n 2 --dist loadfile tests
+
+# refresh the lock from the newest versions, only after they passed the suite
+lock: test-latest
+	{ echo "# gyrojax's lock: pip constraints for every extra, refreshed by 'make lock' after 'make test-latest' passed"; \
+	  echo "# ($$($(LATEST)/bin/python -V), $$(date -u +%Y-%m-%d))"; \
+	  $(LATEST)/bin/python -m pip freeze --exclude-editable --all | LC_ALL=C sort -f; } > $(LOCK).tmp
+	mv $(LOCK).tmp $(LOCK)
+
 lint: $(STAMP)
 	$(VENV)/bin/ruff check gyrojax tests benchmarks
 	$(VENV)/bin/ruff format --check gyrojax tests benchmarks
 
 docs: $(STAMP)
-	$(PY) -m pip install --quiet -e ".[docs]"
+	$(PY) -m pip install --quiet -c $(LOCK) -e ".[docs]"
 	$(PY) -m pdoc --docformat google --math -o docs/api gyrojax
 
 bench: $(STAMP)
-	$(PY) -m pip install --quiet -e ".[test,bench]"
+	$(PY) -m pip install --quiet -c $(LOCK) -e ".[test,bench]"
 	$(PY) -m benchmarks
 
 clean:
-	rm -rf $(VENV) demo-report .pytest_cache build *.egg-info docs/api
+	rm -rf $(VENV) $(LATEST) demo-report .pytest_cache build *.egg-info docs/api

@@ -14,7 +14,7 @@
 # In a polar tumble (Hu 3-12 to 3-21) the table axis is parallel to the Earth's axis, so the input axis never
 # sees Earth rate and the indicated rate is pure drift. As the table turns through θ the specific force along the
 # gyro axes is a_I = −g cosφ sinθ, a_O = ±g sinφ, a_S = ±g cosφ cosθ, so the drift is a short Fourier series in θ
-# whose coefficients Hu solves in closed form (3-14, 3-16, 3-21; `gyrojax.classical` names the book's misprints).
+# whose coefficients Hu solves in closed form (3-14, 3-16, 3-21; `gyrojax.seeds.classical` names the book's misprints).
 # We compare that classical route with gyrojax's joint GLS fit.
 
 # %%

@@ -106,7 +106,7 @@ print(report.diagnosis_text(d_b))
 
 # %% [markdown]
 # The strongest finding names the input and the shape — and the expression to model it with (`--effect` on the
-# command line, :func:`gyrojax.expression.defined` here); the coefficient is deg/h per g³.
+# command line, :func:`gyrojax.physics.expression.defined` here); the coefficient is deg/h per g³.
 
 # %%
 top = d_b.unexplained[0]

@@ -13,7 +13,7 @@
 #
 # Two things sit between the gyro's physics and a drift record: the **torque-rebalance loop** that turns the float
 # angle into a torquer current (Hu 2-50 to 2-63), and the **random drift** that limits every coefficient. We look at
-# the loop's frequency and step response (`gyrojax.loops`) and then at the Allan deviation of a static record
+# the loop's frequency and step response (`gyrojax.dynamics.loops`) and then at the Allan deviation of a static record
 # (`gyrojax.noise.allan`, IEEE 952) next to the noise terms the fit itself estimates.
 
 # %%

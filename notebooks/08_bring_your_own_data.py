@@ -11,7 +11,7 @@
 # %% [markdown]
 # # 08 · Bring your own data
 #
-# A record is two files (CONVENTIONS §5): `NAME.json` (site, table axes, instrument axes, mode, nominal scale
+# A record is two files (conventions §5): `NAME.json` (site, table axes, instrument axes, mode, nominal scale
 # factor) and `NAME.csv` (`time_s`, one `angle_<axis>_deg` per table axis, `current_mA`, optional
 # `rate_<axis>_dps`). Here we write one by hand — a polar tumble of a floated gyro, as a lab's data logger would —
 # load it, see what a broken file looks like, fit it, and then teach gyrojax an effect of our own.

@@ -13,10 +13,10 @@
 #
 # Four short stories, one per module that turns a seed's formulas into code:
 #
-# 1. `gyrojax.drift_processing` — Hu ch. 4 (moving-average rate, gain 4-11) and ch. 6 (Kalman running mean);
-# 2. `gyrojax.thermal` — seed 001: the two-slope temperature model hinged at 20 °C and what it buys in navigation;
-# 3. `gyrojax.marine` — seed 003: the ψ-angle closed form and why three position fixes cannot reset the INS;
-# 4. `gyrojax.system` — Titterton ch. 12: what a residual gyro drift, and a fitted coefficient's uncertainty, cost.
+# 1. `gyrojax.seeds.drift_processing` — Hu ch. 4 (moving-average rate, gain 4-11) and ch. 6 (Kalman running mean);
+# 2. `gyrojax.seeds.thermal` — seed 001: the two-slope temperature model hinged at 20 °C and what it buys in navigation;
+# 3. `gyrojax.seeds.marine` — seed 003: the ψ-angle closed form and why three position fixes cannot reset the INS;
+# 4. `gyrojax.seeds.system` — Titterton ch. 12: what a residual gyro drift, and a fitted coefficient's uncertainty, cost.
 
 # %%
 import matplotlib.pyplot as plt

@@ -1,4 +1,4 @@
-"""An independent record writer for tests: plain numpy + scipy, written from CONVENTIONS §2–§6 alone.
+"""An independent record writer for tests: plain numpy + scipy, written from conventions §2–§6 alone.
 
 It shares no code with gyrojax (no kinematics, effects, noise or record writer of the package) so that diagnosis is
 checked on campaigns this project's simulator did not make: other table geometries, derived rates (no rate column),
@@ -27,7 +27,7 @@ def _attitude(axes, angles_rad, base=None):
 
 def write_campaign(folder, runs, truth, lat_deg=45.5, g_site=9.8063, noise_white=0.001, seed=0, t0=1000.0):
     """Write one record per run. A run: dict(name, axes=[(name, u)], ia, oa, segments=[(angles_deg0, rates_dps,
-    duration_s, dt_s)], temperature=callable(t) or None). ``truth``: coefficient dict (CONVENTIONS §6 names, report
+    duration_s, dt_s)], temperature=callable(t) or None). ``truth``: coefficient dict (conventions §6 names, report
     units) with optional set-up keys delta_E, delta_N, delta_U (arcsec). Returns the list of JSON paths."""
     rng = np.random.default_rng(seed)
     folder = Path(folder)

@@ -14,9 +14,20 @@ from gyrojax.physics import effects as fx
 from gyrojax.physics import expression as ex
 from gyrojax.report import diagnosis_text
 
+from . import power as pw
+
 BASE = {"D_F": 0.4, "D_I": 0.6, "D_O": -0.2, "D_S": 0.3}
 DRIFT4 = ("D_F", "D_I", "D_O", "D_S")
 TUMBLE_TRUTH = {"D_F": 0.35, "D_I": 0.55, "D_S": -0.42, "D_O": 0.03}
+FAMILY = 60  # a bound on the diagnosis' family of tests (named candidates + shapes), checked where power is used
+
+
+def _assert_decidable(recs, model, hidden, truth, white):
+    """The one campaign decides the test: the score test's power for ``hidden`` at its size is ≥ 0.999 at the
+    first Holm step (tests/power.py, the noncentrality from the conventions' regressors and scipy's ncx2)."""
+    lam = pw.noncentrality(recs, model, hidden, truth, white)
+    power = pw.power(lam, len(pw.COEFFICIENTS[hidden]), 0.01, FAMILY, pw.margin(hidden))
+    assert power >= 0.999, f"power {power:.4f} for {hidden} (λ = {lam:.1f}): one campaign cannot decide this test"
 
 
 @pytest.fixture(scope="module")
@@ -67,7 +78,9 @@ def test_implausible_candidate_is_flagged_and_shown_beside_the_unexplained_struc
     recs = gj.simulate(
         gj.plans.multiposition(24, minutes=3, dt_s=2), {"coefficients": BASE, "noise": {"white": 0.0008}}, seed=11
     )
+    _assert_decidable(recs, ("D_F", "D_I", "D_S"), "D_O", BASE, 0.0008)
     d = diagnose(recs, ("D_F", "D_I", "D_S"), plausible={"D_O": 0.01})
+    assert d.tests <= FAMILY
     c = next(c for c in d.candidates if c.name == "D_O")
     assert c.p_adjusted < d.alpha and c.implausible and "D_O" in c.implausible
     assert d.proposal != "D_O"
@@ -80,7 +93,9 @@ def test_implausible_candidate_is_flagged_and_shown_beside_the_unexplained_struc
 def test_tilt_and_azimuth_are_named_indistinguishable_with_what_separates_them():
     truth = {"coefficients": BASE, "noise": {"white": 0.0003}, "setup": {"table_tilt": [0.0, 90.0]}}
     recs = gj.simulate(gj.plans.multiposition(24, minutes=3, dt_s=2), truth, seed=11)
+    _assert_decidable(recs, DRIFT4, "table_tilt", {**BASE, "delta_E": 0.0, "delta_N": 90.0}, 0.0003)
     d = diagnose(recs, DRIFT4)
+    assert d.tests <= FAMILY
     by = {c.name: c for c in d.candidates}
     assert "table_tilt" in by["table_azimuth"].indistinguishable
     assert "table_azimuth" in by["table_tilt"].indistinguishable
@@ -109,7 +124,9 @@ def test_diagnose_and_fit_report_one_residual(rates):
 
 def test_joint_holm_in_logs_matches_holm():
     p = np.array([0.01, 0.04, 0.03, 0.005, 1e-300 * 1e-10, 0.9])
-    ref = holm(p)
+    # Holm by hand: sorted p × (m − rank) = 6e-310, 0.025, 0.04, 0.09, 0.08, 0.9; running maximum; original order
+    ref = np.array([0.04, 0.09, 0.09, 0.025, 6e-310, 0.9])
+    np.testing.assert_allclose(holm(p), ref, rtol=1e-12)
     got = 10.0 ** holm_log10(np.log10(np.where(p > 0, p, 1e-320)))
     np.testing.assert_allclose(got[p > 0], ref[p > 0], rtol=1e-12)
     assert holm_log10([-400.0, -3.0])[0] == pytest.approx(-400.0 + np.log10(2))

@@ -11,7 +11,7 @@ The units check (c) is a heuristic, stated here so that it can be argued with:
   (``QUANTITY_DOC``: rate, drift, angle, time, frequency, current, temperature, acceleration, latitude, …).
 - Such an object passes when its docstring names a unit (``UNIT``: deg/h, deg/s, rad, s, h, Hz, mA, g, N·m, deg, ppm,
   arcsec, °C, m/s², or says "dimensionless", "unitless", "units of", "same units", "unit vector", or "report units",
-  which CONVENTIONS §1 defines: deg/h, deg/h/g, ppm, arcsec).
+  which conventions §1 defines: deg/h, deg/h/g, ppm, arcsec).
 - Exception classes carry no quantity; ``ALLOWED`` lists the few remaining exceptions, one reason each.
 - ``PENDING`` lists failures in modules another worker is editing; the lead empties it after merging. An entry that
   no longer fails is reported, so the list cannot go stale.

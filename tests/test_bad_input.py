@@ -1,4 +1,4 @@
-"""Malformed input: every defect of CONVENTIONS §5 (and more) raises one gyrojax error whose message names the file
+"""Malformed input: every defect of conventions §5 (and more) raises one gyrojax error whose message names the file
 and the key, or the row and the column, and says what would be valid; the command line turns each into exit
 status 2 with one line on stderr.
 

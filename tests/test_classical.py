@@ -2,7 +2,7 @@
 example campaigns.
 
 The formulas of the book are transcribed here independently of gyrojax.classical (in the book's own symbols, then
-converted with CONVENTIONS §2: D_x(book) = −D_I, D_y = −D_O, D_z = −D_S, g_book = −a). Where a printed formula is
+converted with conventions §2: D_x(book) = −D_I, D_y = −D_O, D_z = −D_S, g_book = −a). Where a printed formula is
 wrong, the test transcribes the printed version too and asserts that it disagrees with the record, naming the
 misprint by its equation number.
 """
@@ -84,7 +84,7 @@ def tumble_drift(rec):
 
 def hu_3_14_3_16(D, g, flipped):
     """Hu 3-14 (normal) / 3-16 (flipped) as corrected, in book symbols; returns harmonics in *our* angle (B → −B)."""
-    bx, by, bz = -D["D_I"], -D["D_O"], -D["D_S"]  # CONVENTIONS §2 book sign note
+    bx, by, bz = -D["D_I"], -D["D_O"], -D["D_S"]  # conventions §2 book sign note
     Dxx, Dzz, Dxy, Dxz, Dyz = D["D_II"], D["D_SS"], D["D_IO"], D["D_IS"], D["D_OS"]
     sg = 1.0 if flipped else -1.0  # flipped: g_y = +g sinφ, g_z = +g cosφ cosθ
     A0 = D["D_F"] + sg * by * g * S + 0.5 * (Dxx + Dzz) * g * g * C * C
@@ -427,6 +427,9 @@ def test_torquer_linearity_table():
     # the mean at 17.171). The 5 mA row is the only one the rest of the table does not support.
     assert bad == [5]
     assert round(lin[1], 2) == -0.01
-    assert all(round(17.171 + d, 3) == 17.171 for d in (0.003 / 8, 0.0037 / 8))  # a corrected K_5 keeps K
+    # a corrected K_5 (17.1725, inside that range) keeps K = 17.171 and makes every printed row reproduce
+    K, lin = classical.torquer_linearity([K_n[0], 17.1725, *K_n[2:]], mean_decimals=3)
+    assert K == printed_K and round(lin[1], 2) == 0.01
+    assert [c for c, x, p in zip(currents, lin, printed_lin, strict=True) if abs(round(x, 2) - p) > 1e-9] == []
     # servo method: K = −ω_y / i_y (附 3-5)
     assert classical.torquer_scale_factor(-17.184 * 5, 5) == pytest.approx(17.184, abs=1e-12)

@@ -2,7 +2,15 @@
 the aliases it names), null campaigns are 'adequate' (white and coloured noise), and adding the top candidate brings
 the residual RMS within 10 % of the noise floor. Campaigns come from three sources: gyrojax's simulator, the
 vendored example campaigns written by an independent tool (tests/data/examples, a term dropped from their model),
-and tests/independent_writer.py."""
+and tests/independent_writer.py.
+
+How the hidden-effect tests are decided: each runs one campaign (one seed, or the vendored data), after asserting
+that the campaign's design gives the diagnosis' score test a power ≥ 0.999 for the hidden effect at its true size
+(tests/power.py: the noncentrality from the whitened regressors, written from the conventions alone, and scipy's
+noncentral χ² at the first Holm step α/FAMILY, counting on 0.9 of the noncentrality, half of it for effects slow in
+time). A failure of the verdict is then a failure of the code, not a draw that went astray (at most 1 in 1000).
+The refit's 'adequate' verdict is a null test at family-wise level α = 0.01; the top candidate being the hidden
+effect (or an alias it names) is checked at the one seed."""
 
 import numpy as np
 import pytest
@@ -12,15 +20,24 @@ from gyrojax.data import plans
 from gyrojax.inference.diagnose import add_and_refit, diagnose, holm
 
 from . import independent_writer as iw
+from . import power as pw
 from .conftest import EXAMPLES
 
 BASE = {"D_F": 0.4, "D_I": 0.6, "D_O": -0.2, "D_S": 0.3}
 DRIFT4 = ["D_F", "D_I", "D_O", "D_S"]
 LADDER_MODEL = ["D_F", "sf_error", "ia_misalignment"]
+ALPHA = 0.01  # diagnose's default family-wise level
+FAMILY = 60  # a bound on the tests in the family (named candidates + shapes; 28–31 in these campaigns), checked
 
 
-def _check_hidden(records, terms, hidden):
-    d = diagnose(records, terms)
+def _check_hidden(records, terms, hidden, truth, white):
+    """``truth``: every coefficient of the campaign in report units (set-up angles as delta_E … in arcsec);
+    ``white``: its angle random walk, deg/√h."""
+    lam = pw.noncentrality(records, terms, hidden, truth, white)
+    power = pw.power(lam, len(pw.COEFFICIENTS[hidden]), ALPHA, FAMILY, pw.margin(hidden))
+    assert power >= 0.999, f"this campaign cannot decide the test: power {power:.4f} for {hidden} (λ = {lam:.1f})"
+    d = diagnose(records, terms, alpha=ALPHA)
+    assert d.tests <= FAMILY, d.tests
     assert d.verdict == "missing-effect", d.to_json()["candidates"][:3]
     top = d.candidates[0]
     assert hidden == top.name or hidden in top.aliases, [(c.name, c.statistic, c.aliases) for c in d.candidates[:4]]
@@ -79,7 +96,8 @@ def test_hidden_effect_found_added_and_error_falls(name):
     coeffs.update(extra)
     truth = {"coefficients": coeffs, "noise": noise, "setup": setup or {}}
     hidden = {"D_O (g-sensitive)": "D_O", "D_IS (g²)": "D_IS"}.get(name, name)
-    _check_hidden(simulate(build(), truth, seed=11), model, hidden)
+    setup_angles = dict(zip(("delta_E", "delta_N"), (setup or {}).get("table_tilt", ())))
+    _check_hidden(simulate(build(), truth, seed=11), model, hidden, {**coeffs, **setup_angles}, noise["white"])
 
 
 def test_hidden_temperature_sensitivity():
@@ -91,7 +109,7 @@ def test_hidden_temperature_sensitivity():
         plan.latitude_deg,
     )
     truth = {"coefficients": {**BASE, "D_TEMP": 0.01}, "noise": {"white": 0.0008}}
-    _check_hidden(simulate(warm, truth, seed=5), DRIFT4, "bias_temperature")
+    _check_hidden(simulate(warm, truth, seed=5), DRIFT4, "bias_temperature", truth["coefficients"], 0.0008)
 
 
 @pytest.mark.parametrize(
@@ -113,7 +131,7 @@ def test_independent_tumble_example_with_a_term_dropped(example_campaigns, drop)
     camp = example_campaigns[0]
     recs = [load_record(EXAMPLES / f"{n}.json") for n in camp["records"]]
     terms = [t for t in camp["terms"] if t != drop]
-    _check_hidden(recs, terms, drop)
+    _check_hidden(recs, terms, drop, camp["truth"], camp["noise"]["white"])
 
 
 def test_independent_examples_full_models_are_adequate(example_campaigns):
@@ -126,7 +144,7 @@ def test_independent_examples_full_models_are_adequate(example_campaigns):
 def test_independent_ladder_example_misalignment_dropped(example_campaigns):
     camp = example_campaigns[2]
     recs = [load_record(EXAMPLES / f"{n}.json") for n in camp["records"]]
-    _check_hidden(recs, ["D_F", "sf_error"], "ia_misalignment")
+    _check_hidden(recs, ["D_F", "sf_error"], "ia_misalignment", camp["truth"], camp["noise"]["white"])
 
 
 def test_independent_writer_three_axis_table(tmp_path):
@@ -134,7 +152,7 @@ def test_independent_writer_three_axis_table(tmp_path):
     truth = {"D_F": -0.3, "D_I": 0.45, "D_O": 0.25, "D_S": -0.35, "D_OS": 0.06}
     paths = iw.write_campaign(tmp_path, [iw.three_axis_positions()], truth, noise_white=0.0007, seed=3)
     recs = load_records(paths)
-    _check_hidden(recs, DRIFT4, "D_OS")
+    _check_hidden(recs, DRIFT4, "D_OS", truth, 0.0007)
 
 
 def test_independent_writer_rates_derived_from_angles(tmp_path):
@@ -145,7 +163,7 @@ def test_independent_writer_rates_derived_from_angles(tmp_path):
     paths = iw.write_campaign(tmp_path, runs, truth, noise_white=0.002, seed=4)
     recs = load_records(paths)
     assert recs[0].rates_derived
-    _check_hidden(recs, ["D_F", "sf_error"], "sf_asymmetry")
+    _check_hidden(recs, ["D_F", "sf_error"], "sf_asymmetry", truth, 0.002)
 
 
 def test_holm_adjustment_matches_definition():
@@ -157,8 +175,13 @@ def test_holm_adjustment_matches_definition():
 def test_json_follows_conventions(example_campaigns):
     camp = example_campaigns[0]
     recs = [load_record(EXAMPLES / f"{n}.json") for n in camp["records"]]
-    j = diagnose(recs, ["D_F", "D_I", "D_O", "D_S"]).to_json()
-    assert j["verdict"] in ("missing-effect", "adequate")
+    # the campaign's truth holds D_IS and D_II, which the model lacks: the verdict is definite (power, as above,
+    # for D_IS with D_II among the nuisance terms: the harder test)
+    lam = pw.noncentrality(recs, DRIFT4 + ["D_II"], "D_IS", camp["truth"], camp["noise"]["white"])
+    assert pw.power(lam, 1, ALPHA, FAMILY, pw.margin("D_IS")) >= 0.999, lam
+    j = diagnose(recs, DRIFT4).to_json()
+    assert j["verdict"] == "missing-effect"
+    assert j["family_size"] <= FAMILY
     for key in ("residual_rms_deg_per_h", "noise_floor_deg_per_h", "candidates"):
         assert key in j
     c = j["candidates"][0]

@@ -3,13 +3,14 @@
 For every mounting the book describes, the table geometry and the instrument triad are set up from the book's
 *text* (the OCR of seed 002 has lost every figure, so "see Fig. 3-10" cannot be read; each set-up below quotes
 the sentence it comes from), the book's printed components are transcribed in a small numpy function named
-after the equation, converted to CONVENTIONS signs, and compared with :func:`gyrojax.physics.model.sensed` at many
-table angles and two latitudes (one of them southern, so sin φ < 0 is exercised) to ~1e-12.
+after the equation, converted to the signs of the conventions (conventions §2, §10), and compared with
+:func:`gyrojax.physics.model.sensed` at many table angles and two latitudes (one of them southern, so sin φ < 0
+is exercised) to ~1e-12.
 
-Sign conversion (CONVENTIONS §2, "Book sign note"): Hu writes the components of the *gravity* vector, positive
+Sign conversion (conventions §2, "Book sign note"): Hu writes the components of the *gravity* vector, positive
 toward the ground, so his ``g_x = −a_I·g0`` when a_I (in g) is the specific force along IA; his ``g`` in the
 formulas is the local gravity magnitude. Earth-rate components (ω_ex …) keep their sign. Hu's table angle θ is
-"clockwise positive" with the table turning "opposite to the Earth's rotation": in CONVENTIONS that is a
+"clockwise positive" with the table turning "opposite to the Earth's rotation": in the conventions' signs that is a
 right-hand rotation about −ω_e, i.e. the table axis is ``u = −(0, cos φ, sin φ)`` and θ is used unchanged. Every
 printed formula of 3-13…3-30 confirms this reading.
 
@@ -19,7 +20,7 @@ Checked (equation numbers as printed in seed 002):
 * single-axis tumble, TDF gyro: 3-22, 3-24, 3-27, 3-30;
 * two-axis tumble: 3-47, the direction-cosine matrix 3-48, and 3-49 for several m:n;
 * servo mountings: 3-60, 3-62 (IA vertical), 3-64, 3-69, 3-74, 3-79 (IA horizontal, four azimuths each),
-  3-84, 3-86 (IA polar), and the servo relation 3-59 (θ̇ = −ω_ex − ω_d ⇔ ω_I + drift = 0, CONVENTIONS §4);
+  3-84, 3-86 (IA polar), and the servo relation 3-59 (θ̇ = −ω_ex − ω_d ⇔ ω_I + drift = 0, conventions §4);
 * two-axis servo: the matrix 3-96, the rate relation 3-97 for an arbitrary table orientation, and its worked
   example 3-98…3-101;
 * the 12 two-axis mountings of appendix 2 (附录二).
@@ -91,7 +92,7 @@ def gyrojax_inputs(axes, triad, phi, angles, rates=None):
 
 
 def book_gravity_to_specific_force(g_book):
-    """CONVENTIONS §2 Book sign note: specific force in g = −(Hu's gravity component)/g0."""
+    """conventions §2 Book sign note: specific force in g = −(Hu's gravity component)/g0."""
     return -np.asarray(g_book) / units.G0
 
 
@@ -371,7 +372,7 @@ def test_polar_servo_mountings(eq, book, phi):
 @pytest.mark.parametrize("phi", LATITUDES)
 def test_servo_relation_3_59(phi):
     """Hu (3-59): θ̇ = −ω_ex − ω_d. Driving the table at that rate must leave gyrojax's ω_I = −ω_d, i.e. the
-    balance ω_I + drift = 0 of an untorqued gyro in servo mode (CONVENTIONS §4)."""
+    balance ω_I + drift = 0 of an untorqued gyro in servo mode (conventions §4)."""
     drift = _rng.normal(0, 3 * W_E, THETAS.shape)
     for eq in ("3-84", "3-86"):
         axes, triad = polar_servo_mounting(eq, phi)

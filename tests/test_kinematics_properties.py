@@ -1,4 +1,4 @@
-"""Properties of the gimbal chain and the site frame (CONVENTIONS §2–§3), checked with hypothesis.
+"""Properties of the gimbal chain and the site frame (conventions §2–§3), checked with hypothesis.
 
 * C(θ) = R(u_1,θ_1)…R(u_k,θ_k) is a proper rotation for any unit axes (1–4 of them) and angles, and equals the
   same product built with scipy's rotation vectors.

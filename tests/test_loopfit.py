@@ -9,6 +9,7 @@ import pytest
 from gyrojax import simulate
 from gyrojax.dynamics.loopfit import fit_loop, measured_response, model_response, oscillation_plan, quasi_static_bias
 from gyrojax.dynamics.loops import default_rebalance
+from gyrojax.errors import ConvergenceWarning
 from gyrojax.inference.identify import fit
 
 FREQS = (1.0, 4.0, 10.0, 20.0, 40.0)
@@ -37,6 +38,11 @@ def test_loop_gain_and_lead_recovered():
     # the sampled record departs from the continuous response by < 0.6 % at 40 Hz: 2 % on the parameters
     assert est.K_amp == pytest.approx(truth.K_amp, rel=0.02)
     assert est.tau_lead == pytest.approx(truth.tau_lead, rel=0.02)
+    assert res.success
+    # a search cut short says so, with scipy's reason, and returns its status as data
+    with pytest.warns(ConvergenceWarning, match="did not converge"):
+        _, short = fit_loop(FREQS, meas, base, names=("K_amp", "tau_lead"), dt_s=DT, max_nfev=2)
+    assert not short.success and short.status == 0
 
 
 def test_quasi_static_fit_is_biased_where_the_loop_rolls_off():

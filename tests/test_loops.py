@@ -64,7 +64,7 @@ SIM = jax.jit(loops.simulate_rebalance, static_argnums=(2, 3))
 
 
 def test_rebalance_static_balance_reproduces_sf_effects():
-    """Steady current × S_nom = ω + E_SF·ω + E_A·|ω| + E_2·ω·(ω in deg/s) (CONVENTIONS §4/§6), for both signs."""
+    """Steady current × S_nom = ω + E_SF·ω + E_A·|ω| + E_2·ω·(ω in deg/s) (conventions §4/§6), for both signs."""
     e_sf, e_a, e_2 = 150.0, 40.0, 25.0
     p = loops.default_rebalance(E_SF=e_sf, E_A=e_a, E_2=e_2)
     levels = np.array([0.0, 15.04, -15.04, 300.0, -300.0, 1800.0, -1800.0, 3600.0])
@@ -322,7 +322,7 @@ def test_lifted_dlsim_equals_scipy_dlsim():
 
 def test_loop_indicated_rate_glue_at_record_interval():
     """With the record's 1 s interval as the step, every sample reads the balance value of its own input
-    (the loop settles in ≪ 1 s): the quasi-static CONVENTIONS model, with no sample delay."""
+    (the loop settles in ≪ 1 s): the quasi-static model of conventions §4, with no sample delay."""
     e_sf, e_a, e_2 = 150.0, 40.0, 25.0
     p = loops.default_rebalance(E_SF=e_sf, E_A=e_a, E_2=e_2)
     rng = np.random.default_rng(7)

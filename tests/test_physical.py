@@ -1,4 +1,4 @@
-"""The physical model (Hu 2-12 to 2-27) against Hu 2-24 transcribed, and the map to CONVENTIONS coefficients."""
+"""The physical model (Hu 2-12 to 2-27) against Hu 2-24 transcribed, and the map to conventions §6 coefficients."""
 
 import numpy as np
 import pytest
@@ -42,7 +42,7 @@ def test_vector_form_matches_hu_2_24():
 
 
 def test_coefficients_reproduce_the_physical_drift():
-    """Σ D·(inputs) with the CONVENTIONS effects equals −M_O/H from the vector torques, at random specific forces."""
+    """Σ D·(inputs) with the conventions §6 effects equals −M_O/H from the vector torques, at random specific forces."""
     p = _gyro()
     d = drift_coefficients(p)
     for a in RNG.normal(size=(20, 3)):

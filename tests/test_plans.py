@@ -1,5 +1,5 @@
 """Every built-in plan simulates (noise-free) to records that load back, whose indicated output equals the model
-evaluated independently: scipy rotations and the CONVENTIONS §4/§6 formulas written out in numpy here."""
+evaluated independently: scipy rotations and the conventions §4/§6 formulas written out in numpy here."""
 
 import json
 

@@ -1,5 +1,5 @@
 """Record files: the independent examples load, and their instrument inputs agree with a plain-numpy
-computation written from CONVENTIONS §2–§4 alone (Rodrigues by scipy's Rotation)."""
+computation written from conventions §2–§4 alone (Rodrigues by scipy's Rotation)."""
 
 import numpy as np
 import pytest

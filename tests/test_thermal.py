@@ -106,9 +106,14 @@ def test_navigation_error_with_and_without_compensation():
     unc = np.asarray(thermal.navigation_position_error(dt, temp, gyro, accel))
     # uncompensated: residuals −65e-5 g and +0.39 °/h (the 20 °C values removed) through the Schuler loop
     # (Titterton Table 12.3)
+    # (Titterton Table 12.3: accelerometer bias B → B (1 − cos ω_s t)/ω_s², horizontal gyro drift δω →
+    # R_0 δω (t − sin ω_s t / ω_s); ω_s = √(g0/R_0), R_0 the WGS-84 equatorial radius)
     t = np.arange(n + 1) * dt
-    ref = system.position_sensitivities(t, lat=np.deg2rad(45.0))
-    expected = ref[:, 2] * -65e-5 * units.G0 + ref[:, 0] * 0.39 * units.DEG_PER_H
+    r0, g0 = 6378137.0, 9.80665
+    ws = np.sqrt(g0 / r0)
+    accel_part = -65e-5 * g0 * (1 - np.cos(ws * t)) / ws**2
+    gyro_part = r0 * 0.39 * np.pi / 180 / 3600 * (t - np.sin(ws * t) / ws)
+    expected = accel_part + gyro_part
     np.testing.assert_allclose(unc, expected, rtol=1e-8, atol=1e-9)  # closed form t − sin(ω_s t)/ω_s cancels at t→0
     # compensated with a model fitted from runs that carry 2e-5 g / 0.02 °/h turn-on offsets
     fits = []
@@ -147,7 +152,7 @@ def test_full_temperature_plan_sequence_and_simulation():
     means = [float(np.mean(r.indicated)) for r in recs]
     temps = [float(np.mean(r.temperature_C)) for r in recs]
     assert temps == pytest.approx([23.0, 60.0, -45.0, 18.0])
-    # hot − cold difference of the indicated rate is D_TEMP·105 °C (CONVENTIONS §6 bias_temperature)
+    # hot − cold difference of the indicated rate is D_TEMP·105 °C (conventions §6 bias_temperature)
     assert means[1] - means[2] == pytest.approx(0.01 * 105, rel=1e-9)
     ramp = thermal.full_temperature_plan(base, soak_ramp_c=5.0)
     assert ramp.runs[1].temperature_C == (60.0, 55.0) and ramp.runs[2].temperature_C == (-45.0, -40.0)

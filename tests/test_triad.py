@@ -23,7 +23,7 @@ TRUTH = mems_truth(7)
 def test_channel_frames_are_right_handed_sdf_triads():
     e = np.eye(3)
     for i, o, s in tp.FRAMES:
-        assert np.allclose(np.cross(e[i], e[o]), e[s])  # IA × OA = SA (CONVENTIONS §4)
+        assert np.allclose(np.cross(e[i], e[o]), e[s])  # IA × OA = SA (conventions §4)
 
 
 def test_noise_free_session_round_trip():
@@ -43,7 +43,7 @@ def test_noise_free_session_round_trip():
 def test_gravity_to_gravity_moves_round_trip():
     """imu_tk's principle: poses of random attitude joined by moves give scale factor and misalignment with no
     rotation of known angle. Noise-free and without Earth rate the fit is exact; the simulator turns the body with
-    CONVENTIONS §3's rotation formula, the fit integrates the calibrated rates with its own exponential."""
+    conventions §3's rotation formula, the fit integrates the calibrated rates with its own exponential."""
     rec = simulate_multiposition(TRUTH, poses=10, gyro_noise_dps=1e-9, acc_noise_g=0.0, earth_rate=False, seed=2)
     assert [s["type"] for s in rec.meta["segments"]].count("move") == 9
     res = fit_triad(rec)

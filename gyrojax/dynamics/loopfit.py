@@ -21,6 +21,7 @@ import numpy as np
 from gyrojax import units
 from gyrojax.data import plans
 from gyrojax.dynamics.loops import RebalanceParams, rebalance_closed_loop_tf
+from gyrojax.errors import ConvergenceWarning
 from gyrojax.physics.model import Model, instrument_inputs, record_data, setup_values
 
 
@@ -85,11 +86,22 @@ def model_response(params: RebalanceParams, frequencies_hz, dt_s: float) -> np.n
     return rebalance_closed_loop_tf(params, s) * hold
 
 
-def fit_loop(frequencies_hz, measured, params0: RebalanceParams, names=("K_amp", "C_damp"), dt_s: float = 1e-3):
+def fit_loop(
+    frequencies_hz,
+    measured,
+    params0: RebalanceParams,
+    names=("K_amp", "C_damp"),
+    dt_s: float = 1e-3,
+    max_nfev: int | None = None,
+):
     """Loop parameters ``names`` that best explain the measured response (least squares on the complex residual).
 
-    Returns ``(params, result)`` with ``result`` the scipy ``OptimizeResult`` (``result.x`` are log-parameters).
+    Returns ``(params, result)`` with ``result`` the scipy ``OptimizeResult`` (``result.x`` are log-parameters;
+    ``result.success``/``status``/``message`` say whether and why it stopped). A search that stopped without
+    converging raises :class:`~gyrojax.errors.ConvergenceWarning` with scipy's reason.
     """
+    import warnings
+
     from scipy.optimize import least_squares
 
     f = np.asarray(frequencies_hz, dtype=float)
@@ -103,7 +115,11 @@ def fit_loop(frequencies_hz, measured, params0: RebalanceParams, names=("K_amp",
         return np.concatenate([r.real, r.imag])
 
     u0 = np.log([getattr(params0, n) for n in names])
-    res = least_squares(resid, u0, x_scale="jac", xtol=1e-14, ftol=1e-14, gtol=1e-14)
+    res = least_squares(resid, u0, x_scale="jac", xtol=1e-14, ftol=1e-14, gtol=1e-14, max_nfev=max_nfev)
+    if not res.success:
+        warnings.warn(
+            f"fit_loop of {', '.join(names)} did not converge: {res.message}", ConvergenceWarning, stacklevel=2
+        )
     return with_(res.x), res
 
 
