@@ -121,7 +121,7 @@ def test_ar_stationary_variance_and_innovation():
 
 
 def test_truth_dict_round_trip_and_errors():
-    """The truth file's noise dict of the conventions (§8) reads into a spec and writes back unchanged."""
+    """The truth file's noise dict of conventions §8 reads into a spec and writes back unchanged."""
     d = {"white": 0.0015, "gauss_markov": [0.004, 900.0], "random_walk": 0.01, "quantization": 0.2}
     spec = NoiseSpec.from_truth(d)
     assert spec.white == 0.0015 and spec.gauss_markov == ((0.004, 900.0),) and spec.to_truth() == d

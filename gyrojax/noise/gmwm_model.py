@@ -3,7 +3,7 @@
 wavelet-variance covariance as compiled functions of the log-parameters θ, and θ ↔ the natural parameters of
 :class:`~gyrojax.noise.spec.NoiseSpec` (:func:`to_noise_spec`).
 
-Natural units (IEEE 952 / CONVENTIONS §6): white N deg/√h (per-sample variance (60N)²/Δt), quantization Q arcsec
+Natural units (IEEE 952 / conventions §6): white N deg/√h (per-sample variance (60N)²/Δt), quantization Q arcsec
 (rate = Δe/Δt, 1 arcsec/s = 1 deg/h), random walk K deg/h/√h (per-step variance K²Δt/3600), drift R deg/h/h
 (per-sample increment RΔt/3600), Gauss–Markov σ deg/h and T s. θ are the logarithms of the latent per-sample
 parameters (variances, AR1 rate a = Δt/T), so every parameter stays positive.

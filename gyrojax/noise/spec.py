@@ -20,7 +20,7 @@ is an estimate — the covariance of its parameters (``cov`` over ``cov_names``,
 The spec of a sampled series (``dt_s`` set) has the exact Allan variance of the sampled processes (twice the Haar
 wavelet variances of :mod:`gyrojax.noise.wavelet`); without ``dt_s`` the continuous closed forms above.
 
-Truth files (CONVENTIONS §8) keep their dict, ``{"white": N, "gauss_markov": [σ, T], "random_walk": K,
+Truth files (conventions §8) keep their dict, ``{"white": N, "gauss_markov": [σ, T], "random_walk": K,
 "quantization": Q}`` (and ``"bias_instability": [B, τ_min, τ_max]``), read by :meth:`NoiseSpec.from_truth` and
 written by :meth:`NoiseSpec.to_truth`. Saved specs use the result protocol (:mod:`gyrojax.protocol`), format tag
 :data:`FORMAT`.
@@ -356,7 +356,7 @@ class NoiseSpec:
         s, t = self.gauss_markov[0]
         return (t, s * s, w)
 
-    # -- truth files (CONVENTIONS §8)
+    # -- truth files (conventions §8)
     @classmethod
     def from_truth(cls, d, where: str = "noise") -> "NoiseSpec":
         """The spec of a truth file's ``noise`` dict; :class:`~gyrojax.errors.TruthError` naming ``where`` and the
@@ -385,7 +385,7 @@ class NoiseSpec:
         return cls(**kw)
 
     def to_truth(self) -> dict:
-        """The truth file's ``noise`` dict (CONVENTIONS §8): the terms that are not zero."""
+        """The truth file's ``noise`` dict (conventions §8): the terms that are not zero."""
         out = {k: getattr(self, k) for k in ("white", "random_walk", "quantization") if getattr(self, k) > 0}
         if (
             len(self.gauss_markov) > 1
