@@ -265,3 +265,32 @@ def test_gradient_is_finite_across_a_clock_restart_at_short_correlation_time():
         val = [float(reml.value_and_grad(u + e * sgn, *s.arrays, c)[0]) for e in np.eye(3) * step for sgn in (1, -1)]
         fd = [(val[2 * k] - val[2 * k + 1]) / (2 * step) for k in range(3)]
         np.testing.assert_allclose(np.asarray(g), fd, rtol=1e-5, atol=1e-5)
+
+
+def test_reml_covariance_of_the_natural_parameters():
+    """with_reml_covariance against an independent route: the Hessian of −2 log L_R by second differences of its
+    values (not of the gradient) in u = log(τ, σ_g², σ_w²), Cov(u) = 2H⁻¹, mapped to (N, σ, T) by a numerical
+    Jacobian."""
+    from gyrojax.noise.whiten import fit_gm, with_reml_covariance
+
+    r, x, lab, t = _series(4, n=1500)
+    nz = fit_gm(r, lab, t, design=x, tau_span_fraction=1.0)
+    got = with_reml_covariance(nz, r, x, lab, t, 1.0)
+    assert got.cov_names == ("white", "gm1_sigma", "gm1_tau") and got.white == nz.white
+    u0, h = np.log(nz.whitening_theta()), 1e-3
+
+    def f(u):
+        return gm_reml(r, x, lab, t, GMNoise(*np.exp(u), dt=nz.dt_s))
+
+    e = np.eye(3) * h
+    hess = np.array(
+        [[(f(u0 + a + b) - f(u0 + a - b) - f(u0 - a + b) + f(u0 - a - b)) / (4 * h * h) for b in e] for a in e]
+    )
+    cov_u = 2 * np.linalg.inv(hess)
+
+    def natural(u):
+        s = GMNoise(*np.exp(u), dt=nz.dt_s)
+        return np.array([s.white, s.gauss_markov[0][0], s.gauss_markov[0][1]])
+
+    jac = np.column_stack([(natural(u0 + d) - natural(u0 - d)) / (2 * h) for d in e])
+    np.testing.assert_allclose(np.asarray(got.cov), jac @ cov_u @ jac.T, rtol=2e-3, atol=1e-12)
