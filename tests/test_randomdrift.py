@@ -72,10 +72,12 @@ def test_ar1_ar2_recovered_and_orders_selected():
     m1, t1 = rd.select_ar(x1, 8, "bic")
     assert (len(m1.ar), len(m1.ma)) == (1, 0) and m1.ar[0] == pytest.approx(0.9, abs=5 * math.sqrt(0.19 / N))
     assert m1.white_variance == pytest.approx(1.0, abs=5 * math.sqrt(2 / N)) and m1.method == "ar"
+    assert m1.std("ar1") == pytest.approx(math.sqrt((1 - 0.9**2) / N), rel=0.05)  # the asymptotic sd of φ̂
     x2 = _arma(rng, N, phi=(0.75, -0.5))
     m2, _ = rd.select_ar(x2, 8, "bic")
     assert (len(m2.ar), len(m2.ma)) == (2, 0)
     np.testing.assert_allclose(m2.ar, [0.75, -0.5], atol=5 * math.sqrt(0.75 / N))
+    np.testing.assert_allclose([m2.std("ar1"), m2.std("ar2")], math.sqrt(0.75 / N), rtol=0.05)
     m2a, ta = rd.select_ar(x2, 8, "aic")
     assert 2 <= len(m2a.ar) <= 4 and min(ta, key=ta.get) == len(m2a.ar)
 

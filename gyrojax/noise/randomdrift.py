@@ -151,6 +151,16 @@ def levinson_durbin(r, order: int):
     return phis, np.array(sig), np.array(pacf)
 
 
+def yule_walker_cov(r, p: int, sigma2: float, n: int) -> np.ndarray:
+    """Asymptotic covariance σ_a² Γ_p⁻¹ / N of the Yule–Walker AR(p) coefficients (Γ_p the p×p Toeplitz matrix of the
+    autocovariances ``r`` r(0) … r(p − 1); Brockwell & Davis §8.1), dimensionless."""
+    if p == 0:
+        return np.zeros((0, 0))
+    r = np.asarray(r, float)
+    gam = r[np.abs(np.subtract.outer(np.arange(p), np.arange(p)))]
+    return sigma2 * np.linalg.inv(gam) / n
+
+
 def arma_spec(phi, theta, sigma2: float, mean: float, n: int, dt_s: float = 1.0) -> NoiseSpec:
     """The :class:`NoiseSpec` of x̃_t − Σ φ_i x̃_{t−i} = a_t − Σ θ_j a_{t−j} (Hu 4-122), Var a = ``sigma2`` per sample
     of ``dt_s`` s (the series' unit squared); the mean and the ``n`` samples fitted in ``info``."""
@@ -190,7 +200,14 @@ def fit_ar(x, order: int, dt_s: float = 1.0) -> NoiseSpec:
         return arma_spec((), (), float(np.var(x)), float(np.mean(x)), len(x), dt_s)
     r = np.asarray(autocovariance(x, order))
     phis, sig, _ = levinson_durbin(r, order)
-    return arma_spec(phis[-1], (), float(sig[order]), float(np.mean(x)), len(x), dt_s)
+    return _yule_walker_spec(r, phis[-1], float(sig[order]), float(np.mean(x)), len(x), dt_s)
+
+
+def _yule_walker_spec(r, phi, sigma2: float, mean: float, n: int, dt_s: float = 1.0) -> NoiseSpec:
+    """:func:`arma_spec` of a Yule–Walker AR(p) with the covariance of its coefficients (:func:`yule_walker_cov`)."""
+    spec = arma_spec(phi, (), sigma2, mean, n, dt_s)
+    p = len(phi)
+    return replace(spec, cov=yule_walker_cov(r, p, sigma2, n), cov_names=tuple(f"ar{i + 1}" for i in range(p)))
 
 
 def select_ar(x, max_order: int = 10, criterion: str = "bic"):
@@ -200,7 +217,7 @@ def select_ar(x, max_order: int = 10, criterion: str = "bic"):
     phis, sig, _ = levinson_durbin(r, max_order)
     mean = float(np.mean(x))
     models = [arma_spec((), (), float(sig[0]), mean, len(x))]
-    models += [arma_spec(phis[p - 1], (), float(sig[p]), mean, len(x)) for p in range(1, max_order + 1)]
+    models += [_yule_walker_spec(r, phis[p - 1], float(sig[p]), mean, len(x)) for p in range(1, max_order + 1)]
     table = {p: information(m, criterion) for p, m in enumerate(models)}
     return models[min(table, key=table.get)], table
 

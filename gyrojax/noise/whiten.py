@@ -22,7 +22,7 @@ import numpy as np
 from scipy.signal import lfilter
 
 from . import reml
-from .randomdrift import levinson_durbin, segment_autocovariance_sums
+from .randomdrift import levinson_durbin, segment_autocovariance_sums, yule_walker_cov
 from .spec import NoiseSpec
 
 P_MAX = 20
@@ -88,7 +88,9 @@ def fit_ar(r: np.ndarray, labels: np.ndarray, dt_s: float, p_max: int = P_MAX) -
         if bic < best_bic - 1e-9:
             best_bic, best = bic, (phi, s2)
     phi, s2 = best
-    return NoiseSpec.from_sample_variances(s2, dt_s, ar=tuple(float(x) for x in phi), method="ar")
+    spec = NoiseSpec.from_sample_variances(s2, dt_s, ar=tuple(float(x) for x in phi), method="ar")
+    cov = yule_walker_cov(gamma, len(phi), s2, n)
+    return replace(spec, cov=cov, cov_names=tuple(f"ar{i + 1}" for i in range(len(phi))))
 
 
 def whiten(x: np.ndarray, labels: np.ndarray, noise, times: np.ndarray | None = None):
