@@ -49,7 +49,8 @@ def write_record(directory: Path, n: int, seed: int = 0) -> Path:
     import numpy as np
 
     from gyrojax.data import plans
-    from gyrojax.data.records import Record, save_record
+    from gyrojax.data.record import Record
+    from gyrojax.data.records import save_record
     from gyrojax.simulation.simulator import simulate
 
     axis = plans.polar_axis(plans.DEFAULT_LATITUDE)

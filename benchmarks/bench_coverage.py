@@ -25,6 +25,7 @@ import numpy as np
 
 from gyrojax.data import plans
 from gyrojax.inference import identify
+from gyrojax.montecarlo import pipeline, runner
 from gyrojax.montecarlo import study as mc
 from gyrojax.simulation.simulator import simulate
 
@@ -60,7 +61,7 @@ def _row(label, names, z):
 
 def gls_z(pipe, st, plan, n):
     """(θ̂ − θ)/σ̂ of identify.fit (GLS) on the first n draws of a study."""
-    fast = mc.run_study(st, pipeline=pipe, draws=n)
+    fast = runner.run_study(st, pipeline=pipe, draws=n)
     truth = fast.truth_of_fit()
     servo = any(d.mode == "servo" for d in pipe.data)
     z = []
@@ -69,7 +70,7 @@ def gls_z(pipe, st, plan, n):
             coeffs = dict(zip(pipe.truth_model.coefficient_names, map(float, fast.truth[d])))
             recs = simulate(plan, {"coefficients": coeffs, "noise": st.noise}, seed=10_000 + d)
         else:
-            recs = mc.draw_records(pipe, d)
+            recs = pipeline.draw_records(pipe, d)
         f = identify.fit(recs, list(pipe.fit_model.terms), noise="ar")
         z.append((f.theta - truth[d]) / f.std)
     return np.array(z)
@@ -85,8 +86,8 @@ def main(argv=None):
     for name in args.plans.split(","):
         builder, opts, cand = PLANS[name]
         plan = plans.build(builder, **opts)
-        recs = mc.nominal_records(plan)
-        terms, dropped = mc.identifiable_terms(recs, cand) if name != "24-position" else (cand, ["D_OO"])
+        recs = pipeline.nominal_records(plan)
+        terms, dropped = pipeline.identifiable_terms(recs, cand) if name != "24-position" else (cand, ["D_OO"])
         print(
             f"\n== {name}: {builder} {opts}; fitted {', '.join(terms)}; dropped (aliased/unexcited) "
             f"{', '.join(dropped) or '-'}"
@@ -102,9 +103,9 @@ def main(argv=None):
                 draws=args.draws,
                 seed=7,
             )
-            pipe = mc.build_pipeline(st, plan=plan, records=recs)
+            pipe = pipeline.build_pipeline(st, plan=plan, records=recs)
             t = time.perf_counter()
-            res = mc.run_study(st, pipeline=pipe)
+            res = runner.run_study(st, pipeline=pipe)
             z = (res.estimate - res.truth_of_fit()) / res.std
             _row(
                 f"{noise_name}: fast JAX white LS ({time.perf_counter() - t:.1f} s)",

@@ -13,14 +13,15 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyrojax.data import plans
-from gyrojax.inference.identify import Campaign, linearize
+from gyrojax.inference.campaign import Campaign, linearize
 from gyrojax.noise.processes import random_drift
 from gyrojax.physics.model import Model
+from gyrojax.planning import baselines, criteria, fisher
 from gyrojax.planning import optimal as D
 from gyrojax.simulation.simulator import simulate
 
 ARW = 0.01
-NOISE = D.Noise(ARW)
+NOISE = fisher.Noise(ARW)
 HOURS = 4.0
 SDF6 = ("D_F", "D_I", "D_O", "D_S", "D_II", "D_IS")
 
@@ -48,13 +49,15 @@ def comparison(res24):
             r = res24 if (n == 24 and terms == D.SDF9) else D.design(terms, n, HOURS, "D", noise=NOISE)
             designed[f"designed-{n} (D)"] = r
         if terms == SDF6:  # a free-orientation fixture (E-N-U Euler chain) instead of the two-axis table
-            designed["designed-8 fixture (D)"] = D.design(terms, 8, HOURS, "D", noise=NOISE, table=D.Table.fixture())
+            designed["designed-8 fixture (D)"] = D.design(
+                terms, 8, HOURS, "D", noise=NOISE, table=fisher.Table.fixture()
+            )
         print(
             f"\n== {', '.join(terms)}: {HOURS} h of data each (white noise N = {ARW} deg/√h); "
             "Cramér–Rao std per coefficient =="
         )
-        rows = D.compare(terms, HOURS, NOISE, designed)
-        print(D.table_text(rows))
+        rows = baselines.compare(terms, HOURS, NOISE, designed)
+        print(baselines.table_text(rows))
         path = f"/tmp/bench_design_{len(terms)}terms.png"
         D.figure(rows, path)
         print(f"figure: {path}")
@@ -75,7 +78,7 @@ def monte_carlo(res, draws=1000):
     theta = np.linalg.lstsq(j, (r0[None, :] + noise).T, rcond=None)[0]
     emp = theta.std(axis=1, ddof=1)
     seg = plan.runs[0].segments
-    f = D.static_fisher(
+    f = fisher.static_fisher(
         m9,
         res.table,
         jnp.deg2rad(jnp.asarray([s.start_deg for s in seg])),
@@ -94,12 +97,12 @@ def detect():
     m9 = Model.of(D.SDF9)
     rd = D.design(m9, 24, HOURS, "D", noise=NOISE)
     rs = D.design(m9, 24, HOURS, "detect:sf_error=1000", noise=NOISE)
-    crit = D.Criterion.parse("detect:sf_error=1000", m9)
+    crit = criteria.Criterion.parse("detect:sf_error=1000", m9)
     for name, r in (("D-optimal", rd), ("detect:sf_error", rs)):
-        lam = D.detect_noncentrality(m9, crit, r.table, np.deg2rad(r.angles_deg), r.dwell_s, NOISE)
+        lam = criteria.detect_noncentrality(m9, crit, r.table, np.deg2rad(r.angles_deg), r.dwell_s, NOISE)
         print(
-            f"{name:18s} λ = {lam:8.2f}  power(1 %) = {D.detect_power(lam):.3f}  "
-            f"D = {D.criterion_values(r.fisher, m9)['D']:.3f}"
+            f"{name:18s} λ = {lam:8.2f}  power(1 %) = {criteria.detect_power(lam):.3f}  "
+            f"D = {criteria.criterion_values(r.fisher, m9)['D']:.3f}"
         )
     try:
         D.design(m9, 24, HOURS, "detect:D_OO", noise=NOISE)

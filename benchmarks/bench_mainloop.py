@@ -75,8 +75,8 @@ def _campaign(quick: bool):
 def _write(records, folder: Path, start_terms) -> None:
     """The records as CSV + JSON, and the regressors of the starting model and of every candidate at θ = 0."""
     from gyrojax.data.records import save_record
+    from gyrojax.inference.campaign import Campaign, linearize
     from gyrojax.inference.diagnose import candidate_effects
-    from gyrojax.inference.identify import Campaign, linearize
     from gyrojax.physics.model import Model
 
     for r in records:
@@ -148,8 +148,9 @@ def main(argv=None):
     ap.add_argument("--no-processes", action="store_true", help="skip the fresh-process comparison")
     args = ap.parse_args(argv)
 
+    from gyrojax.inference.campaign import Campaign
     from gyrojax.inference.diagnose import diagnose
-    from gyrojax.inference.identify import Campaign, fit
+    from gyrojax.inference.identify import fit
     from gyrojax.report.demo import START_TERMS
 
     records = _campaign(args.quick)

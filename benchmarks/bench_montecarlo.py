@@ -13,7 +13,7 @@ draw's normal variates (the floor of any Monte Carlo of this size), and peak mem
 chunked run.
 
 The plan is static, so the pipeline reduces each draw to per-position sums of the per-sample noise
-(:func:`gyrojax.montecarlo.study.constant_runs`; the same estimates to rounding). The sample-level JAX path, which
+(:func:`gyrojax.montecarlo.pipeline.constant_runs`; the same estimates to rounding). The sample-level JAX path, which
 evaluates the kinematics and regressors at every sample as numpy does, is timed beside it for comparison.
 """
 
@@ -42,6 +42,7 @@ if "jax" not in sys.modules:
     ).strip()
 
 from gyrojax import units  # noqa: E402
+from gyrojax.montecarlo import pipeline, runner  # noqa: E402
 from gyrojax.montecarlo import study as mc  # noqa: E402
 
 NINE = list(mc.SDF_NINE_TERMS)
@@ -75,7 +76,7 @@ def _rotate(u, c, s, v):
 class NumpyMC:
     """The same per-draw work as the JAX pipeline in numpy, vectorised over samples (one record, two-axis table)."""
 
-    def __init__(self, pipe: mc.Pipeline):
+    def __init__(self, pipe: pipeline.Pipeline):
         d = pipe.data[0]
         self.axes = np.asarray(d.axes)
         self.triad = np.asarray(d.triad)
@@ -140,19 +141,19 @@ def main(argv=None):
 
     st = study(args.draws)
     t = time.perf_counter()
-    pipe = mc.build_pipeline(st)
+    pipe = pipeline.build_pipeline(st)
     print(
         f"plan: 24 positions x 10 min at 1 Hz = {pipe.n_measurements} samples/draw; 9-term fit; "
         f"set-up errors drawn per draw (built in {time.perf_counter() - t:.1f} s)"
     )
 
     ndev = len(jax.devices())
-    res1 = mc.run_study(st, pipeline=pipe, chunk=args.chunk, devices=jax.devices()[:1])
+    res1 = runner.run_study(st, pipeline=pipe, chunk=args.chunk, devices=jax.devices()[:1])
     print(
         f"JAX, 1 device : {len(res1.draw)} draws in {res1.run_s:.2f} s = {len(res1.draw) / res1.run_s:,.0f} draws/s "
         f"(compile {res1.compile_s:.1f} s apart)"
     )
-    res = mc.run_study(st, pipeline=pipe, chunk=args.chunk)
+    res = runner.run_study(st, pipeline=pipe, chunk=args.chunk)
     jax_rate = len(res.draw) / res.run_s
     print(
         f"JAX, {ndev} devices: {len(res.draw)} draws in {res.run_s:.2f} s = {jax_rate:,.0f} draws/s "
@@ -163,7 +164,7 @@ def main(argv=None):
 
     sample_pipe = replace(pipe, runs=None, _compiled={})
     n_s = min(len(res.draw), 2000)
-    res_s = mc.run_study(st, pipeline=sample_pipe, draws=n_s, chunk=args.chunk)
+    res_s = runner.run_study(st, pipeline=sample_pipe, draws=n_s, chunk=args.chunk)
     sample_rate = n_s / res_s.run_s
     print(
         f"JAX, sample-level path (no per-position reduction), {ndev} devices: {sample_rate:,.0f} draws/s "
@@ -217,9 +218,9 @@ def main(argv=None):
     # scale run: chunked, memory bounded
     if args.scale_draws:
         big = study(args.scale_draws)
-        chunk = args.chunk or mc.auto_chunk(pipe, len(jax.devices()))
+        chunk = args.chunk or runner.auto_chunk(pipe, len(jax.devices()))
         t = time.perf_counter()
-        r2 = mc.run_study(big, pipeline=pipe, chunk=chunk, progress=True)
+        r2 = runner.run_study(big, pipeline=pipe, chunk=chunk, progress=True)
         peak_gb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2
         print(
             f"scale : {len(r2.draw):,} draws in {time.perf_counter() - t:.1f} s "

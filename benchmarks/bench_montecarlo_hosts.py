@@ -84,7 +84,7 @@ def main(argv=None):
     ap.add_argument("--draws", type=int, default=20_000)
     ap.add_argument("--processes", type=int, default=2)
     args = ap.parse_args(argv)
-    from gyrojax.montecarlo import study as mc
+    from gyrojax.montecarlo import results
 
     with tempfile.TemporaryDirectory() as tmp:
         sp = Path(tmp) / "study.json"
@@ -92,7 +92,7 @@ def main(argv=None):
         reps = {}
         for n in (1, args.processes):
             reps[n] = run(sp, Path(tmp) / f"p{n}", n)
-        a, b = mc.load_result(Path(tmp) / "p1"), mc.load_result(Path(tmp) / f"p{args.processes}")
+        a, b = results.load_result(Path(tmp) / "p1"), results.load_result(Path(tmp) / f"p{args.processes}")
         diff = max(float(np.abs(getattr(a, k) - getattr(b, k)).max()) for k in ("truth", "estimate", "std", "rms"))
     print(f"{args.draws} draws, {os.cpu_count()} cores; max |difference| between the runs: {diff:.3g}")
     head = ("processes", "wall s", "compile s", "run s", "draws/s", "wall ratio", "run ratio")

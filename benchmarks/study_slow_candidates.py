@@ -30,7 +30,9 @@ from scipy import stats
 
 from gyrojax import plans, simulate
 from gyrojax.inference import identify
+from gyrojax.inference.campaign import Campaign, linearize
 from gyrojax.inference.diagnose import diagnose, wald_beside_drift
+from gyrojax.inference.noisefit import group_series
 from gyrojax.noise import reml
 from gyrojax.physics.model import Model
 
@@ -44,7 +46,7 @@ LEVELS = (0.05, 0.01, 0.001, 3.6e-4)
 
 
 def _lr_p(lin, start) -> float:
-    r, j, lab, t = identify.group_series(lin, list(range(len(lin))))
+    r, j, lab, t = group_series(lin, list(range(len(lin))))
     f = []
     for p in (len(TERMS), len(TERMS) + 1):
         s = reml.prepare(r, j[:, :p], lab, t, 1.0)
@@ -61,10 +63,10 @@ def study(name: str, draws: int, trend: float = 0.0, first_seed: int = 100):
     t0 = time.perf_counter()
     for seed in range(first_seed, first_seed + draws):
         recs = simulate(plan, {"coefficients": {**BASE, "D_T": trend}, "noise": noise}, seed=seed)
-        camp = identify.Campaign.of(recs)
+        camp = Campaign.of(recs)
         res = identify.fit(recs, TERMS, campaign=camp)
         full = Model(TERMS + ("bias_trend",), res.model.kind)
-        lin = identify.linearize(full, np.concatenate([res.theta, [0.0]]), camp)
+        lin = linearize(full, np.concatenate([res.theta, [0.0]]), camp)
         d = diagnose(recs, TERMS, result=res, campaign=camp, suggest_tests=False, model_free=False)
         missing += d.verdict == "missing-effect"
         p["score"].append(next(c.p_value for c in d.candidates if c.name == "bias_trend"))

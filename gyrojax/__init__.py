@@ -18,7 +18,10 @@ The package is a tree that follows the data flow::
     report/      tables, text and figures (the only library package that draws)
     cli/         the ``gyrojax`` command (the only package that parses arguments)
 
-and ``import gyrojax as gj`` gives the flat API: ``gj.simulate``, ``gj.load_records``, ``gj.fit``,
+and below them the modules every package may import: ``errors``, ``units``, ``kinds`` (the instrument kinds) and
+``protocol`` (files and the result protocol). Imports point down a declared layer order (tests/test_layers.py).
+
+``import gyrojax as gj`` gives the flat API: ``gj.simulate``, ``gj.load_records``, ``gj.fit``,
 ``gj.diagnose``, ``gj.add_and_refit``, ``gj.design``, ``gj.run_study`` … (loaded on first use, so that
 ``import gyrojax`` stays fast).
 """
@@ -54,9 +57,9 @@ _FLAT = {
     "register": "gyrojax.physics.registry:register",
     "Model": "gyrojax.physics.model:Model",
     "predict": "gyrojax.physics.model:predict",
-    "record_data": "gyrojax.physics.model:record_data",
+    "record_data": "gyrojax.data.arrays:record_data",
     # data
-    "Record": "gyrojax.data.records:Record",
+    "Record": "gyrojax.data.record:Record",
     "load_record": "gyrojax.data.records:load_record",
     "load_records": "gyrojax.data.records:load_records",
     "save_record": "gyrojax.data.records:save_record",
@@ -64,12 +67,12 @@ _FLAT = {
     "load_truth": "gyrojax.data.truth:load_truth",
     "truth_from_dict": "gyrojax.data.truth:truth_from_dict",
     "Plan": "gyrojax.data.plans:Plan",
-    "load_plan": "gyrojax.data.plans:load_plan",
+    "load_plan": "gyrojax.data.planfile:load_plan",
     # simulation
     "simulate": "gyrojax.simulation.simulator:simulate",
     # inference
-    "Campaign": "gyrojax.inference.identify:Campaign",
-    "FitResult": "gyrojax.inference.identify:FitResult",
+    "Campaign": "gyrojax.inference.campaign:Campaign",
+    "FitResult": "gyrojax.inference.result:FitResult",
     "fit": "gyrojax.inference.identify:fit",
     "Diagnosis": "gyrojax.inference.diagnose:Diagnosis",
     "diagnose": "gyrojax.inference.diagnose:diagnose",
@@ -79,11 +82,11 @@ _FLAT = {
     "allan": "gyrojax.noise.allan:allan",
     # planning
     "design": "gyrojax.planning.optimal:design",
-    "compare_plans": "gyrojax.planning.optimal:compare",
+    "compare_plans": "gyrojax.planning.baselines:compare",
     # Monte Carlo
     "Study": "gyrojax.montecarlo.study:Study",
     "load_study": "gyrojax.montecarlo.study:load_study",
-    "run_study": "gyrojax.montecarlo.study:run_study",
+    "run_study": "gyrojax.montecarlo.runner:run_study",
 }
 
 __all__ = [

@@ -24,7 +24,8 @@ import gyrojax as gj
 from gyrojax.report import demo
 from gyrojax import report
 from gyrojax.inference.diagnose import diagnose
-from gyrojax.inference.identify import Campaign, fit
+from gyrojax.inference.campaign import Campaign
+from gyrojax.inference.identify import fit
 
 print("hidden truth:", demo.TRUTH["coefficients"])
 plan = gj.plans.tumble(revolutions=1, dt_s=10)

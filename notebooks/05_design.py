@@ -23,6 +23,7 @@ import numpy as np
 from IPython.display import Image
 
 import gyrojax as gj
+from gyrojax.planning import baselines, criteria, fisher
 from gyrojax.planning import optimal as design
 from gyrojax.inference.identify import fit
 
@@ -37,10 +38,10 @@ print("first positions (deg):", np.round(res.angles_deg[:4], 1).tolist())
 # %%
 classical = gj.plans.multiposition(24, minutes=2, dt_s=2)
 model = gj.Model.of(terms, "sdf-gyro")
-f_cl = design.record_fisher(model, gj.simulate(classical, {"coefficients": {}}), res.noise)
-f_cl = f_cl * res.dwell_s.sum() / design.measured_seconds(classical)
-cv_cl = design.criterion_values(f_cl, model)
-cv_de = design.criterion_values(res.fisher, model)
+f_cl = fisher.record_fisher(model, gj.simulate(classical, {"coefficients": {}}), res.noise)
+f_cl = f_cl * res.dwell_s.sum() / baselines.measured_seconds(classical)
+cv_cl = criteria.criterion_values(f_cl, model)
+cv_de = criteria.criterion_values(res.fisher, model)
 print(f"{'coefficient':<8}{'classical 24':>14}{'designed 24':>14}")
 for c in terms:
     print(f"{c:<8}{cv_cl['std'][c]:>14.3e}{cv_de['std'][c]:>14.3e}")

@@ -25,7 +25,8 @@ import numpy as np
 from IPython.display import Image
 
 import gyrojax as gj
-from gyrojax.physics.model import Model, predict, record_data
+from gyrojax.data.arrays import record_data
+from gyrojax.physics.model import Model, predict
 
 rec = gj.simulate(gj.plans.tumble(revolutions=1, dt_s=10, flip=False), {"coefficients": {}}, seed=0)[0]
 data = record_data(rec)

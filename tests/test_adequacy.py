@@ -8,8 +8,9 @@ import pytest
 
 import gyrojax as gj
 from gyrojax.inference.adequacy import holm_log10
+from gyrojax.inference.campaign import Campaign
 from gyrojax.inference.diagnose import diagnose, holm
-from gyrojax.inference.identify import Campaign, fit
+from gyrojax.inference.identify import fit
 from gyrojax.physics import effects as fx
 from gyrojax.physics import expression as ex
 from gyrojax.report import diagnosis_text

@@ -170,8 +170,8 @@ def test_audit_sees_the_package():
     # a few anchors: functions, classes, methods and a jitted function must all be found
     for expected in (
         "gyrojax.units.white_sigma_deg_per_h",
-        "gyrojax.data.records.Record",
-        "gyrojax.data.records.Record.n",
+        "gyrojax.data.record.Record",
+        "gyrojax.data.record.Record.n",
         "gyrojax.physics.model.predict_jit",
         "gyrojax.dynamics.discretize.zoh",
     ):

@@ -22,7 +22,7 @@ import pytest
 
 from gyrojax.cli import app as cli
 from gyrojax.data import plans
-from gyrojax.data.plans import load_plan, plan_to_json
+from gyrojax.data.planfile import load_plan, plan_to_json
 from gyrojax.data.records import load_record, load_records, save_record
 from gyrojax.data.truth import load_truth
 from gyrojax.errors import GyrojaxError, ModelError, PlanError, RecordError, TruthError

@@ -11,15 +11,18 @@ import numpy as np
 import pytest
 
 from gyrojax.data import plans
+from gyrojax.data.arrays import record_data
+from gyrojax.data.planfile import load_plan
 from gyrojax.errors import ModelError
-from gyrojax.inference.identify import Campaign, linearize
+from gyrojax.inference.campaign import Campaign, linearize
 from gyrojax.noise.processes import gauss_markov, random_drift, white
-from gyrojax.physics.model import Model, record_data
+from gyrojax.physics.model import Model
+from gyrojax.planning import criteria, fisher
 from gyrojax.planning import optimal as D
 from gyrojax.simulation.simulator import simulate
 
 ARW = 0.01  # deg/√h
-NOISE = D.Noise(ARW)
+NOISE = fisher.Noise(ARW)
 FAST = {"starts": 3, "adam_steps": 300, "lbfgs_steps": 0}
 # the 6-term sub-model the classical 8-position set identifies (N = 8 positions of one scalar each cannot
 # identify the 9-term model: rank F ≤ 8)
@@ -51,7 +54,9 @@ def test_fast_fisher_equals_linearize_jacobian():
     plan = plans.Plan("p", (plans.Run("r", plans.TWO_AXIS, plans.SKEW_MOUNT, segs),))
     f_ref = _plan_fisher(model, plan)
     f = np.asarray(
-        D.static_fisher(model, D.Table.two_axis(), jnp.deg2rad(jnp.asarray(pos)), jnp.asarray(dwell), NOISE, 10.0)
+        fisher.static_fisher(
+            model, fisher.Table.two_axis(), jnp.deg2rad(jnp.asarray(pos)), jnp.asarray(dwell), NOISE, 10.0
+        )
     )
     assert np.max(np.abs(f - f_ref)) <= 1e-9 * np.max(np.abs(f_ref))
 
@@ -62,33 +67,33 @@ def test_gauss_markov_mean_factor_against_discrete_covariance():
     dt = T / n
     i = np.arange(n)
     ref = np.exp(-np.abs(i[:, None] - i[None, :]) * dt / tau).mean()
-    assert float(D.gm_mean_factor(T / tau)) == pytest.approx(ref, rel=2e-3)
+    assert float(fisher.gm_mean_factor(T / tau)) == pytest.approx(ref, rel=2e-3)
     # and against the project's generator: white + GM position means, 4000 draws (std error of a variance 2.2 %)
     keys = jax.random.split(jax.random.PRNGKey(2), 4000)
     dts = jnp.full(120, 1.0)
     gm = jax.vmap(lambda k: gauss_markov(k, dts, 0.02, tau))(keys)
     wh = jax.vmap(lambda k: white(jax.random.fold_in(k, 1), 120, 1.0, ARW))(keys)
     var = float(jnp.var(jnp.mean(gm + wh, axis=1)))
-    assert var == pytest.approx(float(D.Noise(ARW, (0.02, tau)).mean_variance(120.0, 1.0)), rel=0.08)
-    assert float(D.gm_mean_factor(1e-6)) == pytest.approx(1.0, rel=1e-6)
-    assert float(D.gm_mean_factor(1e4)) == pytest.approx(2e-4, rel=1e-3)
+    assert var == pytest.approx(float(fisher.Noise(ARW, (0.02, tau)).mean_variance(120.0, 1.0)), rel=0.08)
+    assert float(fisher.gm_mean_factor(1e-6)) == pytest.approx(1.0, rel=1e-6)
+    assert float(fisher.gm_mean_factor(1e4)) == pytest.approx(2e-4, rel=1e-3)
 
 
 def test_designed_beats_classical_on_D(d24):
     # N = 24, the 9-term model (D_OO left out), same total dwell (4 h)
     m9 = Model.of(D.SDF9)
     classical = plans.multiposition(24, minutes=10.0, dt_s=30.0)
-    d_classical = D.criterion_values(_plan_fisher(m9, classical), m9)["D"]
-    d_designed = D.criterion_values(_plan_fisher(m9, d24.plan()), m9)["D"]
+    d_classical = criteria.criterion_values(_plan_fisher(m9, classical), m9)["D"]
+    d_designed = criteria.criterion_values(_plan_fisher(m9, d24.plan()), m9)["D"]
     assert np.isfinite(d_classical)
     assert d_designed > d_classical + 0.1  # det ratio > 1.1
     assert d24.grad_norm < 1e-3 * abs(d24.loss)
     # N = 8: the classical set identifies only a 6-term sub-model; the designed one does better on it
     m6 = Model.of(SDF6)
     res = D.design(m6, 8, hours=2.0, noise=NOISE, dt_s=30.0, **FAST)
-    c8 = D.criterion_values(_plan_fisher(m6, plans.multiposition(8, minutes=15.0, dt_s=30.0)), m6)["D"]
+    c8 = criteria.criterion_values(_plan_fisher(m6, plans.multiposition(8, minutes=15.0, dt_s=30.0)), m6)["D"]
     assert np.isfinite(c8)
-    assert D.criterion_values(_plan_fisher(m6, res.plan()), m6)["D"] > c8 + 0.1
+    assert criteria.criterion_values(_plan_fisher(m6, res.plan()), m6)["D"] > c8 + 0.1
 
 
 def test_monte_carlo_confirms_cramer_rao(d24):
@@ -121,7 +126,7 @@ def test_monte_carlo_confirms_cramer_rao(d24):
     emp = theta.std(axis=1, ddof=1)
     angles = jnp.deg2rad(jnp.asarray([s.start_deg for s in plan.runs[0].segments]))
     dwell = jnp.asarray([s.duration_s for s in plan.runs[0].segments])
-    pred = np.sqrt(np.diag(np.linalg.inv(np.asarray(D.static_fisher(m9, d24.table, angles, dwell, NOISE, 30.0)))))
+    pred = np.sqrt(np.diag(np.linalg.inv(np.asarray(fisher.static_fisher(m9, d24.table, angles, dwell, NOISE, 30.0)))))
     np.testing.assert_allclose(emp, pred, rtol=0.12)
     truth_theta = m9.pack(truth["coefficients"])
     assert np.all(np.abs(theta.mean(axis=1) - truth_theta) < 4 * pred / np.sqrt(400))
@@ -131,7 +136,7 @@ def test_d_oo_is_invisible_to_every_static_plan(d24):
     """a_I² + a_O² + a_S² = (g/g0)² in every static 1-g position, so the D_OO regressor is D_F·(g/g0)² − D_II − D_SS:
     the D_OO score test of the 9-term model has zero noncentrality for any static plan, and design refuses it."""
     m10 = Model.of(D.SDF9 + ("D_OO",))
-    rows = np.asarray(D.position_rows(m10, d24.table, jnp.deg2rad(jnp.asarray(d24.angles_deg))))[0]
+    rows = np.asarray(fisher.position_rows(m10, d24.table, jnp.deg2rad(jnp.asarray(d24.angles_deg))))[0]
     g2 = (d24.table.template.gravity / 9.80665) ** 2
     np.testing.assert_allclose(rows[:, 9], g2 * rows[:, 0] - rows[:, 4] - rows[:, 5], atol=1e-12)
     with pytest.raises(ModelError, match="D_OO"):
@@ -160,9 +165,9 @@ def test_detect_design_raises_noncentrality(d24):
     assert lam_det > 1.5 * lam_d
     summary = det.summary()
     assert summary["noncentrality"] == pytest.approx(lam_det, rel=0.02)  # dwell rounding to whole samples
-    assert summary["power_1pct"] > D.detect_power(lam_d)
+    assert summary["power_1pct"] > criteria.detect_power(lam_d)
     # the model stays estimable in the detectability plan
-    assert np.isfinite(D.criterion_values(det.fisher, Model.of(D.SDF9))["D"])
+    assert np.isfinite(criteria.criterion_values(det.fisher, Model.of(D.SDF9))["D"])
 
 
 def test_cli_design_writes_a_runnable_plan(tmp_path, capsys):
@@ -199,7 +204,7 @@ def test_cli_design_writes_a_runnable_plan(tmp_path, capsys):
     assert rc == 0
     rep = json.loads(capsys.readouterr().out)
     assert rep["design"]["criterion"] == "D"
-    plan = plans.load_plan(out)
+    plan = load_plan(out)
     assert len(plan.runs[0].segments) == 8
     rc = main(["simulate", str(out), "--out", str(tmp_path / "recs")])
     assert rc == 0

@@ -195,8 +195,9 @@ def test_wald_beside_drift_is_the_ordinary_t_test_under_white_noise():
     regression on the model's regressors and time: checked against scipy's Student t on a numpy least squares."""
     from scipy import stats
 
+    from gyrojax.inference.campaign import Campaign, linearize
     from gyrojax.inference.diagnose import wald_beside_drift
-    from gyrojax.inference.identify import Campaign, fit, linearize
+    from gyrojax.inference.identify import fit
     from gyrojax.physics.model import Model
 
     truth = {"coefficients": {**BASE, "D_T": 0.004}, "noise": {"white": 0.0008}}

@@ -23,9 +23,10 @@ import pytest
 
 from gyrojax import units
 from gyrojax.data import plans
+from gyrojax.data.arrays import record_data
 from gyrojax.inference.identify import fit
 from gyrojax.physics import effects as fx
-from gyrojax.physics.model import Model, indicated_output, predict, record_data
+from gyrojax.physics.model import Model, indicated_output, predict
 from gyrojax.simulation.simulator import plan_records, simulate
 
 EFFECTS = fx.names()

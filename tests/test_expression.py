@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 
 import gyrojax as gj
+from gyrojax.data.arrays import record_data
 from gyrojax.physics import effects as fx
 from gyrojax.physics import expression as ex
-from gyrojax.physics.model import Model, predict, record_data
+from gyrojax.physics.model import Model, predict
 from gyrojax.physics.registry import unregister
 
 RNG = np.random.default_rng(3)

@@ -13,17 +13,16 @@ from scipy import stats
 from gyrojax.data import plans
 from gyrojax.data.records import save_record
 from gyrojax.errors import ConvergenceWarning, FormatError
-from gyrojax.inference.identify import (
-    INTERVAL_LEVEL,
-    RESULT_VERSION,
-    Campaign,
-    FitResult,
-    fit,
-    linearize,
-    result_from_json,
-)
+from gyrojax.inference.campaign import Campaign, linearize
+from gyrojax.inference.identify import fit
+from gyrojax.inference.noisefit import INTERVAL_LEVEL
+from gyrojax.inference.result import RESULT_VERSION, FitResult, result_from_json
+from gyrojax.inference.triad_result import load_triad_fit
+from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics.model import Model
 from gyrojax.simulation.simulator import simulate
+
+from .roundtrip import assert_same, strict_json
 
 LOCK_IN = 300.0  # deg/h
 LADDER_DPS = (0.1, 0.2, 0.5, 1.0)  # highest rate 3600 deg/h
@@ -166,3 +165,120 @@ def test_error_messages_print_plain_numbers(rlg_ladder, tmp_path):
     assert "holds nan" in msgs[0] and "previous row's 2.0 (got 2.0)" in msgs[1]
     for m in msgs:
         assert "np.float64" not in m and "np.int64" not in m, m
+
+
+def _synthetic_result() -> FitResult:
+    """A result holding every kind of value a file must carry: three noise models (AR(2), white + Gauss–Markov,
+    white), an unseen direction (NaN covariance, infinite condition number), ν = ∞ beside a finite ν."""
+    model = Model(("D_F", "D_I"))
+    noise = [
+        NoiseSpec.from_sample_variances(0.09, 2.0, ar=(0.5, -0.2), method="ar"),
+        NoiseSpec.from_sample_variances(0.25, 2.0, [(0.04, 120.0)], method="reml").with_status(False, "cut short"),
+        NoiseSpec.from_sample_variances(0.25, 2.0, method="ar"),
+    ]
+    cov = np.array([[0.01, np.nan], [np.nan, np.nan]])
+    report = {
+        "rank": 1,
+        "size": 2,
+        "condition": np.inf,
+        "aliases": [["D_F", "D_I"]],
+        "unexcited": [],
+        "singular_values": [1.4, 0.0],
+    }
+    inputs = [{"name": f"r{i}", "path": f"/data/r{i}.json", "sha256": "0" * 64} for i in range(3)]
+    return FitResult(
+        model,
+        np.array([0.42, -1e-3]),
+        cov,
+        [],
+        [],
+        ["r0", "r1", "r2"],
+        ["/data/r0.json", None, "/data/r2.json"],
+        noise,
+        report,
+        300,
+        iterations=4,
+        converged=False,
+        convergence_note="stopped",
+        chi2_whitened=297.5,
+        dof=298,
+        inputs=inputs,
+        dof_eff=np.array([7.5, np.inf]),
+    )
+
+
+def test_saved_fit_loads_back_whole_noise_models_included(rlg_ladder, tmp_path):
+    """Everything but the residuals and labels (documented as not stored) comes back equal, field by field."""
+    for i, res in enumerate(
+        (fit(rlg_ladder, ["D_F", "lock_in"], noise="ar", theta0=[0.0, 250.0]), _synthetic_result())
+    ):
+        back = FitResult.load(res.save(tmp_path / f"fit{i}.json"))
+        assert back.residuals == [] and back.labels == []
+        assert_same(back, res, skip=("residuals", "labels"))
+        # and what was loaded saves to the same numbers again
+        again = FitResult.load(back.save(tmp_path / f"again{i}.json"))
+        assert_same(again, res, skip=("residuals", "labels"))
+
+
+def test_saved_fit_is_strict_json(tmp_path):
+    text = _synthetic_result().save(tmp_path / "fit.json").read_text()
+    d = strict_json(text)  # raises on the bare NaN / Infinity tokens
+    assert d["format"] == "gyrojax-fit" and d["format_version"] == RESULT_VERSION
+    assert d["cov"][1] == [None, None] and d["identifiability"]["condition"] is None and d["dof_eff"] == [7.5, None]
+
+
+def test_version_1_files_keep_their_noise_summaries(tmp_path):
+    """Version 1 stored each noise model as its summary: white + Gauss–Markov comes back from its σs, an AR model
+    with its order but unknown (NaN) coefficients; ν per coefficient."""
+    res = _synthetic_result()
+    d = json.loads(res.save(tmp_path / "fit.json").read_text())
+    for key in ("noise_models", "record_names", "record_paths", "dof_eff"):
+        del d[key]
+    d["format_version"] = 1
+    old = tmp_path / "v1.json"
+    old.write_text(json.dumps(d))
+    back = FitResult.load(old)
+    ar, gm, white = back.noise
+    assert ar.order == 2 and np.isnan(ar.ar).all() and ar.innovation_std == pytest.approx(0.3, rel=1e-14)
+    assert gm.gm_tau == 120.0 and gm.gm_variance == pytest.approx(0.04, rel=1e-14)
+    assert gm.white_variance == pytest.approx(0.25, rel=1e-14)
+    # white: its per-sample variance from its summary (v1 kept no sample interval)
+    assert white.order == 0 and white.whitening_theta()[2] == pytest.approx(res.noise[2].white_variance, rel=1e-14)
+    assert back.dof_eff is None  # v1 wrote ν = ∞ as null, so a fit with an infinite ν lost all of them
+
+
+def test_fit_and_triad_fit_readers_name_each_others_files(rlg_ladder, tmp_path):
+    from gyrojax.inference.triad import fit_triad
+    from gyrojax.montecarlo.triad import mems_truth
+    from gyrojax.simulation.triad import simulate_ferraris
+
+    turntable = fit(rlg_ladder, ["D_F", "sf_error"], noise="white").save(tmp_path / "fit.json")
+    triad = fit_triad(simulate_ferraris(mems_truth(7), seed=2)).save(tmp_path / "triad.json")
+    with pytest.raises(FormatError, match="an imu-triad fit .*load_triad_fit") as e:
+        FitResult.load(triad)
+    assert str(triad) in str(e.value)
+    with pytest.raises(FormatError, match="a turntable fit result .*FitResult.load") as e:
+        load_triad_fit(turntable)
+    assert str(turntable) in str(e.value)
+    # 0.2 wrote both kinds as gyrojax-fit-1: the instrument tells them apart
+    d = json.loads(triad.read_text())
+    d["format"] = "gyrojax-fit-1"
+    del d["format_version"]
+    legacy = tmp_path / "legacy_triad.json"
+    legacy.write_text(json.dumps(d))
+    with pytest.raises(FormatError, match="an imu-triad fit"):
+        FitResult.load(legacy)
+
+
+def _KnownNoise():  # noqa: N802 — a given noise model (as gyrojax noise makes one): white 0.5 deg/√h
+    return NoiseSpec(white=0.5)
+
+
+def test_known_noise_fit_is_damped_and_reports_its_status(rlg_ladder):
+    """The known-noise GLS pass uses the one damped method too: from Ω_L = 5 deg/h it reaches the lock-in (the
+    undamped step lands in the dead band, test above), and stopped after one iteration it says so."""
+    res = fit(rlg_ladder, ["D_F", "lock_in"], noise=_KnownNoise(), theta0=[0.0, 5.0])
+    assert res.converged and abs(res.values["Omega_L"] - LOCK_IN) < 4 * res.stds["Omega_L"]
+    with pytest.warns(ConvergenceWarning, match="did not converge"):
+        stopped = fit(rlg_ladder, ["D_F", "lock_in"], noise=_KnownNoise(), theta0=[0.0, 5.0], max_iter=1)
+    assert not stopped.converged and "Levenberg–Marquardt stopped" in stopped.convergence_note

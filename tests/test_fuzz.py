@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 
 from gyrojax.cli import app as cli
 from gyrojax.data import plans
-from gyrojax.data.plans import load_plan, plan_to_json
+from gyrojax.data.planfile import load_plan, plan_to_json
 from gyrojax.data.records import load_record, save_record
 from gyrojax.data.truth import load_truth
 from gyrojax.errors import GyrojaxError
@@ -322,14 +322,14 @@ def _files(valid: Path, tmp: Path) -> list[str]:
 def test_random_command_lines(valid, monkeypatch):
     """Random command lines exit 0 or 2 with one line; for ``design`` and ``mc`` the property is that bad input is
     refused before the computation starts (the computation itself is replaced by a marker)."""
-    from gyrojax.montecarlo import study
+    from gyrojax.montecarlo import runner
     from gyrojax.planning import optimal
 
     def reached(*a, **k):
         raise _Reached
 
     monkeypatch.setattr(optimal, "design", reached)
-    monkeypatch.setattr(study, "run_study", reached)
+    monkeypatch.setattr(runner, "run_study", reached)
     with tempfile.TemporaryDirectory() as tmp:
         files = _files(valid, Path(tmp))
         # every sub-command (``noise``, ``design``, ``mc`` …), except the long ``demo``

@@ -43,7 +43,9 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from gyrojax import units
-from gyrojax.data import records
+from gyrojax.data import schema
+from gyrojax.data.arrays import record_data
+from gyrojax.data.record import Record
 from gyrojax.physics import kinematics, model
 
 G_SITE = 9.80155  # local gravity used in every check (Hu's "g"), m/s²
@@ -601,7 +603,7 @@ def test_record_path_reproduces_3_13():
     axes, triad = tumble_sdf_mounting("3-13", phi)
     t = np.arange(THETAS.size, dtype=float)
     meta = {
-        "format": records.FORMAT,
+        "format": schema.FORMAT,
         "name": "hu-3-13",
         "site": {"latitude_deg": float(np.rad2deg(phi)), "gravity_mps2": G_SITE},
         "table": {"axes": [{"name": "polar", "axis_enu": axes[0].tolist()}]},
@@ -616,7 +618,7 @@ def test_record_path_reproduces_3_13():
         "rate_polar_dps": np.full(t.shape, np.rad2deg(10 * W_E)),
         "current_mA": np.zeros_like(t),
     }
-    data = model.record_data(records.Record(meta, cols))
+    data = record_data(Record(meta, cols))
     x = model.instrument_inputs(data, {"delta": jnp.zeros(3), "encoder": jnp.zeros(4)})
     a = np.stack([np.asarray(x[k]) for k in ("a_I", "a_O", "a_S")], -1)
     assert_gravity(a, hu_3_13(THETAS, phi, G_SITE))

@@ -8,7 +8,9 @@ import pytest
 
 from gyrojax import load_record, simulate
 from gyrojax.data import plans
-from gyrojax.inference.identify import IdentifiabilityError, fit, load_result, result_from_json
+from gyrojax.inference.identifiability import IdentifiabilityError
+from gyrojax.inference.identify import fit
+from gyrojax.inference.result import load_result, result_from_json
 
 from .conftest import EXAMPLES
 

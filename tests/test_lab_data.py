@@ -11,10 +11,14 @@ import pytest
 from gyrojax import simulate
 from gyrojax.cli.app import main
 from gyrojax.data import plans
-from gyrojax.data.records import Record, interval_key, save_record, uniform_interval
+from gyrojax.data.record import Record
+from gyrojax.data.records import save_record
+from gyrojax.data.timebase import interval_key, uniform_interval
 from gyrojax.errors import ModelError, RecordError
+from gyrojax.inference.campaign import Campaign
 from gyrojax.inference.diagnose import diagnose
-from gyrojax.inference.identify import Campaign, fit, fit_per_instrument, noise_groups
+from gyrojax.inference.identify import fit, fit_per_instrument
+from gyrojax.inference.noisefit import noise_groups
 
 
 def _with_meta(rec: Record, name: str, **inst) -> Record:

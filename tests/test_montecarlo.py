@@ -20,6 +20,8 @@ import pytest
 from gyrojax.cli import app as cli
 from gyrojax.data import plans
 from gyrojax.inference import identify
+from gyrojax.inference.noisefit import small_sample_factor
+from gyrojax.montecarlo import pipeline, results, runner
 from gyrojax.montecarlo import study as mc
 from gyrojax.physics.model import predict, predict_jit
 
@@ -35,7 +37,7 @@ def white_pipe():
     st = mc.Study(
         plan="multiposition", plan_options=SMALL, terms=NINE, priors=PRIORS, noise={"white": 0.01}, draws=4000, seed=11
     )
-    return st, mc.build_pipeline(st)
+    return st, pipeline.build_pipeline(st)
 
 
 @pytest.mark.parametrize(
@@ -58,7 +60,7 @@ def test_draw_measurements_are_the_measurement_model(plan, options):
         draws=3,
         seed=3,
     )
-    pipe = mc.build_pipeline(st)
+    pipe = pipeline.build_pipeline(st)
     sim = jax.jit(pipe.simulate_draw)
     for d in range(3):
         theta, ys, reads = sim(jax.random.fold_in(jax.random.PRNGKey(st.seed), d))
@@ -85,15 +87,16 @@ def test_static_run_reduction_is_the_sample_level_fit():
         draws=16,
         seed=2,
     )
-    pipe = mc.build_pipeline(st)
+    pipe = pipeline.build_pipeline(st)
     assert pipe.runs is not None and [len(f) for _, f in pipe.runs] == [8]
-    red = mc.run_study(st, pipeline=pipe)
-    full = mc.run_study(st, pipeline=replace(pipe, runs=None, _compiled={}))
+    red = runner.run_study(st, pipeline=pipe)
+    full = runner.run_study(st, pipeline=replace(pipe, runs=None, _compiled={}))
     assert np.abs(red.estimate).max() > 0.1
     for k in ("truth", "estimate", "std", "rms"):
         np.testing.assert_allclose(getattr(red, k), getattr(full, k), rtol=1e-9, atol=1e-12)
-    assert mc.build_pipeline(replace(st, priors={**st.priors, "D_T": {"normal": [0, 0.1]}})).runs is None
-    assert mc.build_pipeline(replace(st, plan="tumble", plan_options={"revolutions": 0.1, "dt_s": 60.0})).runs is None
+    assert pipeline.build_pipeline(replace(st, priors={**st.priors, "D_T": {"normal": [0, 0.1]}})).runs is None
+    tumble = replace(st, plan="tumble", plan_options={"revolutions": 0.1, "dt_s": 60.0})
+    assert pipeline.build_pipeline(tumble).runs is None
 
 
 def test_study_errors_name_the_key(tmp_path):
@@ -121,16 +124,16 @@ def test_study_errors_name_the_key(tmp_path):
 
 def test_chunking_does_not_change_draws_and_white_coverage(white_pipe):
     st, pipe = white_pipe
-    a = mc.run_study(st, pipeline=pipe, chunk=4000)
-    b = mc.run_study(st, pipeline=pipe, draws=1000, chunk=96)  # 11 chunks, the last one padded
+    a = runner.run_study(st, pipeline=pipe, chunk=4000)
+    b = runner.run_study(st, pipeline=pipe, draws=1000, chunk=96)  # 11 chunks, the last one padded
     for k in ("truth", "estimate", "std", "rms"):
         np.testing.assert_allclose(getattr(b, k), getattr(a, k)[:1000], rtol=1e-12, atol=1e-15)
     # the draws start where asked: draws 1000.. of a run from 1000 are the same draws
-    c = mc.run_study(st, pipeline=pipe, draws=200, chunk=96, start=1000)
+    c = runner.run_study(st, pipeline=pipe, draws=200, chunk=96, start=1000)
     np.testing.assert_allclose(c.estimate, a.estimate[1000:1200], rtol=1e-12, atol=1e-15)
 
     n = len(a.draw)
-    s = mc.summarize(a)
+    s = results.summarize(a)
     # white noise of ARW N: σ = N·60/√Δt deg/h per sample (IEEE 952, noise.white); residual rms² = σ²(m−p)/m
     sigma = 0.01 * 60.0 / np.sqrt(2.0)
     m, p = pipe.n_measurements, 9
@@ -150,15 +153,16 @@ def test_chunking_does_not_change_draws_and_white_coverage(white_pipe):
 
 SUBPROCESS = textwrap.dedent("""
     import json, numpy as np, jax
+    from gyrojax.montecarlo import pipeline, runner
     from gyrojax.montecarlo import study as mc
     assert len(jax.devices()) == 4, jax.devices()
     st = mc.Study(plan="multiposition", plan_options={"n": 8, "minutes": 1, "dt_s": 5}, terms=["D_F", "D_I", "D_O"],
                   priors={"D_F": {"normal": [0, 1]}, "D_I": {"uniform": [-1, 1]}, "D_O": 0.3},
                   setup={"table_tilt": {"normal": [0, 20]}}, noise={"white": 0.01, "gauss_markov": [0.1, 30.0]},
                   draws=90, seed=5)
-    pipe = mc.build_pipeline(st)
-    one = mc.run_study(st, pipeline=pipe, devices=jax.devices()[:1], chunk=32)
-    four = mc.run_study(st, pipeline=pipe, chunk=40)
+    pipe = pipeline.build_pipeline(st)
+    one = runner.run_study(st, pipeline=pipe, devices=jax.devices()[:1], chunk=32)
+    four = runner.run_study(st, pipeline=pipe, chunk=40)
     print(json.dumps({k: float(np.abs(getattr(one, k) - getattr(four, k)).max()) for k in
                       ("truth", "estimate", "std", "rms")} | {"scale": float(np.abs(one.estimate).max())}))
 """)
@@ -189,17 +193,17 @@ def test_gauss_markov_gls_std_is_honest_and_white_ls_is_not():
         draws=N_GLS,
         seed=2,
     )
-    pipe = mc.build_pipeline(st)
-    fast = mc.run_study(st, pipeline=pipe)
+    pipe = pipeline.build_pipeline(st)
+    fast = runner.run_study(st, pipeline=pipe)
     truth = fast.truth_of_fit()
     z_fast = (fast.estimate - truth) / fast.std
     # the records carry exactly the draw's measurements: a white fit of them is the fast path's estimate and σ̂
-    w = identify.fit(mc.draw_records(pipe, 0), NINE, noise="white")
+    w = identify.fit(pipeline.draw_records(pipe, 0), NINE, noise="white")
     np.testing.assert_allclose(w.theta, fast.estimate[0], rtol=0, atol=1e-9)
     np.testing.assert_allclose(w.std, fast.std[0], rtol=1e-6)
     z = []
     for d in range(N_GLS):
-        f = identify.fit(mc.draw_records(pipe, d), NINE, noise="ar")
+        f = identify.fit(pipeline.draw_records(pipe, d), NINE, noise="ar")
         z.append((f.theta - truth[d]) / f.std)
     z = np.array(z)
     inside = (np.abs(z) <= 2.0).mean()
@@ -230,14 +234,14 @@ def test_slow_drift_on_eight_positions_small_sample_standard_errors():
         draws=N_SLOW,
         seed=4,
     )
-    pipe = mc.build_pipeline(st)
-    truth = mc.run_study(st, pipeline=pipe).truth_of_fit()
+    pipe = pipeline.build_pipeline(st)
+    truth = runner.run_study(st, pipeline=pipe).truth_of_fit()
     z, var_plain, nu = [], [], []
     for d in range(N_SLOW):
-        f = identify.fit(mc.draw_records(pipe, d), terms)
+        f = identify.fit(pipeline.draw_records(pipe, d), terms)
         z.append((f.theta - truth[d]) / f.std)
         nu_d = f.dof_eff if f.dof_eff is not None else np.full(len(terms), np.inf)
-        var_plain.append((f.std / identify.small_sample_factor(nu_d)) ** 2)
+        var_plain.append((f.std / small_sample_factor(nu_d)) ** 2)
         nu.append(nu_d)
     z, var_plain, nu = np.array(z), np.array(var_plain), np.array(nu)
     inside = (np.abs(z) <= 2.0).mean()

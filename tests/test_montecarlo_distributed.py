@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from gyrojax.cli import app as cli
-from gyrojax.montecarlo import hosts
+from gyrojax.montecarlo import hosts, results, runner
 from gyrojax.montecarlo import study as mc
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -35,7 +35,7 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def _assert_same(a: mc.StudyResult, b: mc.StudyResult) -> None:
+def _assert_same(a: results.StudyResult, b: results.StudyResult) -> None:
     np.testing.assert_array_equal(a.draw, b.draw)
     assert a.truth_names == b.truth_names and a.fit_names == b.fit_names
     for k in COLUMNS:
@@ -78,12 +78,12 @@ def test_two_process_distributed_mc_equals_one_process(tmp_path):
         assert p.returncode == 0, se[-2000:]
     rep0 = json.loads(outs[0][0].strip().splitlines()[-1])
     assert rep0["draws"] == 37 and outs[1][0].strip() == ""  # process 0 alone reports and writes
-    two = mc.load_result(out)
-    one = mc.run_study(mc.study_from_dict(STUDY))
+    two = results.load_result(out)
+    one = runner.run_study(mc.study_from_dict(STUDY))
     assert np.abs(one.estimate).max() > 0.1  # the comparison has teeth
     _assert_same(two, one)
     # the files process 0 wrote are the single-process files
-    mc.save_result(one, tmp_path / "one")
+    results.save_result(one, tmp_path / "one")
     assert (out / "summary.csv").read_text() == (tmp_path / "one" / "summary.csv").read_text()
     assert json.loads((out / "study.json").read_text()) == json.loads((tmp_path / "one" / "study.json").read_text())
 
@@ -99,7 +99,7 @@ def test_index_ranges_merge_to_the_whole_run(tmp_path, capsys):
     assert cli.main(["mc-merge", str(tmp_path / "b"), str(tmp_path / "a"), "--out", str(tmp_path / "m"), "--json"]) == 0
     rep = json.loads(capsys.readouterr().out)
     assert rep["draws"] == 37
-    merged, whole = mc.load_result(tmp_path / "m"), mc.load_result(tmp_path / "all")
+    merged, whole = results.load_result(tmp_path / "m"), results.load_result(tmp_path / "all")
     _assert_same(merged, whole)
     assert (tmp_path / "m" / "summary.csv").read_text() == (tmp_path / "all" / "summary.csv").read_text()
     assert merged.study == whole.study

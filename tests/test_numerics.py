@@ -14,9 +14,10 @@ import numpy as np
 import pytest
 
 from gyrojax.data import plans
-from gyrojax.data.records import Record
+from gyrojax.data.record import Record
 from gyrojax.errors import GyrojaxError
-from gyrojax.inference.identify import IdentifiabilityError, fit
+from gyrojax.inference.identifiability import IdentifiabilityError
+from gyrojax.inference.identify import fit
 from gyrojax.simulation.simulator import simulate
 
 LADDER_TRUTH = {"D_F": 1e-5, "E_SF": 150.0, "M_O": 120.0, "M_S": -80.0}
@@ -199,8 +200,9 @@ def test_every_sdf_effect_has_finite_regressors_from_rest_to_1000_dps():
     (including the nonlinear set-up ones): the Jacobian is finite."""
     import jax.numpy as jnp
 
+    from gyrojax.data.arrays import record_data
     from gyrojax.physics import effects as fx
-    from gyrojax.physics.model import Model, jacobian_jit, predict_jit, record_data
+    from gyrojax.physics.model import Model, jacobian_jit, predict_jit
 
     recs = simulate(plans.rate_ladder(rates_dps=(0, 1000), seconds=2, dt_s=0.5), {"coefficients": {"D_F": 1e-5}})
     terms = tuple(n for n in fx.names() if fx.SDF in fx.get(n).kinds)

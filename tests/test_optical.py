@@ -11,9 +11,10 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from gyrojax import units
+from gyrojax.data.arrays import record_data
 from gyrojax.data.plans import rate_ladder
 from gyrojax.physics import effects
-from gyrojax.physics.model import Model, predict, record_data
+from gyrojax.physics.model import Model, predict
 from gyrojax.seeds import optical
 from gyrojax.simulation.simulator import simulate
 

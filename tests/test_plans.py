@@ -9,7 +9,7 @@ from scipy.spatial.transform import Rotation
 
 from gyrojax import load_record, save_record, simulate, units
 from gyrojax.data import plans
-from gyrojax.data.plans import load_plan, plan_to_json
+from gyrojax.data.planfile import load_plan, plan_to_json
 from gyrojax.errors import PlanError
 
 TRUTH = {

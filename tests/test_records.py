@@ -7,7 +7,10 @@ from scipy.spatial.transform import Rotation
 
 from gyrojax import units
 from gyrojax.data import records
+from gyrojax.data.arrays import record_data
+from gyrojax.data.record import Record
 from gyrojax.data.records import load_record
+from gyrojax.errors import RecordError
 from gyrojax.physics import model
 
 from .conftest import EXAMPLES
@@ -40,11 +43,11 @@ def test_every_example_loads_and_inputs_match_numpy(example_campaigns):
         for name in camp["records"]:
             rec = load_record(EXAMPLES / f"{name}.json")
             assert rec.n > 1000
-            data = model.record_data(rec)
+            data = record_data(rec)
             setup = model.setup_values(model.Model(()), np.zeros(0))
             x = model.instrument_inputs(data, setup)
             idx = np.linspace(0, rec.n - 1, 200).astype(int)
-            sub = records.Record(rec.meta, {k: v[idx] for k, v in rec.columns.items()})
+            sub = Record(rec.meta, {k: v[idx] for k, v in rec.columns.items()})
             w, a = _numpy_inputs(sub)
             np.testing.assert_allclose(np.asarray(x["w_I"])[idx], w[:, 0], rtol=0, atol=1e-9)
             np.testing.assert_allclose(np.asarray(x["w_O"])[idx], w[:, 1], rtol=0, atol=1e-9)
@@ -62,7 +65,7 @@ def test_load_by_either_path_and_roundtrip(tmp_path, example_campaigns):
     c = load_record(tmp_path / f"{name}.json")
     for k in a.columns:
         np.testing.assert_array_equal(a.columns[k], c.columns[k])
-    with pytest.raises(records.RecordError, match="exists"):
+    with pytest.raises(RecordError, match="exists"):
         records.save_record(a, tmp_path)
     df = c.to_pandas()
     assert "segment_id" in df and df.attrs["name"] == name

@@ -10,6 +10,8 @@ from scipy import linalg
 from gyrojax import simulate
 from gyrojax.data import plans
 from gyrojax.inference import identify
+from gyrojax.inference.campaign import Campaign, linearize
+from gyrojax.inference.noisefit import group_series
 from gyrojax.noise import reml
 from gyrojax.noise.spec import NoiseSpec
 from gyrojax.noise.whiten import gm_loglik, gm_profile, gm_reml, whiten
@@ -200,10 +202,10 @@ def test_fit_finds_the_reml_optimum():
 def _fd_satterthwaite(res, records, free, step=0.05):
     """The previous implementation of ν: central differences of the numpy REML and of the GLS variances, in the free
     log-parameters (τ held when at its cap)."""
-    camp = identify.Campaign.of(records)
-    lin = identify.linearize(res.model, res.theta, camp)
+    camp = Campaign.of(records)
+    lin = linearize(res.model, res.theta, camp)
     nz = res.noise[0]
-    r, j, lab, t = identify.group_series(lin, list(range(len(records))))
+    r, j, lab, t = group_series(lin, list(range(len(records))))
 
     def variances(moved):
         rows = [whiten(np.column_stack([rr, jj]), ll, moved, tt)[0] for rr, jj, ll, tt in lin]

@@ -13,11 +13,13 @@ import pytest
 
 import gyrojax
 from gyrojax.cli import app as cli
-from gyrojax.data import plans, records
+from gyrojax.data import csvfile, plans, records, schema
+from gyrojax.data.record import Record
 from gyrojax.data.records import load_record, save_record
 from gyrojax.errors import GyrojaxError, ModelError, RecordError
 from gyrojax.inference.bigfit import fit_chunked
-from gyrojax.inference.identify import IdentifiabilityError, fit
+from gyrojax.inference.identifiability import IdentifiabilityError
+from gyrojax.inference.identify import fit
 from gyrojax.simulation.simulator import simulate
 
 NAME = "ccw-up"  # the run of a one-run polar tumble
@@ -88,7 +90,7 @@ class Boom(RuntimeError):
 
 def _failing_fmt(after: int):
     """A stand-in for the CSV cell formatter that fails after ``after`` cells: a crash in the middle of the file."""
-    real = records._fmt
+    real = csvfile._fmt
     count = {"n": 0}
 
     def fmt(x):
@@ -103,7 +105,7 @@ def _failing_fmt(after: int):
 def test_failure_mid_csv_leaves_no_file(rec, tmp_path, monkeypatch):
     # 5-row chunks: the failure comes after three chunks already went to disk
     monkeypatch.setattr(records, "record_csv_chunks", lambda r, rows=5, _f=records.record_csv_chunks: _f(r, rows))
-    monkeypatch.setattr(records, "_fmt", _failing_fmt(3 * 5 * 5 + 2))
+    monkeypatch.setattr(csvfile, "_fmt", _failing_fmt(3 * 5 * 5 + 2))
     with pytest.raises(Boom):
         save_record(rec, tmp_path)
     assert _listing(tmp_path) == []  # neither the CSV, nor the JSON, nor a temporary file
@@ -112,7 +114,7 @@ def test_failure_mid_csv_leaves_no_file(rec, tmp_path, monkeypatch):
 def test_failure_mid_write_keeps_the_old_record(rec, tmp_path, monkeypatch):
     save_record(rec, tmp_path)
     before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
-    monkeypatch.setattr(records, "_fmt", _failing_fmt(40))
+    monkeypatch.setattr(csvfile, "_fmt", _failing_fmt(40))
     with pytest.raises(Boom):
         save_record(rec.with_columns(current_mA=rec.columns["current_mA"] * 2), tmp_path, force=True)
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
@@ -122,7 +124,7 @@ def test_failure_writing_json_leaves_no_csv(rec, tmp_path, monkeypatch):
     real = json.dumps
 
     def dumps(obj, *a, **k):
-        if isinstance(obj, dict) and obj.get("format") == records.FORMAT:
+        if isinstance(obj, dict) and obj.get("format") == schema.FORMAT:
             raise Boom("crash while writing the JSON")
         return real(obj, *a, **k)
 
@@ -237,7 +239,7 @@ def test_chunked_fit_static_positions_without_rate_columns(tmp_path):
     plan = plans.multiposition(positions=[(0, 0), (90, 0), (180, 0), (90, 90)], minutes=1.0)
     (r,) = simulate(plan, truth, seed=5)
     cols = {k: v for k, v in r.columns.items() if not k.startswith("rate_")}
-    save_record(records.Record(r.meta, cols), tmp_path)
+    save_record(Record(r.meta, cols), tmp_path)
     path = tmp_path / f"{r.name}.json"
     terms = ["D_F", "D_I", "D_O", "D_S"]
     ref = fit([load_record(path)], terms, noise="white")

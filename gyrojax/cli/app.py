@@ -13,58 +13,16 @@ directory (``$XDG_CACHE_HOME/gyrojax/jax`` or ``~/.cache/gyrojax/jax``); ``GYROJ
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 
+from gyrojax.cli.args import UsageError
 from gyrojax.errors import GyrojaxError
-
-
-class UsageError(GyrojaxError):
-    """Bad command-line arguments."""
 
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message):  # argparse would print usage and exit 2; keep it to one line
         raise UsageError(f"{self.prog}: {message}")
-
-
-def parse_options(pairs) -> dict:
-    """``["NAME=VALUE", …]`` → ``{name: value}`` (values parsed as JSON where they are JSON; ``-`` → ``_``)."""
-    out = {}
-    for p in pairs or []:
-        if "=" not in p:
-            raise UsageError(f"plan option {p!r} must look like NAME=VALUE")
-        k, v = p.split("=", 1)
-        try:
-            value = json.loads(v)
-        except json.JSONDecodeError:
-            value = v
-        out[k.replace("-", "_")] = value
-    return out
-
-
-def parse_terms(s: str | None) -> list[str]:
-    """A comma-separated list of effect names → list (empty for ``None``)."""
-    if s is None:
-        return []
-    return [t.strip() for t in s.split(",") if t.strip()]
-
-
-def parse_gm(text: str | None, option: str = "--gm") -> tuple[float, float] | None:
-    """``"sigma_deg_per_h,tau_s"`` → (σ, τ), both finite and positive; :class:`UsageError` naming the option."""
-    if text is None:
-        return None
-    parts = text.split(",")
-    try:
-        if len(parts) != 2:
-            raise ValueError
-        sigma, tau = (float(x) for x in parts)
-    except ValueError:
-        raise UsageError(f"{option} {text!r}: expected 'sigma_deg_per_h,tau_s', e.g. 0.05,300") from None
-    if not (sigma > 0 and tau > 0 and sigma < float("inf") and tau < float("inf")):
-        raise UsageError(f"{option} {text!r}: sigma and tau must be finite and positive")
-    return sigma, tau
 
 
 def add_effect_arguments(parser) -> None:

@@ -10,7 +10,7 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-from gyrojax.cli.app import UsageError, parse_gm, parse_options, parse_terms
+from gyrojax.cli.args import UsageError, parse_gm, parse_options, parse_terms
 
 
 def effects_from_args(args, kind: str) -> list[str]:
@@ -45,6 +45,7 @@ def cmd_plans(args) -> int:
 
 def _plan_from_arg(arg: str, options: dict):
     from gyrojax.data import plans
+    from gyrojax.data.planfile import load_plan
 
     if arg in plans.BUILDERS:
         return plans.build(arg, **options)
@@ -52,7 +53,7 @@ def _plan_from_arg(arg: str, options: dict):
     if p.suffix == ".json" or p.exists():
         if options:
             raise UsageError("--option applies to built-in plans only, not to a plan file")
-        return plans.load_plan(p)
+        return load_plan(p)
     raise UsageError(f"{arg!r} is neither a built-in plan ({', '.join(plans.BUILDERS)}) nor a plan file")
 
 
@@ -259,7 +260,11 @@ def cmd_design(args) -> int:
     import numpy as np
 
     from gyrojax.data import plans
-    from gyrojax.planning.optimal import SDF9, Noise, criterion_values, design, static_fisher, table_text
+    from gyrojax.data.planfile import plan_to_json
+    from gyrojax.planning.baselines import table_text
+    from gyrojax.planning.criteria import criterion_values
+    from gyrojax.planning.fisher import Noise, static_fisher
+    from gyrojax.planning.optimal import SDF9, design
     from gyrojax.protocol import atomic_write_text
 
     out = Path(args.out)
@@ -299,7 +304,7 @@ def cmd_design(args) -> int:
         lbfgs_steps=args.lbfgs_steps,
     )
     plan = res.plan()
-    atomic_write_text(out, plans.plan_to_json(plan))
+    atomic_write_text(out, plan_to_json(plan))
     summary = res.summary()
     rows = []
     if args.positions in plans.MULTIPOSITION_SETS:
@@ -341,7 +346,8 @@ def cmd_mc(args) -> int:
     import jax
 
     from gyrojax.errors import GyrojaxError
-    from gyrojax.montecarlo.study import StudyError, load_study, run_study
+    from gyrojax.montecarlo.runner import run_study
+    from gyrojax.montecarlo.study import StudyError, load_study
 
     first = jax.process_index() == 0
     err, study, out = None, None, Path(args.out)
@@ -376,10 +382,17 @@ def cmd_mc(args) -> int:
 
 
 def _write_mc(res, out: Path, args) -> None:
-    from gyrojax.montecarlo.study import save_result, summarize
+    from gyrojax.montecarlo.results import save_result, summarize
+    from gyrojax.montecarlo.study import StudyError
+    from gyrojax.report import figures
 
+    plot = out / "coverage.png"
+    if not args.force and plot.exists():
+        raise StudyError(f"{plot} exists; use --force to overwrite")
     files = save_result(res, out, force=args.force)
     summ = summarize(res)
+    figures.save(figures.montecarlo_figure(res, summ), plot)
+    files = {"study": files["study"], "summary": files["summary"], "plot": str(plot), **files}
     if args.json:
         print(
             json.dumps(
@@ -401,7 +414,8 @@ def cmd_mc_merge(args) -> int:
     """``gyrojax mc-merge DIR… --out DIR``: one result from results of disjoint draw ranges of one study."""
     import numpy as np
 
-    from gyrojax.montecarlo.study import StudyError, load_result, merge_results
+    from gyrojax.montecarlo.results import load_result, merge_results
+    from gyrojax.montecarlo.study import StudyError
 
     out = Path(args.out)
     if not args.force and (out / "study.json").exists():
@@ -488,7 +502,7 @@ def cmd_apply(args) -> int:
     import numpy as np
 
     from gyrojax.data.records import load_records
-    from gyrojax.inference.triad import load_triad_fit
+    from gyrojax.inference.triad_result import load_triad_fit
     from gyrojax.protocol import atomic_write_text
 
     fit_res = load_triad_fit(args.fit)

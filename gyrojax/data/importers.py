@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from gyrojax import units
-from gyrojax.data.records import Record
+from gyrojax.data.record import Record
 from gyrojax.data.triad import CHANNELS, TRIAD_KIND, validate_triad_columns, validate_triad_meta
 from gyrojax.errors import RecordError
 

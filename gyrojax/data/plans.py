@@ -6,23 +6,22 @@ moves every table axis as θ(t) = θ_0 + θ̇·t + A·sin(2π f t) for ``duratio
 constant rates, continuous tumbles and oscillations are all segments. Between segments the table moves
 unlogged for ``gap_s`` seconds, which ends a continuous segment in the record (CONVENTIONS §5).
 
-Every builder cites its seed procedure. Plans serialise to JSON (``plan_to_json``/``plan_from_json``), and
-``gyrojax simulate PLAN`` takes a builder name or such a file.
+Every builder cites its seed procedure. Plan files (JSON) are :mod:`gyrojax.data.planfile`; ``gyrojax simulate
+PLAN`` takes a builder name or such a file.
 """
 
 from __future__ import annotations
 
-import json
 import math
-from dataclasses import asdict, dataclass, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from gyrojax import units
-from gyrojax.errors import PlanError
-from gyrojax.protocol import is_finite_number, read_json_file
+from gyrojax.data.schema import FORMAT, validate_meta
+from gyrojax.errors import PlanError, RecordError
+from gyrojax.protocol import is_finite_number
 
-PLAN_FORMAT = "gyrojax-plan-1"
 DEFAULT_LATITUDE = 39.98  # Beijing, the site of the example campaigns
 
 
@@ -415,20 +414,11 @@ def build(name: str, **options) -> Plan:
     return validate_plan(plan, f"plan {name!r} with options {options}")
 
 
-# ---- JSON ------------------------------------------------------------------------------------------------------
-
-
-def plan_to_json(plan: Plan) -> str:
-    """The plan file text (``PLAN_FORMAT``, indented JSON); units as in the field names (deg, s, deg/s, Hz)."""
-    d = asdict(plan)
-    d["format"] = PLAN_FORMAT
-    return json.dumps(d, indent=1)
+# ---- validation ------------------------------------------------------------------------------------------------
 
 
 def validate_plan(plan: Plan, where: str = "plan") -> Plan:
     """Check a plan's numbers and each run's geometry (as the record it will become); errors name the key."""
-    from gyrojax.data.records import FORMAT, RecordError, validate_meta
-
     if not is_finite_number(plan.latitude_deg) or not -90.0 <= plan.latitude_deg <= 90.0:
         raise PlanError(f"{where}: key 'latitude_deg' must be a number in [-90, 90], got {plan.latitude_deg!r}")
     g = plan.gravity_mps2
@@ -485,113 +475,6 @@ def validate_plan(plan: Plan, where: str = "plan") -> Plan:
             msg = str(e).replace("'scale_factor_deg_per_h_per_mA'", "'scale_factor'")
             raise PlanError(f"{where}: {msg.replace('scale_factor_g_per_mA', 'scale_factor')}") from None
     return plan
-
-
-def _need(where, d, key, path):
-    if not isinstance(d, dict):
-        raise PlanError(f"{where}: key {path.rstrip('.')!r} must be an object")
-    if key not in d:
-        raise PlanError(f"{where}: missing required key {path + key!r}")
-    return d[key]
-
-
-def _list(where, v, path):
-    if not isinstance(v, list):
-        raise PlanError(f"{where}: key {path!r} must be a list, got {type(v).__name__}")
-    return v
-
-
-def _number(where, v, path, default=None):
-    if v is None and default is not None:
-        return default
-    if not is_finite_number(v):
-        raise PlanError(f"{where}: key {path!r} must be a finite number, got {v!r}")
-    return float(v)
-
-
-def _numbers(where, v, path):
-    if v is None:
-        return None
-    if not isinstance(v, list) or not all(is_finite_number(x) for x in v):
-        raise PlanError(f"{where}: key {path!r} must be a list of finite numbers (one per table axis), got {v!r}")
-    return tuple(float(x) for x in v)
-
-
-def plan_from_dict(d: dict, where: str = "plan") -> Plan:
-    """A plan from its JSON dict, validated (errors name the key, e.g. ``runs[0].segments[2].dt_s``)."""
-    if not isinstance(d, dict):
-        raise PlanError(f"{where}: the top level must be an object")
-    if d.get("format") != PLAN_FORMAT:
-        raise PlanError(f"{where}: key 'format' must be {PLAN_FORMAT!r}, got {d.get('format')!r}")
-    runs = []
-    for i, r in enumerate(_list(where, _need(where, d, "runs", ""), "runs")):
-        at = f"runs[{i}]."
-        axes = []
-        for a, ax in enumerate(_list(where, _need(where, r, "axes", at), at + "axes")):
-            if not (isinstance(ax, list) and len(ax) == 2 and isinstance(ax[0], str) and isinstance(ax[1], list)):
-                raise PlanError(f"{where}: key '{at}axes[{a}]' must be [name, [e, n, u]], got {ax!r}")
-            axes.append((ax[0], _numbers(where, ax[1], f"{at}axes[{a}][1]")))
-        segs = []
-        for j, s in enumerate(_list(where, _need(where, r, "segments", at), at + "segments")):
-            sat = f"{at}segments[{j}]."
-            label = s.get("label") if isinstance(s, dict) else None
-            if label is not None and (not is_finite_number(label) or label != int(label)):
-                raise PlanError(f"{where}: key '{sat}label' must be an integer or null, got {label!r}")
-            segs.append(
-                Segment(
-                    _numbers(where, _need(where, s, "start_deg", sat), sat + "start_deg"),
-                    _number(where, _need(where, s, "duration_s", sat), sat + "duration_s"),
-                    _number(where, s.get("dt_s"), sat + "dt_s", 1.0),
-                    _numbers(where, s.get("rate_dps"), sat + "rate_dps"),
-                    _numbers(where, s.get("amplitude_deg"), sat + "amplitude_deg"),
-                    _number(where, s.get("frequency_hz"), sat + "frequency_hz", 0.0),
-                    None if label is None else int(label),
-                )
-            )
-        inst = _need(where, r, "instrument", at)
-        if not isinstance(inst, dict):
-            raise PlanError(f"{where}: key '{at}instrument' must be an object (CONVENTIONS §5), got {inst!r}")
-        name = _need(where, r, "name", at)
-        if not isinstance(name, str) or not name:
-            raise PlanError(f"{where}: key '{at}name' must be a non-empty string, got {name!r}")
-        temp = r.get("temperature_C")
-        numbers = isinstance(temp, list) and all(is_finite_number(x) for x in temp)
-        if temp is not None and not (is_finite_number(temp) or numbers):
-            raise PlanError(f"{where}: key '{at}temperature_C' must be null, a number or a list of numbers")
-        runs.append(
-            Run(
-                name,
-                tuple(axes),
-                dict(inst),
-                tuple(segs),
-                r.get("mode", "rebalance"),
-                r.get("servo_axis"),
-                _number(where, r.get("scale_factor"), at + "scale_factor", 17.171),
-                _number(where, r.get("gap_s"), at + "gap_s", 30.0),
-                tuple(temp) if isinstance(temp, list) else temp,
-            )
-        )
-    name = _need(where, d, "name", "")
-    if not isinstance(name, str):
-        raise PlanError(f"{where}: key 'name' must be a string, got {name!r}")
-    lat = d.get("latitude_deg", DEFAULT_LATITUDE)
-    if not is_finite_number(lat):
-        raise PlanError(f"{where}: key 'latitude_deg' must be a finite number in [-90, 90], got {lat!r}")
-    plan = Plan(
-        name,
-        tuple(runs),
-        float(lat),
-        d.get("gravity_mps2"),
-        str(d.get("description", "")),
-        str(d.get("reference", "")),
-        _number(where, d.get("gap_between_runs_s"), "gap_between_runs_s", 60.0),
-    )
-    return validate_plan(plan, where)
-
-
-def load_plan(path) -> Plan:
-    """Load and validate a plan from a JSON file (errors name the file and the key)."""
-    return plan_from_dict(read_json_file(path, PlanError, "a plan"), str(path))
 
 
 def with_dt(plan: Plan, dt_s: float) -> Plan:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from gyrojax.data.records import uniform_interval
+from gyrojax.data.timebase import uniform_interval
 from gyrojax.errors import RecordError
 from gyrojax.noise.allan import AllanError
 

@@ -25,10 +25,9 @@ import numpy as np
 
 from gyrojax import units
 from gyrojax.errors import RecordError
+from gyrojax.kinds import TRIAD_KIND
 from gyrojax.protocol import is_finite_number
 
-TRIAD_KIND = "imu-triad"
-"""Instrument kind of a three-axis IMU record (CONVENTIONS §5 extension)."""
 CHANNELS = ("x", "y", "z")
 SEGMENT_TYPES = ("static", "rotation", "move")
 DIRECTIONS = ("from-data", "positive", "negative")

@@ -1,17 +1,26 @@
-"""Truth files: what a simulation is told is true (CONVENTIONS §8)."""
+"""Truth files: what a simulation is told is true (CONVENTIONS §8).
+
+gyrojax writes them in the result protocol of :mod:`gyrojax.protocol` (:func:`save_truth`: format tag
+``"gyrojax-truth"``, integer ``format_version``); a truth file without the tag, as other tools and hand-written
+files have it, loads as before.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
-from gyrojax.errors import TruthError
+from gyrojax import protocol
+from gyrojax.errors import FormatError, TruthError
 from gyrojax.noise.processes import validate_noise
 from gyrojax.physics import effects as fx
 from gyrojax.protocol import is_finite_number, read_json_file
 
 SETUP_SIZES = {"table_tilt": 2, "table_azimuth": 1, "encoder_harmonic": 4}
+TRUTH_FORMAT = "gyrojax-truth"
+TRUTH_VERSION = 1
 
 
 @dataclass(frozen=True)
@@ -43,8 +52,13 @@ def truth_from_dict(d, where: str = "truth") -> Truth:
     """Validate a truth dict; unknown names are errors naming the key."""
     if not isinstance(d, dict):
         raise TruthError(f"{where}: the top level must be an object")
+    if protocol.FORMAT_KEY in d or protocol.VERSION_KEY in d:  # written by save_truth; untagged files load too
+        try:
+            protocol.check(d, TRUTH_FORMAT, TRUTH_VERSION, where)
+        except FormatError as e:
+            raise TruthError(str(e)) from None
     for k in d:
-        if k not in ("coefficients", "setup", "noise"):
+        if k not in ("coefficients", "setup", "noise", protocol.FORMAT_KEY, protocol.VERSION_KEY):
             raise TruthError(f"{where}: unknown key {k!r}; valid: 'coefficients', 'setup', 'noise'")
     idx = fx.coefficient_index()
     coeffs = {}
@@ -94,3 +108,9 @@ def truth_from_dict(d, where: str = "truth") -> Truth:
 def load_truth(path) -> Truth:
     """Load and validate a truth file (CONVENTIONS §8) from a JSON file (errors name the file and the key)."""
     return truth_from_dict(read_json_file(path, TruthError, "a truth file (CONVENTIONS §8)"), str(path))
+
+
+def save_truth(truth: Truth, path, force: bool = False) -> Path:
+    """Write ``truth`` to ``path`` (tagged ``TRUTH_FORMAT``, strict JSON, atomically; an existing file only with
+    ``force``); :func:`load_truth` reads it back equal. Returns the path."""
+    return protocol.save(path, truth.to_dict(), TRUTH_FORMAT, TRUTH_VERSION, force=force)

@@ -20,9 +20,10 @@ import numpy as np
 
 from gyrojax import units
 from gyrojax.data import plans
+from gyrojax.data.arrays import record_data
 from gyrojax.dynamics.loops import RebalanceParams, rebalance_closed_loop_tf
 from gyrojax.errors import ConvergenceWarning
-from gyrojax.physics.model import Model, instrument_inputs, record_data, setup_values
+from gyrojax.physics.model import Model, instrument_inputs, setup_values
 
 
 def oscillation_plan(

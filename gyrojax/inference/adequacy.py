@@ -320,8 +320,8 @@ def residual_structure(campaign, lin, noises, p0: int, candidate_cols=None) -> l
     """Test the whitened residual against every shape of :func:`shapes` (module doc); p-values not yet adjusted.
 
     Args:
-      campaign: the :class:`gyrojax.inference.identify.Campaign` of the records.
-      lin: per record (r, J, labels, times) as :func:`gyrojax.inference.identify.linearize` gives them for the model
+      campaign: the :class:`gyrojax.inference.campaign.Campaign` of the records.
+      lin: per record (r, J, labels, times) as :func:`gyrojax.inference.campaign.linearize` gives them for the model
         extended by the candidates, at the fitted θ (residual in the output unit, deg/h or g).
       noises: one noise model per record (the fit's), used to whiten residual, regressors and shapes alike.
       p0: number of the model's own columns in J (the rest are the named candidates').

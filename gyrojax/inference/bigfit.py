@@ -26,22 +26,17 @@ from pathlib import Path
 import jax.numpy as jnp
 import numpy as np
 
-from gyrojax.data.records import (
-    Record,
-    diagnose_csv,
-    must_be_numeric,
-    parse_csv_header,
-    read_csv_bytes,
-    read_meta,
-    record_paths,
-    validate_columns,
-    validate_meta,
-)
+from gyrojax.data.arrays import record_data
+from gyrojax.data.csvfile import diagnose_csv, parse_csv_header, read_csv_bytes
+from gyrojax.data.record import Record
+from gyrojax.data.records import read_meta, record_paths
+from gyrojax.data.schema import must_be_numeric, validate_columns, validate_meta
 from gyrojax.errors import GyrojaxError, ModelError, RecordError
-from gyrojax.inference.identify import ALIAS_TOL, DEFAULT_TERMS, IdentifiabilityError, alias_message, identifiability
+from gyrojax.inference.identifiability import ALIAS_TOL, IdentifiabilityError, alias_message, identifiability
+from gyrojax.inference.identify import DEFAULT_TERMS
 from gyrojax.inference.lstsq import lstsq_normal
 from gyrojax.physics import effects as fx
-from gyrojax.physics.model import Model, jacobian_jit, predict_jit, record_data
+from gyrojax.physics.model import Model, jacobian_jit, predict_jit
 
 
 @dataclass
@@ -124,7 +119,7 @@ def fit_chunked(path, terms=None, chunk_rows: int = 200_000, allow_aliases: bool
 
     Raises: :class:`~gyrojax.errors.RecordError` naming the file and the row/column of a bad cell;
       :class:`~gyrojax.errors.ModelError` for a nonlinear model or an unsupported record;
-      :class:`~gyrojax.inference.identify.IdentifiabilityError` naming the effects the record cannot separate.
+      :class:`~gyrojax.inference.identifiability.IdentifiabilityError` naming the effects the record cannot separate.
     """
     csv_path, json_path = record_paths(path)
     for p in (json_path, csv_path):

@@ -33,26 +33,20 @@ import jax.numpy as jnp
 import numpy as np
 from scipy import stats
 
+from gyrojax.data.arrays import record_data
 from gyrojax.errors import ModelError
 from gyrojax.inference import adequacy
-from gyrojax.inference.identify import (
-    Campaign,
-    FitResult,
-    campaign_noise,
-    fit,
-    linearize,
-    noise_scale,
-    residue_columns,
-    satterthwaite_dof,
-    small_sample_factor,
-    solve,
-    stack_whitened,
-)
+from gyrojax.inference.campaign import Campaign, linearize
+from gyrojax.inference.identifiability import residue_columns
+from gyrojax.inference.identify import fit
+from gyrojax.inference.noisefit import campaign_noise, noise_scale, satterthwaite_dof, small_sample_factor
+from gyrojax.inference.result import FitResult
+from gyrojax.inference.solver import solve, stack_whitened
 from gyrojax.noise import reml
 from gyrojax.noise.spec import NoiseSpec
 from gyrojax.noise.whiten import fit_noise, whiten
 from gyrojax.physics import effects as fx
-from gyrojax.physics.model import Model, jacobian, record_data
+from gyrojax.physics.model import Model, jacobian
 
 SLOW = ("bias_trend", "bias_temperature")
 """Candidates that vary slowly in time and so compete with long-memory drift for the same residual structure. They
@@ -317,7 +311,7 @@ def _drift_reading(c: Candidate, camp: Campaign, lin, full: Model, p0: int) -> N
 
 def wald_beside_drift(camp: Campaign, lin, cols: np.ndarray, p0: int):
     """(p-value, estimate, standard error) of the coefficients ``cols[p0:]`` by GLS with the fit's noise model
-    re-estimated with them in (:func:`gyrojax.inference.identify.campaign_noise`); Wald W / k ~ F(k, ν), ν the
+    re-estimated with them in (:func:`gyrojax.inference.noisefit.campaign_noise`); Wald W / k ~ F(k, ν), ν the
     smallest Satterthwaite degrees of freedom of those coefficients when the noise has a Gauss–Markov part."""
     sub = [(r, j[:, cols], lab, t) for r, j, lab, t in lin]
     noises = campaign_noise(sub, camp)
@@ -339,7 +333,7 @@ def wald_beside_drift(camp: Campaign, lin, cols: np.ndarray, p0: int):
     if any(nz.gauss_markov for nz in noises):
         nus = satterthwaite_dof(sub, camp, noises, scales)[idx]
     k = int(ok.sum())
-    # the standard error as `fit` states it: widened by t_ν / z (gyrojax.inference.identify.small_sample_factor)
+    # the standard error as `fit` states it: widened by t_ν / z (gyrojax.inference.noisefit.small_sample_factor)
     return float(stats.f.sf(stat / k, k, float(np.min(nus[ok])))), beta, sd * small_sample_factor(nus)
 
 
@@ -363,7 +357,7 @@ def diagnose(
       alpha: family-wise significance level for the verdict (dimensionless).
       candidates: effect names to test (default: every named effect not in the model that the records can carry).
       result: a fit of ``terms`` to these records, if already at hand.
-      campaign: the records already built into a :class:`gyrojax.inference.identify.Campaign`, if at hand.
+      campaign: the records already built into a :class:`gyrojax.inference.campaign.Campaign`, if at hand.
       suggest_tests: name built-in plans that would separate aliased candidates.
       model_free: also test the residual against shapes in every input (:mod:`gyrojax.inference.adequacy`); the
         family of the multiple-comparison control then holds the named candidates and the shapes.

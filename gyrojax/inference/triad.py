@@ -1,7 +1,7 @@
 """Joint calibration of a MEMS gyro triad from static poses and known-angle rotations, with honest σ.
 
 Each channel is an SDF-like rate gyro (:mod:`gyrojax.physics.triad`); the three are fitted jointly from the
-segments of ``imu-triad`` records (:mod:`gyrojax.data.triad`):
+segments of ``imu-triad`` records (:mod:`gyrojax.data.triad`, as arrays by :mod:`gyrojax.data.triad_segments`):
 
 * **static pose** k: the mean indicated rate of each channel over the pose, modelled at the pose's mean specific
   force (accelerometer, g) with the inertial rate of a body at rest, the Earth rate (below);
@@ -12,7 +12,9 @@ segments of ``imu-triad`` records (:mod:`gyrojax.data.triad`):
   rate-nonlinear ones (E_A, E_2) use the shape to first order.
 
 Every coefficient enters linearly, so one generalized-least-squares solve fits them (exact derivatives by
-``jax.jacfwd`` of the same measurement model). The covariance of the segment means is built from
+``jax.jacfwd`` of the same measurement model), through the one rank-cut least-squares core
+(:func:`gyrojax.inference.solver.solve`) after the one identifiability analysis
+(:func:`gyrojax.inference.identifiability.alias_analysis`). The covariance of the segment means is built from
 
 * each channel's **long-run noise variance** q_c, estimated from the static residuals by a Bartlett-window
   (Newey–West 1987) sum of the pooled autocovariance, so filtered, correlated MEMS noise gives honest pose means
@@ -32,9 +34,7 @@ the Earth turns Up unseen by Ω_h T (T the move's duration): a variance (Ω_h T)
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, field
-from pathlib import Path
+import warnings
 
 import jax
 import jax.numpy as jnp
@@ -42,189 +42,20 @@ import numpy as np
 from scipy import stats
 
 from gyrojax import units
-from gyrojax.data.records import Record
-from gyrojax.data.triad import TRIAD_KIND, acc_g, axis_vector, gyro_dph
-from gyrojax.errors import ModelError
-from gyrojax.inference.identify import IdentifiabilityError, check_one_instrument, residue_columns
+from gyrojax.data.record import Record
+from gyrojax.data.triad import TRIAD_KIND
+from gyrojax.data.triad_segments import triad_segments
+from gyrojax.errors import ConvergenceWarning, ModelError
+from gyrojax.inference.campaign import check_one_instrument
+from gyrojax.inference.identifiability import IdentifiabilityError, alias_analysis, alias_message, residue_columns
+from gyrojax.inference.solver import damped_least_squares, solve
+from gyrojax.inference.triad_result import TriadFit
 from gyrojax.noise.whiten import pooled_autocovariance
 from gyrojax.physics import triad as tp
-from gyrojax.protocol import atomic_write_text
 
 DEFAULT_STATIC_TERMS = ("D_F", "D_I", "D_O", "D_S")
 DEFAULT_ROTATION_TERMS = DEFAULT_STATIC_TERMS + ("sf_error", "ia_misalignment")
-ALIAS_TOL = 1e-7
 NW_MAX_LAG = 50  # samples: longest autocovariance lag of the long-run variance (MEMS filters span a few samples)
-
-
-# ---- segments of the records as arrays -------------------------------------------------------------------------
-
-
-@dataclass
-class Segment:
-    """One measurement group: a static pose or a rotation (three rows of the measurement vector, one per channel).
-
-    ``y`` (3,) mean indicated rate, deg/h; ``w`` (n, 3) body rate (deg/h) and ``a`` (n, 3) specific force (g) of the
-    model; ``t_h`` (n,) h; ``temp`` (n,) °C; ``extra`` (3, 3) covariance added to the noise (heading, angle), deg²/h²;
-    ``n`` samples averaged; ``kind`` ``"static"`` or ``"rotation"``; ``name`` for reports.
-    """
-
-    kind: str
-    name: str
-    y: np.ndarray
-    w: np.ndarray
-    a: np.ndarray
-    t_h: np.ndarray
-    temp: np.ndarray
-    n: int
-    extra: np.ndarray
-    record: str = ""
-    info: dict = field(default_factory=dict)
-
-
-@dataclass
-class Move:
-    """A gravity-to-gravity move (imu_tk): gyro samples ``g`` (n, 3) deg/h and specific force ``a`` (n, 3) g between
-    two static poses whose Up directions in the body frame are ``u_from`` and ``u_to`` (unit vectors, from the
-    accelerometer); ``dt`` s; ``var_dir`` the variance (rad², per axis) of the two directions' noise."""
-
-    name: str
-    g: np.ndarray
-    a: np.ndarray
-    dt: float
-    u_from: np.ndarray
-    u_to: np.ndarray
-    var_dir: float
-    earth_var: float = 0.0
-
-
-def _earth(record: Record, earth_rate: bool | None):
-    """(vertical rate Ω sin φ in deg/h or None when unknown/off, horizontal magnitude bound in deg/h, mode text)."""
-    on = record.meta.get("earth_rate", True) if earth_rate is None else earth_rate
-    if not on:
-        return 0.0, 0.0, "off"
-    lat = record.meta["site"].get("latitude_deg")
-    omega = units.OMEGA_IE_DEG_PER_H
-    if lat is None:  # the site averaged over the sphere: E[cos² φ] = 2/3
-        return None, omega * math.sqrt(2.0 / 3.0), "latitude unknown"
-    phi = math.radians(float(lat))
-    return omega * math.sin(phi), omega * math.cos(phi), f"latitude {float(lat):g} deg"
-
-
-def triad_segments(record: Record, earth_rate: bool | None = None):
-    """The static and rotation segments of one triad record as :class:`Segment` s, the per-segment static residual
-    series (deg/h, (n, 3), for the noise estimate), the Earth-rate mode (module doc) and the :class:`Move` s."""
-    gyro = gyro_dph(record)
-    acc = acc_g(record)
-    t = np.asarray(record.time_s, dtype=float)
-    temp = record.columns.get("temperature_C")
-    temp = np.full(len(t), 20.0) if temp is None else np.asarray(temp, dtype=float)
-    seg = np.asarray(record.columns["segment"]).astype(int)
-    vertical, horizontal, mode = _earth(record, earth_rate)
-    g_site = float(record.meta["site"]["gravity_mps2"]) / units.G0
-    out, resid, moves = [], [], []
-    for spec in record.meta["segments"]:
-        sel = np.flatnonzero(seg == spec["label"])
-        if spec["type"] == "move":
-            mv = _move(record, spec, gyro, acc, t, seg)
-            # Up is fixed to the Earth, the gyro integrates the inertial rate: over the move the Earth turns Up by
-            # Ω_h T about a horizontal axis of unknown heading, variance (Ω_h T)²/2 per component
-            mv.earth_var = (horizontal * len(mv.g) * mv.dt * units.DEG_PER_H) ** 2 / 2.0
-            moves.append(mv)
-            continue
-        if len(sel) < 2:
-            raise ModelError(f"{record.name}: segment {spec['label']} has {len(sel)} sample(s); at least 2 are needed")
-        name = spec.get("name", f"{spec['type']}-{spec['label']}")
-        g = gyro[sel]
-        a = acc[sel] if acc is not None else None
-        th = t[sel] / units.SECONDS_PER_HOUR
-        if spec["type"] == "static":
-            if a is not None:
-                a_mean = a.mean(axis=0)
-                u = a_mean / np.linalg.norm(a_mean)
-            else:
-                u = axis_vector(spec["up"])
-                a_mean = u * g_site
-            w = np.zeros((1, 3)) if vertical is None else (vertical * u)[None, :]
-            extra = 0.5 * horizontal**2 * (np.eye(3) - np.outer(u, u))
-            out.append(
-                Segment(
-                    "static",
-                    name,
-                    g.mean(axis=0),
-                    w,
-                    a_mean[None, :],
-                    th.mean()[None],
-                    temp[sel].mean()[None],
-                    len(sel),
-                    extra,
-                    record.name,
-                    {"up": u},
-                )
-            )
-            resid.append(g - g.mean(axis=0))
-        else:  # rotation of a known angle about a body axis, history unknown
-            n_axis = axis_vector(spec["axis"])
-            shape = g @ n_axis
-            total = float(shape.sum())
-            direction = spec.get("direction", "from-data")
-            sign = {"positive": 1.0, "negative": -1.0}.get(direction, math.copysign(1.0, total))
-            if direction == "from-data" and abs(total) == 0.0:
-                raise ModelError(
-                    f"{record.name}: rotation segment {spec['label']} shows no rotation about {spec['axis']}"
-                )
-            dt = (t[sel[-1]] - t[sel[0]]) / (len(sel) - 1)
-            theta_deg = sign * float(spec["angle_deg"])
-            # body rate (deg/h): n Θ s(t) / Σ s dt, so that Σ ω dt = n Θ (deg·h/h = deg, times 3600 s/h)
-            w = np.outer(shape / total * theta_deg * units.SECONDS_PER_HOUR / dt, n_axis) * (1.0 if total else 0.0)
-            if vertical is not None and a is not None:
-                w = w + vertical * a / np.linalg.norm(a, axis=1, keepdims=True)
-            a_rot = a if a is not None else np.tile(n_axis * sign * 0.0, (len(sel), 1))
-            span = len(sel) * dt
-            sd = float(spec.get("angle_std_deg", 0.0)) * units.SECONDS_PER_HOUR / span  # angle error as a mean rate
-            # the horizontal Earth rate (unknown heading) turns with the body: its mean over the rotation is
-            # |m| Ω_h with m = mean(exp(i φ(t))) over the angle history's shape; uniform heading ⇒ covariance
-            # (Ω_h² |m|² / 2) (I − n nᵀ) (0 for a uniform full turn, up to the static value for a slow start/stop)
-            phase = np.radians(theta_deg) * np.cumsum(shape) / total
-            m2 = float(abs(np.mean(np.exp(1j * phase))) ** 2)
-            nn = np.outer(n_axis, n_axis)
-            extra = sd**2 * nn + 0.5 * horizontal**2 * m2 * (np.eye(3) - nn)
-            out.append(
-                Segment(
-                    "rotation",
-                    name,
-                    g.mean(axis=0),
-                    w,
-                    a_rot,
-                    th,
-                    temp[sel],
-                    len(sel),
-                    extra,
-                    record.name,
-                    {"angle_deg": theta_deg, "axis": n_axis.tolist(), "duration_s": span},
-                )
-            )
-    return out, resid, mode, moves
-
-
-def _move(record: Record, spec: dict, gyro, acc, t, seg) -> Move:
-    """The :class:`Move` of a ``move`` segment (module doc of :mod:`gyrojax.data.triad`)."""
-    if acc is None:
-        raise ModelError(f"{record.name}: move segment {spec['label']} needs the accelerometer (acc_<c>_g columns)")
-
-    def pose(label):
-        a = acc[seg == label]
-        m = a.mean(axis=0)
-        return m / np.linalg.norm(m), float(a.var(axis=0).mean()) / len(a) / float(m @ m)
-
-    sel = np.flatnonzero(seg == spec["label"])
-    if len(sel) < 2:
-        raise ModelError(f"{record.name}: move segment {spec['label']} has {len(sel)} sample(s)")
-    u0, v0 = pose(spec["from"])
-    u1, v1 = pose(spec["to"])
-    # the samples of the move plus the boundary samples, so that the integration spans the whole motion
-    lo, hi = max(sel[0] - 1, 0), min(sel[-1] + 2, len(t))
-    dt = (t[hi - 1] - t[lo]) / max(hi - lo - 1, 1)
-    return Move(spec.get("name", f"move-{spec['label']}"), gyro[lo:hi], acc[lo:hi], float(dt), u0, u1, v0 + v1)
 
 
 def linear_matrices(model, theta):
@@ -306,160 +137,6 @@ def long_run_variance(resid: list[np.ndarray], max_lag: int = NW_MAX_LAG) -> np.
     return q
 
 
-# ---- the fit ---------------------------------------------------------------------------------------------------
-
-
-@dataclass
-class TriadFit:
-    """Per-channel coefficients of a gyro triad with their covariance, the matrix forms and fit statistics."""
-
-    model: object
-    names: list
-    theta: np.ndarray
-    cov: np.ndarray
-    segments: list
-    residuals: np.ndarray  # (m,) raw residual of each segment mean, deg/h
-    noise_q: np.ndarray
-    chi2: float
-    dof: int
-    earth_mode: str
-    record_names: list
-    not_excited: list
-    counts_per_dps: float | None = None
-    notes: list = field(default_factory=list)
-
-    @property
-    def std(self) -> np.ndarray:
-        """Standard error of each coefficient, report units (NaN where the plan does not excite it)."""
-        return np.sqrt(np.clip(np.diag(self.cov), 0.0, None))
-
-    @property
-    def values(self) -> dict:
-        """``{"D_F[x]": value, …}`` in report units."""
-        return dict(zip(self.names, map(float, self.theta)))
-
-    @property
-    def stds(self) -> dict:
-        """``{"D_F[x]": std, …}`` in report units."""
-        return dict(zip(self.names, map(float, self.std)))
-
-    def units(self) -> dict:
-        """Coefficient name → report unit."""
-        u = self.model.coefficient_units
-        return {tp.channel_name(c, ch): uu for ch in tp.CHANNELS for c, uu in zip(self.model.coefficient_names, u)}
-
-    @property
-    def residual_rms(self) -> float:
-        """RMS of the segment-mean residuals, deg/h."""
-        return float(np.sqrt(np.mean(self.residuals**2))) if self.residuals.size else float("nan")
-
-    def matrices(self) -> dict:
-        """b (deg/h), S, G (deg/h/g) of ω_ind = S ω + G a + b (:func:`gyrojax.physics.triad.matrices`)."""
-        return tp.matrices(self.values)
-
-    def apply(self, record: Record) -> np.ndarray:
-        """Calibrated body rates (n, 3) deg/h of a triad record: ω = S⁻¹ (ω_ind − b − G a) (the linear model; the
-        Earth rate is part of ω, as a navigator wants it). Refuses rate-nonlinear effects and missing
-        accelerometer columns when G ≠ 0."""
-        nonlin = [
-            t for t in self.model.terms if t in ("sf_asymmetry", "sf_quadratic", "bias_trend", "bias_temperature")
-        ]
-        if nonlin:
-            raise ModelError(f"apply inverts the linear model only; this fit has {nonlin}: refit without them")
-        m = self.matrices()
-        g = gyro_dph(record)
-        a = acc_g(record)
-        if a is None:
-            if np.any(m["G"] != 0):
-                raise ModelError(f"{record.name}: the fit has g-sensitivity but the record has no acc_<c>_g columns")
-            a = np.zeros_like(g)
-        return np.linalg.solve(m["S"], (g - m["b"] - a @ m["G"].T).T).T
-
-    def to_json(self) -> dict:
-        """The fit JSON (CONVENTIONS §7 shape, per-channel names ``D_F[x]``), with the matrix forms."""
-        from gyrojax import __version__
-
-        coeffs = {}
-        unit = self.units()
-        for n, v, s in zip(self.names, self.theta, self.std):
-            coeffs[n] = {"value": float(v), "std": _num(s), "unit": unit[n]}
-        m = self.matrices()
-        k = self.counts_per_dps or 1.0
-        ic = tp.imucal_form(m, k, rotation_sign=-1.0)
-        kal = tp.kalibr_form(m)
-        p = float(stats.chi2.sf(self.chi2, self.dof)) if self.dof > 0 else float("nan")
-        return {
-            "terms": list(self.model.terms),
-            "instrument": TRIAD_KIND,
-            "channels": list(tp.CHANNELS),
-            "coefficients": coeffs,
-            "residual_rms_deg_per_h": self.residual_rms,
-            "n_samples": int(sum(s.n for s in self.segments)),
-            "records": [{"name": n} for n in self.record_names],
-            "not_excited": list(self.not_excited),
-            "matrices": {
-                "model": "omega_ind = S omega + G a + b (deg/h, a in g)",
-                "b_deg_per_h": m["b"].tolist(),
-                "S": m["S"].tolist(),
-                "G_deg_per_h_per_g": m["G"].tolist(),
-                "imucal": {
-                    "model": "raw = K_g R_g omega + K_ga a + b_g (omega deg/s, a m/s^2 with grav 9.81, raw counts); "
-                    "R_g for imucal's default expected_angle -360",
-                    "counts_per_dps": k,
-                    **{key: np.asarray(v).tolist() for key, v in ic.items() if key.startswith(("K", "R", "b"))},
-                },
-                "kalibr": {
-                    "model": "omega_m = C_gyro_i M omega + A a + b (rad/s, a m/s^2)",
-                    **{key: np.asarray(v).tolist() for key, v in kal.items() if key in ("C_gyro_i", "M", "A", "b")},
-                },
-            },
-            "earth_rate": {"mode": self.earth_mode, "rate_deg_per_h": units.OMEGA_IE_DEG_PER_H},
-            "noise": {
-                ch: {"long_run_std_deg_per_h_sqrt_sample": float(np.sqrt(q))}
-                for ch, q in zip(tp.CHANNELS, self.noise_q)
-            },
-            "segments": [
-                {"name": s.name, "kind": s.kind, "n": s.n, "residual_deg_per_h": r.tolist(), **_jsonable(s.info)}
-                for s, r in zip(self.segments, self.residuals.reshape(-1, 3))
-            ],
-            "fit": {"chi2": self.chi2, "dof": self.dof, "p_value": _num(p)},
-            "notes": list(self.notes),
-            "gyrojax_version": __version__,
-        }
-
-    def save(self, path, force: bool = False) -> Path:
-        """Write :meth:`to_json` with ``theta``/``cov``/``names`` (format ``gyrojax-fit-1``) atomically."""
-        import json
-
-        p = Path(path)
-        if p.exists() and not force:
-            raise ModelError(f"{p}: exists; pass force=True (or --force) to overwrite")
-        d = self.to_json()
-        d.update(format="gyrojax-fit-1", names=list(self.names), theta=[float(x) for x in self.theta])
-        d["cov"] = [[_num(x) for x in row] for row in self.cov]
-        atomic_write_text(p, json.dumps(d, indent=1) + "\n")
-        return p
-
-    def text(self) -> str:
-        """A coefficient table, one row per coefficient and channel."""
-        lines = [f"{'coefficient':14s} {'value':>14s} {'std':>12s}  unit"]
-        u = self.units()
-        for n, v, s in zip(self.names, self.theta, self.std):
-            lines.append(f"{n:14s} {v:14.6g} {s:12.4g}  {u[n]}")
-        lines.append(f"earth rate: {self.earth_mode}; chi2 {self.chi2:.3g} on {self.dof} dof")
-        lines.extend(f"note: {n}" for n in self.notes)
-        return "\n".join(lines)
-
-
-def _jsonable(d: dict) -> dict:
-    return {k: (np.asarray(v).tolist() if isinstance(v, np.ndarray) else v) for k, v in d.items()}
-
-
-def _num(x):
-    x = float(x)
-    return x if math.isfinite(x) else None
-
-
 def is_triad_input(records) -> bool:
     """True when ``records`` (a record or a list) are ``imu-triad`` records."""
     if isinstance(records, Record):
@@ -484,7 +161,7 @@ def segment_means(model, theta, arrays):
 
 
 def pack_segments(segments) -> tuple:
-    """The ``arrays`` of :func:`segment_means` from :class:`Segment` s."""
+    """The ``arrays`` of :func:`segment_means` from :class:`~gyrojax.data.triad_segments.TriadSegment` s."""
     w = np.concatenate([s.w for s in segments])
     a = np.concatenate([s.a for s in segments])
     t = np.concatenate([s.t_h for s in segments])
@@ -505,6 +182,7 @@ def fit_triad(
     earth_rate: bool | None = None,
     allow_aliases: bool = False,
     noise_q=None,
+    max_iter: int = 30,
 ) -> TriadFit:
     """Fit per-channel SDF coefficients of a gyro triad to ``imu-triad`` records of one instrument (module doc).
 
@@ -515,9 +193,11 @@ def fit_triad(
       earth_rate: override the records' ``earth_rate`` (False: no Earth rate in the model or the covariance).
       allow_aliases: return a minimum-norm fit instead of raising when the segments cannot separate some effects.
       noise_q: per-channel long-run noise variance (deg/h)² per sample, instead of estimating it.
+      max_iter: iterations of the fit of gravity-to-gravity moves (the only nonlinear part): at most this many
+        evaluations of the moves' residual by Levenberg–Marquardt (about one per iteration; 5 to 10 suffice).
 
     Returns: a :class:`TriadFit`; coefficients ``<name>[<channel>]`` in report units.
-    Raises: :class:`~gyrojax.inference.identify.IdentifiabilityError` naming what the segments cannot separate.
+    Raises: :class:`~gyrojax.inference.identifiability.IdentifiabilityError` naming what the segments cannot separate.
     """
     recs = [records] if isinstance(records, Record) else list(records)
     if not recs:
@@ -544,7 +224,7 @@ def fit_triad(
             f"drop {[t for t in model.terms if t not in LINEAR_TERMS]}"
         )
     names = [tp.channel_name(c, ch) for ch in tp.CHANNELS for c in model.coefficient_names]
-    q = long_run_variance(resid) if noise_q is None else np.asarray(noise_q, dtype=float)
+    q = long_run_variance(resid) if noise_q is None else _channel_variances(noise_q)
 
     arrays = pack_segments(segments)
     theta0 = jnp.zeros(3 * model.size)
@@ -563,61 +243,31 @@ def fit_triad(
     theta = np.zeros(3 * model.size)
     move_w = _move_whitening(moves, q)
     packed = pack_moves(moves) if moves else None
-    if moves:  # Gauss–Newton on the linear rows and the moves' direction residuals (2 whitened rows per move)
-        theta = _svd_step(lin_j, lin_r)  # statics (+ rotations): bias and g-terms; scale factor nominal
-        for _ in range(30):
-            mr, mj = _move_rows(model, theta, packed, move_w)
-            rw = np.concatenate([lin_r - lin_j @ theta, mr])
-            jw = np.concatenate([lin_j, mj])
-            step = _svd_step(jw, rw)
-            theta = theta + step
-            # converged when no coefficient moves by more than 1e-6 of its own standard error (whitened columns)
-            if np.max(np.abs(step) * np.sqrt((jw * jw).sum(axis=0))) < 1e-6:
-                break
-        mr, mj = _move_rows(model, theta, packed, move_w)
-        rw = np.concatenate([lin_r - lin_j @ theta, mr])
-        jw = np.concatenate([lin_j, mj])
-    residue = residue_columns(jw)
-    not_excited = [names[i] for i in np.flatnonzero(residue)]
-    jw = np.where(residue, 0.0, jw)
-    norms = np.sqrt((jw * jw).sum(axis=0))
-    z = jw / np.where(norms > 0, norms, 1.0)
-    u, sv, vt = np.linalg.svd(z, full_matrices=False)
-    keep = sv >= ALIAS_TOL * sv[0]
-    groups = []
-    for k in np.flatnonzero(~keep):
-        members = [names[i] for i in np.flatnonzero(np.abs(vt[k]) > 0.05) if not residue[i]]
-        if members:
-            groups.append(members)
-    if (groups or not_excited) and not allow_aliases:
-        msg = "; ".join("[" + " + ".join(g) + "]" for g in groups)
-        msg = ("these segments cannot tell apart: " + msg) if msg else ""
-        if not_excited:
-            msg += ("; " if msg else "") + "not excited: " + ", ".join(not_excited)
-        raise IdentifiabilityError(
-            msg + "; drop effects, or add poses/rotations that separate them",
-            {"aliases": groups, "unexcited": not_excited},
-        )
-    sinv = np.where(keep, 1.0 / np.where(keep, sv, 1.0), 0.0)
-    theta = theta + (vt.T * sinv) @ (u.T @ rw) / np.where(norms > 0, norms, 1.0)
-    cov = ((vt.T * sinv**2) @ vt) / np.outer(np.where(norms > 0, norms, 1.0), np.where(norms > 0, norms, 1.0))
+    iterations, why = 1, ""
+    if moves:  # Levenberg–Marquardt on the linear rows and the moves' direction residuals (2 whitened rows per move)
+
+        def system(th):
+            mr, mj = _move_rows(model, th, packed, move_w)
+            return np.concatenate([lin_r - lin_j @ th, mr]), np.concatenate([lin_j, mj])
+
+        theta = solve(lin_j, lin_r)[0]  # statics (+ rotations): bias and g-terms; scale factor nominal
+        theta, iterations, why = damped_least_squares(system, theta, max_iter)  # ≈ one evaluation per iteration
+        rw, jw = system(theta)
+    report = alias_analysis(jw, names, names)
+    not_excited = report["unexcited"]
+    if (report["aliases"] or not_excited) and not allow_aliases:
+        raise IdentifiabilityError(alias_message(report, "add poses/rotations that separate them"), report)
+    step, cov = solve(jw, rw)  # rank-cut SVD in normalised columns; unseen coefficients get NaN rows and columns
+    theta = theta + step
+    bad = ~np.isfinite(np.diag(cov))
     if moves:
         mr, _ = _move_rows(model, theta, packed, move_w)
-        rw = np.concatenate([lin_r - lin_j @ theta, mr])
-        jw_full = np.concatenate([lin_j, np.zeros((len(mr), lin_j.shape[1]))])
-        e_all = rw
+        e = np.concatenate([lin_r - lin_j @ theta, mr])
     else:
-        jw_full = None
-    bad = residue.copy()
-    if not keep.all():
-        bad |= np.abs(vt[~keep]).max(axis=0) > 0.05
-    cov[bad, :] = np.nan
-    cov[:, bad] = np.nan
-    e = e_all if moves else rw - jw @ theta
-    dof = int(len(rw) - keep.sum())
+        e = rw - np.where(residue_columns(jw), 0.0, jw) @ theta
+    dof = int(len(e) - report["rank"])
     chi2 = float(e @ e)
     raw_res = y - base - jac @ np.where(bad, 0.0, theta)
-    del jw_full
     mode = " / ".join(sorted(modes))
     notes = []
     if "latitude unknown" in modes and any(t == "D_I" for t in model.terms):
@@ -633,6 +283,8 @@ def fit_triad(
             f"p {stats.chi2.sf(chi2, dof):.2g}): bias shifts between poses or a missing effect; the standard errors "
             "assume the noise model and may be too small"
         )
+    if why:
+        warnings.warn(f"triad fit with moves did not converge: {why}", ConvergenceWarning, stacklevel=2)
     scales = {float(r.meta["instrument"].get("gyro_counts_per_dps") or 0.0) for r in recs}
     k = scales.pop() if len(scales) == 1 else None
     return TriadFit(
@@ -650,17 +302,24 @@ def fit_triad(
         not_excited,
         counts_per_dps=k or None,
         notes=notes,
+        iterations=iterations,
+        converged=not why,
+        convergence_note=why,
     )
 
 
-def _svd_step(jw, rw):
-    """Minimum-norm least-squares step in normalised columns (a rank cut at :data:`ALIAS_TOL`)."""
-    norms = np.sqrt((jw * jw).sum(axis=0))
-    sc = np.where(norms > 0, norms, 1.0)
-    u, sv, vt = np.linalg.svd(jw / sc, full_matrices=False)
-    keep = sv >= ALIAS_TOL * sv[0]
-    sinv = np.where(keep, 1.0 / np.where(keep, sv, 1.0), 0.0)
-    return (vt.T * sinv) @ (u.T @ rw) / sc
+def _channel_variances(noise_q) -> np.ndarray:
+    """A given long-run noise variance of each channel, (deg/h)² per sample, checked: three finite values > 0."""
+    try:
+        q = np.asarray(noise_q, dtype=float)
+    except (TypeError, ValueError):
+        q = np.zeros(0)
+    if q.shape != (3,) or not np.all(np.isfinite(q)) or not np.all(q > 0):
+        raise ModelError(
+            f"the triad noise is the long-run variance of each channel x, y, z: three finite numbers > 0 "
+            f"((deg/h)² per sample), got {noise_q!r}"
+        )
+    return q
 
 
 def _move_whitening(moves, q) -> list:
@@ -707,43 +366,3 @@ def _move_rows(model, theta, packed, whitening):
     rows = [p.T @ r[i] / sd for i, (p, sd) in enumerate(whitening)]
     jacs = [p.T @ j[i] / sd for i, (p, sd) in enumerate(whitening)]
     return np.concatenate(rows), np.concatenate(jacs)
-
-
-def load_triad_fit(path) -> TriadFit:
-    """A triad fit saved by :meth:`TriadFit.save` (estimates and covariance; segment residuals are not kept)."""
-    import json
-
-    p = Path(path)
-    try:
-        d = json.loads(p.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as e:  # unreadable, not UTF-8, not JSON
-        raise ModelError(f"{p}: cannot read a fit result ({e})") from None
-    if d.get("format") != "gyrojax-fit-1" or d.get("instrument") != TRIAD_KIND or "theta" not in d:
-        raise ModelError(f"{p}: not a saved imu-triad fit (save one with `gyrojax fit RECORDS --save FIT.json`)")
-    try:
-        return _triad_fit_of(d)
-    except (KeyError, TypeError, ValueError, IndexError) as e:
-        raise ModelError(
-            f"{p}: a damaged imu-triad fit ({type(e).__name__}: {e}); save it again with `fit --save`"
-        ) from None
-
-
-def _triad_fit_of(d: dict) -> TriadFit:
-    model = tp.channel_model(d["terms"])
-    cov = np.array([[np.nan if x is None else x for x in row] for row in d["cov"]], dtype=float)
-    return TriadFit(
-        model,
-        list(d["names"]),
-        np.asarray(d["theta"], dtype=float),
-        cov,
-        [],
-        np.zeros(0),
-        np.zeros(3),
-        float(d["fit"]["chi2"]),
-        int(d["fit"]["dof"]),
-        d["earth_rate"]["mode"],
-        [r["name"] for r in d["records"]],
-        list(d.get("not_excited", [])),
-        counts_per_dps=d["matrices"]["imucal"].get("counts_per_dps"),
-        notes=list(d.get("notes", [])),
-    )

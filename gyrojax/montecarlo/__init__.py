@@ -1,2 +1,3 @@
-"""Monte Carlo studies of many simulated gyros: study files, the vmapped pipeline, sharded runs and their results
-(:mod:`~gyrojax.montecarlo.study`)."""
+"""Monte Carlo studies of many simulated gyros: the study file (:mod:`~gyrojax.montecarlo.study`), the per-draw
+pipeline (:mod:`~gyrojax.montecarlo.pipeline`), sharded and distributed runs (:mod:`~gyrojax.montecarlo.runner`,
+:mod:`~gyrojax.montecarlo.hosts`) and their results (:mod:`~gyrojax.montecarlo.results`)."""

@@ -1,6 +1,6 @@
 """A Monte Carlo study as N processes of one ``jax.distributed`` job (one per host, or several on one machine).
 
-Every draw depends only on (seed, draw index) (:mod:`gyrojax.montecarlo.study`), so the processes need no
+Every draw depends only on (seed, draw index) (:mod:`gyrojax.montecarlo.pipeline`), so the processes need no
 communication while they compute: process k of N evaluates the contiguous block of draw indices
 :func:`share` gives it, on its own devices, and the blocks are then gathered (an all-gather over JAX's
 cross-process collectives; on CPU these are gloo's TCP collectives, JAX's default

@@ -133,7 +133,7 @@ class NoiseSpec:
     cov_names: tuple = ()
     converged: bool = True
     reason: str = ""
-    info: dict = field(default_factory=dict, compare=True)
+    info: dict = field(default_factory=dict, compare=True, hash=False)
     """Method-specific figures of the estimate (JSON values: e.g. GMWM's objective, p-value, model selection)."""
 
     def __post_init__(self):

@@ -26,7 +26,6 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyrojax import units
-from gyrojax.data.records import Record
 from gyrojax.errors import ModelError
 from gyrojax.physics import effects as fx
 from gyrojax.physics import frames, kinematics
@@ -144,7 +143,7 @@ def _effect_of(name: str) -> str:
 )
 @dataclass(frozen=True)
 class RecordData:
-    """A record as arrays (SI inside): what ``predict`` needs. Built by :func:`record_data`.
+    """A record as arrays (SI inside): what ``predict`` needs. Built by :func:`gyrojax.data.arrays.record_data`.
 
     Units: ``latitude`` rad, ``gravity`` m/s² (g_site), ``time_s`` s, ``angles`` (n, k) rad as read,
     ``rates`` (n, k) rad/s, ``temperature`` (n,) °C (20 °C when the record has none), ``y`` deg/h for gyros and
@@ -170,47 +169,6 @@ class RecordData:
     servo_axis: int | None = None
     encoder_axis: int = 0
     rates_derived: bool = False
-
-
-def record_data(record: Record) -> RecordData:
-    """Arrays of a record, converted to SI, with its measurement vector (module doc)."""
-    angles = np.deg2rad(record.angles_deg)
-    rates = np.deg2rad(record.rates_dps)
-    t = np.asarray(record.time_s, dtype=float)
-    temp = record.temperature_C
-    temp = np.full(record.n, 20.0) if temp is None else np.asarray(temp, dtype=float)
-    dt = np.diff(t)
-    if record.mode == "servo":
-        s = record.servo_axis_index
-        seg = record.segment_id
-        same = np.diff(seg) == 0
-        y = np.where(same, np.diff(angles[:, s]) / np.where(dt > 0, dt, 1.0), 0.0) / units.DEG_PER_H
-        weight = same.astype(float)
-        command = record.indicated
-    else:
-        ind = record.indicated
-        y = ind.T.reshape(-1) if record.kind == fx.TDF else ind
-        weight = np.ones_like(y)
-        command = np.zeros(record.n)
-    return RecordData(
-        axes=jnp.asarray(record.axes_enu),
-        triad=jnp.asarray(record.triad),
-        latitude=jnp.asarray(np.deg2rad(record.latitude_deg)),
-        gravity=jnp.asarray(record.gravity_mps2),
-        time_s=jnp.asarray(t),
-        angles=jnp.asarray(angles),
-        rates=jnp.asarray(rates),
-        temperature=jnp.asarray(temp),
-        y=jnp.asarray(y, dtype=jnp.float64),
-        weight=jnp.asarray(weight),
-        command=jnp.asarray(command, dtype=jnp.float64),
-        dt=jnp.asarray(dt),
-        kind=record.kind,
-        mode=record.mode,
-        servo_axis=record.servo_axis_index,
-        encoder_axis=record.encoder_axis_index,
-        rates_derived=bool(record.rates_derived),
-    )
 
 
 # ---- the physics of one sample set ----------------------------------------------------------------------------

@@ -33,15 +33,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from gyrojax.errors import UnknownNameError
-
-SDF = "sdf-gyro"
-TDF = "tdf-gyro"
-ACCEL = "pendulous-accel"
-FOG = "fog"
-RLG = "rlg"
-INSTRUMENT_KINDS = (SDF, TDF, ACCEL, FOG, RLG)
-"""CONVENTIONS §5 kinds, extended by the optical gyros (IEEE 952/647 form, axes ``ia``, ``oa``, ``sa`` as the SDF)."""
-OPTICAL = (FOG, RLG)
+from gyrojax.kinds import ACCEL, FOG, INSTRUMENT_KINDS, OPTICAL, RLG, SDF, TDF  # noqa: F401  (re-exported)
 
 
 @dataclass(frozen=True)

@@ -29,8 +29,9 @@ from gyrojax import report
 from gyrojax.data import plans
 from gyrojax.data.records import save_record
 from gyrojax.errors import GyrojaxError
+from gyrojax.inference.campaign import Campaign
 from gyrojax.inference.diagnose import diagnose
-from gyrojax.inference.identify import Campaign, fit
+from gyrojax.inference.identify import fit
 from gyrojax.protocol import atomic_write_text
 from gyrojax.simulation.simulator import simulate
 

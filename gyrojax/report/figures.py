@@ -12,7 +12,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.ticker import NullFormatter, ScalarFormatter
 
-from gyrojax.inference.identify import FitResult
+from gyrojax.inference.result import FitResult
 
 
 class _Figure(Figure):
@@ -38,7 +38,8 @@ def measurement_inputs(record) -> dict:
     temperature, segment. Servo intervals are placed at their first sample."""
     import jax.numpy as jnp
 
-    from gyrojax.physics.model import Model, instrument_inputs, record_data, setup_values
+    from gyrojax.data.arrays import record_data
+    from gyrojax.physics.model import Model, instrument_inputs, setup_values
 
     d = record_data(record)
     x = instrument_inputs(d, setup_values(Model((), d.kind), jnp.zeros(0)))
@@ -262,7 +263,7 @@ def allan_figure(res, fit, title: str = "Allan deviation"):
 
 def design_figure(rows: list[dict]):
     """Bar chart of the Cramér–Rao standard deviations (report units, log scale) of each coefficient per plan;
-    ``rows`` as from :func:`gyrojax.planning.optimal.compare`. Returns the figure."""
+    ``rows`` as from :func:`gyrojax.planning.baselines.compare`. Returns the figure."""
     names = list(rows[0]["std"])
     fig, ax = _figure(figsize=(10, 4))
     w = 0.8 / len(rows)
@@ -280,7 +281,7 @@ def design_figure(rows: list[dict]):
 
 def montecarlo_figure(res, summary):
     """Histogram of the normalised errors (θ̂−θ)/σ̂ (dimensionless) against N(0,1), and ±1σ/±2σ coverage per
-    coefficient; ``res`` a :class:`gyrojax.montecarlo.study.StudyResult`, ``summary`` its summary table. Returns
+    coefficient; ``res`` a :class:`gyrojax.montecarlo.results.StudyResult`, ``summary`` its summary table. Returns
     the figure."""
     z = (res.estimate - res.truth_of_fit()) / res.std
     s = summary

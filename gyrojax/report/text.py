@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from gyrojax.inference.identify import FitResult
+from gyrojax.inference.result import FitResult
 
 
 def _fmt(v: float, s: float | None = None) -> str:

@@ -17,8 +17,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyrojax import units
+from gyrojax.data.arrays import record_data
 from gyrojax.data.plans import Plan, Run
-from gyrojax.data.records import FORMAT, Record
+from gyrojax.data.record import Record
+from gyrojax.data.schema import FORMAT
 from gyrojax.data.truth import Truth, truth_from_dict
 from gyrojax.errors import PlanError
 from gyrojax.noise.processes import random_drift
@@ -31,7 +33,6 @@ from gyrojax.physics.model import (
     encoder_error,
     instrument_inputs,
     predict,
-    record_data,
     servo_rate,
     setup_values,
 )

@@ -18,7 +18,7 @@ import numpy as np
 
 from gyrojax import units
 from gyrojax.data.importers import triad_meta
-from gyrojax.data.records import Record
+from gyrojax.data.record import Record
 from gyrojax.physics import triad as tp
 
 FACES = (("x_p", 0, 1.0), ("x_a", 0, -1.0), ("y_p", 1, 1.0), ("y_a", 1, -1.0), ("z_p", 2, 1.0), ("z_a", 2, -1.0))

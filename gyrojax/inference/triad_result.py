@@ -1,0 +1,231 @@
+"""The result of a triad fit: per-channel coefficients with their covariance, the matrix forms (b, S, G; imucal's
+and Kalibr's), the calibration of records by the linear model, and the saved file it is read back from
+(:mod:`gyrojax.protocol`, format :data:`~gyrojax.inference.formats.TRIAD_FORMAT`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy import stats
+
+from gyrojax import protocol, units
+from gyrojax.data.records import Record
+from gyrojax.data.triad import TRIAD_KIND, acc_g, gyro_dph
+from gyrojax.errors import FormatError, ModelError
+from gyrojax.inference.formats import LEGACY_FORMAT, TRIAD_FORMAT, TRIAD_VERSION, fit_kind
+from gyrojax.inference.result import Estimates
+from gyrojax.physics import triad as tp
+
+
+@dataclass
+class TriadFit(Estimates):
+    """Per-channel coefficients of a gyro triad with their covariance, the matrix forms and fit statistics."""
+
+    model: object
+    names: list
+    theta: np.ndarray
+    cov: np.ndarray
+    segments: list
+    residuals: np.ndarray  # (m,) raw residual of each segment mean, deg/h
+    noise_q: np.ndarray
+    chi2: float
+    dof: int
+    earth_mode: str
+    record_names: list
+    not_excited: list
+    counts_per_dps: float | None = None
+    notes: list = field(default_factory=list)
+    iterations: int = 1  # evaluations of the moves' Levenberg–Marquardt fit (1: no moves, one linear solve)
+    converged: bool = True
+    convergence_note: str = ""  # why the moves' fit did not converge ("" when it did)
+
+    @property
+    def coefficient_names(self) -> list:
+        """Per-channel coefficient names ``D_F[x]`` … in θ order (the keys of :attr:`values`, :attr:`stds`)."""
+        return self.names
+
+    def units(self) -> dict:
+        """Coefficient name → report unit."""
+        u = self.model.coefficient_units
+        return {tp.channel_name(c, ch): uu for ch in tp.CHANNELS for c, uu in zip(self.model.coefficient_names, u)}
+
+    @property
+    def residual_rms(self) -> float:
+        """RMS of the segment-mean residuals, deg/h."""
+        return float(np.sqrt(np.mean(self.residuals**2))) if self.residuals.size else float("nan")
+
+    def matrices(self) -> dict:
+        """b (deg/h), S, G (deg/h/g) of ω_ind = S ω + G a + b (:func:`gyrojax.physics.triad.matrices`)."""
+        return tp.matrices(self.values)
+
+    def apply(self, record: Record) -> np.ndarray:
+        """Calibrated body rates (n, 3) deg/h of a triad record: ω = S⁻¹ (ω_ind − b − G a) (the linear model; the
+        Earth rate is part of ω, as a navigator wants it). Refuses rate-nonlinear effects and missing
+        accelerometer columns when G ≠ 0."""
+        nonlin = [
+            t for t in self.model.terms if t in ("sf_asymmetry", "sf_quadratic", "bias_trend", "bias_temperature")
+        ]
+        if nonlin:
+            raise ModelError(f"apply inverts the linear model only; this fit has {nonlin}: refit without them")
+        m = self.matrices()
+        g = gyro_dph(record)
+        a = acc_g(record)
+        if a is None:
+            if np.any(m["G"] != 0):
+                raise ModelError(f"{record.name}: the fit has g-sensitivity but the record has no acc_<c>_g columns")
+            a = np.zeros_like(g)
+        return np.linalg.solve(m["S"], (g - m["b"] - a @ m["G"].T).T).T
+
+    def to_json(self) -> dict:
+        """The fit JSON (CONVENTIONS §7 shape, per-channel names ``D_F[x]``), with the matrix forms."""
+        from gyrojax import __version__
+
+        coeffs = {}
+        unit = self.units()
+        for n, v, s in zip(self.names, self.theta, self.std):
+            coeffs[n] = {"value": float(v), "std": protocol.strict(s), "unit": unit[n]}
+        m = self.matrices()
+        k = self.counts_per_dps or 1.0
+        ic = tp.imucal_form(m, k, rotation_sign=-1.0)
+        kal = tp.kalibr_form(m)
+        p = float(stats.chi2.sf(self.chi2, self.dof)) if self.dof > 0 else float("nan")
+        return {
+            "terms": list(self.model.terms),
+            "instrument": TRIAD_KIND,
+            "channels": list(tp.CHANNELS),
+            "coefficients": coeffs,
+            "residual_rms_deg_per_h": self.residual_rms,
+            "n_samples": int(sum(s.n for s in self.segments)),
+            "records": [{"name": n} for n in self.record_names],
+            "not_excited": list(self.not_excited),
+            "matrices": {
+                "model": "omega_ind = S omega + G a + b (deg/h, a in g)",
+                "b_deg_per_h": m["b"].tolist(),
+                "S": m["S"].tolist(),
+                "G_deg_per_h_per_g": m["G"].tolist(),
+                "imucal": {
+                    "model": "raw = K_g R_g omega + K_ga a + b_g (omega deg/s, a m/s^2 with grav 9.81, raw counts); "
+                    "R_g for imucal's default expected_angle -360",
+                    "counts_per_dps": k,
+                    **{key: np.asarray(v).tolist() for key, v in ic.items() if key.startswith(("K", "R", "b"))},
+                },
+                "kalibr": {
+                    "model": "omega_m = C_gyro_i M omega + A a + b (rad/s, a m/s^2)",
+                    **{key: np.asarray(v).tolist() for key, v in kal.items() if key in ("C_gyro_i", "M", "A", "b")},
+                },
+            },
+            "earth_rate": {"mode": self.earth_mode, "rate_deg_per_h": units.OMEGA_IE_DEG_PER_H},
+            "noise": {
+                ch: {"long_run_std_deg_per_h_sqrt_sample": float(np.sqrt(q))}
+                for ch, q in zip(tp.CHANNELS, self.noise_q)
+            },
+            "segments": [
+                {"name": s.name, "kind": s.kind, "n": s.n, "residual_deg_per_h": r.tolist(), **_jsonable(s.info)}
+                for s, r in zip(self.segments, self.residuals.reshape(-1, 3))
+            ],
+            "fit": {
+                "chi2": self.chi2,
+                "dof": self.dof,
+                "p_value": protocol.strict(p),
+                "iterations": self.iterations,
+                "converged": self.converged,
+                **({"reason": self.convergence_note} if not self.converged else {}),
+            },
+            "notes": list(self.notes),
+            "gyrojax_version": __version__,
+        }
+
+    def save(self, path, force: bool = False) -> Path:
+        """Write :meth:`to_json` plus what :func:`load_triad_fit` needs to rebuild the fit (``names``, ``theta``,
+        ``cov``, the residuals, the noise variances q, the counts scale) to ``path`` atomically as strict JSON,
+        tagged :data:`~gyrojax.inference.formats.TRIAD_FORMAT` version
+        :data:`~gyrojax.inference.formats.TRIAD_VERSION`; an existing file is an error unless ``force``. The
+        segments' sample arrays are not stored (their summary is, in ``segments``). Returns the path."""
+        d = self.to_json()
+        d.update(
+            names=list(self.names),
+            theta=self.theta,
+            cov=self.cov,
+            residuals=self.residuals,
+            noise_q=self.noise_q,
+            counts_per_dps=self.counts_per_dps,
+        )
+        return protocol.save(path, d, TRIAD_FORMAT, TRIAD_VERSION, force=force)
+
+    def text(self) -> str:
+        """A coefficient table, one row per coefficient and channel."""
+        lines = [f"{'coefficient':14s} {'value':>14s} {'std':>12s}  unit"]
+        u = self.units()
+        for n, v, s in zip(self.names, self.theta, self.std):
+            lines.append(f"{n:14s} {v:14.6g} {s:12.4g}  {u[n]}")
+        lines.append(f"earth rate: {self.earth_mode}; chi2 {self.chi2:.3g} on {self.dof} dof")
+        if not self.converged:
+            lines.append(f"not converged: {self.convergence_note}")
+        lines.extend(f"note: {n}" for n in self.notes)
+        return "\n".join(lines)
+
+
+def _jsonable(d: dict) -> dict:
+    return {k: (np.asarray(v).tolist() if isinstance(v, np.ndarray) else v) for k, v in d.items()}
+
+
+def load_triad_fit(path) -> TriadFit:
+    """A triad fit saved by :meth:`TriadFit.save` (or by 0.2, format ``gyrojax-fit-1``), equal to the saved one
+    but for its segments, whose sample arrays are not stored (:attr:`TriadFit.segments` is empty). Raises
+    :class:`~gyrojax.errors.FormatError` naming the file and the key, and naming a turntable fit as such."""
+    p = Path(path)
+    try:
+        d = protocol.read_json_file(p, FormatError, "a saved imu-triad fit")
+    except FormatError as e:
+        raise FormatError(f"cannot read a fit result: {e}") from None
+    kind = fit_kind(d)
+    if kind == "turntable":
+        raise FormatError(
+            f"{p}: a turntable fit result (format {d.get('format')!r}), not an imu-triad fit; read it with "
+            "gyrojax.inference.result.FitResult.load"
+        )
+    if kind is None or "theta" not in d:
+        raise FormatError(f"{p}: not a saved imu-triad fit (save one with `gyrojax fit RECORDS --save FIT.json`)")
+    if d.get("format") != LEGACY_FORMAT:
+        d = protocol.check(d, TRIAD_FORMAT, TRIAD_VERSION, str(p))
+    try:
+        return _triad_fit_of(d)
+    except (KeyError, TypeError, ValueError, IndexError) as e:
+        raise FormatError(
+            f"{p}: a damaged imu-triad fit ({type(e).__name__}: {e}); save it again with `fit --save`"
+        ) from None
+
+
+def _triad_fit_of(d: dict) -> TriadFit:
+    """The :class:`TriadFit` of a saved file's dict. 0.2's files kept the noise only as its square root per
+    channel and the residuals only per segment: both come back from there."""
+    model = tp.channel_model(d["terms"])
+    if "noise_q" in d:
+        q = protocol.floats(d["noise_q"])
+    else:
+        q = np.array([d["noise"][ch]["long_run_std_deg_per_h_sqrt_sample"] ** 2 for ch in tp.CHANNELS])
+    if "residuals" in d:
+        res = protocol.floats(d["residuals"])
+    else:
+        res = protocol.floats([x for s in d.get("segments", []) for x in s["residual_deg_per_h"]])
+    return TriadFit(
+        model,
+        list(d["names"]),
+        protocol.floats(d["theta"]),
+        protocol.floats(d["cov"]),
+        [],
+        res,
+        q,
+        float(d["fit"]["chi2"]),
+        int(d["fit"]["dof"]),
+        d["earth_rate"]["mode"],
+        [r["name"] for r in d["records"]],
+        list(d.get("not_excited", [])),
+        counts_per_dps=d.get("counts_per_dps", d["matrices"]["imucal"].get("counts_per_dps")),
+        notes=list(d.get("notes", [])),
+        iterations=int(d["fit"].get("iterations", 1)),
+        converged=bool(d["fit"].get("converged", True)),
+        convergence_note=str(d["fit"].get("reason", "")),
+    )
