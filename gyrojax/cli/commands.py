@@ -261,9 +261,10 @@ def cmd_design(args) -> int:
 
     from gyrojax.data import plans
     from gyrojax.data.planfile import plan_to_json
+    from gyrojax.noise.spec import NoiseSpec
     from gyrojax.planning.baselines import table_text
     from gyrojax.planning.criteria import criterion_values
-    from gyrojax.planning.fisher import Noise, static_fisher
+    from gyrojax.planning.fisher import static_fisher
     from gyrojax.planning.optimal import SDF9, design
     from gyrojax.protocol import atomic_write_text
 
@@ -282,7 +283,7 @@ def cmd_design(args) -> int:
     terms = parse_terms(args.terms) if args.terms else list(SDF9)
     terms += [n for n in effects_from_args(args, "sdf-gyro") if n not in terms]
     gm = parse_gm(args.gm)
-    noise = Noise(args.arw, gm)
+    noise = NoiseSpec(white=args.arw, gauss_markov=() if gm is None else (gm,))
     if args.noise_model:
         from gyrojax.noise.gmwm_model import load_noise_model
 
@@ -290,7 +291,7 @@ def cmd_design(args) -> int:
             raise UsageError("--noise-model and --gm both give the noise; pass one")
         nm = load_noise_model(args.noise_model)
         nm.whitening_theta(1.0)  # white + at most one Gauss-Markov process, or a NoiseModelError naming the rest
-        noise = Noise(nm.white, nm.gauss_markov[0] if nm.gauss_markov else None)
+        noise = nm
     res = design(
         terms,
         args.positions,
