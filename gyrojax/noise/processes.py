@@ -94,7 +94,8 @@ def bias_instability(key, dt_s, b, tau_min, tau_max, n_poles=6):
 
 
 def random_drift(key, time_s, noise: dict, dt_white=None):
-    """:func:`simulate` of a truth file's noise dict (CONVENTIONS §8)."""
+    """:func:`simulate` of a truth file's noise dict (conventions §8): deg/h at ``time_s`` (s), ``dt_white`` the
+    averaging interval (s)."""
     return simulate(NoiseSpec.from_truth(noise), key, time_s, dt_white)
 
 

@@ -112,7 +112,8 @@ def _number(v, where: str, error=NoiseModelError) -> float:
 
 @dataclass(frozen=True)
 class NoiseSpec:
-    """Random drift in IEEE 952 units (module table); an estimate also carries its covariance and status."""
+    """Random drift in IEEE 952 units (module table: N deg/√h, Q arcsec, B deg/h, K deg/h/√h, R deg/h/h, σ deg/h and
+    T s; ``dt_s`` in s); an estimate also carries its covariance and status."""
 
     white: float = 0.0
     quantization: float = 0.0

@@ -307,7 +307,9 @@ def with_reml_covariance(nz: NoiseSpec, r, design, labels, times, tau_span_fract
     """``nz`` (white + Gauss–Markov, fitted by REML to ``r`` with ``design``) with the covariance of its natural
     parameters (N, σ, T): 2H⁻¹ in u = log(τ, σ_g², σ_w²) (H the Hessian of −2 log L_R,
     :func:`gyrojax.noise.reml.reml_hessian`), by the delta method (∂N/∂u_w = N/2, ∂σ/∂u_g = σ/2, ∂T/∂u_τ = T). A T at
-    its cap is pinned (infinite variance); a non-finite curvature leaves every variance infinite."""
+    its cap is pinned (infinite variance); a non-finite curvature leaves every variance infinite. ``times`` in s, τ
+    capped at the longest series' span (s) / ``tau_span_fraction``; N in deg/√h, σ deg/h, T s (the residual's unit in
+    place of deg/h for accelerometers)."""
     if not nz.gauss_markov or nz.gm_variance <= 0 or nz.white_variance <= 0:
         return nz
     series = reml.prepare(r, design, labels, times, tau_span_fraction)
