@@ -154,7 +154,9 @@ def prepare(r, design, labels, times, tau_span_fraction: float, select: bool = T
     dt[:n] = np.diff(t, prepend=t[0] if n else 0.0)
     mask = np.zeros(nb, dtype=bool)
     mask[:n] = True
-    dt0 = sample_interval(t)
+    steps = np.diff(t)[~restart[1:n]] if n > 1 else np.zeros(0)
+    dt0 = float(np.median(steps)) if steps.size else 1.0
+    dt0 = dt0 if dt0 > 0 else 1.0
     tau_max = max(longest_span(t, restart[:n]) / tau_span_fraction, 1e-9)
     var0 = float(np.var(r)) if n else 1.0
     return Series(
