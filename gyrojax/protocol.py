@@ -151,6 +151,16 @@ def load(path, fmt: str, version: int, legacy: Mapping[str, tuple[str, int]] | N
     return check(doc, fmt, version, str(path), legacy)
 
 
+def check_as(doc, fmt: str, version: int, where: str, error: type, legacy=None) -> dict:
+    """:func:`check` for a loader with an error type of its own (``PlanError``, ``StudyError`` …): the same message
+    (plus the legacy tags it also reads, if any), raised as ``error``."""
+    try:
+        return check(doc, fmt, version, where, legacy)
+    except FormatError as e:
+        old = f" (also read: the older {', '.join(repr(k) for k in legacy)})" if legacy else ""
+        raise error(f"{e}{old}") from None
+
+
 def require(doc: Mapping, keys, where: str) -> None:
     """Raise :class:`~gyrojax.errors.FormatError` naming the first of ``keys`` missing from ``doc``."""
     for key in keys:

@@ -826,3 +826,109 @@ def test_cli_subprocess_exit_codes(tmp_path):
         assert p.returncode == 2, (argv, p.stderr)
         assert p.stderr.startswith("gyrojax: error: ") and p.stderr.count("\n") == 1, (argv, p.stderr)
         assert "Traceback" not in p.stderr
+
+
+# ---- import: bad logs and section lists name the file, row, column or option --------------------------------------
+
+_LOG_HEAD = "t,cnt,gx,gy,gz,ax,ay,az"
+
+
+def _log(tmp_path, rows, head=_LOG_HEAD, sep=",", name="log.csv") -> Path:
+    p = tmp_path / name
+    p.write_text("\n".join([head.replace(",", sep)] + [sep.join(r) for r in rows]) + "\n", encoding="utf-8")
+    return p
+
+
+def _rows(n=30, t=lambda i: f"{i / 100:.2f}", cnt=lambda i: str(i)):
+    return [[t(i), cnt(i), "0.1", "0.2", "0.3", "0.0", "0.0", "1.0"] for i in range(n)]
+
+
+_MAP = "gyro_x=gx,gyro_y=gy,gyro_z=gz,acc_x=ax,acc_y=ay,acc_z=az"
+
+
+@pytest.mark.parametrize(
+    "make, extra, expect",
+    [
+        (
+            lambda d: _log(d, _rows(cnt=lambda i: str(i + (i >= 12)))),
+            ["--map", _MAP + ",sample=cnt", "--rate-hz", "100"],
+            ("log.csv", "column 'cnt'", "row 14", "gap"),
+        ),
+        (
+            lambda d: _log(d, _rows(cnt=lambda i: f"{i}.5")),
+            ["--map", _MAP + ",sample=cnt", "--rate-hz", "100"],
+            ("column 'cnt'", "row 2", "not an integer"),
+        ),
+        (lambda d: _log(d, _rows()), ["--map", _MAP + ",sample=cnt"], ("--rate-hz",)),
+        (
+            lambda d: _log(d, _rows(t=lambda i: f"{(i if i != 7 else 5) / 100:.2f}")),
+            ["--map", _MAP + ",time=t"],
+            ("log.csv", "row 9", "column 't'", "does not increase"),
+        ),
+        (
+            lambda d: _log(d, [[c.replace(".", ",") for c in r] for r in _rows()], sep=";"),
+            ["--map", _MAP + ",time=t"],
+            ("log.csv", "row 2", "column", "decimal comma"),
+        ),
+        (lambda d: _log(d, _rows()), ["--map", _MAP + ",time=t", "--delimiter", "|"], ("delimiter", "'|'")),
+        (
+            lambda d: _log(d, _rows(), sep=";"),
+            ["--map", _MAP + ",time=t", "--delimiter", ","],
+            ("log.csv", "not in the file"),
+        ),
+        (
+            lambda d: _log(d, _rows()),
+            ["--map", _MAP + ",time=t", "--rate-hz", "100"],
+            ("log.csv", "--rate-hz", "time column"),
+        ),
+        (lambda d: _log(d, _rows()), ["--map", _MAP, "--time-unit", "ms"], ("--time-unit", "no time column")),
+        (lambda d: _log(d, _rows()), ["--map", _MAP + ",time=t,time_s=t"], ("'time' and 'time_s'",)),
+        (lambda d: _log(d, _rows()), ["--map", _MAP + ",time"], ("--map", "KEY=COLUMN")),
+        (lambda d: _log(d, _rows()), ["--map", _MAP + ",time=t", "--min-rest", "-1"], ("--min-rest",)),
+        (lambda d: _log(d, _rows()), ["--map", _MAP + ",time=t", "--static-threshold", "0.5"], ("--static-threshold",)),
+        (lambda d: _log(d, ["a;b,c", "1;2", "3"], head="x,y"), ["--map", _MAP + ",time=t"], ("log.csv", "--delimiter")),
+    ],
+)
+def test_cli_import_csv_bad_logs(tmp_path, capsys, make, extra, expect):
+    path = make(tmp_path)
+    rc = cli.main(["import", "csv", str(path), "--gyro-unit", "dps", *extra, "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+    for e in expect:
+        assert e in err, (e, err)
+
+
+_IMUCAL = Path(__file__).resolve().parent / "data" / "imucal" / "annotated_session.csv"
+
+
+@pytest.mark.parametrize(
+    "sections, expect",
+    [
+        ('{"x_p": {"start": 0, "end": 100}, "x_a": {"start": 50, "end": 200}}', ("s.json", "overlaps", "'x_p'")),
+        ('{"x_p": {"start": 0, "stop": 100}}', ("s.json", "'x_p'", "start")),
+        ('{"x_p": [0, 1e9]}', ("s.json", "'x_p'", "outside")),
+        ('{"x_p": [0.5, 10]}', ("s.json", "'x_p'", "sample indices")),
+        ('{"start": {"x_p": 0}, "end": {"x_a": 9}}', ("s.json", "different sections")),
+        ("[1, 2]", ("s.json", "section list")),
+        ("{nope", ("s.json", "not valid JSON")),
+    ],
+)
+def test_cli_import_imucal_bad_section_lists(tmp_path, capsys, sections, expect):
+    session = tmp_path / "session.csv"
+    lines = _IMUCAL.read_text().splitlines()
+    session.write_text("\n".join(ln.split(",", 1)[1] for ln in lines) + "\n")  # without 'part'
+    (tmp_path / "s.json").write_text(sections)
+    argv = ["import", "imucal", str(session), "--sections", str(tmp_path / "s.json"), "--gyro-scale", "16.4"]
+    rc = cli.main(argv + ["--rate-hz", "204.8", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+    for e in expect:
+        assert e in err, (e, err)
+
+
+def test_cli_import_imucal_part_column_and_section_list_is_refused(tmp_path, capsys):
+    (tmp_path / "s.json").write_text('{"x_p": [0, 10]}')
+    argv = ["import", "imucal", str(_IMUCAL), "--sections", str(tmp_path / "s.json"), "--gyro-scale", "16.4"]
+    assert cli.main(argv + ["--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "'part' column" in err and "--sections" in err and err.count("\n") == 1, err

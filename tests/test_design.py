@@ -13,7 +13,7 @@ import pytest
 from gyrojax.data import plans
 from gyrojax.data.arrays import record_data
 from gyrojax.data.planfile import load_plan
-from gyrojax.errors import ModelError
+from gyrojax.errors import ConvergenceWarning, ModelError
 from gyrojax.inference.campaign import Campaign, linearize
 from gyrojax.noise.processes import gauss_markov, random_drift, white
 from gyrojax.noise.spec import NoiseSpec, gm_mean_factor
@@ -89,6 +89,7 @@ def test_designed_beats_classical_on_D(d24):
     assert np.isfinite(d_classical)
     assert d_designed > d_classical + 0.1  # det ratio > 1.1
     assert d24.grad_norm < 1e-3 * abs(d24.loss)
+    assert d24.converged and d24.summary()["converged"] is True
     # N = 8: the classical set identifies only a 6-term sub-model; the designed one does better on it
     m6 = Model.of(SDF6)
     res = D.design(m6, 8, hours=2.0, noise=NOISE, dt_s=30.0, **FAST)
@@ -209,3 +210,11 @@ def test_cli_design_writes_a_runnable_plan(tmp_path, capsys):
     assert len(plan.runs[0].segments) == 8
     rc = main(["simulate", str(out), "--out", str(tmp_path / "recs")])
     assert rc == 0
+
+
+def test_a_design_cut_short_says_so():
+    with pytest.warns(ConvergenceWarning, match="design did not converge"):
+        res = D.design(D.SDF9, 24, hours=4.0, noise=NOISE, dt_s=30.0, seed=1, starts=2, adam_steps=5, lbfgs_steps=0)
+    assert not res.converged
+    s = res.summary()
+    assert s["converged"] is False and "iterations" in s["reason"]

@@ -92,7 +92,7 @@ def test_plan_of_another_format_or_a_later_version_is_refused(edit, key, tmp_pat
     (tmp_path / "p.json").write_text(json.dumps(doc))
     with pytest.raises(PlanError, match=key) as info:
         load_plan(tmp_path / "p.json")
-    assert "p.json" in str(info.value)
+    assert "p.json" in str(info.value) and "'gyrojax-plan-1'" in str(info.value)  # the legacy tag it also reads
 
 
 # ---- truths ---------------------------------------------------------------------------------------------------------

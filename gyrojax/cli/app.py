@@ -156,16 +156,25 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("format", choices=("imucal", "imutk", "csv"))
     s.add_argument("inputs", nargs="+", help="imucal: SESSION.csv; imutk: ACC GYRO; csv: FILE.csv")
     s.add_argument("--out", required=True, help="output directory")
-    s.add_argument("--sections", help="imucal: JSON file {\"x_p\": [start, end], …} for sessions without 'part'")
-    s.add_argument("--rate-hz", type=float, default=204.8, help="sample rate when the file has no time (imucal)")
+    s.add_argument("--sections", help='imucal: section list {"x_p": {"start": s, "end": e}, …} (JSON or CSV)')
+    s.add_argument("--rate-hz", type=float, help="imucal: sample rate (default 204.8); csv: rate of a sample counter")
     s.add_argument("--gyro-unit", default="counts", choices=("counts", "dps", "rad/s"))
     s.add_argument("--gyro-scale", type=float, help="nominal gyro scale, counts per deg/s (raw counts)")
-    s.add_argument("--acc-unit", default="g", choices=("g", "m/s^2", "counts"), help="csv: accelerometer unit")
-    s.add_argument("--angle", type=float, default=360.0, help="imucal: total angle of each hand rotation, deg")
-    s.add_argument("--angle-std", type=float, default=0.0, help="imucal: 1-sigma error of that angle, deg")
+    s.add_argument("--acc-unit", choices=("g", "m/s^2", "counts"), help="imutk (default counts), csv (default g)")
+    s.add_argument("--angle", type=float, help="imucal: total angle of each hand rotation, deg (default 360)")
+    s.add_argument("--angle-std", type=float, help="imucal: 1-sigma error of that angle, deg (default 0)")
     s.add_argument("--latitude", type=float, help="site latitude, deg (default: unknown)")
     s.add_argument("--gravity", type=float, default=9.81, help="local gravity, m/s^2")
-    s.add_argument("--map", help="csv: column mapping time_s=COL,gyro_x=COL,…,acc_z=COL")
+    s.add_argument("--map", help="csv: column mapping time=COL (or sample=COL),gyro_x=COL,…,acc_z=COL")
+    s.add_argument("--delimiter", help="imucal, csv: ',', ';', 'tab' or 'auto' (default: detected)")
+    s.add_argument("--time-unit", choices=("s", "ms", "us"), help="csv: unit of the time column (default s)")
+    s.add_argument("--min-rest", type=float, metavar="S", help="imutk, csv: shortest rest kept, s (default 0.5)")
+    s.add_argument(
+        "--static-threshold",
+        type=float,
+        metavar="X",
+        help="imutk, csv: rest threshold in multiples of the rest noise variance (default: from the window)",
+    )
     s.add_argument("--name", help="record name (default: the input file's stem)")
     s.add_argument("--id", help="instrument id (records of different ids are never fitted together)")
     s.add_argument("--force", action="store_true")

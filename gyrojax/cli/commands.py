@@ -432,11 +432,47 @@ def cmd_mc_merge(args) -> int:
 # ---- MEMS IMU triads: import and apply ---------------------------------------------------------------------------
 
 
+IMPORT_OPTIONS = {
+    "sections": ("imucal",),
+    "rate_hz": ("imucal", "csv"),
+    "acc_unit": ("imutk", "csv"),
+    "angle": ("imucal",),
+    "angle_std": ("imucal",),
+    "map": ("csv",),
+    "delimiter": ("imucal", "csv"),
+    "time_unit": ("csv",),
+    "min_rest": ("imutk", "csv"),
+    "static_threshold": ("imutk", "csv"),
+}
+"""The ``import`` options that only some importers take; any other importer refuses them."""
+
+
 def cmd_import(args) -> int:
     """``gyrojax import imucal|imutk|csv``: convert a calibration session into imu-triad records in ``--out``."""
     from gyrojax.data import importers
     from gyrojax.data.records import record_paths, save_record
 
+    for dest, formats in IMPORT_OPTIONS.items():
+        if getattr(args, dest) is not None and args.format not in formats:
+            raise UsageError(
+                f"import {args.format}: option --{dest.replace('_', '-')} does not apply (it is for import "
+                f"{' and '.join(formats)})"
+            )
+    if args.gyro_scale is not None and args.gyro_unit != "counts":
+        raise UsageError(
+            f"import {args.format}: option --gyro-scale applies to --gyro-unit counts, not {args.gyro_unit}"
+        )
+    common = dict(
+        gyro_unit=args.gyro_unit,
+        gyro_counts_per_dps=args.gyro_scale,
+        latitude_deg=args.latitude,
+        gravity_mps2=args.gravity,
+        name=args.name,
+        instrument_id=args.id,
+    )
+    detector = {
+        k: v for k, v in (("min_rest_s", args.min_rest), ("static_threshold", args.static_threshold)) if v is not None
+    }
     if args.format == "imucal":
         if len(args.inputs) != 1:
             raise UsageError("import imucal takes one SESSION.csv")
@@ -444,44 +480,34 @@ def cmd_import(args) -> int:
             args.inputs[0],
             rate_hz=args.rate_hz,
             sections=args.sections,
-            gyro_unit=args.gyro_unit,
-            gyro_counts_per_dps=args.gyro_scale,
-            angle_deg=args.angle,
-            angle_std_deg=args.angle_std,
-            latitude_deg=args.latitude,
-            gravity_mps2=args.gravity,
-            name=args.name,
-            instrument_id=args.id,
+            angle_deg=360.0 if args.angle is None else args.angle,
+            angle_std_deg=0.0 if args.angle_std is None else args.angle_std,
+            delimiter=args.delimiter,
+            **common,
         )
     elif args.format == "imutk":
         if len(args.inputs) != 2:
             raise UsageError("import imutk takes two files: ACC GYRO")
         rec = importers.import_imutk(
-            args.inputs[0],
-            args.inputs[1],
-            gyro_unit=args.gyro_unit,
-            gyro_counts_per_dps=args.gyro_scale,
-            latitude_deg=args.latitude,
-            gravity_mps2=args.gravity,
-            name=args.name,
-            instrument_id=args.id,
+            args.inputs[0], args.inputs[1], acc_unit=args.acc_unit or "counts", **detector, **common
         )
     else:
         if len(args.inputs) != 1:
             raise UsageError("import csv takes one CSV file")
         if not args.map:
-            raise UsageError("import csv needs --map, e.g. time_s=t,gyro_x=gx,gyro_y=gy,gyro_z=gz,acc_x=ax,…")
+            raise UsageError("import csv needs --map, e.g. time=t,gyro_x=gx,gyro_y=gy,gyro_z=gz,acc_x=ax,…")
+        pairs = [p.split("=", 1) for p in args.map.split(",")]
+        if any(len(p) != 2 or not p[0] or not p[1] for p in pairs):
+            raise UsageError(f"import csv: option --map {args.map!r}: give KEY=COLUMN pairs separated by commas")
         rec = importers.import_csv(
             args.inputs[0],
-            dict(p.split("=", 1) for p in args.map.split(",")),
-            gyro_unit=args.gyro_unit,
-            gyro_counts_per_dps=args.gyro_scale,
-            acc_unit=args.acc_unit,
+            dict(pairs),
+            acc_unit=args.acc_unit or "g",
             rate_hz=args.rate_hz,
-            latitude_deg=args.latitude,
-            gravity_mps2=args.gravity,
-            name=args.name,
-            instrument_id=args.id,
+            time_unit=args.time_unit,
+            delimiter=args.delimiter,
+            **detector,
+            **common,
         )
     out = Path(args.out)
     if not args.force:
@@ -491,11 +517,26 @@ def cmd_import(args) -> int:
     path = save_record(rec, out, force=True)
     kinds = [s["type"] for s in rec.meta["segments"]]
     summary = {k: kinds.count(k) for k in ("static", "rotation", "move") if k in kinds}
+    report = rec.meta.get("import", {})
     if args.json:
-        print(json.dumps({"record": str(path), "segments": summary, "n_samples": rec.n}))
+        print(json.dumps({"record": str(path), "segments": summary, "n_samples": rec.n, "import": report}))
     else:
         print(f"{path}: {rec.n} samples; segments " + ", ".join(f"{v} {k}" for k, v in summary.items()))
+        print(f"rests: {import_summary(report)}")
+        for d in report.get("dropped", []):
+            print(f"  dropped {d['start_s']:.2f}–{d['end_s']:.2f} s: {d['reason']} ({d['detail']})")
+        for note in report.get("notes", []):
+            print(f"note: {note}")
     return 0
+
+
+def import_summary(report: dict) -> str:
+    """One line of an import report: the rests found (or the sections read) and how many candidates were dropped."""
+    if "sections" in report:
+        return f"{report['rests_found']} faces and {report['rotations']} rotations from the {report['sections']}"
+    from gyrojax.data.segments import rest_summary
+
+    return rest_summary(report, details=False)
 
 
 def cmd_apply(args) -> int:

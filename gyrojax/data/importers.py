@@ -3,26 +3,31 @@
 
 * :func:`import_imucal` — imucal's Ferraris sessions (mad-lab-fau/imucal): a table with columns
   ``acc_x, acc_y, acc_z, gyr_x, gyr_y, gyr_z`` and either a ``part`` column naming the sections (``x_p``, ``x_a``, …,
-  ``x_rot``, …: imucal's annotated sessions) or a separate section list of sample ranges.
+  ``x_rot``, …: imucal's annotated sessions) or imucal's section list (:func:`read_sections`).
 * :func:`import_imutk` — imu_tk's ASCII files (one sample per line: time, then three values), accelerometer and
-  gyroscope apart; static poses by the variance detector of :mod:`gyrojax.data.segments`, the moves between them
-  as gravity-to-gravity segments.
-* :func:`import_csv` — any CSV, with a column mapping.
+  gyroscope apart; rests by the variance detector of :mod:`gyrojax.data.segments`, the moves between them as
+  gravity-to-gravity segments.
+* :func:`import_csv` — any delimited log, with a column mapping; its clock a time column (s, ms, µs) or a sample
+  counter with its rate.
 
-The accelerometer is calibrated by the importer (Ferraris' six faces: raw = A a + b by least squares; imu_tk:
-an ellipsoid fit over the static poses) and written in g, so that the gyro fit sees the specific force of each pose;
-the calibration is kept in the record's JSON under ``accelerometer_calibration``.
+The accelerometer is never taken as calibrated on trust (:func:`accelerometer_in_g`): calibrated by the importer
+(Ferraris' six faces: raw = A a + b by least squares; imu_tk's ellipsoid over the rests) or checked against g, and
+written in g, so that the gyro fit sees the specific force of each pose; a calibration is kept in the record's JSON
+under ``accelerometer_calibration``. Every importer reports what it read under ``import`` in the record's JSON: the
+rests found, the candidates dropped and why, the rests joined, the accelerometer check and its notes.
 """
 
 from __future__ import annotations
 
 import json
+import numbers
 from pathlib import Path
 
 import numpy as np
 
 from gyrojax import units
 from gyrojax.data.record import Record
+from gyrojax.data.segments import MIN_REST_S
 from gyrojax.data.triad import CHANNELS, TRIAD_KIND, validate_triad_columns, validate_triad_meta
 from gyrojax.errors import RecordError
 
@@ -58,14 +63,75 @@ def ferraris_accelerometer(means: dict, g: float = 1.0) -> tuple[np.ndarray, np.
     return sol[:3].T, sol[3]
 
 
-def read_table(path):
-    """A CSV file as a pandas DataFrame; :class:`RecordError` naming the file when it is not a readable CSV."""
+DELIMITERS = {",": ",", ";": ";", "tab": "\t", "\t": "\t", "\\t": "\t"}
+"""The delimiters of ``--delimiter`` (``auto``: detected from the file's first lines)."""
+
+
+def sniff_delimiter(path, lines: int = 20) -> str:
+    """The delimiter (``,``, ``;`` or tab) that splits the first ``lines`` non-empty lines of a text file into the
+    same number (≥ 2) of fields, the most fields when several do; :class:`RecordError` naming the file otherwise."""
+    import bz2
+    import gzip
+    import lzma
+
+    opener = {".gz": gzip.open, ".bz2": bz2.open, ".xz": lzma.open}.get(Path(path).suffix.lower(), open)
+    try:
+        with opener(path, "rt", encoding="utf-8") as fh:
+            head = [ln for ln in (fh.readline() for _ in range(4 * lines)) if ln.strip()][:lines]
+    except (OSError, UnicodeDecodeError, EOFError, lzma.LZMAError) as e:
+        raise RecordError(f"{path}: not a readable text table ({str(e).strip()[:120]})") from None
+    best, fields = None, 1
+    for d in (",", ";", "\t"):
+        counts = {ln.count(d) for ln in head}
+        if len(counts) == 1 and (c := counts.pop()) + 1 > fields:
+            best, fields = d, c + 1
+    if best is None:
+        raise RecordError(
+            f"{path}: cannot tell its delimiter (none of ',', ';', tab splits its first lines alike); give --delimiter"
+        )
+    return best
+
+
+def file_stem(path) -> str:
+    """A file's name without its extension and a compression suffix (``log.tsv.gz`` → ``log``)."""
+    p = Path(path)
+    if p.suffix.lower() in (".gz", ".bz2", ".xz"):
+        p = Path(p.stem)
+    return p.stem
+
+
+def read_table(path, delimiter: str | None = None, notes: list | None = None):
+    """A delimited text file as a pandas DataFrame; ``delimiter`` one of :data:`DELIMITERS` or None/``"auto"``
+    (detected, and said in ``notes``). :class:`RecordError` naming the file when it is not a readable table."""
     import pandas as pd
 
+    if delimiter in (None, "auto"):
+        sep = sniff_delimiter(path)
+        if notes is not None:
+            notes.append(f"delimiter {'tab' if sep == chr(9) else repr(sep)} detected (--delimiter to choose another)")
+    elif delimiter in DELIMITERS:
+        sep = DELIMITERS[delimiter]
+    else:
+        raise RecordError(f"--delimiter {delimiter!r}: give ',', ';', 'tab' or 'auto'")
     try:
-        return pd.read_csv(path)
+        return pd.read_csv(path, sep=sep)
     except (UnicodeDecodeError, ValueError, pd.errors.ParserError, pd.errors.EmptyDataError) as e:
-        raise RecordError(f"{path}: not a readable comma-separated table ({str(e).strip()[:120]})") from None
+        raise RecordError(f"{path}: not a readable {sep!r}-separated table ({str(e).strip()[:120]})") from None
+
+
+def numeric_columns(df, cols: list, where: str):
+    """The columns ``cols`` of ``df`` as an (n, k) float array; :class:`RecordError` naming the first row and column
+    that is not a finite number (rows counted as in the file, the header being row 1)."""
+    import pandas as pd
+
+    arr = df[cols].apply(pd.to_numeric, errors="coerce").to_numpy(dtype=float)
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        i, j = np.argwhere(bad)[0]
+        cell = df[cols[j]].iloc[i]
+        hint = " (a decimal comma? the file's numbers need a '.')" if isinstance(cell, str) and "," in cell else ""
+        raise RecordError(f"{where}: row {i + 2}, column {cols[j]!r} is not a finite number: {cell!r}{hint}")
+    return arr
 
 
 def triad_meta(
@@ -98,23 +164,94 @@ def triad_meta(
     return meta
 
 
-def _sections_from_list(n: int, sections: dict, where: str) -> np.ndarray:
-    """Part name per row from ``{"x_p": [start, end], …}`` (sample indices, end exclusive)."""
+def _section_bounds(name, v, where: str) -> tuple[int, int]:
+    """(start, end) of one section entry: ``[start, end]`` or imucal's ``{"start": s, "end": e}``."""
+    if isinstance(v, dict) and set(v) == {"start", "end"}:
+        v = [v["start"], v["end"]]
+    ok = isinstance(v, (list, tuple)) and len(v) == 2
+    ok = ok and all(isinstance(i, numbers.Real) and not isinstance(i, bool) and float(i).is_integer() for i in v)
+    if not ok:
+        raise RecordError(
+            f'{where}: section {name!r} must be [start, end] or {{"start": s, "end": e}} sample indices, got {v!r}'
+        )
+    return int(v[0]), int(v[1])
+
+
+def read_sections(sections, where: str = "sections") -> dict:
+    """A section list as ``{name: (start, end)}`` (row positions, end exclusive, as imucal's ``iloc``) from a dict or
+    a file: JSON ``{"x_p": [start, end], …}``, imucal's ``{"x_p": {"start": s, "end": e}, …}`` (its section list
+    saved with ``to_json(orient="index")``), pandas' default ``{"start": {"x_p": s, …}, "end": {…}}``, or imucal's
+    CSV (``section_list.to_csv``: an index column of names, then ``start``, ``end``)."""
+    if isinstance(sections, (str, Path)):
+        where = str(sections)
+        p = Path(sections)
+        try:
+            text = p.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as e:
+            raise RecordError(f"{where}: cannot read the section list ({e})") from None
+        if p.suffix.lower() == ".csv":
+            import io
+
+            import pandas as pd
+
+            try:
+                df = pd.read_csv(io.StringIO(text), index_col=0)
+            except (ValueError, pd.errors.ParserError, pd.errors.EmptyDataError) as e:
+                raise RecordError(f"{where}: not a readable section list ({str(e).strip()[:120]})") from None
+            if list(df.columns) != ["start", "end"]:
+                raise RecordError(f"{where}: a CSV section list has columns name, start, end; got {list(df.columns)}")
+            sections = {str(k): [r["start"], r["end"]] for k, r in df.iterrows()}
+        else:
+            try:
+                sections = json.loads(text)
+            except json.JSONDecodeError as e:
+                raise RecordError(f"{where}: not valid JSON ({e})") from None
+    if not isinstance(sections, dict) or not sections:
+        raise RecordError(f'{where}: a section list is an object {{"x_p": {{"start": s, "end": e}}, …}}')
+    if set(sections) == {"start", "end"} and all(isinstance(v, dict) for v in sections.values()):
+        names = list(sections["start"])
+        if set(names) != set(sections["end"]):
+            raise RecordError(f"{where}: 'start' and 'end' name different sections")
+        sections = {k: [sections["start"][k], sections["end"][k]] for k in names}
+    return {k: _section_bounds(k, v, where) for k, v in sections.items()}
+
+
+def _sections_to_parts(n: int, sections: dict, where: str, session: str) -> np.ndarray:
+    """Part name per row from ``{name: (start, end)}``; sections must lie inside the rows and not overlap."""
     part = np.full(n, "", dtype=object)
-    for k, v in sections.items():
-        if not (isinstance(v, (list, tuple)) and len(v) == 2 and all(isinstance(i, int) for i in v)):
-            raise RecordError(f"{where}: section {k!r} must be [start, end] sample indices, got {v!r}")
-        s, e = v
+    for k, (s, e) in sorted(sections.items(), key=lambda kv: kv[1]):
         if not 0 <= s < e <= n:
-            raise RecordError(f"{where}: section {k!r} = [{s}, {e}] lies outside the {n} samples")
+            raise RecordError(f"{where}: section {k!r} = [{s}, {e}] lies outside the {n} samples of {session}")
+        clash = sorted(set(part[s:e]) - {""})
+        if clash:
+            raise RecordError(f"{where}: section {k!r} = [{s}, {e}] overlaps section {clash[0]!r}")
         part[s:e] = k
     return part
+
+
+def _gyro_columns(gyr, gyro_unit: str, counts_per_dps, where: str, units_ok=("counts", "dps", "rad/s")) -> tuple:
+    """The record's gyro columns from (n, 3) values in ``gyro_unit`` and the nominal scale kept (counts only)."""
+    if gyro_unit not in units_ok:
+        raise RecordError(f"gyro unit (--gyro-unit) must be one of {', '.join(units_ok)}, got {gyro_unit!r}")
+    if gyro_unit == "counts":
+        if counts_per_dps is None:
+            raise RecordError(
+                f"{where}: gyro values are raw counts: give the nominal scale (gyro_counts_per_dps / --gyro-scale, "
+                "the datasheet's LSB per deg/s, e.g. 16.4 at ±2000 deg/s)"
+            )
+        return {f"gyro_{c}_counts": gyr[:, j] for j, c in enumerate(CHANNELS)}, counts_per_dps
+    if counts_per_dps is not None:
+        raise RecordError(
+            f"{where}: a nominal scale (--gyro-scale) applies to raw counts, not to gyro unit {gyro_unit}"
+        )
+    f = 1.0 if gyro_unit == "dps" else 1.0 / units.DEG
+    return {f"gyro_{c}_dps": gyr[:, j] * f for j, c in enumerate(CHANNELS)}, None
 
 
 def import_imucal(
     session,
     *,
-    rate_hz: float,
+    rate_hz: float | None = None,
     sections=None,
     gyro_unit: str = "counts",
     gyro_counts_per_dps: float | None = None,
@@ -122,6 +259,7 @@ def import_imucal(
     angle_std_deg: float = 0.0,
     latitude_deg: float | None = None,
     gravity_mps2: float = 9.81,
+    delimiter: str | None = None,
     name: str | None = None,
     instrument_id: str | None = None,
 ) -> Record:
@@ -129,32 +267,47 @@ def import_imucal(
 
     Args:
       session: CSV path (columns ``acc_x…gyr_z``, optionally ``part`` and ``samples``) or a pandas DataFrame.
-      rate_hz: sample rate, Hz (imucal's files do not carry it).
-      sections: ``{"x_p": [start, end], …}`` (dict, or a JSON file path) for sessions without a ``part`` column.
-      gyro_unit: ``"counts"`` (with ``gyro_counts_per_dps``, the nominal scale) or ``"dps"``.
+      rate_hz: sample rate, Hz (imucal's files do not carry it; None: 204.8, NilsPod's, with a note).
+      sections: a section list for sessions without a ``part`` column, as :func:`read_sections` reads it (dict or
+        file; imucal's ``{"x_p": {"start": 540, "end": 1271}, …}`` or ``{"x_p": [start, end], …}``; row positions
+        in file order, end exclusive, as imucal's ``iloc``).
+      gyro_unit: ``"counts"`` (with ``gyro_counts_per_dps``, the nominal scale), ``"dps"`` or ``"rad/s"``.
       angle_deg: the known total angle of each hand rotation (deg; its sign comes from the data).
       angle_std_deg: 1σ error of that angle (deg), for the hand's imprecision.
       latitude_deg: site latitude (deg), or None when unknown.
       gravity_mps2: local gravity, m/s² (the accelerometer faces are ±g_site/g0 in g).
+      delimiter: the file's delimiter (:func:`read_table`; None: detected).
 
-    Returns: the record (not yet saved); accelerometer calibrated by :func:`ferraris_accelerometer`.
+    Returns: the record (not yet saved); accelerometer calibrated by :func:`ferraris_accelerometer` (in any unit);
+    ``meta["import"]`` says what was read (sections, notes).
     """
     import pandas as pd
 
+    notes: list[str] = []
     where = str(session) if not isinstance(session, pd.DataFrame) else "session"
-    df = session if isinstance(session, pd.DataFrame) else read_table(session)
+    df = session if isinstance(session, pd.DataFrame) else read_table(session, delimiter, notes)
     acc_cols, gyr_cols = [f"acc_{c}" for c in CHANNELS], [f"gyr_{c}" for c in CHANNELS]
     miss = [c for c in acc_cols + gyr_cols if c not in df.columns]
     if miss:
         raise RecordError(f"{where}: missing columns {miss}; imucal sessions have acc_x…acc_z, gyr_x…gyr_z")
+    if rate_hz is None:
+        rate_hz = 204.8
+        notes.append("sample rate 204.8 Hz assumed (imucal files do not carry it; --rate-hz to give it)")
     if not rate_hz or not rate_hz > 0:
         raise RecordError(f"{where}: the sample rate (rate_hz) must be positive, got {rate_hz!r}")
     for cols in (acc_cols, gyr_cols):  # in file order, so the row named is the file's
-        arr = df[cols].apply(pd.to_numeric, errors="coerce").to_numpy(dtype=float)
-        bad = ~np.isfinite(arr)
-        if bad.any():
-            i, j = np.argwhere(bad)[0]
-            raise RecordError(f"{where}: row {i + 2}, column {cols[j]!r} is not a finite number")
+        numeric_columns(df, cols, where)
+    if sections is not None:
+        if "part" in df.columns:
+            raise RecordError(f"{where}: has a 'part' column and a section list (--sections) was given; give one")
+        spans = read_sections(sections)
+        swhere = str(sections) if isinstance(sections, (str, Path)) else "sections"
+        df = df.assign(part=_sections_to_parts(len(df), spans, swhere, where))  # imucal's iloc: rows in file order
+        source = f"section list ({len(spans)} sections)"
+    elif "part" in df.columns:
+        source = "'part' column"
+    else:
+        raise RecordError(f"{where}: no 'part' column and no section list (--sections); cannot tell the poses apart")
     if "samples" in df.columns:
         df = df.sort_values("samples", kind="stable").reset_index(drop=True)
         samples = df["samples"].to_numpy(dtype=float)
@@ -162,14 +315,7 @@ def import_imucal(
             raise RecordError(f"{where}: column 'samples' repeats a sample index")
     else:
         samples = np.arange(len(df), dtype=float)
-    if sections is not None:
-        if isinstance(sections, (str, Path)):
-            sections = json.loads(Path(sections).read_text(encoding="utf-8"))
-        part = _sections_from_list(len(df), sections, where)
-    elif "part" in df.columns:
-        part = df["part"].fillna("").astype(str).to_numpy(dtype=object)
-    else:
-        raise RecordError(f"{where}: no 'part' column and no section list (--sections); cannot tell the poses apart")
+    part = df["part"].fillna("").astype(str).to_numpy(dtype=object)
     known = list(FERRARIS_FACES) + list(FERRARIS_ROTATIONS)
     unknown = sorted(set(part) - set(known) - {""})
     if unknown:
@@ -202,24 +348,27 @@ def import_imucal(
                 }
             )
     cols = {"time_s": samples / float(rate_hz), "segment": labels}
-    if gyro_unit == "counts":
-        if gyro_counts_per_dps is None:
-            raise RecordError(
-                f"{where}: gyro values are raw counts: give the nominal scale (gyro_counts_per_dps / --gyro-scale, "
-                "the datasheet's LSB per deg/s, e.g. 16.4 at ±2000 deg/s)"
-            )
-        for c, j in zip(CHANNELS, range(3)):
-            cols[f"gyro_{c}_counts"] = gyr[:, j]
-    elif gyro_unit == "dps":
-        for c, j in zip(CHANNELS, range(3)):
-            cols[f"gyro_{c}_dps"] = gyr[:, j]
-        gyro_counts_per_dps = None
-    else:
-        raise RecordError(f"gyro_unit must be 'counts' or 'dps', got {gyro_unit!r}")
+    gcols, gyro_counts_per_dps = _gyro_columns(gyr, gyro_unit, gyro_counts_per_dps, where)
+    cols.update(gcols)
     for c, j in zip(CHANNELS, range(3)):
         cols[f"acc_{c}_g"] = acc_cal[:, j]
+    face_err = [abs(np.linalg.norm(acc_cal[part == f].mean(axis=0)) / g_units - 1.0) for f in FERRARIS_FACES]
+    report = {
+        "source": where,
+        "sections": source,
+        "rests_found": len(FERRARIS_FACES),
+        "rotations": len(FERRARIS_ROTATIONS),
+        "dropped": [],
+        "joined": [],
+        "accelerometer": {
+            "unit": "raw",
+            "calibrated_here": True,
+            "max_rest_magnitude_error": float(max(face_err)),
+        },
+        "notes": notes,
+    }
     meta = triad_meta(
-        name or (Path(where).stem if where != "session" else "imucal-session"),
+        name or (file_stem(where) if where != "session" else "imucal-session"),
         segs,
         latitude_deg=latitude_deg,
         gravity_mps2=gravity_mps2,
@@ -227,7 +376,8 @@ def import_imucal(
         instrument_id=instrument_id,
         notes=f"imported from imucal session {where} at {rate_hz} Hz",
         extra={
-            "accelerometer_calibration": {"model": "raw = A a + b, a in g", "A": a_mat.tolist(), "b": b_vec.tolist()}
+            "accelerometer_calibration": {"model": "raw = A a + b, a in g", "A": a_mat.tolist(), "b": b_vec.tolist()},
+            "import": report,
         },
     )
     validate_triad_meta(meta, f"{meta['name']}.json")
@@ -256,25 +406,26 @@ def import_imutk(
     acc_path,
     gyro_path,
     *,
+    acc_unit: str = "counts",
     gyro_unit: str = "counts",
     gyro_counts_per_dps: float | None = None,
     acc_g_per_count: float | None = None,
     acc_bias0=None,
     latitude_deg: float | None = None,
     gravity_mps2: float = 9.81,
-    init_s: float = 50.0,
-    detector_k: float = 6.0,
+    min_rest_s: float = MIN_REST_S,
+    static_threshold: float | None = None,
     name: str | None = None,
     instrument_id: str | None = None,
 ) -> Record:
     """An imu_tk multi-position recording (accelerometer and gyroscope files) as one ``imu-triad`` record.
 
-    Static poses come from :func:`gyrojax.data.segments.static_intervals` (accelerometer and gyro variance against
-    the first ``init_s`` seconds of rest); each pair of consecutive poses gets a ``move`` segment (the samples
-    between them: a gravity-to-gravity move, its rotation known through the accelerometer directions before and
-    after). The accelerometer is calibrated by imu_tk's 9-parameter model fitted to |a| = g over the poses
-    (:func:`gyrojax.data.segments.ellipsoid_accelerometer`), started from ``acc_g_per_count`` and ``acc_bias0``
-    (default: the 16-bit mid-scale 32768 and |mean of the initial rest| = 1 g).
+    Static poses come from :func:`gyrojax.data.segments.detect_rests` (accelerometer and gyro variance against the
+    rests' own noise; ``min_rest_s`` the shortest rest, ``static_threshold`` the threshold in multiples of the
+    noise variance); each pair of consecutive poses gets a ``move`` segment (the samples between them: a
+    gravity-to-gravity move, its rotation known through the accelerometer directions before and after). The
+    accelerometer (``acc_unit``, imu_tk's raw counts by default) is checked and calibrated as
+    :func:`accelerometer_in_g` says, started from ``acc_g_per_count`` and ``acc_bias0`` when given.
 
     Args: gyro_unit ``"counts"`` (with ``gyro_counts_per_dps``), ``"dps"`` or ``"rad/s"``; latitude_deg (None:
     unknown); gravity_mps2 (local gravity, m/s²).
@@ -283,22 +434,143 @@ def import_imutk(
     gyr = read_imutk_ascii(gyro_path)
     if len(acc) != len(gyr) or not np.allclose(acc[:, 0], gyr[:, 0], atol=1e-6):
         raise RecordError(f"{gyro_path}: its timestamps differ from {acc_path}'s; resample one onto the other first")
+    notes = []
+    note = jitter_note(acc[:, 0], f"{acc_path}: time")
+    if note:
+        notes.append(note)
     return triad_from_arrays(
         acc[:, 0] - acc[0, 0],
         acc[:, 1:],
         gyr[:, 1:],
-        acc_unit="counts",
+        acc_unit=acc_unit,
         gyro_unit=gyro_unit,
         gyro_counts_per_dps=gyro_counts_per_dps,
         acc_g_per_count=acc_g_per_count,
         acc_bias0=acc_bias0,
         latitude_deg=latitude_deg,
         gravity_mps2=gravity_mps2,
-        init_s=init_s,
-        detector_k=detector_k,
+        min_rest_s=min_rest_s,
+        static_threshold=static_threshold,
         name=name or Path(acc_path).name.split(".")[0],
         instrument_id=instrument_id,
         source=f"imu_tk files {acc_path}, {gyro_path}",
+        notes=notes,
+    )
+
+
+ACC_CALIBRATED_TOL = 0.01
+"""A calibrated accelerometer reads |a| = g at every rest within this fraction (consumer MEMS after calibration:
+0.1–0.5 %; the poses' means have noise far below it). Beyond it the accelerometer is calibrated here."""
+ACC_UNIT_TOL = 0.25
+"""Beyond this fraction off g at rest the unit given is wrong, not the sensor's calibration (a 25 % gain error is
+no accelerometer's); the import is refused."""
+
+
+def sphere_fit(points: np.ndarray) -> tuple[np.ndarray, float]:
+    """Centre and radius of the sphere through ``points`` (k, 3) by linear least squares,
+    |p − c|² = r² ⇔ 2 p·c + (r² − |c|²) = |p|² (closed form; starts the ellipsoid fit in any unit)."""
+    a = np.column_stack([2.0 * points, np.ones(len(points))])
+    sol, *_ = np.linalg.lstsq(a, (points**2).sum(axis=1), rcond=None)
+    c = sol[:3]
+    return c, float(np.sqrt(max(sol[3] + c @ c, 0.0)))
+
+
+def accelerometer_in_g(
+    acc: np.ndarray,
+    intervals: list,
+    acc_unit: str,
+    g_units: float,
+    *,
+    acc_g_per_count: float | None = None,
+    acc_bias0=None,
+    where: str = "accelerometer",
+) -> tuple[np.ndarray, dict | None, list[str], dict]:
+    """The accelerometer in g, never taken as calibrated on trust: returns (specific force (n, 3) in g, its
+    calibration or None, notes, the check: ``unit``, ``calibrated_here``, ``max_rest_magnitude_error`` of the
+    result, relative to the local g).
+
+    ``counts``: calibrated by imu_tk's 9-parameter model (:func:`gyrojax.data.segments.ellipsoid_accelerometer`)
+    fitted to |a| = g over the rests, started from a sphere through the rest means (:func:`sphere_fit`, so any
+    offset and unit works: signed or unsigned counts, even m/s²) or from ``acc_bias0``/``acc_g_per_count``.
+    ``g`` and ``m/s^2``: the rests' |a| is checked against the local g; within :data:`ACC_CALIBRATED_TOL` the data
+    are taken as calibrated, beyond it calibrated as counts are (with a note), beyond :data:`ACC_UNIT_TOL` refused
+    (a unit mistake). Refused too when the calibration leaves |a| ≠ g by more than :data:`ACC_CALIBRATED_TOL` rms
+    or the rests do not point in three dimensions."""
+    from gyrojax.data.segments import ellipsoid_accelerometer, imutk_acc_model
+
+    if acc_unit not in ("g", "m/s^2", "counts"):
+        raise RecordError(f"accelerometer unit (--acc-unit) must be 'g', 'm/s^2' or 'counts', got {acc_unit!r}")
+    means = np.array([acc[s:e].mean(axis=0) for s, e in intervals])
+    notes = []
+    if acc_unit != "counts":
+        scale = 1.0 if acc_unit == "g" else 1.0 / units.G0
+        mag = np.linalg.norm(means * scale, axis=1) / g_units - 1.0
+        worst = float(mag[np.argmax(np.abs(mag))])
+        if abs(worst) <= ACC_CALIBRATED_TOL:
+            check = {"unit": acc_unit, "calibrated_here": False, "max_rest_magnitude_error": abs(worst)}
+            return acc * scale, None, notes, check
+        med = float(np.median(np.linalg.norm(means, axis=1)))
+        if abs(float(np.median(mag))) > ACC_UNIT_TOL:
+            raise RecordError(
+                f"{where}: the accelerometer reads |a| = {med:.4g} {acc_unit} at rest (median of {len(means)} rests), "
+                f"{100 * float(np.median(mag)):+.0f} % from the local g: is --acc-unit {acc_unit} right "
+                "(g, m/s^2, or counts to calibrate)?"
+            )
+        notes.append(
+            f"the accelerometer is not calibrated: |a| at rest is {100 * float(np.median(mag)):+.2f} % from the "
+            f"local g (median; {100 * mag.min():+.2f} to {100 * mag.max():+.2f} % over {len(means)} rests); "
+            "calibrated here by imu_tk's 9-parameter ellipsoid"
+        )
+    if len(means) >= 2:
+        _, sv, _ = np.linalg.svd(means - means.mean(axis=0))
+    if len(means) < 9 or sv[2] < 1e-3 * sv[0]:
+        raise RecordError(
+            f"{where}: the accelerometer needs calibrating (--acc-unit {acc_unit}) and {len(means)} rests that do not "
+            "point in three dimensions cannot calibrate its 9 parameters; give calibrated g"
+        )
+    centre, radius = sphere_fit(means)
+    bias0 = centre if acc_bias0 is None else np.asarray(acc_bias0, dtype=float)
+    scale0 = acc_g_per_count or g_units / (radius or float(np.linalg.norm(means[0] - bias0)))
+    params = ellipsoid_accelerometer(means, g_units, scale0, bias0)
+    acc_cal = imutk_acc_model(params, acc)
+    resid = np.linalg.norm(imutk_acc_model(params, means), axis=1) / g_units - 1.0
+    rms = float(np.sqrt(np.mean(resid**2)))
+    if rms > ACC_CALIBRATED_TOL:
+        raise RecordError(
+            f"{where}: imu_tk's ellipsoid calibration of the accelerometer leaves |a| off g by {100 * rms:.2g} % rms "
+            f"over {len(means)} rests: not one accelerometer in --acc-unit {acc_unit}, or rests that are not at rest"
+        )
+    notes.append(
+        f"accelerometer ({acc_unit}) calibrated by imu_tk's ellipsoid over {len(means)} rests: scale "
+        + ", ".join(f"{v:.5g}" for v in params[3:6])
+        + f" g per {acc_unit if acc_unit != 'counts' else 'count'}, bias "
+        + ", ".join(f"{v:.4g}" for v in params[6:9])
+        + f"; |a| = g to {100 * rms:.2g} % rms"
+    )
+    calib = {
+        "model": "imu_tk: a = T K (raw - b) in g; params alpha_yz, alpha_zy, alpha_zx, s_x..s_z, b_x..b_z",
+        "raw_unit": acc_unit,
+        "params": params.tolist(),
+        "rms_magnitude_error": rms,
+    }
+    check = {"unit": acc_unit, "calibrated_here": True, "max_rest_magnitude_error": float(np.abs(resid).max())}
+    return acc_cal, calib, notes, check
+
+
+def jitter_note(t: np.ndarray, where: str) -> str | None:
+    """A note when the time steps of ``t`` (s) jitter (rms deviation from their median above 1 % of it, or a step off
+    by more than a quarter of it; None otherwise): the fit takes a segment's samples as evenly spaced between its
+    ends, so a receive-time jitter enters the moves' durations."""
+    dt = np.diff(np.asarray(t, dtype=float))
+    med = float(np.median(dt))
+    dev = np.abs(dt - med)
+    if med <= 0 or (np.sqrt(np.mean(dev**2)) <= 0.01 * med and dev.max() <= 0.25 * med):
+        return None
+    return (
+        f"{where} jitters: steps {1e3 * dt.min():.3g}–{1e3 * dt.max():.3g} ms around a median of {1e3 * med:.3g} ms "
+        f"({100 * np.mean(dev > 0.05 * med):.2g} % of the steps off by > 5 %, rms {1e3 * np.sqrt(np.mean(dev**2)):.2g} "
+        "ms); the fit spaces each segment's samples evenly between its ends: a sample counter (sample=COL with "
+        "--rate-hz) is the better clock if the log has one"
     )
 
 
@@ -314,40 +586,39 @@ def triad_from_arrays(
     acc_bias0=None,
     latitude_deg: float | None = None,
     gravity_mps2: float = 9.81,
-    init_s: float = 50.0,
-    detector_k: float = 6.0,
+    min_rest_s: float = MIN_REST_S,
+    static_threshold: float | None = None,
     name: str = "imu",
     instrument_id: str | None = None,
     source: str = "arrays",
+    notes: list | None = None,
 ) -> Record:
-    """A multi-position recording (times s, accelerometer (n, 3), gyro (n, 3)) as an ``imu-triad`` record: static
-    poses detected, a gravity-to-gravity move between each pair of consecutive poses; an accelerometer in counts is
-    calibrated by imu_tk's 9-parameter ellipsoid model (see :func:`import_imutk`)."""
-    from gyrojax.data.segments import ellipsoid_accelerometer, imutk_acc_model, static_intervals
+    """A multi-position recording (times s, accelerometer (n, 3), gyro (n, 3)) as an ``imu-triad`` record: rests
+    detected (:func:`gyrojax.data.segments.detect_rests`, ``min_rest_s`` and ``static_threshold`` its options), a
+    gravity-to-gravity move between each pair of consecutive rests; the accelerometer in g as
+    :func:`accelerometer_in_g` makes it. ``meta["import"]`` reports the rests found, the candidates dropped and why,
+    and the notes (``notes``: earlier ones to keep)."""
+    from gyrojax.data.segments import detect_rests
 
     t = np.asarray(t, dtype=float)
     acc = np.asarray(acc, dtype=float)
     gyr = np.asarray(gyr, dtype=float)
     rate_hz = (len(t) - 1) / (t[-1] - t[0])
-    iv = static_intervals(acc, rate_hz, gyro=gyr, init_s=init_s, k=detector_k)
+    det = detect_rests(acc, rate_hz, gyro=gyr, threshold=static_threshold, min_rest_s=min_rest_s)
+    iv = det.intervals
     if len(iv) < 9:
-        raise RecordError(f"{source}: found {len(iv)} static poses; the calibration needs at least 9")
-    g_units = gravity_mps2 / units.G0
-    extra = {}
-    if acc_unit == "counts":
-        means = np.array([acc[s:e].mean(axis=0) for s, e in iv])
-        bias0 = np.full(3, 32768.0) if acc_bias0 is None else np.asarray(acc_bias0, dtype=float)
-        scale0 = acc_g_per_count or g_units / float(np.linalg.norm(means[0] - bias0))
-        params = ellipsoid_accelerometer(means, g_units, scale0, bias0)
-        acc_cal = imutk_acc_model(params, acc)
-        extra["accelerometer_calibration"] = {
-            "model": "imu_tk: a = T K (raw - b) in g; params alpha_yz, alpha_zy, alpha_zx, s_x..s_z, b_x..b_z",
-            "params": params.tolist(),
-        }
-    elif acc_unit in ("g", "m/s^2"):
-        acc_cal = acc if acc_unit == "g" else acc / units.G0
-    else:
-        raise RecordError(f"acc_unit must be 'g', 'm/s^2' or 'counts', got {acc_unit!r}")
+        raise RecordError(f"{source}: found {len(iv)} static poses; the calibration needs at least 9 ({det.summary()})")
+    notes = list(notes or [])
+    acc_cal, calib, acc_notes, acc_check = accelerometer_in_g(
+        acc,
+        iv,
+        acc_unit,
+        gravity_mps2 / units.G0,
+        acc_g_per_count=acc_g_per_count,
+        acc_bias0=acc_bias0,
+        where=source,
+    )
+    notes += acc_notes
     labels = np.full(len(t), -1.0)
     segs = []
     for i, (s, e) in enumerate(iv):
@@ -360,20 +631,13 @@ def triad_from_arrays(
                 {"label": 2 * i + 1, "type": "move", "name": f"move-{i}-{i + 1}", "from": 2 * i, "to": 2 * i + 2}
             )
     cols = {"time_s": t, "segment": labels}
-    if gyro_unit == "counts":
-        if gyro_counts_per_dps is None:
-            raise RecordError(f"{source}: gyro values are raw counts: give the nominal scale (counts per deg/s)")
-        for j, c in enumerate(CHANNELS):
-            cols[f"gyro_{c}_counts"] = gyr[:, j]
-    elif gyro_unit in ("dps", "rad/s"):
-        f = 1.0 if gyro_unit == "dps" else 1.0 / units.DEG
-        for j, c in enumerate(CHANNELS):
-            cols[f"gyro_{c}_dps"] = gyr[:, j] * f
-        gyro_counts_per_dps = None
-    else:
-        raise RecordError(f"gyro_unit must be 'counts', 'dps' or 'rad/s', got {gyro_unit!r}")
+    gcols, gyro_counts_per_dps = _gyro_columns(gyr, gyro_unit, gyro_counts_per_dps, source)
+    cols.update(gcols)
     for j, c in enumerate(CHANNELS):
         cols[f"acc_{c}_g"] = acc_cal[:, j]
+    extra = {"import": {"source": source, **det.to_json(), "accelerometer": acc_check, "notes": notes}}
+    if calib is not None:
+        extra["accelerometer_calibration"] = calib
     meta = triad_meta(
         name,
         segs,
@@ -389,7 +653,34 @@ def triad_from_arrays(
     return Record(meta, {k: np.asarray(v, dtype=float) for k, v in cols.items()})
 
 
-CSV_KEYS = ("time_s", "gyro_x", "gyro_y", "gyro_z", "acc_x", "acc_y", "acc_z")
+CSV_KEYS = ("time", "time_s", "sample", "gyro_x", "gyro_y", "gyro_z", "acc_x", "acc_y", "acc_z")
+"""Keys of :func:`import_csv`'s column mapping: ``time`` (``time_s`` the same), ``sample`` (a sample counter), the
+six sensor channels."""
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6}
+
+
+def time_from_counter(c: np.ndarray, rate_hz: float | None, where: str) -> np.ndarray:
+    """Times (s) from a gap-free sample counter at ``rate_hz`` counts per second: every step the same positive
+    integer (a counter that wraps to 0 is unwrapped); :class:`RecordError` naming the row of a gap otherwise."""
+    if not rate_hz or not rate_hz > 0:
+        raise RecordError(f"{where}: a sample counter needs its rate: give --rate-hz (counts per second)")
+    c = np.asarray(c, dtype=float)
+    if np.any(c != np.round(c)):
+        i = int(np.flatnonzero(c != np.round(c))[0])
+        raise RecordError(f"{where}: row {i + 2}: the sample counter holds {c[i]!r}, not an integer")
+    d = np.diff(c)
+    if d.size and np.any(d < 0):  # a wrapping counter: modulo the largest value seen + 1
+        period = c.max() + 1
+        d = np.where(d < 0, d + period, d)
+    step = float(np.median(d)) if d.size else 1.0
+    bad = np.flatnonzero(d != step)
+    if step <= 0 or bad.size:
+        i = int(bad[0]) if bad.size else 0
+        raise RecordError(
+            f"{where}: row {i + 3}: the sample counter steps from {c[i]:g} to {c[i + 1]:g} (its step is {step:g}): "
+            "a gap or repeat; a gap-free counter is needed"
+        )
+    return np.concatenate([[0.0], np.cumsum(d)]) / float(rate_hz)
 
 
 def import_csv(
@@ -399,42 +690,77 @@ def import_csv(
     gyro_unit: str = "dps",
     acc_unit: str = "g",
     rate_hz: float | None = None,
+    time_unit: str | None = None,
+    delimiter: str | None = None,
     name: str | None = None,
     **kw,
 ) -> Record:
-    """Any CSV of a multi-position recording, with a column mapping ``{"gyro_x": "gx", …, "acc_z": "az",
-    "time_s": "t"}`` (``time_s`` may be omitted when ``rate_hz`` is given): static poses detected and moves between
-    them, as :func:`triad_from_arrays` (other keyword arguments go there)."""
+    """Any delimited log of a multi-position recording, with a column mapping ``{"gyro_x": "gx", …, "acc_z": "az",
+    "time": "t"}``: rests detected and moves between them, as :func:`triad_from_arrays` (other keyword arguments go
+    there).
 
+    The clock: ``time`` (or ``time_s``) a time column in ``time_unit`` (``s``, ``ms``, ``us``; default s), noted when
+    it jitters; or ``sample`` a gap-free sample counter at ``rate_hz`` counts per second (used instead of a time
+    column mapped beside it, whose jitter is then noted); or neither, samples at ``rate_hz``. ``delimiter``: ``,``,
+    ``;``, ``tab`` or None (detected, and noted).
+    """
     unknown = sorted(set(mapping) - set(CSV_KEYS))
     if unknown:
         raise RecordError(f"column mapping: unknown keys {unknown}; valid: {', '.join(CSV_KEYS)}")
-    need = [k for k in CSV_KEYS[1:] if k not in mapping]
+    need = [k for k in CSV_KEYS[3:] if k not in mapping]
     if need:
         raise RecordError(f"column mapping: {need} missing (map every gyro_<c> and acc_<c> to a column)")
-    df = read_table(path)
+    if "time" in mapping and "time_s" in mapping:
+        raise RecordError("column mapping: 'time' and 'time_s' are the same key; map one")
+    time_col = mapping.get("time", mapping.get("time_s"))
+    if time_unit is not None and time_unit not in TIME_UNITS:
+        raise RecordError(f"time unit (--time-unit) must be one of s, ms, us, got {time_unit!r}")
+    if time_unit is not None and time_col is None:
+        raise RecordError("a time unit (--time-unit) was given but no time column is mapped (time=COL)")
+    if time_col is not None and "sample" not in mapping and rate_hz is not None:
+        raise RecordError(
+            f"{path}: a time column and a rate (--rate-hz) were both given; the rate goes with a sample counter "
+            "(sample=COL) or with no clock column"
+        )
+    notes: list[str] = []
+    df = read_table(path, delimiter, notes)
     miss = [v for v in mapping.values() if v not in df.columns]
     if miss:
         raise RecordError(f"{path}: columns {miss} (from the mapping) are not in the file; it has {list(df.columns)}")
-    if "time_s" in mapping:
-        t = df[mapping["time_s"]].to_numpy(dtype=float)
+    acc = numeric_columns(df, [mapping[f"acc_{c}"] for c in CHANNELS], str(path))
+    gyr = numeric_columns(df, [mapping[f"gyro_{c}"] for c in CHANNELS], str(path))
+    t_col = None
+    if time_col is not None:
+        t_col = numeric_columns(df, [time_col], str(path))[:, 0] * TIME_UNITS[time_unit or "s"]
+        if "sample" not in mapping:
+            bad = np.flatnonzero(np.diff(t_col) <= 0)
+            if bad.size:
+                raise RecordError(
+                    f"{path}: row {bad[0] + 3}, column {time_col!r}: time does not increase ({t_col[bad[0] + 1]!r}); "
+                    "a receive time? map the log's sample counter instead (sample=COL with --rate-hz)"
+                )
+        note = jitter_note(t_col, f"time column {time_col!r}")
+        if note and "sample" in mapping:
+            note = note.split("; the fit")[0] + f"; the sample counter {mapping['sample']!r} is used instead"
+        if note:
+            notes.append(note)
+    if "sample" in mapping:
+        col = mapping["sample"]
+        t = time_from_counter(numeric_columns(df, [col], str(path))[:, 0], rate_hz, f"{path}, column {col!r}")
+    elif t_col is not None:
+        t = t_col
     elif rate_hz:
         t = np.arange(len(df)) / float(rate_hz)
     else:
-        raise RecordError(f"{path}: map a time column (time_s=COL) or give the sample rate (--rate-hz)")
-    acc = df[[mapping[f"acc_{c}"] for c in CHANNELS]].to_numpy(dtype=float)
-    gyr = df[[mapping[f"gyro_{c}"] for c in CHANNELS]].to_numpy(dtype=float)
-    for arr, what in ((t[:, None], "time"), (acc, "acc"), (gyr, "gyro")):
-        bad = ~np.isfinite(arr)
-        if bad.any():
-            raise RecordError(f"{path}: row {int(np.argwhere(bad)[0][0]) + 2}: a {what} value is not a finite number")
+        raise RecordError(f"{path}: map a time column (time=COL), a sample counter (sample=COL) or give --rate-hz")
     return triad_from_arrays(
         t - t[0],
         acc,
         gyr,
         gyro_unit=gyro_unit,
         acc_unit=acc_unit,
-        name=name or Path(path).stem,
+        name=name or file_stem(path),
         source=str(path),
+        notes=notes,
         **kw,
     )

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from gyrojax import protocol
 from gyrojax.data.plans import DEFAULT_LATITUDE, Plan, Run, Segment, validate_plan
-from gyrojax.errors import FormatError, PlanError
+from gyrojax.errors import PlanError
 from gyrojax.protocol import is_finite_number, read_json_file
 
 PLAN_FORMAT = "gyrojax-plan"
@@ -29,14 +29,6 @@ def save_plan(plan: Plan, path, force: bool = False) -> Path:
     """Write ``plan`` to ``path`` atomically (an existing file only with ``force``); :func:`load_plan` reads it back
     equal. Returns the path."""
     return protocol.save(path, asdict(plan), PLAN_FORMAT, PLAN_VERSION, force=force)
-
-
-def _check_format(d: dict, where: str) -> None:
-    try:
-        protocol.check(d, PLAN_FORMAT, PLAN_VERSION, where, PLAN_LEGACY)
-    except FormatError as e:
-        old = ", ".join(repr(k) for k in PLAN_LEGACY)
-        raise PlanError(f"{e} (plan files: {PLAN_FORMAT!r} version {PLAN_VERSION}, or the older {old})") from None
 
 
 def _need(where, d, key, path):
@@ -73,7 +65,7 @@ def plan_from_dict(d: dict, where: str = "plan") -> Plan:
     """A plan from its JSON dict, validated (errors name the key, e.g. ``runs[0].segments[2].dt_s``)."""
     if not isinstance(d, dict):
         raise PlanError(f"{where}: the top level must be an object")
-    _check_format(d, where)
+    protocol.check_as(d, PLAN_FORMAT, PLAN_VERSION, where, PlanError, PLAN_LEGACY)
     runs = []
     for i, r in enumerate(_list(where, _need(where, d, "runs", ""), "runs")):
         at = f"runs[{i}]."

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from gyrojax import protocol
-from gyrojax.errors import FormatError, TruthError
+from gyrojax.errors import TruthError
 from gyrojax.noise.processes import validate_noise
 from gyrojax.physics import effects as fx
 from gyrojax.protocol import is_finite_number, read_json_file
@@ -53,10 +53,7 @@ def truth_from_dict(d, where: str = "truth") -> Truth:
     if not isinstance(d, dict):
         raise TruthError(f"{where}: the top level must be an object")
     if protocol.FORMAT_KEY in d or protocol.VERSION_KEY in d:  # written by save_truth; untagged files load too
-        try:
-            protocol.check(d, TRUTH_FORMAT, TRUTH_VERSION, where)
-        except FormatError as e:
-            raise TruthError(str(e)) from None
+        protocol.check_as(d, TRUTH_FORMAT, TRUTH_VERSION, where, TruthError)
     for k in d:
         if k not in ("coefficients", "setup", "noise", protocol.FORMAT_KEY, protocol.VERSION_KEY):
             raise TruthError(f"{where}: unknown key {k!r}; valid: 'coefficients', 'setup', 'noise'")

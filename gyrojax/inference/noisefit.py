@@ -29,7 +29,7 @@ def noise_groups(campaign: Campaign) -> list[list[int]]:
     drift is one random process, whatever the position; a servo record's interval means, or another sample
     interval, see it through a different filter.
 
-    The interval is the median step rounded to 3 significant digits (:func:`gyrojax.data.records.interval_key`),
+    The interval is the median step rounded to 3 significant digits (:func:`gyrojax.data.timebase.interval_key`),
     so the last digits of the timestamps (a clock written with 7 digits, logger jitter) never split a group.
     A record JSON key ``noise_group`` (any string) chooses the group instead."""
     groups: dict[tuple, list[int]] = {}

@@ -15,7 +15,7 @@ from pathlib import Path
 from gyrojax import protocol
 from gyrojax.data import plans as plans_mod
 from gyrojax.data.truth import SETUP_SIZES
-from gyrojax.errors import FormatError, GyrojaxError
+from gyrojax.errors import GyrojaxError
 from gyrojax.noise.processes import validate_noise
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model
@@ -138,13 +138,7 @@ def study_from_dict(d, where: str = "study") -> Study:
         if k not in _STUDY_KEYS:
             raise StudyError(f"{where}: unknown key {k!r}; valid: {', '.join(_STUDY_KEYS)}")
     if protocol.FORMAT_KEY in d or protocol.VERSION_KEY in d:  # a hand-written study may leave the tag out
-        try:
-            protocol.check(d, STUDY_FORMAT, STUDY_VERSION, where, STUDY_LEGACY)
-        except FormatError as e:
-            old = ", ".join(repr(k) for k in STUDY_LEGACY)
-            raise StudyError(
-                f"{e} (study files: {STUDY_FORMAT!r} version {STUDY_VERSION}, or the older {old})"
-            ) from None
+        protocol.check_as(d, STUDY_FORMAT, STUDY_VERSION, where, StudyError, STUDY_LEGACY)
     if "plan" not in d:
         raise StudyError(f"{where}: missing required key 'plan' (a built-in plan name)")
     if d["plan"] not in plans_mod.BUILDERS:

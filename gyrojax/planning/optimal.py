@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from dataclasses import dataclass, field
 
 import jax
@@ -25,7 +26,7 @@ import numpy as np
 import optax
 
 from gyrojax.data import plans
-from gyrojax.errors import ModelError
+from gyrojax.errors import ConvergenceWarning, ModelError
 from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model
@@ -39,6 +40,9 @@ from gyrojax.planning.criteria import (
 from gyrojax.planning.fisher import DEFAULT_NOISE, Table, check_static, static_fisher
 
 SDF9 = ("D_F", "D_I", "D_O", "D_S", "D_II", "D_SS", "D_IO", "D_IS", "D_OS")
+CONVERGED_WINDOW = 10
+"""Iterations over which a settled search's loss may fall by at most :data:`CONVERGED_RTOL` (relative)."""
+CONVERGED_RTOL = 1e-6
 """The SDF drift model of Hu 2-45 less D_OO (the design tests' model; D_OO is the effect left out)."""
 
 
@@ -60,6 +64,29 @@ class DesignResult:
     fisher: np.ndarray = field(default=None)  # of the model (not the augmented one)
     timing: dict = field(default_factory=dict)  # compile_s, run_s
 
+    @property
+    def convergence_note(self) -> str:
+        """Why the search is not taken as converged ("" when it is): a non-finite loss, or a best start whose loss
+        still fell by more than :data:`CONVERGED_RTOL` (relative) over its last :data:`CONVERGED_WINDOW`
+        iterations."""
+        h = np.asarray(self.history, dtype=float)
+        if not np.isfinite(self.loss) or h.size == 0 or not np.isfinite(h[-1]):
+            return "the best start's loss is not finite"
+        if h.size <= CONVERGED_WINDOW:
+            return f"only {h.size} iterations (fewer than {CONVERGED_WINDOW + 1} to judge convergence)"
+        fall = h[-CONVERGED_WINDOW - 1] - h[-1]
+        if fall > CONVERGED_RTOL * max(1.0, abs(h[-1])):
+            return (
+                f"the loss still fell by {fall:.3g} over the last {CONVERGED_WINDOW} iterations "
+                f"(more than {CONVERGED_RTOL:g} relative): raise adam_steps / lbfgs_steps"
+            )
+        return ""
+
+    @property
+    def converged(self) -> bool:
+        """Whether the best start's search settled (see :attr:`convergence_note`)."""
+        return not self.convergence_note
+
     def plan(self, name: str = "designed", gap_s: float = 30.0) -> plans.Plan:
         """The design as a plan (see :func:`design_plan`); ``gap_s`` in s between positions."""
         return design_plan(self, name, gap_s)
@@ -73,6 +100,8 @@ class DesignResult:
             "loss": self.loss,
             "grad_norm": self.grad_norm,
             "iterations": len(self.history),
+            "converged": self.converged,
+            **({"reason": self.convergence_note} if not self.converged else {}),
             **self.timing,
             "start_losses": self.start_losses.tolist(),
             "positions": [
@@ -234,7 +263,7 @@ def design(
     dwell = np.asarray(dwell_from_logits(z[b], total, m)) if free_dwell else np.full(n_positions, total / n_positions)
     angles_deg = np.mod(np.rad2deg(np.asarray(ang[b])), 360.0)
     f = np.asarray(static_fisher(model, table, jnp.deg2rad(jnp.asarray(angles_deg)), jnp.asarray(dwell), noise, dt_s))
-    return DesignResult(
+    res = DesignResult(
         angles_deg,
         dwell,
         float(vals[b]),
@@ -249,6 +278,9 @@ def design(
         f,
         timing,
     )
+    if not res.converged:
+        warnings.warn(f"design did not converge: {res.convergence_note}", ConvergenceWarning, stacklevel=2)
+    return res
 
 
 def design_plan(res: DesignResult, name: str = "designed", gap_s: float = 30.0) -> plans.Plan:

@@ -193,8 +193,8 @@ def simulate_multiposition(
     poses: int = 12,
     terms=("D_F", "D_I", "D_O", "D_S", "sf_error", "ia_misalignment"),
     rate_hz: float = 100.0,
-    static_s: float = 4.0,
-    move_s: float = 2.0,
+    static_s=4.0,
+    move_s=2.0,
     init_s: float = 0.0,
     gyro_noise_dps: float = 0.05,
     acc_noise_g: float = 0.001,
@@ -207,7 +207,8 @@ def simulate_multiposition(
     the next by a gravity-to-gravity ``move`` segment (a turn about the fixed body axis that takes one attitude to
     the next, rate profile ∝ sin(π t / T) whose samples sum to the angle). Gyro channels indicate the triad model
     plus white noise (deg/s); accelerometers the true specific force (g) plus white noise. ``earth_rate=False``
-    leaves the Earth rate out of the motion and the record (for exact round trips). Times in s, latitude in deg."""
+    leaves the Earth rate out of the motion and the record (for exact round trips). Times in s (``static_s`` and
+    ``move_s`` one duration, or one per pose and per move), latitude in deg."""
     rng = np.random.default_rng(seed)
     model = tp.channel_model(terms)
     theta = np.array([[truth.get(tp.channel_name(c, ch), 0.0) for c in model.coefficient_names] for ch in tp.CHANNELS])
@@ -217,9 +218,10 @@ def simulate_multiposition(
     f_l = np.array([0.0, 0.0, gravity_mps2 / units.G0])
     atts = [random_attitude(rng) for _ in range(poses)]
     ws, fs, labels, segs = [], [], [], []
-    n_static, n_move = int(round(static_s * rate_hz)), int(round(move_s * rate_hz))
+    n_static = np.broadcast_to(np.round(np.asarray(static_s, dtype=float) * rate_hz).astype(int), (poses,))
+    n_moves = np.broadcast_to(np.round(np.asarray(move_s, dtype=float) * rate_hz).astype(int), (max(poses - 1, 1),))
     for k, c in enumerate(atts):
-        n = n_static + (int(round(init_s * rate_hz)) if k == 0 else 0)
+        n = int(n_static[k]) + (int(round(init_s * rate_hz)) if k == 0 else 0)
         ws.append(np.tile(c.T @ omega_l, (n, 1)))
         fs.append(np.tile(c.T @ f_l, (n, 1)))
         labels.append(np.full(n, 2 * k))
@@ -227,10 +229,10 @@ def simulate_multiposition(
         if k + 1 == poses:
             break
         axis, angle = _axis_angle(c.T @ atts[k + 1])  # body-frame axis taking attitude k to k + 1
-        w, f = turn_samples(c, axis, angle, n_move, dt, omega_l, f_l)
+        w, f = turn_samples(c, axis, angle, int(n_moves[k]), dt, omega_l, f_l)
         ws.append(w)
         fs.append(f)
-        labels.append(np.full(n_move, 2 * k + 1))
+        labels.append(np.full(int(n_moves[k]), 2 * k + 1))
         segs.append({"label": 2 * k + 1, "type": "move", "name": f"move-{k}-{k + 1}", "from": 2 * k, "to": 2 * k + 2})
     cols = sensor_columns(model, theta, ws, fs, labels, dt, gyro_noise_dps, acc_noise_g, rng)
     meta = triad_meta(
