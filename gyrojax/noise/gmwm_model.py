@@ -161,16 +161,8 @@ full_wv_jacobian = jax.jit(jax.jacfwd(full_wv))
 """∂ν²/∂θ (J, 10) of :func:`full_wv`, compiled."""
 
 
-def component_wv(spec: ModelSpec, theta, m) -> dict:
-    """Each process's Haar wavelet variance ((deg/h)²) at half-widths ``m`` (samples); GMs as ``gm1``, ``gm2``…"""
-    comps = _full_components(expand(spec, theta), spec_mask(spec), m)
-    names = ["white", "quantization", "random_walk", "drift"] + [f"gm{i + 1}" for i in range(G_MAX)]
-    on = [spec.white, spec.quantization, spec.random_walk, spec.drift] + [i < spec.n_gm for i in range(G_MAX)]
-    return {k: c for k, c, o in zip(names, comps, on) if o}
-
-
 def model_wv(spec: ModelSpec, theta, m):
-    """ν²(m) of the model, (deg/h)²: the sum of :func:`component_wv`."""
+    """ν²(m) of the model, (deg/h)², at half-widths ``m`` (samples): the sum of its processes' wavelet variances."""
     return full_wv(expand(spec, theta), spec_mask(spec), m)
 
 
