@@ -16,7 +16,6 @@ from pathlib import Path
 from gyrojax.data.csvfile import _parse_csv, record_csv_chunks
 from gyrojax.data.record import Record
 from gyrojax.data.schema import _err, validate_columns, validate_meta
-from gyrojax.data.timebase import uniform_interval  # noqa: F401  (noise.allan reads it here until Allan works on arrays)
 from gyrojax.errors import RecordError
 
 
