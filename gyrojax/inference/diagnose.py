@@ -1,6 +1,6 @@
 """Diagnosis: see where the model fails and learn which named effect is missing.
 
-For every named effect the model lacks (CONVENTIONS §6) and the plan excites, a **score (Lagrange-multiplier)
+For every named effect the model lacks (conventions §6) and the plan excites, a **score (Lagrange-multiplier)
 test** at the current fit: one Jacobian of the model extended by all candidates, evaluated at (θ̂, 0), no refit per
 candidate. With the current regressors J₀ and a candidate's regressors X, both whitened,
 
@@ -18,7 +18,7 @@ adjusted p-value is below α.
 A candidate whose X⊥ vanishes is indistinguishable from the model in this plan; two candidates whose X⊥ are
 collinear are **aliases** of each other in this plan, and :func:`separating_plans` names built-in plans that
 would tell them apart. Residual colour that no candidate explains is reported as ``gauss_markov``, never as a
-deterministic effect (CONVENTIONS §6).
+deterministic effect (conventions §6).
 """
 
 from __future__ import annotations
@@ -90,7 +90,7 @@ class Candidate:
     p_drift_refitted: float | None = None  # slow candidates: p of the Wald test with the drift re-fitted beside them
 
     def to_json(self) -> dict:
-        """One entry of ``candidates`` in the diagnosis JSON (CONVENTIONS §7); ``rms_after_deg_per_h`` is in the
+        """One entry of ``candidates`` in the diagnosis JSON (conventions §7); ``rms_after_deg_per_h`` is in the
         output unit (deg/h for gyros, g for accelerometers), ``estimate`` maps coefficient -> value and report unit."""
         return {
             "name": self.name,
@@ -141,7 +141,7 @@ class Diagnosis:
         return self.fit.noise_floor
 
     def to_json(self) -> dict:
-        """The JSON of CONVENTIONS §7 (``gyrojax diagnose --json``), with extra keys tools may ignore."""
+        """The JSON of conventions §7 (``gyrojax diagnose --json``), with extra keys tools may ignore."""
         return {
             "verdict": self.verdict,
             "residual_rms_deg_per_h": self.residual_rms,

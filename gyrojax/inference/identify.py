@@ -138,7 +138,7 @@ def fit_campaign(
     max_iter: int = 30,
     campaign: Campaign | None = None,
 ) -> FitResult:
-    """Fit the named effects ``terms`` to turntable ``records`` jointly (CONVENTIONS §6 names).
+    """Fit the named effects ``terms`` to turntable ``records`` jointly (conventions §6 names).
 
     Args:
       records: a :class:`Record`, or a list of records of one instrument kind (any plans, mountings, modes).

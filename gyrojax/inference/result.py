@@ -1,5 +1,5 @@
 """The result of a campaign fit: estimates with units, standard errors, correlation, residuals and fit statistics,
-its JSON (CONVENTIONS §7) and the saved file it is read back from."""
+its JSON (conventions §7) and the saved file it is read back from."""
 
 from __future__ import annotations
 
@@ -127,7 +127,7 @@ class FitResult(Estimates):
         return dict(zip(self.coefficient_names, self.model.coefficient_units))
 
     def to_json(self) -> dict:
-        """The JSON of CONVENTIONS §7 (``gyrojax fit --json``), with extra keys that tools may ignore; ``fit.converged``
+        """The JSON of conventions §7 (``gyrojax fit --json``), with extra keys that tools may ignore; ``fit.converged``
         is false, with ``fit.reason``, when the nonlinear or the noise-model step stopped before converging."""
         from gyrojax import __version__
 

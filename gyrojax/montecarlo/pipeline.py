@@ -77,7 +77,7 @@ def nominal_records(plan, kind: str | None = None) -> list[Record]:
 class Pipeline:
     """A study compiled to arrays: nominal records, models and prior vectors; :meth:`draw` is pure JAX.
 
-    Priors and θ are in report units (deg/h, deg/h/g, ppm, …); ``noise`` as in truth files (CONVENTIONS §8);
+    Priors and θ are in report units (deg/h, deg/h/g, ppm, …); ``noise`` as in truth files (conventions §8);
     ``dt_white`` the averaging interval (s) of white and quantisation noise per record.
     """
 

@@ -1,4 +1,4 @@
-"""Random drift processes (CONVENTIONS §6, IEEE 952 annex C), generated in JAX: the one noise simulator
+"""Random drift processes (conventions §6, IEEE 952 annex C), generated in JAX: the one noise simulator
 (:func:`simulate` of a :class:`~gyrojax.noise.spec.NoiseSpec`, :func:`random_drift` of a truth file's dict).
 
 Each generator returns the *rate averaged over the sample interval* (deg/h) at each sample, which is what a
@@ -28,7 +28,7 @@ NOISE_NAMES = TRUTH_KEYS
 
 
 def validate_noise(noise: dict | None, where: str = "noise") -> dict:
-    """Check a truth file's noise dict (CONVENTIONS §8, :meth:`NoiseSpec.from_truth`) and return its keys with
+    """Check a truth file's noise dict (conventions §8, :meth:`NoiseSpec.from_truth`) and return its keys with
     floats (``gauss_markov`` and ``bias_instability`` as tuples)."""
     spec = NoiseSpec.from_truth(noise, where)
     full = {

@@ -18,7 +18,7 @@ AIC = N ln σ̂_a² + 2k or BIC = N ln σ̂_a² + k ln N, k = p + q.
 Fitted models are :class:`~gyrojax.noise.spec.NoiseSpec` (``method`` "ar"): ``ar`` = φ, ``ma`` = θ, the white term
 the innovation a_t (variance ``white_variance`` per sample), the mean and sample count in ``info``.
 
-An AR(1) with step Δt is a sampled Gauss–Markov process (CONVENTIONS §6 ``gauss_markov``):
+An AR(1) with step Δt is a sampled Gauss–Markov process (conventions §6 ``gauss_markov``):
 φ = exp(−Δt/T), σ² = σ_a²/(1 − φ²).
 """
 

@@ -1,5 +1,5 @@
 """Coloured-noise handling: an autoregressive noise model per record, estimated from residuals, and the
-whitening filter that turns least squares into generalised least squares (DESIGN principle 7).
+whitening filter that turns least squares into generalised least squares, so verdicts stay honest in coloured noise.
 
 Gyro random drift is coloured (Gauss–Markov, bias instability, rate random walk). A residual series r_t inside one
 continuous segment is modelled as AR(p):  r_t = Σ_i φ_i r_{t−i} + e_t,  e_t white with variance s².
