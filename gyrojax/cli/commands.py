@@ -360,9 +360,10 @@ def cmd_mc(args) -> int:
             study = replace(study, draws=args.draws)
         if args.noise_model:
             from gyrojax.noise.gmwm_model import load_noise_model
-            from gyrojax.noise.processes import validate_noise
+            from gyrojax.noise.spec import NoiseSpec
 
-            noise = validate_noise(load_noise_model(args.noise_model).to_truth(), "--noise-model")
+            # the terms a study file holds (a model with others is refused with the reason)
+            noise = NoiseSpec.from_truth(load_noise_model(args.noise_model).to_truth(), "--noise-model")
             study = replace(study, noise=noise)
         if args.start < 0:
             raise StudyError(f"--start must be >= 0, got {args.start}")

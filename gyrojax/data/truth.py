@@ -14,7 +14,7 @@ import numpy as np
 
 from gyrojax import protocol
 from gyrojax.errors import TruthError
-from gyrojax.noise.processes import validate_noise
+from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics import effects as fx
 from gyrojax.protocol import is_finite_number, read_json_file
 
@@ -25,11 +25,17 @@ TRUTH_VERSION = 1
 
 @dataclass(frozen=True)
 class Truth:
-    """Coefficients (report units, by coefficient name), set-up errors (by set-up effect name) and noise."""
+    """Coefficients (report units, by coefficient name), set-up errors (by set-up effect name) and noise (the one
+    noise description, :class:`~gyrojax.noise.spec.NoiseSpec`; a truth file's ``noise`` dict of conventions §8 on
+    disk)."""
 
     coefficients: dict = field(default_factory=dict)
     setup: dict = field(default_factory=dict)
-    noise: dict = field(default_factory=dict)
+    noise: NoiseSpec = field(default_factory=NoiseSpec)
+
+    def __post_init__(self):
+        if not isinstance(self.noise, NoiseSpec):  # a truth file's noise dict (conventions §8)
+            object.__setattr__(self, "noise", NoiseSpec.from_truth(self.noise, "truth: noise"))
 
     def all_coefficients(self) -> dict:
         """Instrument and set-up coefficients together, by coefficient name."""
@@ -44,7 +50,7 @@ class Truth:
         return {
             "coefficients": dict(self.coefficients),
             "setup": {k: (list(v) if np.ndim(v) else v) for k, v in self.setup.items()},
-            "noise": {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.noise.items()},
+            "noise": self.noise.to_truth(),
         }
 
 
@@ -89,12 +95,12 @@ def truth_from_dict(d, where: str = "truth") -> Truth:
                 f"{where}: key {'setup.' + str(k)!r} needs {SETUP_SIZES[k]} finite number(s) in arcsec, got {v!r}"
             )
         setup[k] = tuple(float(x) for x in arr)
-    for k, v in (d.get("noise") or {}).items():  # numbers only (validate_noise names the valid terms)
+    for k, v in (d.get("noise") or {}).items():  # numbers only (NoiseSpec.from_truth names the valid terms)
         vals = v if isinstance(v, (list, tuple)) and k in ("gauss_markov", "bias_instability") else [v]
         if not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in vals):
             raise TruthError(f"{where}: key {'noise.' + str(k)!r} must hold numbers (conventions §8 units), got {v!r}")
     try:
-        noise = validate_noise(d.get("noise"), f"{where}: noise")
+        noise = NoiseSpec.from_truth(d.get("noise"), f"{where}: noise")
     except TruthError:
         raise
     except (TypeError, ValueError, OverflowError) as e:

@@ -27,20 +27,6 @@ from gyrojax.noise.spec import BI_FACTOR, TRUTH_KEYS, NoiseModelError, NoiseSpec
 NOISE_NAMES = TRUTH_KEYS
 
 
-def validate_noise(noise: dict | None, where: str = "noise") -> dict:
-    """Check a truth file's noise dict (conventions §8, :meth:`NoiseSpec.from_truth`) and return its keys with
-    floats (``gauss_markov`` and ``bias_instability`` as tuples)."""
-    spec = NoiseSpec.from_truth(noise, where)
-    full = {
-        "white": spec.white,
-        "random_walk": spec.random_walk,
-        "quantization": spec.quantization,
-        "gauss_markov": spec.gauss_markov[0] if spec.gauss_markov else None,
-        "bias_instability": (spec.bias_instability, *spec.flicker_band) if spec.flicker_band else None,
-    }
-    return {k: full[k] for k in (noise or {})}
-
-
 def white(key, n, dt_s, arw):
     """White rate noise for angle random walk ``arw`` (deg/√h); ``dt_s`` per sample (scalar or (n,))."""
     return arw * 60.0 / jnp.sqrt(dt_s) * jax.random.normal(key, (n,))
@@ -93,10 +79,11 @@ def bias_instability(key, dt_s, b, tau_min, tau_max, n_poles=6):
     return sum(gauss_markov(k, dt_s, sigma, t) for k, t in zip(keys, taus))
 
 
-def random_drift(key, time_s, noise: dict, dt_white=None):
-    """:func:`simulate` of a truth file's noise dict (conventions §8): deg/h at ``time_s`` (s), ``dt_white`` the
-    averaging interval (s)."""
-    return simulate(NoiseSpec.from_truth(noise), key, time_s, dt_white)
+def random_drift(key, time_s, noise, dt_white=None):
+    """:func:`simulate` of ``noise``, a :class:`NoiseSpec` or a truth file's noise dict (conventions §8, read by
+    :meth:`NoiseSpec.from_truth`): deg/h at ``time_s`` (s), ``dt_white`` the averaging interval (s)."""
+    spec = noise if isinstance(noise, NoiseSpec) else NoiseSpec.from_truth(noise)
+    return simulate(spec, key, time_s, dt_white)
 
 
 def simulate(spec: NoiseSpec, key, time_s, dt_white=None):

@@ -262,6 +262,14 @@ class NoiseSpec:
         s = self.innovation_std
         return (self.stationary_std / s) ** 2 if s > 0 else 1.0
 
+    @property
+    def is_zero(self) -> bool:
+        """No random term at all (a noise-free truth or study)."""
+        return not (
+            any(getattr(self, k) for k in ("white", "quantization", "bias_instability", "random_walk", "rate_ramp"))
+            or any(s for s, _ in self.gauss_markov)
+        )
+
     def _dt(self, what: str) -> float:
         if self.dt_s is None:
             raise NoiseModelError(f"noise model: {what} needs the sample interval dt_s")
