@@ -15,13 +15,14 @@ import numpy as np
 from gyrojax.data import plans
 from gyrojax.inference.campaign import Campaign, linearize
 from gyrojax.noise.processes import random_drift
+from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics.model import Model
 from gyrojax.planning import baselines, criteria, fisher
 from gyrojax.planning import optimal as D
 from gyrojax.simulation.simulator import simulate
 
 ARW = 0.01
-NOISE = fisher.Noise(ARW)
+NOISE = NoiseSpec(white=ARW)
 HOURS = 4.0
 SDF6 = ("D_F", "D_I", "D_O", "D_S", "D_II", "D_IS")
 

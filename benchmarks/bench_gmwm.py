@@ -17,24 +17,23 @@ import time
 
 import allantools
 import jax
-import jax.numpy as jnp
 import numpy as np
 from scipy import stats
 
 from gyrojax.noise import allan, gmwm
-from gyrojax.noise import wavelet as wv
-from gyrojax.noise.gmwm import noise_report
+from gyrojax.noise import gmwm_model as gm
+from gyrojax.noise.processes import simulate
+from gyrojax.noise.readoff import noise_report
+from gyrojax.noise.spec import NoiseSpec
 
 DT = 0.01
 SPEC = gmwm.ModelSpec(white=True, random_walk=True, n_gm=1)
 TRUE = {"white": 0.05, "random_walk": 10.0, "gm1_sigma": 2.0, "gm1_tau": 5.0}
 
 
-def components(spec, values, dt):
-    p = gmwm.latent_parameters(spec, jnp.asarray(gmwm.theta_from_natural(spec, values, dt)))
-    out = {k: float(p[k]) for k in ("white", "quantization", "random_walk") if getattr(spec, k)}
-    out["gauss_markov"] = [(float(s), float(a)) for s, a in zip(p["gm_var"], p["gm_rate"])]
-    return out
+NOISE = NoiseSpec(
+    white=TRUE["white"], random_walk=TRUE["random_walk"], gauss_markov=((TRUE["gm1_sigma"], TRUE["gm1_tau"]),)
+)
 
 
 def best_of(f, k=3):
@@ -47,7 +46,7 @@ def best_of(f, k=3):
 
 
 def speed(n=1_000_000):
-    y = np.asarray(wv.simulate_components(jax.random.PRNGKey(0), n, components(SPEC, TRUE, DT)))
+    y = np.asarray(simulate(NOISE, jax.random.PRNGKey(0), np.arange(n) * DT, dt_white=DT))
     t = time.perf_counter()
     gmwm.fit_gmwm(y, DT, model=SPEC)
     first = time.perf_counter() - t
@@ -59,7 +58,7 @@ def speed(n=1_000_000):
         f"GMWM, n = {n}: fixed model {SPEC.label()} {t_fix:.3f} s warm (first call incl. compile {first:.1f} s), "
         f"of which the wavelet variance {t_est:.3f} s"
     )
-    print(f"  WIC selection over {len(gmwm.DEFAULT_CANDIDATES)} candidates: {t_sel:.3f} s warm -> {s.spec.label()}")
+    print(f"  WIC selection over {len(gmwm.DEFAULT_CANDIDATES)} candidates: {t_sel:.3f} s warm -> {s.info['model']}")
     for k, v in m.parameters().items():
         print(f"  {k:10s} {v['value']:.5g} ± {v['std']:.2g} {v['unit']}  (true {TRUE[k]:g})")
 
@@ -86,14 +85,16 @@ def speed(n=1_000_000):
 
 
 def coverage(draws=500, n=2**18):
-    th = gmwm.theta_from_natural(SPEC, TRUE, DT)
-    comps = components(SPEC, TRUE, DT)
-    sim = jax.jit(lambda k: wv.simulate_components(k, n, comps))
+    th = gm.theta_from_natural(SPEC, TRUE, DT)
+    times = np.arange(n) * DT
+    sim = jax.jit(lambda k: simulate(NOISE, k, times, dt_white=DT))
     z, inside, rel = [], [], []
     t = time.perf_counter()
     for d in range(draws):
         m = gmwm.fit_gmwm(np.asarray(sim(jax.random.PRNGKey(10_000 + d))), DT, model=SPEC)
-        z.append((m.theta - th) / np.sqrt(np.diag(m.cov)))
+        th_hat = gm.theta_of(SPEC, m)
+        jac = np.abs(np.diag(np.asarray(gm._natural_and_jacobian(SPEC, th_hat, DT)[1])))
+        z.append((th_hat - th) / (np.array([m.std(k) for k in m.cov_names]) / jac))
         par = m.parameters()
         inside.append(
             [par[k]["ci95"] is not None and par[k]["ci95"][0] <= v <= par[k]["ci95"][1] for k, v in TRUE.items()]

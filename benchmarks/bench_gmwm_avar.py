@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gyrojax.noise import gmwm
+from gyrojax.noise import gmwm, readoff
 
 SENSORS = ("navchip", "ln200", "imar", "kvh1750")
 RAD_S_TO_DEG_H = 180.0 / math.pi * 3600.0
@@ -87,7 +87,7 @@ def main(data_dir: Path) -> None:
         av = np.asarray(g["allan"], float) * RAD_S_TO_DEG_H**2
         est = gmwm.WaveletVariance.from_allan_table(taus, av, 1 / freq, n)
         p = gmwm.fit_wv(est, spec).parameters()
-        arws.append(gmwm.fit_wv(est).derived(taus.min(), taus.max())["arw"]["value"])
+        arws.append(readoff.derived(gmwm.fit_wv(est), taus.min(), taus.max())["arw"]["value"])
         fits.append(
             {
                 "WN": 60.0 * p["white"]["value"] * c,

@@ -86,7 +86,7 @@ class NumpyMC:
         self.omega = units.OMEGA_IE * np.array([0.0, np.cos(lat), np.sin(lat)])
         self.f = np.array([0.0, 0.0, float(d.gravity)])
         self.e = d.encoder_axis
-        self.sig = pipe.noise["white"] * 60.0 / np.sqrt(pipe.dt_white[0])
+        self.sig = pipe.noise.white * 60.0 / np.sqrt(pipe.dt_white[0])
         self.m = self.ang.shape[0]
 
     @staticmethod

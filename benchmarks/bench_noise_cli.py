@@ -91,13 +91,14 @@ def main(argv=None):
     from gyrojax.cli.app import enable_compilation_cache
     from gyrojax.cli.app import main as cli
     from gyrojax.data.records import load_records
-    from gyrojax.noise import allan, gmwm
+    from gyrojax.data.static import static_rate_segments
+    from gyrojax.noise import allan, gmwm, readoff
 
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         csv = Path(args.record) if args.record else _record(args.n, folder)
         recs = load_records([csv])
-        segs, tau0 = allan.static_rate_segments(recs)
+        segs, tau0 = static_rate_segments(recs)
         y = segs[0]
         m = allan.default_m_list(max(len(s) for s in segs))
         print(f"record {csv.name}: n = {sum(len(s) for s in segs)} samples, τ0 = {tau0:g} s; {len(m)} taus")
@@ -110,13 +111,15 @@ def main(argv=None):
             return buf.getvalue()
 
         def report_rest(res, ieee, nm):
-            """The rest of gyrojax.noise.gmwm.noise_report after the fits: the model's ADEV ± its standard error,
+            """The rest of gyrojax.noise.readoff.noise_report after the fits: the model's ADEV ± its standard error,
             the adequacy band, derived figures and the JSON text."""
-            model_adev, model_std = nm.adev(res.taus_s), nm.adev_std(res.taus_s)
-            low95, high95 = allan.confidence_interval(res.adev, res.edf, gmwm.ADEQUACY_CI)
-            adq = gmwm.adequacy(res.taus_s, res.adev, low95, high95, model_adev)
+            model_adev, model_std = nm.adev(res.taus_s), readoff.adev_std(nm, res.taus_s)
+            low95, high95 = allan.confidence_interval(res.adev, res.edf, readoff.ADEQUACY_CI)
+            adq = readoff.adequacy(res.taus_s, res.adev, low95, high95, model_adev)
             out = allan.noise_json(res, ieee)
-            out.update(model=nm.to_json(), derived=nm.derived(float(res.taus_s.min()), float(res.taus_s.max())))
+            out.update(
+                model=nm.to_json(), derived=readoff.derived(nm, float(res.taus_s.min()), float(res.taus_s.max()))
+            )
             out.update(adequacy=adq, adev_model_deg_per_h=list(map(float, model_adev)), std=list(map(float, model_std)))
             return json.dumps(out)
 
@@ -127,7 +130,7 @@ def main(argv=None):
         state = {}
         steps = {
             "load + validate the CSV": lambda: state.update(recs=load_records([csv])),
-            "static segments, τ0": lambda: state.update(seg=allan.static_rate_segments(state["recs"], notes=[])),
+            "static segments, τ0": lambda: state.update(seg=static_rate_segments(state["recs"], notes=[])),
             "ADEV + EDF band + IEEE 952": lambda: state.update(an=allan.analyze(*state["seg"])),
             "Haar WV (dyadic ADEV)": lambda: state.update(wv=gmwm.WaveletVariance.of(*state["seg"])),
             "GMWM model selection": lambda: state.update(nm=gmwm.select_model(state["wv"])),

@@ -34,7 +34,7 @@ def main(campaigns=25, n_records=3):
     for c in range(campaigns):
         recs = [np.asarray(record(jax.random.PRNGKey(1000 * c + j))) for j in range(n_records)]
         _, fit = allan.analyze(recs, 1.0)
-        est.append([fit.values.get(k, 0.0) for k in ("white", "bias_instability", "random_walk")])
+        est.append([getattr(fit, k) for k in ("white", "bias_instability", "random_walk")])
     rel = np.array(est) / np.array([N0, B0, K0])
     for i, name in enumerate(("white N", "bias_instability B", "random_walk K")):
         r = rel[:, i]

@@ -34,7 +34,6 @@ from gyrojax.inference.campaign import Campaign, linearize
 from gyrojax.inference.diagnose import diagnose, wald_beside_drift
 from gyrojax.inference.noisefit import group_series
 from gyrojax.noise import reml
-from gyrojax.noise.whiten import GMNoise
 from gyrojax.physics.model import Model
 
 BASE = {"D_F": 0.4, "D_I": 0.6, "D_O": -0.2, "D_S": 0.3}
@@ -73,7 +72,7 @@ def study(name: str, draws: int, trend: float = 0.0, first_seed: int = 100):
         p["score"].append(next(c.p_value for c in d.candidates if c.name == "bias_trend"))
         p["wald"].append(wald_beside_drift(camp, lin, np.arange(len(TERMS) + 1), len(TERMS))[0])
         nz = res.noise[0]
-        start = (nz.tau_s, nz.gm_var, nz.white_var) if isinstance(nz, GMNoise) else (300.0, 1e-4, 1e-3)
+        start = nz.whitening_theta() if nz.gauss_markov else (300.0, 1e-4, 1e-3)
         p["lr"].append(_lr_p(lin, start))
     sec = (time.perf_counter() - t0) / draws
     return {k: [float(np.mean(np.array(v) < a)) for a in LEVELS] for k, v in p.items()}, missing / draws, sec

@@ -2,7 +2,7 @@
 
 The gyro error model, turntable kinematics and loops are pure, jitted JAX functions (float64), so that
 identification and test-plan design are gradient-based and Monte Carlo studies are one ``vmap`` away.
-Units and names follow CONVENTIONS (deg/h, deg/h/g, ppm, arcsec at the surface; SI inside).
+Units and names follow the conventions (docs/conventions.md; deg/h, deg/h/g, ppm, arcsec at the surface; SI inside).
 
 The package is a tree that follows the data flow::
 

@@ -7,7 +7,7 @@ class GyrojaxError(Exception):
 
 
 class RecordError(GyrojaxError, ValueError):
-    """A record file (CONVENTIONS §5) is malformed."""
+    """A record file (conventions §5) is malformed."""
 
 
 class PlanError(GyrojaxError, ValueError):
@@ -15,7 +15,7 @@ class PlanError(GyrojaxError, ValueError):
 
 
 class TruthError(GyrojaxError, ValueError):
-    """A truth file (CONVENTIONS §8) is malformed."""
+    """A truth file (conventions §8) is malformed."""
 
 
 class ModelError(GyrojaxError, ValueError):

@@ -1,4 +1,4 @@
-"""Instrument kinds (CONVENTIONS §5): the names a record's ``instrument.kind`` and a model's ``kind`` take.
+"""Instrument kinds (conventions §5): the names a record's ``instrument.kind`` and a model's ``kind`` take.
 
 This module sits at the bottom of the package (it imports nothing), so that reading a record needs no physics:
 the effect registry (:mod:`gyrojax.physics.registry`) and the record schema (:mod:`gyrojax.data.schema`) both take
@@ -16,7 +16,7 @@ FOG = "fog"
 RLG = "rlg"
 """Ring-laser gyro (IEEE 647), axes ``ia``, ``oa``, ``sa`` as the SDF gyro."""
 INSTRUMENT_KINDS = (SDF, TDF, ACCEL, FOG, RLG)
-"""CONVENTIONS §5 kinds, extended by the optical gyros (IEEE 952/647 form, axes ``ia``, ``oa``, ``sa`` as the SDF)."""
+"""conventions §5 kinds, extended by the optical gyros (IEEE 952/647 form, axes ``ia``, ``oa``, ``sa`` as the SDF)."""
 OPTICAL = (FOG, RLG)
 TRIAD_KIND = "imu-triad"
-"""Instrument kind of a three-axis IMU record (CONVENTIONS §5 extension, :mod:`gyrojax.data.triad`)."""
+"""Instrument kind of a three-axis IMU record (conventions §5 extension, :mod:`gyrojax.data.triad`)."""

@@ -1,4 +1,4 @@
-"""Units and physical constants (CONVENTIONS §1).
+"""Units and physical constants (conventions §1).
 
 Inside the package angles are radians and rates rad/s; files, reports and public arguments use deg, deg/h,
 arcsec, ppm and g. Every conversion lives here so that no other module carries a bare magic number.
@@ -7,7 +7,7 @@ arcsec, ppm and g. Every conversion lives here so that no other module carries a
 import math
 
 G0 = 9.80665
-"""Standard gravity, m/s² (1 g in every error model; CONVENTIONS §1)."""
+"""Standard gravity, m/s² (1 g in every error model; conventions §1)."""
 
 OMEGA_IE = 7.2921150e-5
 """Earth rotation rate ω_ie, rad/s (15.04107 deg/h)."""
@@ -55,7 +55,7 @@ def white_sigma_deg_per_h(arw_deg_per_rt_h: float, dt_s: float) -> float:
 
 REPORT_UNITS = frozenset(
     {
-        "deg/h",  # drift, bias (CONVENTIONS §6: D_F; §1 angular rate)
+        "deg/h",  # drift, bias (conventions §6: D_F; §1 angular rate)
         "deg/h/g",  # g-sensitive drift (D_I, D_O, D_S)
         "deg/h/g²",  # g²-sensitive drift (D_II … D_OS)
         "deg/h/h",  # drift trend (D_T)
@@ -69,5 +69,5 @@ REPORT_UNITS = frozenset(
         "g/g³",  # accelerometer third order (K_3)
     }
 )
-"""The coefficient report units the conventions know (CONVENTIONS §1 and §6); an effect's ``units`` are drawn from
+"""The coefficient report units the conventions know (conventions §1 and §6); an effect's ``units`` are drawn from
 this set (the effect contract suite checks it), so that every report and file speaks one vocabulary."""

@@ -23,9 +23,9 @@ import numpy as np
 from IPython.display import Image
 
 import gyrojax as gj
+from gyrojax.inference.identify import fit
 from gyrojax.planning import baselines, criteria, fisher
 from gyrojax.planning import optimal as design
-from gyrojax.inference.identify import fit
 
 terms = ["D_F", "D_I", "D_O", "D_S", "D_IS", "D_IO", "D_OS"]
 res = design.design(terms, n_positions=24, hours=0.8, criterion="D", starts=2, adam_steps=200, lbfgs_steps=10)
@@ -53,7 +53,7 @@ print(f"D = log det F: classical {cv_cl['D']:.2f}, designed {cv_de['D']:.2f}")
 
 # %%
 plan = design.design_plan(res)
-truth = {"coefficients": {"D_F": 0.2, "D_I": 0.4, "D_S": -0.3}, "noise": {"white": res.noise.arw}}
+truth = {"coefficients": {"D_F": 0.2, "D_I": 0.4, "D_S": -0.3}, "noise": {"white": res.noise.white}}
 est = np.array(
     [[fit(gj.simulate(plan, truth, seed=s), terms, noise="white").values[c] for c in terms] for s in range(4)]
 )

@@ -22,9 +22,10 @@ import numpy as np
 from IPython.display import Image
 
 import gyrojax as gj
-from gyrojax.noise import allan
 from gyrojax.dynamics import loops
 from gyrojax.inference.identify import fit
+from gyrojax.noise import allan
+from gyrojax.noise.spec import gauss_markov_avar
 
 p = loops.default_rebalance(crossover_hz=30.0)
 f_hz = np.logspace(-1, 3, 200)
@@ -56,7 +57,7 @@ print("fit noise model:", {k: nz.get(k) for k in ("kind", "white_std", "gauss_ma
 arw_fit = nz.get("white_std", np.nan) * np.sqrt(1.0) / 60.0  # σ per 1 s sample → deg/√h
 print(f"ARW from the fit: {arw_fit:.5f} deg/√h (truth 0.002)")
 ar, nf = allan.analyze(rec.indicated - rec.indicated.mean(), 1.0, gauss_markov=True)
-print("Allan noise fit:", nf.values, "Gauss–Markov (σ, T):", nf.gauss_markov)
+print("Allan noise fit (IEEE 952):", {k: round(nf.value(k), 6) for k in nf.names}, "converged:", nf.converged)
 
 # %%
 fig, axs = plt.subplots(1, 2, figsize=(10, 3.8))
@@ -79,7 +80,7 @@ for k, v in nf.term_avar(ar.taus_s).items():
     ax.loglog(ar.taus_s, np.sqrt(v), lw=1, label=f"fit: {k}")
 ax.loglog(ar.taus_s, 60 * 0.002 / np.sqrt(ar.taus_s), "C3:", label="true ARW 0.002 deg/√h")
 if nz.get("kind") == "white+gauss_markov":
-    gm = allan.gauss_markov_avar(ar.taus_s, nz["gauss_markov_std"], nz["tau_s"])
+    gm = gauss_markov_avar(ar.taus_s, nz["gauss_markov_std"], nz["tau_s"])
     wv = (60 * arw_fit) ** 2 / ar.taus_s
     ax.loglog(ar.taus_s, np.sqrt(wv + gm), "m--", lw=1.5, label="GLS fit's white + Gauss–Markov")
 ax.set_xlabel("τ (s)")

@@ -39,12 +39,6 @@ CITATION = re.compile(rf"\bconventions(?:\.md)?(?:\]\([^)]*\))?\s*({SECTION_LIST
 BARE = re.compile(rf"(?<![\w.])({SECTION_LIST})")
 ABSENT_DOCUMENT = re.compile(r"\bCONVENTIONS\b|\bDESIGN\b(?:\.md)?(?:\s+principles?\s*\d*)?|\bDOMAIN\b")
 
-# Pending, gyrojax/ only: the package's docstrings still use the old form ("CONVENTIONS §n", "DESIGN principle n",
-# "DOMAIN"); the lead rewrites them after merging (the rewrite is in the report of the docs-tests branch) and then
-# sets this to False. While True, those names are tolerated in gyrojax/ (their § numbers are still checked), and
-# test_pending_rewrite_is_still_needed fails once nothing is left to tolerate, so the flag cannot go stale.
-PACKAGE_OLD_FORM_PENDING = True
-
 
 def sections() -> set[str]:
     """Section numbers of docs/conventions.md: headings ``## 1. Units``, ``### 9.2 Optical gyros``."""
@@ -59,10 +53,6 @@ def cited_numbers(section_list: str) -> list[str]:
 
 def _rel(p: Path) -> str:
     return str(p.relative_to(ROOT))
-
-
-def _pending(path: Path) -> bool:
-    return PACKAGE_OLD_FORM_PENDING and path.is_relative_to(ROOT / "gyrojax")
 
 
 def test_conventions_page_has_the_contract_sections():
@@ -89,9 +79,8 @@ def test_citations_name_a_document_and_section_of_the_repository(path):
     known = sections()
     problems = []
     for lineno, line in enumerate(text.splitlines(), 1):
-        if not _pending(path):
-            for m in ABSENT_DOCUMENT.finditer(line):
-                problems.append(f"line {lineno}: {m.group(0)!r} cites a document not in the repository")
+        for m in ABSENT_DOCUMENT.finditer(line):
+            problems.append(f"line {lineno}: {m.group(0)!r} cites a document not in the repository")
         cited = [m.group(1) for m in CITATION.finditer(line)]
         if path == CONVENTIONS_MD:
             cited += [m.group(1) for m in BARE.finditer(line)]
@@ -100,14 +89,6 @@ def test_citations_name_a_document_and_section_of_the_repository(path):
                 if n not in known:
                     problems.append(f"line {lineno}: §{n} is not a section of docs/conventions.md")
     assert problems == [], f"{_rel(path)}: " + "; ".join(problems)
-
-
-def test_pending_rewrite_is_still_needed():
-    """While the package's old citation form is tolerated, some of it must be left (else set the flag False)."""
-    if not PACKAGE_OLD_FORM_PENDING:
-        pytest.skip("the package's citations are checked like every other file")
-    left = [p for p in SCANNED if _pending(p) and ABSENT_DOCUMENT.search(p.read_text(encoding="utf-8"))]
-    assert left, "gyrojax/ no longer uses the old citation form: set PACKAGE_OLD_FORM_PENDING = False"
 
 
 def test_the_scanner_sees_what_it_should():

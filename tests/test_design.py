@@ -16,13 +16,14 @@ from gyrojax.data.planfile import load_plan
 from gyrojax.errors import ConvergenceWarning, ModelError
 from gyrojax.inference.campaign import Campaign, linearize
 from gyrojax.noise.processes import gauss_markov, random_drift, white
+from gyrojax.noise.spec import NoiseSpec, gm_mean_factor
 from gyrojax.physics.model import Model
 from gyrojax.planning import criteria, fisher
 from gyrojax.planning import optimal as D
 from gyrojax.simulation.simulator import simulate
 
 ARW = 0.01  # deg/√h
-NOISE = fisher.Noise(ARW)
+NOISE = NoiseSpec(white=ARW)
 FAST = {"starts": 3, "adam_steps": 300, "lbfgs_steps": 0}
 # the 6-term sub-model the classical 8-position set identifies (N = 8 positions of one scalar each cannot
 # identify the 9-term model: rank F ≤ 8)
@@ -67,16 +68,16 @@ def test_gauss_markov_mean_factor_against_discrete_covariance():
     dt = T / n
     i = np.arange(n)
     ref = np.exp(-np.abs(i[:, None] - i[None, :]) * dt / tau).mean()
-    assert float(fisher.gm_mean_factor(T / tau)) == pytest.approx(ref, rel=2e-3)
+    assert float(gm_mean_factor(T / tau)) == pytest.approx(ref, rel=2e-3)
     # and against the project's generator: white + GM position means, 4000 draws (std error of a variance 2.2 %)
     keys = jax.random.split(jax.random.PRNGKey(2), 4000)
     dts = jnp.full(120, 1.0)
     gm = jax.vmap(lambda k: gauss_markov(k, dts, 0.02, tau))(keys)
     wh = jax.vmap(lambda k: white(jax.random.fold_in(k, 1), 120, 1.0, ARW))(keys)
     var = float(jnp.var(jnp.mean(gm + wh, axis=1)))
-    assert var == pytest.approx(float(fisher.Noise(ARW, (0.02, tau)).mean_variance(120.0, 1.0)), rel=0.08)
-    assert float(fisher.gm_mean_factor(1e-6)) == pytest.approx(1.0, rel=1e-6)
-    assert float(fisher.gm_mean_factor(1e4)) == pytest.approx(2e-4, rel=1e-3)
+    assert var == pytest.approx(float(NoiseSpec(white=ARW, gauss_markov=((0.02, tau),)).mean_variance(120.0)), rel=0.08)
+    assert float(gm_mean_factor(1e-6)) == pytest.approx(1.0, rel=1e-6)
+    assert float(gm_mean_factor(1e4)) == pytest.approx(2e-4, rel=1e-3)
 
 
 def test_designed_beats_classical_on_D(d24):

@@ -18,7 +18,7 @@ from gyrojax.inference.identify import fit
 from gyrojax.inference.noisefit import INTERVAL_LEVEL
 from gyrojax.inference.result import RESULT_VERSION, FitResult, result_from_json
 from gyrojax.inference.triad_result import load_triad_fit
-from gyrojax.noise.whiten import ARNoise, GMNoise
+from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics.model import Model
 from gyrojax.simulation.simulator import simulate
 
@@ -171,7 +171,11 @@ def _synthetic_result() -> FitResult:
     """A result holding every kind of value a file must carry: three noise models (AR(2), white + Gauss–Markov,
     white), an unseen direction (NaN covariance, infinite condition number), ν = ∞ beside a finite ν."""
     model = Model(("D_F", "D_I"))
-    noise = [ARNoise(np.array([0.5, -0.2]), 0.3, 0.41), GMNoise(120.0, 0.04, 0.25), ARNoise(np.zeros(0), 0.5, 0.5)]
+    noise = [
+        NoiseSpec.from_sample_variances(0.09, 2.0, ar=(0.5, -0.2), method="ar"),
+        NoiseSpec.from_sample_variances(0.25, 2.0, [(0.04, 120.0)], method="reml").with_status(False, "cut short"),
+        NoiseSpec.from_sample_variances(0.25, 2.0, method="ar"),
+    ]
     cov = np.array([[0.01, np.nan], [np.nan, np.nan]])
     report = {
         "rank": 1,
@@ -235,10 +239,11 @@ def test_version_1_files_keep_their_noise_summaries(tmp_path):
     old.write_text(json.dumps(d))
     back = FitResult.load(old)
     ar, gm, white = back.noise
-    assert ar.order == 2 and np.isnan(ar.phi).all() and ar.innovation_std == 0.3 and ar.std == 0.41
-    assert gm.tau_s == 120.0 and gm.gm_var == pytest.approx(0.04, rel=1e-14)
-    assert gm.white_var == pytest.approx(0.25, rel=1e-14)
-    assert_same(white, res.noise[2], "white noise")  # white: exact from its summary
+    assert ar.order == 2 and np.isnan(ar.ar).all() and ar.innovation_std == pytest.approx(0.3, rel=1e-14)
+    assert gm.gm_tau == 120.0 and gm.gm_variance == pytest.approx(0.04, rel=1e-14)
+    assert gm.white_variance == pytest.approx(0.25, rel=1e-14)
+    # white: its per-sample variance from its summary (v1 kept no sample interval)
+    assert white.order == 0 and white.whitening_theta()[2] == pytest.approx(res.noise[2].white_variance, rel=1e-14)
     assert back.dof_eff is None  # v1 wrote ν = ∞ as null, so a fit with an infinite ν lost all of them
 
 
@@ -265,11 +270,8 @@ def test_fit_and_triad_fit_readers_name_each_others_files(rlg_ladder, tmp_path):
         FitResult.load(legacy)
 
 
-class _KnownNoise:
-    """A given noise model (as ``gyrojax noise`` makes one): white 0.5 deg/√h at every sample interval."""
-
-    def whitening_model(self, dt_s):
-        return GMNoise(1.0, 0.0, (60.0 * 0.5) ** 2 / dt_s)
+def _KnownNoise():  # noqa: N802 — a given noise model (as gyrojax noise makes one): white 0.5 deg/√h
+    return NoiseSpec(white=0.5)
 
 
 def test_known_noise_fit_is_damped_and_reports_its_status(rlg_ladder):

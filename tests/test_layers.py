@@ -53,14 +53,11 @@ LAYERS = (
 ALLOWED = {
     # (importer, imported): why it is allowed for now. Each entry is temporary: the test below fails once the
     # import is gone, so that the entry is removed with it.
-    ("gyrojax.noise.allan", "gyrojax.data.records"): "noise-one makes Allan work on arrays (issue 23); the lead "
-    "removes this entry after merging",
 }
 
 MAX_LINES = 600
 LONG_ALLOWED = {
     # modules other helpers are splitting now (issue 23); the lead empties this after merging
-    "gyrojax/noise/gmwm.py",
 }
 
 

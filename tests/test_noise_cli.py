@@ -10,7 +10,7 @@ import pytest
 from gyrojax.cli.app import main
 from gyrojax.data import plans
 from gyrojax.data.records import save_record
-from gyrojax.noise import gmwm
+from gyrojax.noise import gmwm_model as gmwm
 from gyrojax.simulation.simulator import simulate
 
 NOISE = {"white": 0.003, "gauss_markov": [0.02, 60.0]}
@@ -101,7 +101,7 @@ def test_fit_design_mc_take_the_noise_model(static, capsys, tmp_path):
     rc, out, _ = _run(capsys, ["noise", str(path), "--json", "--model", "white+gm"])
     nj = tmp_path / "noise.json"
     nj.write_text(out)
-    # fit: GLS with the given model, not re-estimated — the same as fit(noise=GMNoise of the model)
+    # fit: GLS with the given model, not re-estimated — the same as fit(noise=the model)
     rc, out, err = _run(capsys, ["fit", str(path), "--terms", "D_F", "--json", "--noise-model", str(nj)])
     assert rc == 0, err
     res = json.loads(out)
@@ -135,7 +135,7 @@ def test_fit_design_mc_take_the_noise_model(static, capsys, tmp_path):
     rc, _, err = _run(capsys, ["mc", str(sp), "--out", str(tmp_path / "mc"), "--noise-model", str(nj), "--json"])
     assert rc == 0, err
     saved = json.loads((tmp_path / "mc" / "study.json").read_text())["noise"]
-    nd = model.noise_dict()
+    nd = model.to_truth()
     assert saved["white"] == pytest.approx(nd["white"]) and saved["gauss_markov"] == pytest.approx(nd["gauss_markov"])
     # design: the model's ARW and GM as the noise of the plan
     rc, out, err = _run(

@@ -70,14 +70,16 @@ def test_ar1_ar2_recovered_and_orders_selected():
     rng = np.random.default_rng(3)
     x1 = _arma(rng, N, phi=(0.9,))
     m1, t1 = rd.select_ar(x1, 8, "bic")
-    assert m1.order == (1, 0) and m1.phi[0] == pytest.approx(0.9, abs=5 * math.sqrt(0.19 / N))
-    assert m1.sigma2 == pytest.approx(1.0, abs=5 * math.sqrt(2 / N))
+    assert (len(m1.ar), len(m1.ma)) == (1, 0) and m1.ar[0] == pytest.approx(0.9, abs=5 * math.sqrt(0.19 / N))
+    assert m1.white_variance == pytest.approx(1.0, abs=5 * math.sqrt(2 / N)) and m1.method == "ar"
+    assert m1.std("ar1") == pytest.approx(math.sqrt((1 - 0.9**2) / N), rel=0.05)  # the asymptotic sd of φ̂
     x2 = _arma(rng, N, phi=(0.75, -0.5))
     m2, _ = rd.select_ar(x2, 8, "bic")
-    assert m2.order == (2, 0)
-    np.testing.assert_allclose(m2.phi, [0.75, -0.5], atol=5 * math.sqrt(0.75 / N))
+    assert (len(m2.ar), len(m2.ma)) == (2, 0)
+    np.testing.assert_allclose(m2.ar, [0.75, -0.5], atol=5 * math.sqrt(0.75 / N))
+    np.testing.assert_allclose([m2.std("ar1"), m2.std("ar2")], math.sqrt(0.75 / N), rtol=0.05)
     m2a, ta = rd.select_ar(x2, 8, "aic")
-    assert 2 <= m2a.order[0] <= 4 and min(ta, key=ta.get) == m2a.order[0]
+    assert 2 <= len(m2a.ar) <= 4 and min(ta, key=ta.get) == len(m2a.ar)
 
 
 def test_arma11_hannan_rissanen_and_selection():
@@ -87,10 +89,10 @@ def test_arma11_hannan_rissanen_and_selection():
     rng = np.random.default_rng(4)
     x = _arma(rng, N, phi=(0.8,), theta=(0.4,))
     m = rd.fit_arma(x, 1, 1)
-    assert m.phi[0] == pytest.approx(0.8, abs=0.05) and m.theta[0] == pytest.approx(0.4, abs=0.05)
+    assert m.ar[0] == pytest.approx(0.8, abs=0.05) and m.ma[0] == pytest.approx(0.4, abs=0.05)
     best, table = rd.select_arma(x, 2, 2, "bic")
-    assert best.order == (1, 1)
-    lam = rd.ARMAModel(np.array([0.8]), np.array([0.4]), 1.0, 0.0, N).autocovariance(2)
+    assert (len(best.ar), len(best.ma)) == (1, 1)
+    lam = rd.model_autocovariance(rd.arma_spec([0.8], [0.4], 1.0, 0.0, N), 2)
     assert lam[1] / lam[0] == pytest.approx((1 - 0.32) * 0.4 / (1 + 0.16 - 0.64), rel=1e-9)
     assert lam[0] == pytest.approx((1 + 0.16 - 0.64) / (1 - 0.64), rel=1e-9)
 
@@ -101,7 +103,7 @@ def test_gauss_markov_drift_as_ar1():
     φ has sd √((1−φ²)/N) = 0.0013, T = −1/ln φ then within 25 %."""
     y = np.asarray(noise.gauss_markov(jax.random.PRNGKey(9), jnp.ones(N), 0.01, 60.0))
     m = rd.fit_ar(y, 1)
-    s, T = rd.ar1_to_gauss_markov(m.phi[0], m.sigma2, 1.0)
+    s, T = rd.ar1_to_gauss_markov(m.ar[0], m.white_variance, 1.0)
     assert s == pytest.approx(0.01, rel=0.2) and T == pytest.approx(60.0, rel=0.25)
 
 

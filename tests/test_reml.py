@@ -1,6 +1,6 @@
-"""The JAX white + Gauss–Markov likelihood (gyrojax.reml) against the numpy Kalman/QR reference of gyrojax.noise.whiten
-(value), central finite differences (gradient and Hessian), the dense-covariance Gaussian likelihood (closed form),
-and the Satterthwaite ν of the previous finite-difference implementation."""
+"""The JAX white + Gauss–Markov likelihood (gyrojax.reml) against the dense-covariance Gaussian likelihood (closed
+form), central finite differences (gradient and Hessian), and the Satterthwaite ν of the previous finite-difference
+implementation; the whitening filter against the Cholesky factor of the dense covariance; the search's status."""
 
 import jax
 import numpy as np
@@ -13,7 +13,12 @@ from gyrojax.inference import identify
 from gyrojax.inference.campaign import Campaign, linearize
 from gyrojax.inference.noisefit import group_series
 from gyrojax.noise import reml
-from gyrojax.noise.whiten import GMNoise, gm_loglik, gm_profile, gm_reml, whiten
+from gyrojax.noise.spec import NoiseSpec
+from gyrojax.noise.whiten import gm_loglik, gm_profile, gm_reml, whiten
+
+
+def GMNoise(tau, gm_var, white_var, dt=1.0):  # noqa: N802 — the (τ, σ_g², σ_w²) of the filter as a NoiseSpec
+    return NoiseSpec.from_sample_variances(white_var, dt, [(gm_var, tau)])
 
 
 def _series(seed=0, n=600):
@@ -34,17 +39,22 @@ def _series(seed=0, n=600):
 
 
 NZ = GMNoise(35.0, 0.6, 0.8)
-THETA = np.array([NZ.tau_s, NZ.gm_var, NZ.white_var])
+THETA = np.array(NZ.whitening_theta())
+
+
+def _dense_cov(t, nz):
+    """V = σ_w² I + σ_g² exp(−|Δt|/τ) within each series (a series restarts where time does not increase)."""
+    tau, g, w = nz.whitening_theta()
+    series = np.cumsum(np.r_[True, np.diff(t) <= 0])
+    same = series[:, None] == series[None, :]
+    return w * np.eye(len(t)) + g * np.exp(-np.abs(t[:, None] - t[None, :]) / tau) * same
 
 
 def _dense_neg2(r, x, lab, t, nz, restricted):
     """−2 log L from the dense covariance V = σ_w² I + σ_g² exp(−|Δt|/τ) within each series (no Kalman filter)."""
     ok = lab >= 0
     r, x, t = r[ok], x[ok], t[ok]
-    series = np.cumsum(np.r_[True, np.diff(t) <= 0])
-    same = series[:, None] == series[None, :]
-    v = nz.white_var * np.eye(len(r)) + nz.gm_var * np.exp(-np.abs(t[:, None] - t[None, :]) / nz.tau_s) * same
-    c = linalg.cho_factor(v)
+    c = linalg.cho_factor(_dense_cov(t, nz))
     vi_x = linalg.cho_solve(c, x)
     beta = np.linalg.solve(x.T @ vi_x, vi_x.T @ r)
     e = r - x @ beta
@@ -54,16 +64,56 @@ def _dense_neg2(r, x, lab, t, nz, restricted):
     return out
 
 
-def test_reml_and_profile_values_match_numpy_and_dense_covariance():
+def test_reml_and_profile_values_match_the_dense_covariance():
     r, x, lab, t = _series()
+    for restricted, fn in ((True, gm_reml), (False, gm_profile)):
+        assert fn(r, x, lab, t, NZ) == pytest.approx(_dense_neg2(r, x, lab, t, NZ, restricted), abs=1e-7)
+    # no regressors: the plain likelihood, 2 Σ log diag(L) + |L⁻¹r|² of the Cholesky factor L of V
+    ok = lab >= 0
+    c = linalg.cholesky(_dense_cov(t[ok], NZ), lower=True)
+    plain = 2 * np.sum(np.log(np.diag(c))) + np.sum(linalg.solve_triangular(c, r[ok], lower=True) ** 2)
+    assert gm_loglik(r, lab, t, NZ)[0] == pytest.approx(plain, abs=1e-7)
+
+
+def test_whitening_is_the_inverse_cholesky_factor():
+    """The one Kalman filter's normalised innovations are L⁻¹x for the Cholesky factor L of the dense covariance
+    (the filter factors V = L Lᵀ row by row), and a white-only spec whitens by 1/σ_w."""
+    r, x, lab, t = _series(2)
+    ok = lab >= 0
+    c = linalg.cholesky(_dense_cov(t[ok], NZ), lower=True)
+    w, keep = whiten(np.column_stack([r, x]), lab, NZ, t)
+    np.testing.assert_array_equal(keep, np.flatnonzero(ok))
+    np.testing.assert_allclose(w, linalg.solve_triangular(c, np.column_stack([r, x])[ok], lower=True), atol=1e-10)
+    white = NoiseSpec.from_sample_variances(0.8, 1.0)
+    w, _ = whiten(r, lab, white, t)
+    np.testing.assert_allclose(w, r[ok] / np.sqrt(0.8), rtol=1e-12)
+
+
+def test_search_stopped_early_says_so():
+    """The trust-region search stopped by its iteration limit reports not converged, with the reason; and that status
+    reaches the fitted NoiseSpec."""
+    r, x, lab, t = _series(4, n=1500)
     s = reml.prepare(r, x, lab, t, 1.0)
-    for restricted, ref in ((True, gm_reml), (False, gm_profile)):
-        got = reml.neg2_loglik(s, THETA, restricted)
-        assert got == pytest.approx(ref(r, x, lab, t, NZ), abs=1e-8)
-        assert got == pytest.approx(_dense_neg2(r, x, lab, t, NZ, restricted), abs=1e-7)
-    # no regressors: the plain likelihood
-    s0 = reml.prepare(r, None, lab, t, 1.0)
-    assert reml.neg2_loglik(s0, THETA, False) == pytest.approx(gm_loglik(r, lab, t, NZ)[0], abs=1e-8)
+    *_, (ok, why) = reml.minimise(s, np.log([10.0, 0.2, 1.0]), True, max_iter=1)
+    assert not ok and "iteration limit" in why
+    *_, (ok, why) = reml.minimise(s, np.log([10.0, 0.2, 1.0]), True)
+    assert ok and why == ""
+
+
+def test_noise_fit_stopped_early_reaches_the_fit(monkeypatch):
+    """A noise search cut to one iteration: the fit's NoiseSpec says not converged, and so does FitResult.converged
+    (with the reason), with a ConvergenceWarning."""
+    from functools import partial
+
+    from gyrojax.errors import ConvergenceWarning
+
+    truth = {"coefficients": {"D_F": 0.3, "D_I": 0.5}, "noise": {"white": 0.001, "gauss_markov": [0.05, 300.0]}}
+    records = simulate(plans.eight_position(minutes=5, dt_s=2), truth, seed=3)
+    monkeypatch.setattr(reml, "minimise", partial(reml.minimise, max_iter=1))
+    with pytest.warns(ConvergenceWarning, match="noise model"):
+        res = identify.fit(records, ["D_F", "D_I"])
+    assert not res.converged and "iteration limit" in res.convergence_note
+    assert not res.noise[0].converged and res.noise[0].method == "reml"
 
 
 def test_collinear_columns_give_the_rank_reduced_reml():
@@ -138,7 +188,8 @@ def test_fit_finds_the_reml_optimum():
     """The minimiser lands where the exact gradient vanishes (or a bound holds it) and beats every grid start."""
     r, x, lab, t = _series(4, n=1500)
     s = reml.prepare(r, x, lab, t, 1.0)
-    theta, f, _ = reml.fit(s, (10.0, 0.2, 1.0))
+    theta, f, _, (ok, why) = reml.fit(s, (10.0, 0.2, 1.0))
+    assert ok and why == ""
     _, g = reml.value_and_grad(np.log(theta), *s.arrays, 1.0)
     assert np.abs(np.asarray(g)).max() < 1e-3
     assert f == pytest.approx(gm_reml(r, x, lab, t, GMNoise(*theta)), abs=1e-7)
@@ -161,7 +212,7 @@ def _fd_satterthwaite(res, records, free, step=0.05):
         jw = np.concatenate([w[:, 1:] for w in rows])
         return np.diag(np.linalg.inv(jw.T @ jw))
 
-    u0 = np.log([nz.tau_s, nz.gm_var, nz.white_var])
+    u0 = np.log(nz.whitening_theta())
     basis = np.eye(3)[free] * step
     k = len(free)
 
@@ -195,9 +246,9 @@ def test_satterthwaite_dof_from_the_exact_hessian_matches_finite_differences():
     records = simulate(plans.eight_position(minutes=5, dt_s=2), truth, seed=3)
     res = identify.fit(records, list(truth["coefficients"]))
     nz = res.noise[0]
-    assert isinstance(nz, GMNoise) and res.dof_eff is not None
+    assert nz.gauss_markov and nz.method == "reml" and res.dof_eff is not None
     tau_max = max(np.ptp(rec.time_s) for rec in records)
-    free = [1, 2] if nz.tau_s >= 0.999 * tau_max else [0, 1, 2]
+    free = [1, 2] if nz.gm_tau >= 0.999 * tau_max else [0, 1, 2]
     ref = _fd_satterthwaite(res, records, free)
     np.testing.assert_allclose(res.dof_eff, np.maximum(ref, 1.0), rtol=0.03)
     assert np.all(res.dof_eff < 1e4)
@@ -216,3 +267,32 @@ def test_gradient_is_finite_across_a_clock_restart_at_short_correlation_time():
         val = [float(reml.value_and_grad(u + e * sgn, *s.arrays, c)[0]) for e in np.eye(3) * step for sgn in (1, -1)]
         fd = [(val[2 * k] - val[2 * k + 1]) / (2 * step) for k in range(3)]
         np.testing.assert_allclose(np.asarray(g), fd, rtol=1e-5, atol=1e-5)
+
+
+def test_reml_covariance_of_the_natural_parameters():
+    """with_reml_covariance against an independent route: the Hessian of −2 log L_R by second differences of its
+    values (not of the gradient) in u = log(τ, σ_g², σ_w²), Cov(u) = 2H⁻¹, mapped to (N, σ, T) by a numerical
+    Jacobian."""
+    from gyrojax.noise.whiten import fit_gm, with_reml_covariance
+
+    r, x, lab, t = _series(4, n=1500)
+    nz = fit_gm(r, lab, t, design=x, tau_span_fraction=1.0)
+    got = with_reml_covariance(nz, r, x, lab, t, 1.0)
+    assert got.cov_names == ("white", "gm1_sigma", "gm1_tau") and got.white == nz.white
+    u0, h = np.log(nz.whitening_theta()), 1e-3
+
+    def f(u):
+        return gm_reml(r, x, lab, t, GMNoise(*np.exp(u), dt=nz.dt_s))
+
+    e = np.eye(3) * h
+    hess = np.array(
+        [[(f(u0 + a + b) - f(u0 + a - b) - f(u0 - a + b) + f(u0 - a - b)) / (4 * h * h) for b in e] for a in e]
+    )
+    cov_u = 2 * np.linalg.inv(hess)
+
+    def natural(u):
+        s = GMNoise(*np.exp(u), dt=nz.dt_s)
+        return np.array([s.white, s.gauss_markov[0][0], s.gauss_markov[0][1]])
+
+    jac = np.column_stack([(natural(u0 + d) - natural(u0 - d)) / (2 * h) for d in e])
+    np.testing.assert_allclose(np.asarray(got.cov), jac @ cov_u @ jac.T, rtol=2e-3, atol=1e-12)

@@ -17,10 +17,11 @@ from gyrojax.data.truth import Truth, load_truth, save_truth, truth_from_dict
 from gyrojax.errors import FormatError, PlanError, TruthError
 from gyrojax.montecarlo.results import RESULT_FILE, StudyResult, load_result, save_result
 from gyrojax.montecarlo.study import Study, StudyError, load_study, save_study, study_from_dict
+from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics.model import Model
 from gyrojax.planning.criteria import Criterion
 from gyrojax.planning.designfile import load_design, save_design
-from gyrojax.planning.fisher import Noise, Table
+from gyrojax.planning.fisher import Table
 from gyrojax.planning.optimal import DesignResult
 
 
@@ -236,7 +237,7 @@ def test_design_round_trip(table, criterion, tmp_path):
         Criterion.parse(criterion, model),
         model,
         tab,
-        Noise(0.01, (0.05, 300.0)),
+        NoiseSpec(white=0.01, gauss_markov=((0.05, 300.0),)),
         2.0,
         np.array([3.0, 2.0, np.nan, 1.0]),
         1e-7,

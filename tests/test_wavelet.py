@@ -2,6 +2,7 @@
 the continuous-time Gauss–Markov Allan variance, Monte Carlo means of simulated series (gyrojax.noise's own
 generators), the estimator's covariance against the Monte Carlo covariance, and allantools' oadev."""
 
+import math
 from decimal import Decimal, getcontext
 
 import allantools
@@ -10,10 +11,27 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from gyrojax.noise import gmwm
+from gyrojax.noise import gmwm as gfit
+from gyrojax.noise import gmwm_model as gmwm
 from gyrojax.noise import processes as noise
 from gyrojax.noise import wavelet as wv
-from gyrojax.noise.allan import gauss_markov_avar
+from gyrojax.noise.gmwm import haar_wv
+from gyrojax.noise.processes import simulate
+from gyrojax.noise.spec import NoiseSpec, gauss_markov_avar
+
+
+def _per_sample(white, random_walk, gm_var, gm_rate):
+    """The NoiseSpec (unit sample interval) of per-sample white variance s², random-walk step variance g² and one
+    AR1 of variance s² and rate a (the latent parameters of the wavelet table): N = √s²/60, K = 60√g², T = 1/a."""
+    return NoiseSpec(
+        white=math.sqrt(white) / 60.0,
+        random_walk=60.0 * math.sqrt(random_walk),
+        gauss_markov=((gm_var**0.5, 1 / gm_rate),),
+    )
+
+
+def _draw(spec, key, n):
+    return simulate(spec, key, jnp.arange(n, dtype=float), dt_white=1.0)
 
 
 def _spectral(ms, spectrum, points_per_decade=2000):
@@ -76,7 +94,7 @@ def test_other_limits():
 
 def _mc(n, draws, gen):
     m = wv.dyadic_m(n)
-    nus = np.array([wv.haar_wv(np.asarray(gen(jax.random.PRNGKey(d))), m)[0] for d in range(draws)])
+    nus = np.array([haar_wv(np.asarray(gen(jax.random.PRNGKey(d))), m)[0] for d in range(draws)])
     return m, nus
 
 
@@ -105,13 +123,13 @@ def test_covariance_against_monte_carlo():
     """The model covariance Ω of the estimates (spectral, Percival 1995) against 300 simulated series: variances
     within 25 % (the Monte Carlo variance itself is ±8 %), adjacent-scale correlations within 0.12."""
     n, draws = 2**14, 300
-    comps = {"white": 4.0, "random_walk": 1e-4, "gauss_markov": [(9.0, 1.0 / 60.0)]}
-    gen = jax.jit(lambda k: wv.simulate_components(k, n, comps))
+    nz = _per_sample(4.0, 1e-4, 9.0, 1.0 / 60.0)
+    gen = jax.jit(lambda k: _draw(nz, k, n))
     m, nus = _mc(n, draws, gen)
     spec = gmwm.ModelSpec(white=True, random_walk=True, n_gm=1)
     th = jnp.log(jnp.asarray([4.0, 1e-4, 9.0, 1.0 / 60.0]))
-    _, cnt = wv.haar_wv(np.zeros(n), m)
-    om = gmwm.covariance_at(spec, th, m, cnt)
+    _, cnt = haar_wv(np.zeros(n), m)
+    om = gfit.covariance_at(spec, th, m, cnt)
     emp = np.cov(nus.T)
     np.testing.assert_allclose(np.diag(emp) / np.diag(om), 1.0, atol=0.25)
     corr = lambda c: np.diag(c / np.sqrt(np.outer(np.diag(c), np.diag(c))), 1)  # noqa: E731
@@ -125,16 +143,15 @@ def test_estimator_equals_allantools_and_model_matches_it():
     """ν̂² = oadev²/2 of allantools to rounding; on a long white + GM + RW series allantools' oadev² lies within
     4 model standard errors (2√Ω) of the model's 2ν² at every octave τ."""
     n = 2**16
-    comps = {"white": 1.0, "random_walk": 1e-6, "gauss_markov": [(0.5, 1.0 / 300.0)]}
-    y = np.asarray(wv.simulate_components(jax.random.PRNGKey(3), n, comps))
+    y = np.asarray(_draw(_per_sample(1.0, 1e-6, 0.5, 1.0 / 300.0), jax.random.PRNGKey(3), n))
     m = wv.dyadic_m(n)
-    nu, cnt = wv.haar_wv(y, m)
+    nu, cnt = haar_wv(y, m)
     taus, ad, _, _ = allantools.oadev(y, rate=1.0, data_type="freq", taus=m.astype(float))
     np.testing.assert_allclose(taus, m)
     np.testing.assert_allclose(nu, ad**2 / 2, rtol=1e-9)
     spec = gmwm.ModelSpec(white=True, random_walk=True, n_gm=1)
     th = jnp.log(jnp.asarray([1.0, 1e-6, 0.5, 1.0 / 300.0]))
-    om = gmwm.covariance_at(spec, th, m, cnt)
+    om = gfit.covariance_at(spec, th, m, cnt)
     model_avar = 2 * np.asarray(gmwm.model_wv(spec, th, m))
     assert np.all(np.abs(ad**2 - model_avar) < 4 * 2 * np.sqrt(np.diag(om)))
 

@@ -62,9 +62,9 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("plans", help="list the built-in test plans")
     s.set_defaults(func=_command("plans"))
 
-    s = sub.add_parser("simulate", help="simulate a plan into records (CONVENTIONS §5)")
+    s = sub.add_parser("simulate", help="simulate a plan into records (conventions §5)")
     s.add_argument("plan", help="built-in plan name (see `gyrojax plans`) or a plan JSON file")
-    s.add_argument("--truth", help="truth JSON (CONVENTIONS §8); default: a perfect gyro")
+    s.add_argument("--truth", help="truth JSON (conventions §8); default: a perfect gyro")
     s.add_argument("--out", required=True, help="output directory")
     s.add_argument("--seed", type=int, default=0)
     s.add_argument("--option", "-o", action="append", metavar="NAME=VALUE", help="plan builder option")
@@ -79,9 +79,9 @@ def build_parser() -> argparse.ArgumentParser:
     add_effect_arguments(s)
     s.set_defaults(func=_command("simulate"))
 
-    s = sub.add_parser("fit", help="fit named effects to records (CONVENTIONS §7)")
+    s = sub.add_parser("fit", help="fit named effects to records (conventions §7)")
     s.add_argument("records", nargs="+", help="record files (.csv or .json) or directories")
-    s.add_argument("--terms", help="comma-separated effect names (CONVENTIONS §6)")
+    s.add_argument("--terms", help="comma-separated effect names (conventions §6)")
     s.add_argument("--json", action="store_true")
     s.add_argument("--save", help="write the result as JSON to this path")
     s.add_argument("--noise-model", metavar="NOISE.json", help="GLS with this noise model (gyrojax noise --json)")
@@ -92,7 +92,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     s.set_defaults(func=_command("fit"))
 
-    s = sub.add_parser("diagnose", help="rank the effects the model is missing (CONVENTIONS §7)")
+    s = sub.add_parser("diagnose", help="rank the effects the model is missing (conventions §7)")
     s.add_argument("records", nargs="+")
     s.add_argument("--terms", help="comma-separated effect names of the current model")
     s.add_argument("--alpha", type=float, default=0.01, help="family-wise significance level (default 0.01)")

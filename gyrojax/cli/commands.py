@@ -111,7 +111,7 @@ def cmd_fit(args) -> int:
         if triad:  # a triad fit cut short is not an answer (issue 24): one error line below, not a warning too
             warnings.simplefilter("ignore", ConvergenceWarning)
         if args.noise_model:
-            from gyrojax.noise.gmwm import load_noise_model
+            from gyrojax.noise.gmwm_model import load_noise_model
 
             res = fit(recs, terms, noise=load_noise_model(args.noise_model))
         else:
@@ -211,12 +211,13 @@ def parse_taus(spec: str | None, n: int, tau0: float):
 def cmd_noise(args) -> int:
     """``gyrojax noise``: Allan deviation (deg/h against τ in s), noise model and adequacy of static records."""
     from gyrojax.data.records import load_records
-    from gyrojax.noise import allan
-    from gyrojax.noise.gmwm import noise_report
+    from gyrojax.data.static import static_rate_segments
+    from gyrojax.noise.readoff import noise_report
+    from gyrojax.noise.spec import UNITS
 
     recs = load_records(args.records)
     notes: list[str] = []
-    segs, tau0 = allan.static_rate_segments(recs, notes=notes)
+    segs, tau0 = static_rate_segments(recs, notes=notes)
     if args.plot and Path(args.plot).exists() and not args.force:
         raise UsageError(f"{args.plot}: exists; pass --force to overwrite")
     m_list = parse_taus(args.taus, max(len(s) for s in segs), tau0)
@@ -239,7 +240,8 @@ def cmd_noise(args) -> int:
             f"{out['adev_model_deg_per_h'][i]:11.5g}  {'yes' if out['adequacy']['inside'][i] else 'NO'}"
         )
     if nm is not None:
-        print(f"model {nm.spec.label()} ({nm.method}), J-test p = {nm.p_value:.3g}")
+        p_value = float("nan") if nm.info["p_value"] is None else nm.info["p_value"]
+        print(f"model {nm.info['model']} ({nm.method}), J-test p = {p_value:.3g}")
         for k, v in nm.parameters().items():
             std = "pinned at a bound" if v["std"] is None else f"± {v['std']:.2g}"
             print(f"  {k}: {v['value']:.6g} {std} {v['unit']}")
@@ -249,11 +251,12 @@ def cmd_noise(args) -> int:
             else:
                 print(f"  {k}: {v['value']:.4g} ± {v['std']:.2g} {v['unit']} (read at tau = {v['tau_s']:.3g} s)")
     else:
-        for k in ieee.included:
-            if k == "gauss_markov":
-                print(f"gauss_markov: sigma {ieee.gauss_markov[0]:.6g} deg/h, tau {ieee.gauss_markov[1]:.6g} s")
-            else:
-                print(f"{k}: {ieee.values[k]:.6g} {allan.UNITS[k]}")
+        for k in ieee.names:
+            if k == "gm1_sigma":
+                sigma, tau = ieee.gauss_markov[0]
+                print(f"gauss_markov: sigma {sigma:.6g} deg/h, tau {tau:.6g} s")
+            elif not k.startswith("gm"):
+                print(f"{k}: {ieee.value(k):.6g} {UNITS[k]}")
     print(out["adequacy"]["verdict"])
     return 0
 
@@ -266,9 +269,10 @@ def cmd_design(args) -> int:
 
     from gyrojax.data import plans
     from gyrojax.data.planfile import plan_to_json
+    from gyrojax.noise.spec import NoiseSpec
     from gyrojax.planning.baselines import table_text
     from gyrojax.planning.criteria import criterion_values
-    from gyrojax.planning.fisher import Noise, static_fisher
+    from gyrojax.planning.fisher import static_fisher
     from gyrojax.planning.optimal import SDF9, design
     from gyrojax.protocol import atomic_write_text
 
@@ -287,13 +291,15 @@ def cmd_design(args) -> int:
     terms = parse_terms(args.terms) if args.terms else list(SDF9)
     terms += [n for n in effects_from_args(args, "sdf-gyro") if n not in terms]
     gm = parse_gm(args.gm)
-    noise = Noise(args.arw, gm)
+    noise = NoiseSpec(white=args.arw, gauss_markov=() if gm is None else (gm,))
     if args.noise_model:
-        from gyrojax.noise.gmwm import load_noise_model
+        from gyrojax.noise.gmwm_model import load_noise_model
 
         if args.gm:
             raise UsageError("--noise-model and --gm both give the noise; pass one")
-        noise = Noise(*load_noise_model(args.noise_model).white_gm())
+        nm = load_noise_model(args.noise_model)
+        nm.whitening_theta(1.0)  # white + at most one Gauss-Markov process, or a NoiseModelError naming the rest
+        noise = nm
     res = design(
         terms,
         args.positions,
@@ -361,10 +367,11 @@ def cmd_mc(args) -> int:
                 raise StudyError("--draws must be >= 1")
             study = replace(study, draws=args.draws)
         if args.noise_model:
-            from gyrojax.noise.gmwm import load_noise_model
-            from gyrojax.noise.processes import validate_noise
+            from gyrojax.noise.gmwm_model import load_noise_model
+            from gyrojax.noise.spec import NoiseSpec
 
-            noise = validate_noise(load_noise_model(args.noise_model).noise_dict(), "--noise-model")
+            # the terms a study file holds (a model with others is refused with the reason)
+            noise = NoiseSpec.from_truth(load_noise_model(args.noise_model).to_truth(), "--noise-model")
             study = replace(study, noise=noise)
         if args.start < 0:
             raise StudyError(f"--start must be >= 0, got {args.start}")

@@ -1,6 +1,6 @@
 """A record as arrays: :func:`record_data` turns a :class:`~gyrojax.data.record.Record` (file units) into the
 :class:`~gyrojax.physics.model.RecordData` that the measurement model takes (SI inside, the measurement vector of
-CONVENTIONS §4: the indicated output in rebalance mode, the servo-axis rate per interval in servo mode).
+conventions §4: the indicated output in rebalance mode, the servo-axis rate per interval in servo mode).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The CSV half of a record (CONVENTIONS §5): reading it fast (a memory map parsed by pandas' C parser) while
+"""The CSV half of a record (conventions §5): reading it fast (a memory map parsed by pandas' C parser) while
 naming the row and column of the first bad cell, and writing it in chunks at full float64 precision.
 """
 
@@ -58,7 +58,7 @@ def parse_csv_header(csv_path: Path, raw: bytes) -> list[str]:
                 raise _err(
                     csv_path,
                     f"row 1 (header) is one column {header[0][:60]!r}: the file looks {sep!r}-separated; "
-                    "records must be comma separated (CONVENTIONS §5)",
+                    "records must be comma separated (conventions §5)",
                 )
     for j, h in enumerate(header):
         if not h:
@@ -91,7 +91,7 @@ def _numbered_rows(csv_path, reader):
 def diagnose_csv(csv_path: Path, raw: bytes, header: list[str], strict: bool) -> None:
     """Stream the rows and raise at the first row of the wrong length or the first bad numeric cell.
 
-    ``strict``: check every column (else only the columns of CONVENTIONS §5).
+    ``strict``: check every column (else only the columns of conventions §5).
     """
     import csv
     import io

@@ -93,7 +93,7 @@ def plan_from_dict(d: dict, where: str = "plan") -> Plan:
             )
         inst = _need(where, r, "instrument", at)
         if not isinstance(inst, dict):
-            raise PlanError(f"{where}: key '{at}instrument' must be an object (CONVENTIONS §5), got {inst!r}")
+            raise PlanError(f"{where}: key '{at}instrument' must be an object (conventions §5), got {inst!r}")
         name = _need(where, r, "name", at)
         if not isinstance(name, str) or not name:
             raise PlanError(f"{where}: key '{at}name' must be a non-empty string, got {name!r}")

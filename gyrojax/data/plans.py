@@ -1,10 +1,10 @@
-"""Test plans as data (DESIGN principle 5), and the classical procedures of Hu ch. 3 as plan builders.
+"""Test plans as data (arrays to differentiate and vmap), and the classical procedures of Hu ch. 3 as plan builders.
 
 A :class:`Plan` is a site and a sequence of :class:`Run` s; each run becomes one record. A run is a table
 geometry, an instrument mounting, a mode (rebalance or servo) and a sequence of :class:`Segment` s; a segment
 moves every table axis as θ(t) = θ_0 + θ̇·t + A·sin(2π f t) for ``duration_s`` at ``dt_s``. Static positions,
 constant rates, continuous tumbles and oscillations are all segments. Between segments the table moves
-unlogged for ``gap_s`` seconds, which ends a continuous segment in the record (CONVENTIONS §5).
+unlogged for ``gap_s`` seconds, which ends a continuous segment in the record (conventions §5).
 
 Every builder cites its seed procedure. Plan files (JSON) are :mod:`gyrojax.data.planfile`; ``gyrojax simulate
 PLAN`` takes a builder name or such a file.
@@ -100,7 +100,7 @@ def polar_axis(latitude_deg: float) -> tuple[float, float, float]:
 
 
 def sdf_mount(ia, oa) -> dict:
-    """SDF instrument dict with SA = IA × OA (CONVENTIONS §4)."""
+    """SDF instrument dict with SA = IA × OA (conventions §4)."""
     ia, oa = np.asarray(ia, float), np.asarray(oa, float)
     ia, oa = ia / np.linalg.norm(ia), oa / np.linalg.norm(oa)
     if abs(ia @ oa) > 1e-9:
@@ -109,14 +109,14 @@ def sdf_mount(ia, oa) -> dict:
 
 
 def tdf_mount(x, y) -> dict:
-    """TDF gyro instrument dict with spin axis Z = X × Y (CONVENTIONS §4); axes are unit vectors in platform
+    """TDF gyro instrument dict with spin axis Z = X × Y (conventions §4); axes are unit vectors in platform
     coordinates."""
     x, y = np.asarray(x, float), np.asarray(y, float)
     return {"kind": "tdf-gyro", "x": _clean(x), "y": _clean(y), "z": _clean(np.cross(x, y))}
 
 
 def accel_mount(ia, pa) -> dict:
-    """Pendulous accelerometer instrument dict with OA = IA × PA (CONVENTIONS §4); unit vectors in platform
+    """Pendulous accelerometer instrument dict with OA = IA × PA (conventions §4); unit vectors in platform
     coordinates."""
     ia, pa = np.asarray(ia, float), np.asarray(pa, float)
     return {"kind": "pendulous-accel", "ia": _clean(ia), "pa": _clean(pa), "oa": _clean(np.cross(ia, pa))}

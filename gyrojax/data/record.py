@@ -1,4 +1,4 @@
-"""The :class:`Record` type: one test run as metadata and columns (CONVENTIONS §5), with its derived views.
+"""The :class:`Record` type: one test run as metadata and columns (conventions §5), with its derived views.
 
 Reading and writing the files is :mod:`gyrojax.data.records`; the checks are :mod:`gyrojax.data.schema`.
 """
@@ -43,12 +43,12 @@ class Record:
 
     @property
     def kind(self) -> str:
-        """Instrument kind (CONVENTIONS §5): ``sdf-gyro``, ``tdf-gyro``, ``pendulous-accel``, ``fog`` or ``rlg``."""
+        """Instrument kind (conventions §5): ``sdf-gyro``, ``tdf-gyro``, ``pendulous-accel``, ``fog`` or ``rlg``."""
         return self.meta["instrument"]["kind"]
 
     @property
     def mode(self) -> str:
-        """``rebalance`` or ``servo`` (CONVENTIONS §4)."""
+        """``rebalance`` or ``servo`` (conventions §4)."""
         return self.meta["mode"]
 
     @property
@@ -113,7 +113,7 @@ class Record:
 
     @property
     def segment_id(self) -> np.ndarray:
-        """Integer id of the continuous segment of each sample (CONVENTIONS §5)."""
+        """Integer id of the continuous segment of each sample (conventions §5)."""
         return continuous_segments(self.time_s, self.columns.get("segment"))
 
     @property

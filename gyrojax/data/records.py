@@ -1,4 +1,4 @@
-"""Record files: ``NAME.csv`` + ``NAME.json`` (CONVENTIONS §5).
+"""Record files: ``NAME.csv`` + ``NAME.json`` (conventions §5).
 
 A record is one test run. ``load_record`` validates everything at the boundary and raises
 :class:`~gyrojax.errors.RecordError` naming the file and the key, or the row and the column; ``save_record``
@@ -16,7 +16,6 @@ from pathlib import Path
 from gyrojax.data.csvfile import _parse_csv, record_csv_chunks
 from gyrojax.data.record import Record
 from gyrojax.data.schema import _err, validate_columns, validate_meta
-from gyrojax.data.timebase import uniform_interval  # noqa: F401  (noise.allan reads it here until Allan works on arrays)
 from gyrojax.errors import RecordError
 
 
@@ -54,7 +53,7 @@ def read_meta(json_path: Path) -> dict:
         line = raw[: e.start].count(b"\n") + 1
         raise _err(json_path, f"is not UTF-8 (line {line}, byte {e.start}); save it as UTF-8") from None
     if not text.strip():
-        raise _err(json_path, "is empty; a JSON object with the record's metadata (CONVENTIONS §5) is required")
+        raise _err(json_path, "is empty; a JSON object with the record's metadata (conventions §5) is required")
     try:
         return json.loads(text, object_pairs_hook=_no_duplicate_keys(json_path))
     except json.JSONDecodeError as e:

@@ -1,4 +1,4 @@
-"""The record schema (CONVENTIONS §5): the checks of a record's metadata (JSON) and of its columns (CSV).
+"""The record schema (conventions §5): the checks of a record's metadata (JSON) and of its columns (CSV).
 
 Every error is a :class:`~gyrojax.errors.RecordError` naming the file and the key, or the row and the column.
 """
@@ -50,7 +50,7 @@ def _number(file, d, key, where=""):
 
 
 def validate_meta(meta, file="record.json") -> dict:
-    """Check a record's JSON against CONVENTIONS §5; returns it unchanged (unknown keys kept)."""
+    """Check a record's JSON against conventions §5; returns it unchanged (unknown keys kept)."""
     if not isinstance(meta, dict):
         raise _err(file, "the top level must be a JSON object")
     fmt = _require(file, meta, "format")
@@ -127,7 +127,7 @@ TRIAD_COLUMN_PREFIXES = ("gyro_", "acc_")  # triad records (gyrojax.data.triad):
 
 
 def must_be_numeric(column: str) -> bool:
-    """Columns of CONVENTIONS §5 (these must hold finite numbers); any other column is extra, kept and ignored."""
+    """Columns of conventions §5 (these must hold finite numbers); any other column is extra, kept and ignored."""
     return (
         column in NUMERIC_COLUMNS
         or (column.startswith("angle_") and column.endswith("_deg"))
@@ -144,7 +144,7 @@ def _column_hint(columns, want: str) -> str:
         base = re.sub(r"\s*[\[(].*$", "", c).strip()
         if c != want and base == want:
             return (
-                f"; column {c!r} looks like {want!r} with a unit: units are fixed by CONVENTIONS §5, "
+                f"; column {c!r} looks like {want!r} with a unit: units are fixed by conventions §5, "
                 f"so name it exactly {want!r}"
             )
         if c != want and c.lower() == want.lower():
@@ -153,7 +153,7 @@ def _column_hint(columns, want: str) -> str:
 
 
 def validate_columns(meta: dict, columns: dict[str, np.ndarray], file="record.csv") -> None:
-    """Check the CSV columns against the metadata (CONVENTIONS §5)."""
+    """Check the CSV columns against the metadata (conventions §5)."""
     if "time_s" not in columns:
         hint = _column_hint(columns, "time_s")
         raise _err(file, f"missing required column 'time_s'{hint}; columns are {list(columns)}")

@@ -1,4 +1,4 @@
-"""The time base of a record (CONVENTIONS §5): continuous segments, the sample interval and its jitter, the
+"""The time base of a record (conventions §5): continuous segments, the sample interval and its jitter, the
 interval key that groups records sampled at one rate, and rates derived from angles inside segments.
 
 Pure functions of arrays: they know nothing of files or metadata.
@@ -12,7 +12,7 @@ import numpy as np
 
 from gyrojax.errors import RecordError
 
-GAP_FACTOR = 1.5  # a time step above 1.5 × the median step ends a continuous segment (CONVENTIONS §5)
+GAP_FACTOR = 1.5  # a time step above 1.5 × the median step ends a continuous segment (conventions §5)
 
 
 def continuous_segments(time_s: np.ndarray, segment: np.ndarray | None = None) -> np.ndarray:

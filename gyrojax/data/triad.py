@@ -1,5 +1,5 @@
 """Triad records: one MEMS IMU (three gyro channels x, y, z, optionally three accelerometers) moved by hand, with
-no turntable and no angle log (the ``imu-triad`` extension of CONVENTIONS §5, described in docs/conventions.md).
+no turntable and no angle log (the ``imu-triad`` extension of conventions §5, described in docs/conventions.md).
 
 A triad record is ``NAME.csv`` + ``NAME.json`` like any record. Its JSON has no ``table``; instead a list of
 ``segments`` says what each labelled stretch of samples is:

@@ -1,4 +1,4 @@
-"""Truth files: what a simulation is told is true (CONVENTIONS §8).
+"""Truth files: what a simulation is told is true (conventions §8).
 
 gyrojax writes them in the result protocol of :mod:`gyrojax.protocol` (:func:`save_truth`: format tag
 ``"gyrojax-truth"``, integer ``format_version``); a truth file without the tag, as other tools and hand-written
@@ -14,7 +14,7 @@ import numpy as np
 
 from gyrojax import protocol
 from gyrojax.errors import TruthError
-from gyrojax.noise.processes import validate_noise
+from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics import effects as fx
 from gyrojax.protocol import is_finite_number, read_json_file
 
@@ -25,11 +25,17 @@ TRUTH_VERSION = 1
 
 @dataclass(frozen=True)
 class Truth:
-    """Coefficients (report units, by coefficient name), set-up errors (by set-up effect name) and noise."""
+    """Coefficients (report units, by coefficient name), set-up errors (by set-up effect name) and noise (the one
+    noise description, :class:`~gyrojax.noise.spec.NoiseSpec`; a truth file's ``noise`` dict of conventions §8 on
+    disk)."""
 
     coefficients: dict = field(default_factory=dict)
     setup: dict = field(default_factory=dict)
-    noise: dict = field(default_factory=dict)
+    noise: NoiseSpec = field(default_factory=NoiseSpec)
+
+    def __post_init__(self):
+        if not isinstance(self.noise, NoiseSpec):  # a truth file's noise dict (conventions §8)
+            object.__setattr__(self, "noise", NoiseSpec.from_truth(self.noise, "truth: noise"))
 
     def all_coefficients(self) -> dict:
         """Instrument and set-up coefficients together, by coefficient name."""
@@ -40,11 +46,11 @@ class Truth:
         return out
 
     def to_dict(self) -> dict:
-        """The truth as a JSON-ready dict (CONVENTIONS §8; coefficients in report units)."""
+        """The truth as a JSON-ready dict (conventions §8; coefficients in report units)."""
         return {
             "coefficients": dict(self.coefficients),
             "setup": {k: (list(v) if np.ndim(v) else v) for k, v in self.setup.items()},
-            "noise": {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.noise.items()},
+            "noise": self.noise.to_truth(),
         }
 
 
@@ -89,22 +95,22 @@ def truth_from_dict(d, where: str = "truth") -> Truth:
                 f"{where}: key {'setup.' + str(k)!r} needs {SETUP_SIZES[k]} finite number(s) in arcsec, got {v!r}"
             )
         setup[k] = tuple(float(x) for x in arr)
-    for k, v in (d.get("noise") or {}).items():  # numbers only (validate_noise names the valid terms)
+    for k, v in (d.get("noise") or {}).items():  # numbers only (NoiseSpec.from_truth names the valid terms)
         vals = v if isinstance(v, (list, tuple)) and k in ("gauss_markov", "bias_instability") else [v]
         if not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in vals):
-            raise TruthError(f"{where}: key {'noise.' + str(k)!r} must hold numbers (CONVENTIONS §8 units), got {v!r}")
+            raise TruthError(f"{where}: key {'noise.' + str(k)!r} must hold numbers (conventions §8 units), got {v!r}")
     try:
-        noise = validate_noise(d.get("noise"), f"{where}: noise")
+        noise = NoiseSpec.from_truth(d.get("noise"), f"{where}: noise")
     except TruthError:
         raise
     except (TypeError, ValueError, OverflowError) as e:
-        raise TruthError(f"{where}: key 'noise' is invalid ({e}); see CONVENTIONS §8") from None
+        raise TruthError(f"{where}: key 'noise' is invalid ({e}); see conventions §8") from None
     return Truth(coeffs, setup, noise)
 
 
 def load_truth(path) -> Truth:
-    """Load and validate a truth file (CONVENTIONS §8) from a JSON file (errors name the file and the key)."""
-    return truth_from_dict(read_json_file(path, TruthError, "a truth file (CONVENTIONS §8)"), str(path))
+    """Load and validate a truth file (conventions §8) from a JSON file (errors name the file and the key)."""
+    return truth_from_dict(read_json_file(path, TruthError, "a truth file (conventions §8)"), str(path))
 
 
 def save_truth(truth: Truth, path, force: bool = False) -> Path:

@@ -84,7 +84,7 @@ class RebalanceParams:
         K_amp: compensator DC gain, mA/V.
         tau_lead: compensator zero time constant, s;  G_c(s) = K_amp·(τ_lead s + 1)/(τ_lag s + 1).
         tau_lag: compensator pole time constant, s.
-        S_nom: nominal torquer scale factor, deg/h per mA (ω_ind = S_nom·i, CONVENTIONS §4).
+        S_nom: nominal torquer scale factor, deg/h per mA (ω_ind = S_nom·i, conventions §4).
         E_SF: scale-factor error, ppm (effect ``sf_error``).
         E_A: scale-factor asymmetry, ppm (effect ``sf_asymmetry``).
         E_2: quadratic scale-factor nonlinearity, ppm per deg/s (effect ``sf_quadratic``).
@@ -160,7 +160,7 @@ def default_rebalance(crossover_hz: float = 30.0, lead_ratio: float = 10.0, **ov
 def torquer_rate(p: RebalanceParams, u):
     """Rate-equivalent torque (deg/h) that the torquer applies when the indicated rate is u = S_nom·i (deg/h).
 
-    Exact inverse of the balance u = ω(1 + E_SF + E_A·sgn ω) + E_2·ω·(ω/3600) (CONVENTIONS §6 ``sf_error``,
+    Exact inverse of the balance u = ω(1 + E_SF + E_A·sgn ω) + E_2·ω·(ω/3600) (conventions §6 ``sf_error``,
     ``sf_asymmetry``, ``sf_quadratic``; ppm), so that a quasi-static loop reads exactly those effects:
     ω = 2u / (b + √(b² + 4 q u)), b = 1 + E_SF + E_A·sgn u, q = E_2·1e-6/3600 per deg/h.
     """
@@ -497,7 +497,7 @@ def simulate_servo(p: ServoParams, omega_ib_deg_per_h, u_gyro_deg_per_h, m_ext, 
 def inductosyn_readout(theta, harmonics=(0.0, 0.0, 0.0, 0.0), pole_pairs=360, electrical=(0.0, 0.0, 0.0), q=0.0):
     """Angle read by an Inductosyn (rad): θ + low-order zero error + within-pitch electrical error, quantised.
 
-    harmonics: (c1, s1, c2, s2) rad, the 1×/2× per-revolution zero error (CONVENTIONS ``encoder_harmonic``);
+    harmonics: (c1, s1, c2, s2) rad, the 1×/2× per-revolution zero error (conventions §6 ``encoder_harmonic``);
     electrical: (Δα_0, Δe, Δe_3 + Δe_5) rad in Δα_D = ½Δα_0(1 − cos 2pα) + ½Δe sin 2pα + (Δe_3+Δe_5) sin 4pα
     (Hu 5-51), p = ``pole_pairs``; q: quantum (rad; 0.36″ or 0.18″ in Hu), 0 for none (rounding to nearest).
     """

@@ -23,7 +23,7 @@ tuned suspension's residual forces (all torques about case axes, N·m):
   in-phase stiffness K_φ = λ/H (rate sense; in torque sense ΔK is the direct and λ the quadrature spring).
 
 Loop, in rate-equivalent units (deg/h). Channel c ∈ {X, Y} commands u_c = S_nom·i_c (the indicated rate,
-CONVENTIONS §4, records' current_x_mA / current_y_mA). Its torquer makes the rotor precess at the rates
+conventions §4, records' current_x_mA / current_y_mA). Its torquer makes the rotor precess at the rates
 p = T·u, T = [[1 + E_SF_X, μ_XY], [μ_YX, 1 + E_SF_Y]] (scale-factor errors in ppm, μ the torquer cross-coupling
 from misalignment, rad), i.e. applies M = H·(p_Y, −p_X). The commands are
 

@@ -12,7 +12,7 @@ the least-squares solution of the first chunk, so the accumulated r is already r
 σ² loses no precision. The normal equations are solved in unit-norm columns; identifiability is judged on the p × p
 factor R = Λ^½ Vᵀ of JᵀJ = V Λ Vᵀ, which has the same singular values and right singular vectors as J.
 
-Each chunk is validated like a whole record (CONVENTIONS §5): a bad cell or a non-increasing time is reported with
+Each chunk is validated like a whole record (conventions §5): a bad cell or a non-increasing time is reported with
 its row number in the file. Supported: rebalance records of an SDF gyro or an accelerometer whose table rates are
 columns of the CSV or zero (static tables); rates derived from moving angles need neighbouring rows across chunk
 edges and are left to :func:`gyrojax.inference.identify.fit`.
@@ -102,7 +102,7 @@ def fit_chunked(path, terms=None, chunk_rows: int = 200_000, allow_aliases: bool
 
     Args:
       path: the record (``NAME.csv`` or ``NAME.json``).
-      terms: effect names (CONVENTIONS §6); default as :func:`gyrojax.inference.identify.fit`. Every effect must be
+      terms: effect names (conventions §6); default as :func:`gyrojax.inference.identify.fit`. Every effect must be
       linear.
       chunk_rows: rows per chunk (memory ∝ chunk_rows × number of coefficients).
 

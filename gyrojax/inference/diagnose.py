@@ -1,6 +1,6 @@
 """Diagnosis: see where the model fails and learn which named effect is missing.
 
-For every named effect the model lacks (CONVENTIONS §6) and the plan excites, a **score (Lagrange-multiplier)
+For every named effect the model lacks (conventions §6) and the plan excites, a **score (Lagrange-multiplier)
 test** at the current fit: one Jacobian of the model extended by all candidates, evaluated at (θ̂, 0), no refit per
 candidate. With the current regressors J₀ and a candidate's regressors X, both whitened,
 
@@ -18,7 +18,7 @@ adjusted p-value is below α.
 A candidate whose X⊥ vanishes is indistinguishable from the model in this plan; two candidates whose X⊥ are
 collinear are **aliases** of each other in this plan, and :func:`separating_plans` names built-in plans that
 would tell them apart. Residual colour that no candidate explains is reported as ``gauss_markov``, never as a
-deterministic effect (CONVENTIONS §6).
+deterministic effect (conventions §6).
 """
 
 from __future__ import annotations
@@ -42,7 +42,9 @@ from gyrojax.inference.identify import fit
 from gyrojax.inference.noisefit import campaign_noise, noise_scale, satterthwaite_dof, small_sample_factor
 from gyrojax.inference.result import FitResult
 from gyrojax.inference.solver import solve, stack_whitened
-from gyrojax.noise.whiten import ARNoise, GMNoise, fit_noise, whiten
+from gyrojax.noise import reml
+from gyrojax.noise.spec import NoiseSpec
+from gyrojax.noise.whiten import fit_noise, whiten
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model, jacobian
 
@@ -88,7 +90,7 @@ class Candidate:
     p_drift_refitted: float | None = None  # slow candidates: p of the Wald test with the drift re-fitted beside them
 
     def to_json(self) -> dict:
-        """One entry of ``candidates`` in the diagnosis JSON (CONVENTIONS §7); ``rms_after_deg_per_h`` is in the
+        """One entry of ``candidates`` in the diagnosis JSON (conventions §7); ``rms_after_deg_per_h`` is in the
         output unit (deg/h for gyros, g for accelerometers), ``estimate`` maps coefficient -> value and report unit."""
         return {
             "name": self.name,
@@ -139,7 +141,7 @@ class Diagnosis:
         return self.fit.noise_floor
 
     def to_json(self) -> dict:
-        """The JSON of CONVENTIONS §7 (``gyrojax diagnose --json``), with extra keys tools may ignore."""
+        """The JSON of conventions §7 (``gyrojax diagnose --json``), with extra keys tools may ignore."""
         return {
             "verdict": self.verdict,
             "residual_rms_deg_per_h": self.residual_rms,
@@ -239,8 +241,10 @@ def _noise_models(lin, cols, starts=None) -> list:
     for (r, j, lab, t), s, st in zip(lin, scales, starts):
         n = len(r)
         design = np.column_stack([j[:, cols], _nuisance(t)])
-        nz = fit_noise(res[i0 : i0 + n] * s, lab, t, design=design, start=st if isinstance(st, GMNoise) else None)
-        out.append(nz if nz.innovation_std > 0 else ARNoise(np.zeros(0), s, s))
+        nz = fit_noise(
+            res[i0 : i0 + n] * s, lab, t, design=design, start=st if st is not None and st.gauss_markov else None
+        )
+        out.append(nz if nz.innovation_std > 0 else NoiseSpec.from_sample_variances(s * s, reml.sample_interval(t)))
         i0 += n
     return out
 
@@ -326,7 +330,7 @@ def wald_beside_drift(camp: Campaign, lin, cols: np.ndarray, p0: int):
         return 1.0, beta, sd
     stat = float(beta[ok] @ np.linalg.solve(v[np.ix_(ok, ok)], beta[ok]))
     nus = np.full(len(idx), float(dof))
-    if any(isinstance(nz, GMNoise) for nz in noises):
+    if any(nz.gauss_markov for nz in noises):
         nus = satterthwaite_dof(sub, camp, noises, scales)[idx]
     k = int(ok.sum())
     # the standard error as `fit` states it: widened by t_ν / z (gyrojax.inference.noisefit.small_sample_factor)
@@ -424,7 +428,7 @@ def diagnose(
         explaining = [c for c in explaining if c not in barred]  # shapes they would have hidden are tested again
     verdict = "missing-effect" if significant or unexplained else "adequate"
     family = len(live) + len(shapes)
-    slow = [c for c in significant if c.name in SLOW] if any(isinstance(nz, GMNoise) for nz in noises) else []
+    slow = [c for c in significant if c.name in SLOW] if any(nz.gauss_markov for nz in noises) else []
     for c in slow:  # beside drift: is the candidate still significant with the drift re-fitted beside it?
         _drift_reading(c, camp, lin, full, p0)
         if c.p_drift_refitted * family >= alpha:

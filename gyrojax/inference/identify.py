@@ -32,6 +32,7 @@ with its file (:mod:`~gyrojax.inference.result`); this module is the fit that jo
 from __future__ import annotations
 
 import warnings
+from dataclasses import replace
 
 import numpy as np
 
@@ -51,7 +52,8 @@ from gyrojax.inference.noisefit import (
 from gyrojax.inference.result import FitResult
 from gyrojax.inference.solver import solve, stack_whitened, weighted_least_squares
 from gyrojax.inference.triad import fit_triad
-from gyrojax.noise.whiten import ARNoise, GMNoise
+from gyrojax.noise import reml
+from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model
 
@@ -99,7 +101,7 @@ def fit(
             refused.append(f"kind={kind!r}")
         if theta0 is not None:
             refused.append("theta0 (every triad coefficient is linear: there is no start to give)")
-        if isinstance(noise, str) or hasattr(noise, "whitening_model"):
+        if isinstance(noise, (str, NoiseSpec)):
             refused.append(
                 f"noise={noise!r} (a triad's noise is the long-run variance of each channel: None, or three variances)"
             )
@@ -136,15 +138,16 @@ def fit_campaign(
     max_iter: int = 30,
     campaign: Campaign | None = None,
 ) -> FitResult:
-    """Fit the named effects ``terms`` to turntable ``records`` jointly (CONVENTIONS §6 names).
+    """Fit the named effects ``terms`` to turntable ``records`` jointly (conventions §6 names).
 
     Args:
       records: a :class:`Record`, or a list of records of one instrument kind (any plans, mountings, modes).
       terms: effect names (or coefficient names); default: D_F, D_I, D_O, D_S for an SDF gyro.
       noise: ``"ar"`` (GLS with a white + Gauss–Markov or AR noise model per group of records, :func:`campaign_noise`;
-        default), ``"white"`` (WLS, one σ per record), or a given noise model with a ``whitening_model(dt_s)``
-        method (e.g. :class:`gyrojax.noise.gmwm.NoiseModel` from ``gyrojax noise``): GLS with that covariance, not
-        re-estimated, and the standard errors not rescaled by the residual χ² (the noise is known).
+        default), ``"white"`` (WLS, one σ per record), or a given noise model (a
+        :class:`gyrojax.noise.spec.NoiseSpec` of white + at most one Gauss–Markov term, e.g. from ``gyrojax noise``):
+        GLS with that covariance, not re-estimated, and the standard errors not rescaled by the residual χ² (the
+        noise is known).
       allow_aliases: return a minimum-norm fit instead of raising when the plan cannot separate some effects
         (those coefficients then have no finite standard error).
       theta0: starting coefficients (report units) for the nonlinear set-up effects.
@@ -173,11 +176,12 @@ def fit_campaign(
     theta, it, why = weighted_least_squares(model, theta, camp, noises, scales, max_iter)
     lin = linearize(model, theta, camp)
     # noise model and GLS pass
-    known = hasattr(noise, "whitening_model")  # a given noise model (e.g. gmwm.NoiseModel): GLS, not re-estimated
+    known = isinstance(noise, NoiseSpec)  # a given noise model (e.g. from gyrojax noise): GLS, not re-estimated
     if known:
         if kind == fx.ACCEL:
             raise ModelError(f"a noise model in deg/h applies to gyro records, not to {kind!r}")
-        noises = [noise.whitening_model(float(np.median(np.diff(t)))) for *_, t in lin]
+        noise.whitening_theta(1.0)  # white + at most one Gauss-Markov process, or a NoiseModelError naming the rest
+        noises = [replace(noise, dt_s=float(np.median(np.diff(t)))) for *_, t in lin]
         theta, it_gls, why_gls = weighted_least_squares(model, theta, camp, noises, scales, max_iter)
         it, why = it + it_gls, why or why_gls
         lin = linearize(model, theta, camp)
@@ -204,11 +208,14 @@ def fit_campaign(
     if not known:
         cov = cov * chi2 / dof  # the noise levels were estimated: scale by the pooled reduced χ² of the whitened fit
     dof_eff = None
-    if noise == "ar" and any(isinstance(nz, GMNoise) for nz in noises):
+    if noise == "ar" and any(nz.gauss_markov for nz in noises):
         dof_eff = satterthwaite_dof(lin, camp, noises, scales)
         g = small_sample_factor(dof_eff)
         cov = cov * np.outer(g, g)  # Student-t widening: θ̂ ± 2σ keeps its coverage when ν is small
-    noise_models = [nz if nz is not None else ARNoise(np.zeros(0), s, s) for nz, s in zip(noises, scales)]
+    noise_models = [
+        nz if nz is not None else NoiseSpec.from_sample_variances(s * s, reml.sample_interval(t), method="ar")
+        for nz, s, (*_, t) in zip(noises, scales, lin)
+    ]
     if why:
         # stacklevel 3: the caller of the public fit (the facade) is the line to blame
         warnings.warn(f"fit of {', '.join(model.terms)} did not converge: {why}", ConvergenceWarning, stacklevel=3)

@@ -13,14 +13,14 @@ from gyrojax.errors import ConvergenceWarning
 from gyrojax.inference.campaign import Campaign
 from gyrojax.inference.solver import solve, stack_whitened
 from gyrojax.noise import reml
+from gyrojax.noise.spec import NoiseSpec
 from gyrojax.noise.whiten import (
     FIT_TAU_SPAN_FRACTION,
-    ARNoise,
-    GMNoise,
     first_difference_std,
     fit_noise,
     gls_residual,
     gm_reml,
+    with_reml_covariance,
 )
 
 
@@ -64,16 +64,17 @@ def campaign_noise(lin, campaign: Campaign) -> list:
     is dropped (:data:`WHITE_LR_CRITICAL`).
 
     ``lin`` as from :func:`linearize` (residuals in the output unit, deg/h or g; times in s). Returns one
-    :class:`~gyrojax.noise.whiten.GMNoise` or :class:`~gyrojax.noise.whiten.ARNoise` per record (variances in the
-    output unit
-    squared, τ in s); records of one group share the same object.
+    :class:`~gyrojax.noise.spec.NoiseSpec` per record, white + Gauss–Markov (with the REML covariance of N, σ, T) or
+    AR (per-sample variances in the output unit squared, τ in s); records of one group share the same object.
     """
     noises = [None] * len(lin)
     for idx in noise_groups(campaign):
         r, j, lab, t = group_series(lin, idx)
         nz = fit_noise(r, lab, t, design=j, tau_span_fraction=FIT_TAU_SPAN_FRACTION, neutral_start=True, prefer_gm=True)
-        if isinstance(nz, GMNoise):
+        if nz.gauss_markov:
             nz = _white_unless_drift(r, j, lab, t, nz)
+        if nz.gauss_markov:
+            nz = with_reml_covariance(nz, r, j, lab, t, FIT_TAU_SPAN_FRACTION)
         for i in idx:
             noises[i] = nz
     return noises
@@ -84,7 +85,7 @@ WHITE_LR_CRITICAL = 2.71
 ½χ²₀ + ½χ²₁, the null law of a variance on its boundary."""
 
 
-def _white_unless_drift(r, j, lab, t, gm: GMNoise):
+def _white_unless_drift(r, j, lab, t, gm: NoiseSpec):
     """White noise instead of ``gm`` when the pooled REML cannot tell the drift from white (ratio below
     :data:`WHITE_LR_CRITICAL`). On white data a Gauss–Markov variance is estimated on its boundary, so positive by
     construction, and it would widen the standard errors of position means for nothing (8-position, white noise:
@@ -96,10 +97,10 @@ def _white_unless_drift(r, j, lab, t, gm: GMNoise):
     var = float(e @ e) / max(int(ok.sum()) - rank, 1)
     if var <= 0:
         return gm
-    white = GMNoise(gm.tau_s, 0.0, var)  # REML optimum of white noise: |ẽ|²/(n − p)
+    white = NoiseSpec.from_sample_variances(var, gm.dt_s, method="reml")  # REML optimum of white noise: |ẽ|²/(n − p)
     if gm_reml(r, j, lab, t, white) - gm_reml(r, j, lab, t, gm) >= WHITE_LR_CRITICAL:
         return gm
-    return ARNoise(np.zeros(0), float(np.sqrt(var)), float(np.sqrt(var)))
+    return white.with_status(gm.converged, gm.reason)
 
 
 def group_series(lin, idx):
@@ -141,12 +142,12 @@ def satterthwaite_dof(lin, campaign: Campaign, noises, scales) -> np.ndarray:
     var_v = np.zeros_like(v0)
     for idx in noise_groups(campaign):
         nz = noises[idx[0]]
-        if not isinstance(nz, GMNoise) or nz.gm_var <= 0 or nz.white_var <= 0:
+        if not nz.gauss_markov or nz.gm_variance <= 0 or nz.white_variance <= 0:
             continue
         r, j, lab, t = group_series(lin, idx)
-        theta = (nz.tau_s, nz.gm_var, nz.white_var)
+        theta = nz.whitening_theta()
         series = reml.prepare(r, j, lab, t, FIT_TAU_SPAN_FRACTION)
-        free = [1, 2] if nz.tau_s >= 0.999 * series.tau_max else [0, 1, 2]
+        free = [1, 2] if nz.gm_tau >= 0.999 * series.tau_max else [0, 1, 2]
         hess = reml.reml_hessian(series, theta)[np.ix_(free, free)]
         if not np.all(np.isfinite(hess)):
             names = ", ".join(campaign.records[i].name for i in idx)
@@ -194,7 +195,7 @@ def white_scale(r) -> float:
 
 def noise_not_converged(noises) -> str:
     """Reason a noise model's fit did not converge (an object with ``converged`` False), or ``""``."""
-    bad = [nz for nz in noises if nz is not None and getattr(nz, "converged", True) is False]
+    bad = [nz for nz in noises if nz is not None and not nz.converged]
     if not bad:
         return ""
-    return "the noise model's fit did not converge" + (f" ({bad[0].note})" if getattr(bad[0], "note", "") else "")
+    return "the noise model's fit did not converge" + (f" ({bad[0].reason})" if bad[0].reason else "")

@@ -1,5 +1,5 @@
 """The result of a campaign fit: estimates with units, standard errors, correlation, residuals and fit statistics,
-its JSON (CONVENTIONS §7) and the saved file it is read back from."""
+its JSON (conventions §7) and the saved file it is read back from."""
 
 from __future__ import annotations
 
@@ -17,7 +17,8 @@ from gyrojax.data.record import Record
 from gyrojax.errors import FormatError, ModelError
 from gyrojax.inference.formats import LEGACY_FORMAT, RESULT_FORMAT, RESULT_VERSION, fit_kind
 from gyrojax.inference.noisefit import small_sample_factor
-from gyrojax.noise.whiten import ARNoise, GMNoise, first_difference_std, noise_from_json, noise_to_json
+from gyrojax.noise.spec import NoiseSpec
+from gyrojax.noise.whiten import first_difference_std
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model, predict_jit
 
@@ -52,7 +53,7 @@ class FitResult(Estimates):
     labels: list
     record_names: list
     record_paths: list
-    noise: list  # noise model of each record (GMNoise or ARNoise; the records of one noise group share one)
+    noise: list  # noise model of each record (NoiseSpec; the records of one noise group share one)
     identifiability: dict
     n_samples: int
     iterations: int = 1
@@ -126,7 +127,7 @@ class FitResult(Estimates):
         return dict(zip(self.coefficient_names, self.model.coefficient_units))
 
     def to_json(self) -> dict:
-        """The JSON of CONVENTIONS §7 (``gyrojax fit --json``), with extra keys that tools may ignore; ``fit.converged``
+        """The JSON of conventions §7 (``gyrojax fit --json``), with extra keys that tools may ignore; ``fit.converged``
         is false, with ``fit.reason``, when the nonlinear or the noise-model step stopped before converging."""
         from gyrojax import __version__
 
@@ -187,7 +188,7 @@ class FitResult(Estimates):
         d["cov"] = self.cov
         d["record_names"] = list(self.record_names)
         d["record_paths"] = list(self.record_paths)
-        d["noise_models"] = [noise_to_json(nz) for nz in self.noise]
+        d["noise_models"] = [nz.to_json() for nz in self.noise]
         d["identifiability"] = dict(self.identifiability)
         d["dof_eff"] = None if self.dof_eff is None else np.asarray(self.dof_eff, dtype=float)  # ∞ saved as null
         return protocol.save(path, d, RESULT_FORMAT, RESULT_VERSION, force=force)
@@ -230,17 +231,25 @@ class FitResult(Estimates):
         return record.with_columns(current_mA=record.columns["current_mA"] + delta / sf)
 
 
-def _noise_json(nz) -> dict:
-    if getattr(nz, "order", 0) == "gm":
+def _noise_json(nz: NoiseSpec) -> dict:
+    """The per-record summary of a noise model in ``records[i].noise_model`` (per-sample stds, τ in s)."""
+    if nz.gauss_markov:
         return {
             "kind": "white+gauss_markov",
-            "white_std": float(np.sqrt(nz.white_var)),
-            "gauss_markov_std": float(np.sqrt(nz.gm_var)),
-            "tau_s": float(nz.tau_s),
+            "white_std": float(np.sqrt(nz.white_variance)),
+            "gauss_markov_std": float(np.sqrt(nz.gm_variance)),
+            "tau_s": float(nz.gm_tau),
             "innovation_std": nz.innovation_std,
-            "std": nz.std,
+            "std": nz.stationary_std,
+            "converged": nz.converged,
         }
-    return {"kind": "ar", "ar_order": int(nz.order), "innovation_std": nz.innovation_std, "std": nz.std}
+    return {
+        "kind": "ar",
+        "ar_order": int(nz.order),
+        "innovation_std": nz.innovation_std,
+        "std": nz.stationary_std,
+        "converged": nz.converged,
+    }
 
 
 def _num(x):
@@ -276,7 +285,7 @@ def result_from_json(d: dict, where: str = "fit result") -> FitResult:
         names = d.get("record_names", [r["name"] for r in records])
         paths = d.get("record_paths", [r.get("path") for r in records])
         noises = (
-            [noise_from_json(n) for n in d["noise_models"]]
+            [NoiseSpec.from_json(n, f"{where}: key 'noise_models'") for n in d["noise_models"]]
             if "noise_models" in d
             else [_noise_of_summary(r.get("noise_model", {})) for r in records]
         )
@@ -312,11 +321,14 @@ def result_from_json(d: dict, where: str = "fit result") -> FitResult:
     )
 
 
-def _noise_of_summary(s: dict):
-    """A noise model from its summary in a file before version 2 (:func:`_noise_json`)."""
+def _noise_of_summary(s: dict) -> NoiseSpec:
+    """A noise model from its summary in a file before version 2 (:func:`_noise_json`): per-sample variances, the
+    sample interval not kept (taken as 1 s, so N here is the per-sample std / 60), AR coefficients unknown (NaN)."""
     if s.get("kind") == "white+gauss_markov":
-        return GMNoise(float(s["tau_s"]), float(s["gauss_markov_std"]) ** 2, float(s["white_std"]) ** 2)
-    return ARNoise(np.full(int(s["ar_order"]), np.nan), float(s["innovation_std"]), float(s["std"]))
+        gm = [(float(s["gauss_markov_std"]) ** 2, float(s["tau_s"]))]
+        return NoiseSpec.from_sample_variances(float(s["white_std"]) ** 2, 1.0, gm, method="reml")
+    ar = (math.nan,) * int(s["ar_order"])
+    return NoiseSpec.from_sample_variances(float(s["innovation_std"]) ** 2, 1.0, ar=ar, method="ar")
 
 
 def _dof_eff_of(d: dict):

@@ -42,7 +42,7 @@ def weighted_least_squares(model: Model, theta, campaign: Campaign, noises, scal
     record, for fixed noise models. Returns (θ, iterations, reason it did not converge or ``""``).
 
     A model linear in θ needs one solve (:func:`solve`, rank-cut SVD). The nonlinear set-up effects (table tilt
-    and azimuth, encoder harmonics; CONVENTIONS §6) are fitted by Levenberg–Marquardt
+    and azimuth, encoder harmonics; conventions §6) are fitted by Levenberg–Marquardt
     (``scipy.optimize.least_squares``, method ``"lm"``, MINPACK) with the exact ``jax.jacfwd`` Jacobian, so a start
     far from the optimum is damped instead of overshooting. The trust region is measured in report units (arcsec,
     ppm, deg/h …, the natural scale of each coefficient): scaling it by the Jacobian's columns instead lets the

@@ -87,7 +87,7 @@ class TriadFit(Estimates):
         return np.linalg.solve(m["S"], (g - m["b"] - a @ m["G"].T).T).T
 
     def to_json(self) -> dict:
-        """The fit JSON (CONVENTIONS §7 shape, per-channel names ``D_F[x]``), with the matrix forms."""
+        """The fit JSON (conventions §7 shape, per-channel names ``D_F[x]``), with the matrix forms."""
         from gyrojax import __version__
 
         coeffs = {}

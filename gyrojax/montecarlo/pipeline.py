@@ -52,6 +52,7 @@ from gyrojax.errors import GyrojaxError
 from gyrojax.inference.lstsq import lstsq, lstsq_normal
 from gyrojax.montecarlo.study import Study, StudyError, _expand, _prior
 from gyrojax.noise.processes import random_drift
+from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics import effects as fx
 from gyrojax.physics.kinematics import turn
 from gyrojax.physics.model import (
@@ -77,7 +78,7 @@ def nominal_records(plan, kind: str | None = None) -> list[Record]:
 class Pipeline:
     """A study compiled to arrays: nominal records, models and prior vectors; :meth:`draw` is pure JAX.
 
-    Priors and θ are in report units (deg/h, deg/h/g, ppm, …); ``noise`` as in truth files (CONVENTIONS §8);
+    Priors and θ are in report units (deg/h, deg/h/g, ppm, …); ``noise`` as in truth files (conventions §8);
     ``dt_white`` the averaging interval (s) of white and quantisation noise per record.
     """
 
@@ -88,7 +89,7 @@ class Pipeline:
     prior_uniform: np.ndarray
     prior_a: np.ndarray
     prior_b: np.ndarray
-    noise: dict
+    noise: NoiseSpec
     dt_white: tuple
     solver: str = "cholesky"
     seed: int = 0
@@ -118,7 +119,7 @@ class Pipeline:
 
     def record_noise(self, key, i: int, data: RecordData):
         """Random drift on the measurements of record ``i`` (deg/h), as the simulator adds it."""
-        if not self.noise:
+        if self.noise.is_zero:
             return jnp.zeros(data.y.shape)
         t = np.asarray(self.records[i].time_s, dtype=float)
         k = jax.random.fold_in(key, i)
@@ -314,7 +315,7 @@ def build_pipeline(study: Study, plan=None, records=None) -> Pipeline:
     trig = tuple(tuple(angle_trig(jnp.asarray(d.angles))) for d in data)
     runs = constant_runs(data, (fit_model, truth_model))
     return Pipeline(
-        recs, data, fit_model, truth_model, uni, a, b, dict(study.noise), dtw, study.solver, study.seed, trig, runs
+        recs, data, fit_model, truth_model, uni, a, b, study.noise, dtw, study.solver, study.seed, trig, runs
     )
 
 

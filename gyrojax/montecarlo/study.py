@@ -16,7 +16,7 @@ from gyrojax import protocol
 from gyrojax.data import plans as plans_mod
 from gyrojax.data.truth import SETUP_SIZES
 from gyrojax.errors import GyrojaxError
-from gyrojax.noise.processes import validate_noise
+from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model
 from gyrojax.protocol import read_json_file
@@ -39,14 +39,15 @@ class Study:
 
     ``priors`` and ``setup`` map a coefficient name (or an effect name: every coefficient of it) to a prior:
     a number (fixed), ``{"normal": [mean, std]}`` or ``{"uniform": [low, high]}``, report units (arcsec for the
-    set-up errors). ``noise`` is a noise dict of :mod:`gyrojax.noise` (e.g. ``{"white": 0.01}``).
+    set-up errors). ``noise`` is a :class:`~gyrojax.noise.spec.NoiseSpec` (in the study file, a truth file's
+    noise dict of conventions §8, e.g. ``{"white": 0.01}``).
     """
 
     plan: str
     terms: tuple[str, ...]
     priors: dict = field(default_factory=dict)
     setup: dict = field(default_factory=dict)
-    noise: dict = field(default_factory=dict)
+    noise: NoiseSpec = field(default_factory=NoiseSpec)
     draws: int = 1000
     seed: int = 0
     plan_options: dict = field(default_factory=dict)
@@ -54,11 +55,15 @@ class Study:
     chunk: int | None = None
     solver: str = "cholesky"
 
+    def __post_init__(self):
+        if not isinstance(self.noise, NoiseSpec):  # a truth file's noise dict (conventions §8), as in study files
+            object.__setattr__(self, "noise", NoiseSpec.from_truth(self.noise, "study: key 'noise'"))
+
     def to_dict(self) -> dict:
         """The study as a JSON-ready dict (the study file format, ``STUDY_FORMAT`` version ``STUDY_VERSION``)."""
         d = asdict(self)
         d["terms"] = list(self.terms)
-        d["noise"] = {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.noise.items()}
+        d["noise"] = self.noise.to_truth()
         d[protocol.FORMAT_KEY] = STUDY_FORMAT
         d[protocol.VERSION_KEY] = STUDY_VERSION
         return d
@@ -164,7 +169,7 @@ def study_from_dict(d, where: str = "study") -> Study:
             _expand(name, f"{where}: key '{key}.{name}'", setup)
             _prior(v, f"{where}: key '{key}.{name}'")
     try:
-        noise = validate_noise(d.get("noise"), f"{where}: key 'noise'")
+        noise = NoiseSpec.from_truth(d.get("noise"), f"{where}: key 'noise'")
     except GyrojaxError as e:
         raise StudyError(str(e)) from None
     for key in ("draws", "seed", "chunk"):

@@ -11,56 +11,34 @@
 overlapping estimator; ν follows the simple approximations of NIST SP 1065 Table 5 (Lesage–Audoin,
 Howe–Allan–Barnes) for the noise type of each τ, identified from the local log-log slope of σ²(τ).
 
-**Noise model** (IEEE 952 annex C, τ in s, σ² in (deg/h)²):
-
-==================  ====================  =====================================  =================
-term                coefficient (unit)    Allan variance                         slope of σ(τ)
-==================  ====================  =====================================  =================
-``quantization``    Q (arcsec)            3 Q² / τ²          (1 arcsec/s = 1 deg/h) −1
-``white``           N (deg/√h)            N² / τ_h = 3600 N² / τ                 −1/2
-``bias_instability`` B (deg/h)            (2 ln 2 / π) B²    (flicker floor)      0
-``random_walk``     K (deg/h/√h)          K² τ_h / 3 = K² τ / 10800              +1/2
-``rate_ramp``       R (deg/h/h)           R² τ_h² / 2 = R² τ² / (2·3600²)        +1
-``gauss_markov``    σ (deg/h), T (s)      (2σ²T/τ)[1 − (T/2τ)(3 − 4e^{−τ/T} + e^{−2τ/T})]
-==================  ====================  =====================================  =================
-
+**Noise model**: the IEEE 952 annex C terms of :class:`~gyrojax.noise.spec.NoiseSpec` (its module table).
 The fit is a weighted non-negative least squares on the variance scale, weights ν/(2σ⁴) from the χ² law
 (iterated with the model's σ² in place of the noisy estimate); terms that never carry a given fraction of
-the model, or are not significant, are dropped and the rest refitted. ``NoiseFit.term_adev`` gives each
-term's own Allan curve (the GMWM-style view).
+the model, or are not significant, are dropped and the rest refitted. The fit is a
+:class:`~gyrojax.noise.spec.NoiseSpec`; its ``term_adev`` gives each term's own Allan curve (the GMWM-style view).
 
-Command line: ``gyrojax noise RECORD... [--json] [--plot PNG]`` on static records.
+Command line: ``gyrojax noise RECORD... [--json] [--plot PNG]`` on static records (their rate series by
+:func:`gyrojax.data.static.static_rate_segments`); this module works on arrays.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 from scipy import optimize, stats
 
-from gyrojax.data.records import uniform_interval
-from gyrojax.errors import GyrojaxError, RecordError
-from gyrojax.units import SECONDS_PER_HOUR
+from gyrojax.errors import GyrojaxError
+from gyrojax.noise.spec import LINEAR, UNITS, NoiseSpec, gauss_markov_avar, term_basis
 
 ONE_SIGMA = math.erf(1.0 / math.sqrt(2.0))
 """Confidence level of ±1σ (0.6827)."""
 
-BI_FACTOR = 2.0 * math.log(2.0) / math.pi
-"""σ² of the flicker floor per B² (IEEE 952 C.1: σ = 0.664 B)."""
-
-TERMS = ("quantization", "white", "bias_instability", "random_walk", "rate_ramp")
-UNITS = {
-    "quantization": "arcsec",
-    "white": "deg/sqrt(h)",
-    "bias_instability": "deg/h",
-    "random_walk": "deg/h/sqrt(h)",
-    "rate_ramp": "deg/h/h",
-    "gauss_markov": ["deg/h", "s"],
-}
+TERMS = LINEAR
+"""The IEEE 952 terms fitted by :func:`fit_noise_model` (:data:`gyrojax.noise.spec.LINEAR`)."""
 
 
 TERM_ALPHA = {"quantization": 2, "white": 0, "bias_instability": -1, "random_walk": -2, "rate_ramp": -2}
@@ -322,93 +300,33 @@ def allan(segments, tau0: float, m_list=None, ci: float = ONE_SIGMA, alpha=None)
 # ---- noise model ------------------------------------------------------------------------------------------------
 
 
-def gauss_markov_avar(tau, sigma, t_c):
-    """Allan variance ((deg/h)²) of a first-order Gauss–Markov rate of std σ (deg/h), correlation time T (s).
-
-    σ²(τ) = (2σ²T/τ)[1 − (T/2τ)(3 − 4e^{−τ/T} + e^{−2τ/T})]: → 2σ²τ/(3T) (random-walk-like) for τ ≪ T,
-    → 2σ²T/τ (white) for τ ≫ T, peak 0.3811σ² at τ = 1.8923T. Series form for τ/T < 1e-3 (no cancellation).
-    """
-    x = np.asarray(tau, float) / t_c
-    with np.errstate(all="ignore"):
-        big = (2.0 / x) * (1.0 - (3.0 - 4.0 * np.exp(-x) + np.exp(-2.0 * x)) / (2.0 * x))
-    small = 2.0 * x / 3.0 - x * x / 2.0 + 7.0 * x**3 / 30.0
-    return sigma**2 * np.where(x < 1e-3, small, big)
-
-
-def term_basis(name: str, tau) -> np.ndarray:
-    """σ²(τ) in (deg/h)² of term ``name`` per unit squared coefficient (units of ``UNITS``), ``tau`` in s.
-
-    IEEE 952 C.1: quantisation 3Q²/τ² (Q in arcsec; 1 arcsec/s = 1 deg/h), white N²/τ, bias instability
-    (2 ln 2/π) B² ≈ 0.664² B², rate random walk K²τ/3, rate ramp R²τ²/2 (τ in h where the coefficient has h).
-    """
-    tau = np.asarray(tau, float)
-    if name == "quantization":
-        return 3.0 / tau**2
-    if name == "white":
-        return SECONDS_PER_HOUR / tau
-    if name == "bias_instability":
-        return np.full_like(tau, BI_FACTOR)
-    if name == "random_walk":
-        return tau / (3.0 * SECONDS_PER_HOUR)
-    if name == "rate_ramp":
-        return tau**2 / (2.0 * SECONDS_PER_HOUR**2)
-    raise AllanError(f"unknown noise term {name!r}; valid: {', '.join(TERMS)}, gauss_markov")
+def dominant_alpha(spec: NoiseSpec, taus) -> np.ndarray:
+    """Noise exponent α of the term that carries most of the model σ² of ``spec`` at each τ (s), for the EDF."""
+    curves = spec.term_avar(taus)
+    if not curves:
+        return np.zeros(np.shape(taus), int)
+    names = list(curves)
+    dom = np.argmax(np.stack([curves[k] for k in names]), axis=0)
+    out = np.zeros(np.shape(taus), int)
+    for i, k in enumerate(names):
+        if k.startswith("gm"):
+            mu = np.clip(np.round(local_slope(taus, curves[k])), -1, 2).astype(int)
+            a = np.array([ALPHA_OF_SLOPE[int(u)] for u in mu])
+        else:
+            a = TERM_ALPHA[k]
+        out = np.where(dom == i, a, out)
+    return out
 
 
-@dataclass
-class NoiseFit:
-    """Fitted noise coefficients: linear terms by name in their units (``UNITS``), ``gauss_markov`` (σ, T)."""
-
-    values: dict
-    gauss_markov: tuple | None
-    included: tuple
-    std: dict = field(default_factory=dict)
-
-    def term_avar(self, taus) -> dict:
-        """Each included term's own Allan variance curve ((deg/h)²) on ``taus`` (s)."""
-        out = {k: self.values[k] ** 2 * term_basis(k, taus) for k in self.included if k != "gauss_markov"}
-        if self.gauss_markov is not None:
-            out["gauss_markov"] = gauss_markov_avar(taus, *self.gauss_markov)
-        return out
-
-    def term_adev(self, taus) -> dict:
-        """Each term's own Allan deviation curve (deg/h): the GMWM-style decomposition."""
-        return {k: np.sqrt(v) for k, v in self.term_avar(taus).items()}
-
-    def dominant_alpha(self, taus) -> np.ndarray:
-        """Noise exponent α of the term that carries most of the model σ² at each τ (for the EDF)."""
-        curves = self.term_avar(taus)
-        if not curves:
-            return np.zeros(np.shape(taus), int)
-        names = list(curves)
-        dom = np.argmax(np.stack([curves[k] for k in names]), axis=0)
-        out = np.zeros(np.shape(taus), int)
-        for i, k in enumerate(names):
-            if k == "gauss_markov":
-                mu = np.clip(np.round(local_slope(taus, curves[k])), -1, 2).astype(int)
-                a = np.array([ALPHA_OF_SLOPE[int(u)] for u in mu])
-            else:
-                a = TERM_ALPHA[k]
-            out = np.where(dom == i, a, out)
-        return out
-
-    def avar(self, taus) -> np.ndarray:
-        """Model Allan variance, (deg/h)², at ``taus`` (s): the sum of the included terms."""
-        return sum(self.term_avar(taus).values(), np.zeros(np.shape(taus)))
-
-    def adev(self, taus) -> np.ndarray:
-        """Model Allan deviation, deg/h, at ``taus`` (s)."""
-        return np.sqrt(self.avar(taus))
-
-    def terms_json(self) -> dict:
-        """The ``terms`` object of ``gyrojax noise --json``: value and unit of each named term (0 if dropped)."""
-        out = {
-            k: {"value": float(self.values.get(k, 0.0)), "unit": UNITS[k]}
-            for k in ("white", "bias_instability", "random_walk", "quantization")
-        }
-        gm = None if self.gauss_markov is None else [float(self.gauss_markov[0]), float(self.gauss_markov[1])]
-        out["gauss_markov"] = {"value": gm, "unit": UNITS["gauss_markov"]}
-        return out
+def terms_json(spec: NoiseSpec) -> dict:
+    """The ``terms`` object of ``gyrojax noise --json``: value and unit of each named term (0 if dropped)."""
+    out = {
+        k: {"value": getattr(spec, k), "unit": UNITS[k]}
+        for k in ("white", "bias_instability", "random_walk", "quantization")
+    }
+    gm = list(spec.gauss_markov[0]) if spec.gauss_markov else None
+    out["gauss_markov"] = {"value": gm, "unit": [UNITS["sigma"], UNITS["tau"]]}
+    return out
 
 
 def _wnnls(basis, avar, edf, n_iter=6):
@@ -435,16 +353,18 @@ def _wnnls(basis, avar, edf, n_iter=6):
 
 def fit_noise_model(
     taus, avar, edf, terms=TERMS, gauss_markov: bool = False, min_fraction: float = 0.1, min_snr: float = 3.0
-) -> NoiseFit:
+) -> NoiseSpec:
     """Fit the IEEE 952 terms to an Allan variance (weighted NNLS on σ², weights from the EDF).
 
-    ``taus`` in s, ``avar`` in (deg/h)², ``edf`` dimensionless; coefficients come back in ``UNITS``.
+        ``taus`` in s, ``avar`` in (deg/h)², ``edf`` dimensionless; returns a :class:`NoiseSpec` (``method``
+    "ieee952") whose covariance holds the linear terms and the Gauss–Markov σ (T is read off a grid: no standard
+    error), and whose status says whether the bounded search for T converged.
 
-    ``terms``: linear terms to try (default all five). ``gauss_markov``: also fit a Gauss–Markov term (σ, T),
-    T searched on a log grid over the τ range, then refined. Model selection: the weakest term is dropped
-    (and the rest refitted) while some term's share of the model σ² never reaches ``min_fraction`` at any τ,
-    or its σ² contribution never rises ``min_snr`` times above the standard error of the estimate,
-    σ²_model·√(2/ν), at any τ (so the last few τ, with ν ≈ 1–3, cannot admit a term on their own).
+        ``terms``: linear terms to try (default all five). ``gauss_markov``: also fit a Gauss–Markov term (σ, T),
+        T searched on a log grid over the τ range, then refined. Model selection: the weakest term is dropped
+        (and the rest refitted) while some term's share of the model σ² never reaches ``min_fraction`` at any τ,
+        or its σ² contribution never rises ``min_snr`` times above the standard error of the estimate,
+        σ²_model·√(2/ν), at any τ (so the last few τ, with ν ≈ 1–3, cannot admit a term on their own).
     """
     taus, avar, edf = (np.asarray(a, float) for a in (taus, avar, edf))
     if taus.shape != avar.shape or taus.shape != edf.shape or taus.size < 2:
@@ -453,11 +373,15 @@ def fit_noise_model(
         raise AllanError("avar must be finite, >= 0 and not all zero; edf must be > 0")
     names = [t for t in terms]
     for t in names:
-        term_basis(t, taus[:1])
+        if t not in TERMS:
+            raise AllanError(f"unknown noise term {t!r}; valid: {', '.join(TERMS)} (and gauss_markov=True)")
     use_gm = bool(gauss_markov)
     gm_grid = np.geomspace(taus.min() / 2.0, taus.max() * 2.0, 24)
 
+    status: list = []  # (converged, message) of the bounded search for T of the last solve (the returned model)
+
     def solve(names, use_gm):
+        status.clear()
         cols = [term_basis(t, taus) for t in names]
         if not use_gm:
             c, cov, sse = _wnnls(np.stack(cols, axis=1), avar, edf)
@@ -471,6 +395,7 @@ def fit_noise_model(
         k = int(np.argmin(sses))
         lo, hi = math.log(gm_grid[max(k - 1, 0)]), math.log(gm_grid[min(k + 1, len(gm_grid) - 1)])
         res = optimize.minimize_scalar(lambda lt: for_t(lt)[2], bounds=(lo, hi), method="bounded")
+        status.append((bool(res.success), str(getattr(res, "message", ""))))
         t_best = math.exp(res.x) if res.fun <= sses[k] else gm_grid[k]
         c, cov, sse = for_t(math.log(t_best))
         return c[:-1], cov, sse, (math.sqrt(max(c[-1], 0.0)), t_best)
@@ -483,7 +408,6 @@ def fit_noise_model(
         total = np.maximum(sum(contrib), 1e-300)
         share = [float(np.max(ci / total)) for ci in contrib]
         snr = [float(np.max(ci / (total * np.sqrt(2.0 / edf)))) for ci in contrib]
-        se = np.sqrt(np.maximum(np.diag(cov), 0.0))
         weak = [i for i in range(len(contrib)) if share[i] < min_fraction or snr[i] < min_snr]
         if not weak or len(contrib) == 1:
             break
@@ -493,13 +417,27 @@ def fit_noise_model(
         else:
             names.pop(worst)
     values = {t: math.sqrt(max(c[i], 0.0)) for i, t in enumerate(names)}
-    std = {t: (se[i] / (2 * values[t]) if values[t] > 0 else float("inf")) for i, t in enumerate(names)}
-    included = tuple(names) + (("gauss_markov",) if gm is not None else ())
-    return NoiseFit(values, gm, included, std)
+    # natural-unit covariance by the delta method: ∂√c/∂c = 1/(2√c); the GM σ likewise from its σ² column
+    cov_names = list(names) + (["gm1_sigma"] if gm is not None else [])
+    vals = np.array([values[t] for t in names] + ([gm[0]] if gm is not None else []))
+    with np.errstate(divide="ignore"):
+        d = np.where(vals > 0, 1.0 / (2.0 * vals), np.inf)
+    cov_nat = np.where(np.outer(d, d) == np.inf, np.inf, cov[: len(vals), : len(vals)] * np.outer(d, d))
+    ok = all(st for st, _ in status)
+    reason = "" if ok else f"bounded search for the Gauss-Markov tau: {status[0][1]}"
+    return NoiseSpec(
+        **values,
+        gauss_markov=(gm,) if gm is not None else (),
+        method="ieee952",
+        cov=cov_nat,
+        cov_names=cov_names,
+        converged=ok,
+        reason=reason,
+    )
 
 
 def analyze(segments, tau0: float, m_list=None, gauss_markov: bool = False, **fit_kw):
-    """Allan deviation and noise-model fit of rate series (deg/h) at τ0 s: returns (AllanResult, NoiseFit).
+    """Allan deviation and noise-model fit of rate series (deg/h) at τ0 s: returns (AllanResult, NoiseSpec).
 
     The fit runs twice: first with the EDF of the slope-identified noise types, then with those of the noise
     type the first fit finds dominant at each τ (the returned intervals use the latter).
@@ -507,77 +445,19 @@ def analyze(segments, tau0: float, m_list=None, gauss_markov: bool = False, **fi
     res = allan(segments, tau0, m_list)
     fit = fit_noise_model(res.taus_s, res.avar, res.edf, gauss_markov=gauss_markov, **fit_kw)
     # second pass: degrees of freedom for the noise type the first fit finds at each τ
-    res = res.with_alpha(fit.dominant_alpha(res.taus_s))
+    res = res.with_alpha(dominant_alpha(fit, res.taus_s))
     return res, fit_noise_model(res.taus_s, res.avar, res.edf, gauss_markov=gauss_markov, **fit_kw)
 
 
-# ---- records and the command line -------------------------------------------------------------------------------
+# ---- the command line's JSON ------------------------------------------------------------------------------------
 
 
-JITTER_TOLERANCE = 0.1
-"""Largest timestamp jitter (max |Δt − mean Δt| / mean Δt within a continuous segment) taken as a uniform
-sampling at the mean interval; more is refused (the Allan variance needs a constant sample interval)."""
-
-
-def static_rate_segments(records, rate_tol_dps: float = 1e-9, notes: list | None = None):
-    """The indicated rate (deg/h) of static SDF records, split into continuous segments; and the common τ0 (s).
-
-    Gaps (steps over 1.5 × the median, :func:`gyrojax.records.continuous_segments`) split a record into
-    segments that are pooled. Timestamp jitter within a segment up to :data:`JITTER_TOLERANCE` of the interval
-    is tolerated: τ0 is then the mean interval and a sentence saying so is appended to ``notes`` (if given).
-    Raises :class:`AllanError` for a non-SDF record, a moving table, larger jitter, or intervals that differ.
-    """
-    segs, tau0 = [], None
-    for r in records:
-        if r.kind != "sdf-gyro":
-            raise AllanError(f"{r.name}: the noise analysis takes SDF gyro records, this one is {r.kind!r}")
-        if r.mode != "rebalance":
-            raise AllanError(f"{r.name}: the noise analysis needs a rebalance-mode record, this one is {r.mode!r}")
-        moving = np.abs(r.rates_dps) > rate_tol_dps
-        if moving.any():
-            row, col = np.argwhere(moving)[0]
-            raise AllanError(
-                f"{r.name}: table axis {r.axis_names[col]!r} moves at row {row + 1} "
-                f"({r.rates_dps[row, col]:g} deg/s); the noise analysis needs static records"
-            )
-        sid, y, t = r.segment_id, r.indicated, r.time_s
-        # the ids count up along the record (gyrojax.data.records.continuous_segments): each piece is one run
-        starts = np.concatenate([[0], np.flatnonzero(sid[1:] != sid[:-1]) + 1])
-        ends = np.append(starts[1:], len(sid))
-        if len(starts) > 1 and notes is not None:
-            notes.append(f"{r.name}: {len(starts)} continuous pieces separated by gaps, analysed separately and pooled")
-        for s, a, b in zip(sid[starts], starts, ends):
-            sel = slice(a, b)
-            if b - a < 4:
-                continue
-            try:
-                d, jitter = uniform_interval(t[sel], JITTER_TOLERANCE)
-            except RecordError as e:
-                raise AllanError(
-                    f"{r.name}: non-uniform sampling in segment {int(s)}: {e}; the Allan variance needs a constant "
-                    "sample interval"
-                ) from None
-            if jitter > 1e-6 and notes is not None:
-                notes.append(
-                    f"{r.name}: timestamp jitter up to {100 * jitter:.2g} % of the interval; "
-                    f"the mean interval {d:.9g} s is used"
-                )
-            if tau0 is None:
-                tau0 = d
-            elif abs(d - tau0) > max(1e-6, JITTER_TOLERANCE * 0.1) * tau0:
-                raise AllanError(f"{r.name}: sample interval {d:g} s differs from {tau0:g} s of the other records")
-            segs.append(np.asarray(y[sel], float))
-    if not segs:
-        raise AllanError("no continuous static segment with at least 4 samples in the records")
-    return segs, tau0
-
-
-def noise_json(res: AllanResult, fit: NoiseFit) -> dict:
+def noise_json(res: AllanResult, fit: NoiseSpec) -> dict:
     """The JSON object printed by ``gyrojax noise --json``."""
     return {
         "taus_s": [float(x) for x in res.taus_s],
         "adev_deg_per_h": [float(x) for x in res.adev],
         "adev_low": [float(x) for x in res.low],
         "adev_high": [float(x) for x in res.high],
-        "terms": fit.terms_json(),
+        "terms": terms_json(fit),
     }

@@ -1,4 +1,5 @@
-"""Random drift processes (CONVENTIONS §6, IEEE 952 annex C), generated in JAX.
+"""Random drift processes (conventions §6, IEEE 952 annex C), generated in JAX: the one noise simulator
+(:func:`simulate` of a :class:`~gyrojax.noise.spec.NoiseSpec`, :func:`random_drift` of a truth file's dict).
 
 Each generator returns the *rate averaged over the sample interval* (deg/h) at each sample, which is what a
 rebalance loop's current or a servo angle increment measures. Keys are explicit; the same key gives the same
@@ -21,35 +22,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyrojax import units
-from gyrojax.errors import TruthError
+from gyrojax.noise.spec import BI_FACTOR, TRUTH_KEYS, NoiseModelError, NoiseSpec
 
-NOISE_NAMES = ("white", "gauss_markov", "random_walk", "quantization", "bias_instability")
-
-
-def validate_noise(noise: dict | None, where: str = "noise") -> dict:
-    """Check a noise dict (truth files, CONVENTIONS §8) and return it with floats."""
-    noise = dict(noise or {})
-    out = {}
-    for k, v in noise.items():
-        if k not in NOISE_NAMES:
-            raise TruthError(f"{where}: unknown noise term {k!r}; valid: {', '.join(NOISE_NAMES)}")
-        if k == "gauss_markov":
-            if not isinstance(v, (list, tuple)) or len(v) != 2:
-                raise TruthError(f"{where}.gauss_markov must be [sigma_deg_per_h, tau_s], got {v!r}")
-            s, tau = float(v[0]), float(v[1])
-            if s < 0 or tau <= 0:
-                raise TruthError(f"{where}.gauss_markov needs sigma >= 0 and tau > 0, got {v!r}")
-            out[k] = (s, tau)
-        elif k == "bias_instability":
-            if not isinstance(v, (list, tuple)) or len(v) != 3:
-                raise TruthError(f"{where}.bias_instability must be [B_deg_per_h, tau_min_s, tau_max_s], got {v!r}")
-            out[k] = tuple(float(x) for x in v)
-        else:
-            x = float(v)
-            if not np.isfinite(x) or x < 0:
-                raise TruthError(f"{where}.{k} must be a finite number >= 0, got {v!r}")
-            out[k] = x
-    return out
+NOISE_NAMES = TRUTH_KEYS
 
 
 def white(key, n, dt_s, arw):
@@ -94,23 +69,33 @@ def bias_instability(key, dt_s, b, tau_min, tau_max, n_poles=6):
     """Flicker (1/f) drift of bias-instability coefficient ``b`` (deg/h) between ``tau_min`` and ``tau_max`` s,
     approximated by a sum of Gauss–Markov processes with log-spaced correlation times.
 
-    Each pole carries variance so that the Allan floor is ≈ 0.664·b (IEEE 952: σ_min = B·√(2 ln 2/π)).
+    Each pole carries variance so that the Allan floor is ≈ BI_FACTOR·b (IEEE 952: σ_min = B·√(2 ln 2/π) = 0.664 B).
     """
     taus = np.geomspace(tau_min, tau_max, n_poles)
     # one GM of σ² gives a peak Allan variance ≈ 0.38·σ² (at τ ≈ 1.9 τ_c); overlap of log-spaced poles adds up
     spacing = np.log(taus[1] / taus[0]) if n_poles > 1 else 1.0
-    sigma = b * 0.664 / np.sqrt(0.38) * np.sqrt(min(1.0, spacing / 3.5))
+    sigma = b * BI_FACTOR / np.sqrt(0.38) * np.sqrt(min(1.0, spacing / 3.5))
     keys = jax.random.split(key, n_poles)
     return sum(gauss_markov(k, dt_s, sigma, t) for k, t in zip(keys, taus))
 
 
-def random_drift(key, time_s, noise: dict, dt_white=None):
-    """Sum of the random-drift processes of ``noise`` on the sample times ``time_s`` (deg/h).
+def random_drift(key, time_s, noise, dt_white=None):
+    """:func:`simulate` of ``noise``, a :class:`NoiseSpec` or a truth file's noise dict (conventions §8, read by
+    :meth:`NoiseSpec.from_truth`): deg/h at ``time_s`` (s), ``dt_white`` the averaging interval (s)."""
+    spec = noise if isinstance(noise, NoiseSpec) else NoiseSpec.from_truth(noise)
+    return simulate(spec, key, time_s, dt_white)
+
+
+def simulate(spec: NoiseSpec, key, time_s, dt_white=None):
+    """Sum of the random-drift processes of ``spec`` on the sample times ``time_s`` (deg/h): the one noise
+    simulator.
 
     ``dt_white`` is the averaging interval of each sample for white and quantisation noise (default: the
-    median time step); the coloured processes use the true time steps, so gaps between positions decorrelate.
+    median time step); the coloured processes use the true time steps, so gaps between positions decorrelate. A
+    second Gauss–Markov term draws from ``fold_in(key, i)`` of the first's key; the rate ramp is R·(t − t_0).
     """
-    noise = validate_noise(noise)
+    if spec.ar:
+        raise NoiseModelError("noise model: simulating an AR colour is not implemented; use Gauss-Markov terms")
     time_s = jnp.asarray(time_s, dtype=jnp.float64)
     n = time_s.shape[0]
     steps = jnp.concatenate([jnp.zeros(1), jnp.diff(time_s)])
@@ -118,14 +103,19 @@ def random_drift(key, time_s, noise: dict, dt_white=None):
         dt_white = float(np.median(np.diff(np.asarray(time_s)))) if n > 1 else 1.0
     k_white, k_gm, k_rw, k_q, k_bi = jax.random.split(key, 5)
     out = jnp.zeros(n)
-    if noise.get("white", 0.0) > 0:
-        out = out + white(k_white, n, dt_white, noise["white"])
-    if "gauss_markov" in noise and noise["gauss_markov"][0] > 0:
-        out = out + gauss_markov(k_gm, steps, *noise["gauss_markov"])
-    if noise.get("random_walk", 0.0) > 0:
-        out = out + random_walk(k_rw, steps, noise["random_walk"])
-    if noise.get("quantization", 0.0) > 0:
-        out = out + quantization(k_q, n, dt_white, noise["quantization"])
-    if "bias_instability" in noise and noise["bias_instability"][0] > 0:
-        out = out + bias_instability(k_bi, steps, *noise["bias_instability"])
+    if spec.white > 0:
+        out = out + white(k_white, n, dt_white, spec.white)
+    for i, (s, tau) in enumerate(spec.gauss_markov):
+        if s > 0:
+            out = out + gauss_markov(k_gm if i == 0 else jax.random.fold_in(k_gm, i), steps, s, tau)
+    if spec.random_walk > 0:
+        out = out + random_walk(k_rw, steps, spec.random_walk)
+    if spec.quantization > 0:
+        out = out + quantization(k_q, n, dt_white, spec.quantization)
+    if spec.bias_instability > 0:
+        if spec.flicker_band is None:
+            raise NoiseModelError("noise model: simulating bias instability needs its flicker_band (tau_min, tau_max)")
+        out = out + bias_instability(k_bi, steps, spec.bias_instability, *spec.flicker_band)
+    if spec.rate_ramp > 0:
+        out = out + spec.rate_ramp * (time_s - time_s[0]) / units.SECONDS_PER_HOUR
     return out

@@ -15,14 +15,17 @@ autocorrelations). ARMA models use the Hannan–Rissanen two-stage regression (a
 then x_t is regressed on its own lags and the lagged innovations). Orders are chosen by
 AIC = N ln σ̂_a² + 2k or BIC = N ln σ̂_a² + k ln N, k = p + q.
 
-An AR(1) with step Δt is a sampled Gauss–Markov process (CONVENTIONS §6 ``gauss_markov``):
+Fitted models are :class:`~gyrojax.noise.spec.NoiseSpec` (``method`` "ar"): ``ar`` = φ, ``ma`` = θ, the white term
+the innovation a_t (variance ``white_variance`` per sample), the mean and sample count in ``info``.
+
+An AR(1) with step Δt is a sampled Gauss–Markov process (conventions §6 ``gauss_markov``):
 φ = exp(−Δt/T), σ² = σ_a²/(1 − φ²).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import replace
 from functools import partial
 
 import jax
@@ -30,6 +33,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyrojax.errors import GyrojaxError
+from gyrojax.noise.spec import NoiseSpec
 
 
 class RandomDriftError(GyrojaxError, ValueError):
@@ -55,23 +59,41 @@ def autocovariance(x, max_lag: int | None = None, demean: bool = True):
 
     Steps of Hu §2: remove the mean, pad with ≥ N zeros, DFT, |A|², inverse DFT, keep the first lags.
     """
-    x = jnp.asarray(_check(x, 2))
+    x = _check(x, 2)
     n = x.shape[0]
     max_lag = n - 1 if max_lag is None else int(max_lag)
     if not 0 <= max_lag < n:
         raise RandomDriftError(f"max_lag must be in [0, {n - 1}], got {max_lag}")
-    return _autocov(x, _nfft(n), max_lag + 1, demean)
+    return lagged_sums(x - np.mean(x) if demean else x, max_lag) / n
+
+
+def lagged_sums(x: np.ndarray, max_lag: int) -> np.ndarray:
+    """Σ_{j=0}^{N−1−p} x_{j+p} x_j for p = 0 … max_lag (zero beyond N − 1): the inverse DFT of |A(k)|² of ``x``
+    zero-padded to at least 2N points (Hu 4-61, without the 1/N)."""
+    n = len(x)
+    f = np.fft.rfft(x, _nfft(n))
+    ac = np.fft.irfft(f * np.conj(f), _nfft(n))
+    out = np.zeros(max_lag + 1)
+    k = min(max_lag + 1, n)
+    out[:k] = ac[:k]
+    return out
+
+
+def segment_autocovariance_sums(r: np.ndarray, bounds, max_lag: int) -> tuple[np.ndarray, int]:
+    """Σ over the segments [s, e) of ``bounds`` of :func:`lagged_sums` of ``r[s:e]`` (lagged products never cross a
+    segment; the mean is not removed) and the number of samples."""
+    acc = np.zeros(max_lag + 1)
+    n_tot = 0
+    for s, e in bounds:
+        if e > s:
+            acc += lagged_sums(np.asarray(r[s:e], float), max_lag)
+            n_tot += e - s
+    return acc, n_tot
 
 
 @partial(jax.jit, static_argnums=2)
 def _spectrum_corr(x, y, nfft):
     return jnp.fft.irfft(jnp.conj(jnp.fft.rfft(x, nfft)) * jnp.fft.rfft(y, nfft), nfft)
-
-
-def _autocov(x, nfft, keep, demean):
-    if demean:
-        x = x - jnp.mean(x)
-    return jnp.fft.irfft(jnp.abs(jnp.fft.rfft(x, nfft)) ** 2, nfft)[:keep] / x.shape[0]
 
 
 def autocorrelation(x, max_lag: int | None = None):
@@ -129,51 +151,63 @@ def levinson_durbin(r, order: int):
     return phis, np.array(sig), np.array(pacf)
 
 
-@dataclass(frozen=True)
-class ARMAModel:
-    """x̃_t − Σ φ_i x̃_{t−i} = a_t − Σ θ_j a_{t−j} (Hu 4-122), x = mean + x̃, Var a = sigma2; ``n`` samples fitted."""
-
-    phi: np.ndarray
-    theta: np.ndarray
-    sigma2: float
-    mean: float
-    n: int
-
-    @property
-    def order(self) -> tuple[int, int]:
-        """(p, q): the AR and MA orders."""
-        return len(self.phi), len(self.theta)
-
-    def information(self, criterion: str = "bic") -> float:
-        """AIC = N ln σ̂² + 2k, BIC = N ln σ̂² + k ln N, k = p + q."""
-        k = len(self.phi) + len(self.theta)
-        pen = 2.0 if criterion == "aic" else math.log(self.n)
-        if criterion not in ("aic", "bic"):
-            raise RandomDriftError(f"criterion must be 'aic' or 'bic', got {criterion!r}")
-        return self.n * math.log(self.sigma2) + k * pen
-
-    def autocovariance(self, max_lag: int) -> np.ndarray:
-        """Theoretical autocovariance λ_0 … λ_max_lag (Hu 4-106) from the ψ weights of the model."""
-        n_psi = max(2000, 50 * (max_lag + 1))
-        psi = np.zeros(n_psi)
-        psi[0] = 1.0
-        for j in range(1, n_psi):
-            acc = -self.theta[j - 1] if j <= len(self.theta) else 0.0
-            for i, f in enumerate(self.phi, start=1):
-                if j - i >= 0:
-                    acc += f * psi[j - i]
-            psi[j] = acc
-        return np.array([self.sigma2 * psi[: n_psi - k] @ psi[k:] for k in range(max_lag + 1)])
+def yule_walker_cov(r, p: int, sigma2: float, n: int) -> np.ndarray:
+    """Asymptotic covariance σ_a² Γ_p⁻¹ / N of the Yule–Walker AR(p) coefficients (Γ_p the p×p Toeplitz matrix of the
+    autocovariances ``r`` r(0) … r(p − 1); Brockwell & Davis §8.1), dimensionless."""
+    if p == 0:
+        return np.zeros((0, 0))
+    r = np.asarray(r, float)
+    gam = r[np.abs(np.subtract.outer(np.arange(p), np.arange(p)))]
+    return sigma2 * np.linalg.inv(gam) / n
 
 
-def fit_ar(x, order: int) -> ARMAModel:
-    """AR(``order``) by Yule–Walker (sample autocovariances by FFT, Levinson–Durbin)."""
+def arma_spec(phi, theta, sigma2: float, mean: float, n: int, dt_s: float = 1.0) -> NoiseSpec:
+    """The :class:`NoiseSpec` of x̃_t − Σ φ_i x̃_{t−i} = a_t − Σ θ_j a_{t−j} (Hu 4-122), Var a = ``sigma2`` per sample
+    of ``dt_s`` s (the series' unit squared); the mean and the ``n`` samples fitted in ``info``."""
+    spec = NoiseSpec.from_sample_variances(sigma2, dt_s, method="ar", info={"mean": float(mean), "n": int(n)})
+    return replace(spec, ar=tuple(float(x) for x in phi), ma=tuple(float(x) for x in theta))
+
+
+def information(m: NoiseSpec, criterion: str = "bic") -> float:
+    """AIC = N ln σ̂² + 2k, BIC = N ln σ̂² + k ln N, k = p + q, of an AR/ARMA spec of this module."""
+    if criterion not in ("aic", "bic"):
+        raise RandomDriftError(f"criterion must be 'aic' or 'bic', got {criterion!r}")
+    n = m.info["n"]
+    k = len(m.ar) + len(m.ma)
+    pen = 2.0 if criterion == "aic" else math.log(n)
+    return n * math.log(m.white_variance) + k * pen
+
+
+def model_autocovariance(m: NoiseSpec, max_lag: int) -> np.ndarray:
+    """Theoretical autocovariance λ_0 … λ_max_lag (Hu 4-106) of an AR/ARMA spec from the ψ weights of the model."""
+    n_psi = max(2000, 50 * (max_lag + 1))
+    psi = np.zeros(n_psi)
+    psi[0] = 1.0
+    for j in range(1, n_psi):
+        acc = -m.ma[j - 1] if j <= len(m.ma) else 0.0
+        for i, f in enumerate(m.ar, start=1):
+            if j - i >= 0:
+                acc += f * psi[j - i]
+        psi[j] = acc
+    return np.array([m.white_variance * psi[: n_psi - k] @ psi[k:] for k in range(max_lag + 1)])
+
+
+def fit_ar(x, order: int, dt_s: float = 1.0) -> NoiseSpec:
+    """AR(``order``) by Yule–Walker (sample autocovariances by FFT, Levinson–Durbin); ``dt_s`` the sample interval
+    the innovation variance refers to."""
     x = _check(x, order + 2)
     if order == 0:
-        return ARMAModel(np.zeros(0), np.zeros(0), float(np.var(x)), float(np.mean(x)), len(x))
+        return arma_spec((), (), float(np.var(x)), float(np.mean(x)), len(x), dt_s)
     r = np.asarray(autocovariance(x, order))
     phis, sig, _ = levinson_durbin(r, order)
-    return ARMAModel(phis[-1], np.zeros(0), float(sig[order]), float(np.mean(x)), len(x))
+    return _yule_walker_spec(r, phis[-1], float(sig[order]), float(np.mean(x)), len(x), dt_s)
+
+
+def _yule_walker_spec(r, phi, sigma2: float, mean: float, n: int, dt_s: float = 1.0) -> NoiseSpec:
+    """:func:`arma_spec` of a Yule–Walker AR(p) with the covariance of its coefficients (:func:`yule_walker_cov`)."""
+    spec = arma_spec(phi, (), sigma2, mean, n, dt_s)
+    p = len(phi)
+    return replace(spec, cov=yule_walker_cov(r, p, sigma2, n), cov_names=tuple(f"ar{i + 1}" for i in range(p)))
 
 
 def select_ar(x, max_order: int = 10, criterion: str = "bic"):
@@ -182,9 +216,9 @@ def select_ar(x, max_order: int = 10, criterion: str = "bic"):
     r = np.asarray(autocovariance(x, max_order))
     phis, sig, _ = levinson_durbin(r, max_order)
     mean = float(np.mean(x))
-    models = [ARMAModel(np.zeros(0), np.zeros(0), float(sig[0]), mean, len(x))]
-    models += [ARMAModel(phis[p - 1], np.zeros(0), float(sig[p]), mean, len(x)) for p in range(1, max_order + 1)]
-    table = {p: m.information(criterion) for p, m in enumerate(models)}
+    models = [arma_spec((), (), float(sig[0]), mean, len(x))]
+    models += [_yule_walker_spec(r, phis[p - 1], float(sig[p]), mean, len(x)) for p in range(1, max_order + 1)]
+    table = {p: information(m, criterion) for p, m in enumerate(models)}
     return models[min(table, key=table.get)], table
 
 
@@ -195,7 +229,7 @@ def _lags(v, k, start):
     )
 
 
-def fit_arma(x, p: int, q: int, long_order: int | None = None) -> ARMAModel:
+def fit_arma(x, p: int, q: int, long_order: int | None = None) -> NoiseSpec:
     """ARMA(p, q) by Hannan–Rissanen: a long AR(L) gives innovation estimates â_t, then least squares of
     x̃_t on x̃_{t−1…t−p} and −â_{t−1…t−q}. L defaults to max(p + q, ⌈10 log10 N⌉)."""
     x = _check(x, 10 * (p + q + 2))
@@ -206,12 +240,12 @@ def fit_arma(x, p: int, q: int, long_order: int | None = None) -> ARMAModel:
     L = long_order or max(p + q, int(math.ceil(10 * math.log10(n))))
     long = fit_ar(xc, L)
     a = np.zeros(n)
-    a[L:] = xc[L:] - _lags(xc, L, L) @ long.phi
+    a[L:] = xc[L:] - _lags(xc, L, L) @ np.asarray(long.ar)
     start = L + max(p, q)
     X = np.concatenate([_lags(xc, p, start), -_lags(a, q, start)], axis=1)
     coef, *_ = np.linalg.lstsq(X, xc[start:], rcond=None)
     resid = xc[start:] - X @ coef
-    return ARMAModel(coef[:p], coef[p:], float(resid @ resid / len(resid)), float(x.mean()), len(resid))
+    return arma_spec(coef[:p], coef[p:], float(resid @ resid / len(resid)), float(x.mean()), len(resid))
 
 
 def select_arma(x, max_p: int = 3, max_q: int = 2, criterion: str = "bic"):
@@ -226,8 +260,7 @@ def select_arma(x, max_p: int = 3, max_q: int = 2, criterion: str = "bic"):
             m = fit_arma(x, p, q, long_order=L) if q else fit_ar(x, p)
             models[(p, q)] = m
             # the same effective sample size for every candidate, so the criteria compare
-            m_eq = ARMAModel(m.phi, m.theta, m.sigma2, m.mean, n - L - max(max_p, max_q))
-            table[(p, q)] = m_eq.information(criterion)
+            table[(p, q)] = information(replace(m, info={**m.info, "n": n - L - max(max_p, max_q)}), criterion)
     best = min(table, key=table.get)
     return models[best], table
 

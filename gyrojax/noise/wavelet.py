@@ -4,7 +4,8 @@
 τ = m·Δt), the maximal-overlap Haar coefficient is W_t = (ȳ⁽²⁾ − ȳ⁽¹⁾)/2, the half difference of two adjacent
 m-sample means, and the wavelet variance is ν²(τ) = E W_t². The Allan variance is twice it, σ²_A(τ) = 2ν²(τ)
 (Percival & Guttorp 1994; NIST SP 1065 eq. 11), so ν̂² = σ̂²_A/2 from :func:`gyrojax.noise.allan.overlapping_avar`,
-with M = n − 2m + 1 coefficients.
+with M = n − 2m + 1 coefficients (the estimate is :func:`gyrojax.noise.gmwm.haar_wv`; this module holds the theory
+and imports nothing of gyrojax).
 
 **Exact values** (discrete time, per sample; derived here from Var(S₂ − S₁)/(4m²), S_i the two m-sample sums):
 
@@ -37,8 +38,6 @@ import math
 import jax
 import jax.numpy as jnp
 import numpy as np
-
-from .allan import overlapping_avar
 
 SERIES_LIMIT = 0.1
 """m·a below which the Gauss–Markov ν² uses the Taylor series of B (truncation error < 1e-13 relative)."""
@@ -195,54 +194,3 @@ def dyadic_m(n: int, max_fraction: float = 0.125) -> np.ndarray:
     """Half-widths m = 1, 2, 4, … with 2m ≤ n·2·``max_fraction`` (default: m ≤ n/8, so M ≥ 3n/4)."""
     m_max = max(1, int(n * max_fraction))
     return 2 ** np.arange(int(math.floor(math.log2(m_max))) + 1)
-
-
-def haar_wv(segments, m_list):
-    """Empirical Haar wavelet variance ((deg/h)²) of one or several rate series at half-widths ``m_list``.
-
-    Returns (ν̂², M): several independent segments are pooled as Σ_j M_j ν̂²_j / Σ_j M_j over the segments long
-    enough for each m (2m ≤ n_j); ν̂² = σ̂²_A/2 (overlapping Allan variance, allantools ``oadev``²/2).
-    """
-    if isinstance(segments, (np.ndarray, jnp.ndarray)) and np.ndim(segments) == 1:
-        segments = [segments]
-    m = np.asarray(m_list, dtype=np.int64)
-    num = np.zeros(len(m))
-    cnt = np.zeros(len(m))
-    for s in segments:
-        ok = 2 * m <= len(s)
-        if not ok.any():
-            continue
-        avar, c = overlapping_avar(np.asarray(s, float), 1.0, m[ok])
-        num[ok] += np.asarray(avar) / 2.0 * np.asarray(c)
-        cnt[ok] += np.asarray(c)
-    with np.errstate(invalid="ignore"):
-        return num / cnt, cnt
-
-
-def simulate_components(key, n: int, components: dict):
-    """A sum of latent processes of n samples (per-sample parametrisation of the module table), JAX.
-
-    ``components``: ``white`` s², ``quantization`` q², ``random_walk`` g², ``drift`` w², ``gauss_markov`` list of
-    (s², a). Used by the tests and the Monte Carlo benchmark (independent of :mod:`gyrojax.noise.processes`).
-    """
-    keys = jax.random.split(key, 5)
-    y = jnp.zeros(n)
-    if components.get("white", 0.0) > 0:
-        y = y + jnp.sqrt(components["white"]) * jax.random.normal(keys[0], (n,))
-    if components.get("quantization", 0.0) > 0:
-        e = jnp.sqrt(components["quantization"]) * jax.random.normal(keys[1], (n + 1,))
-        y = y + e[1:] - e[:-1]
-    if components.get("random_walk", 0.0) > 0:
-        y = y + jnp.cumsum(jnp.sqrt(components["random_walk"]) * jax.random.normal(keys[2], (n,)))
-    if components.get("drift", 0.0) > 0:
-        y = y + jnp.sqrt(components["drift"]) * jnp.arange(n)
-    for i, (s2, a) in enumerate(components.get("gauss_markov", ())):
-        k = jax.random.fold_in(keys[3], i)
-        phi = math.exp(-a)
-        e = jax.random.normal(k, (n,))
-        e = e.at[0].multiply(1.0 / math.sqrt(1.0 - phi * phi))  # stationary start
-        x = jax.lax.associative_scan(
-            lambda p, q: (p[0] * q[0], q[0] * p[1] + q[1]), (jnp.full(n, phi).at[0].set(0.0), e)
-        )[1]
-        y = y + math.sqrt(s2 * (1.0 - phi * phi)) * x
-    return y

@@ -1,25 +1,29 @@
 """Coloured-noise handling: an autoregressive noise model per record, estimated from residuals, and the
-whitening filter that turns least squares into generalised least squares (DESIGN principle 7).
+whitening filter that turns least squares into generalised least squares, so verdicts stay honest in coloured noise.
 
 Gyro random drift is coloured (Gauss–Markov, bias instability, rate random walk). A residual series r_t inside one
 continuous segment is modelled as AR(p):  r_t = Σ_i φ_i r_{t−i} + e_t,  e_t white with variance s².
-The order p is chosen by BIC from the pooled within-segment autocovariance (Yule–Walker, Levinson recursion via
-``scipy.linalg.solve_toeplitz``). Applying 1 − Σ φ_i B^i to the measurements and regressors of each segment, and
-dividing by s, gives a system whose errors are white with unit variance, so that standard errors and score tests
-stay honest (Hu ch. 4 §4-55 onwards treats random drift as AR/ARMA series in the same spirit).
+The order p is chosen by BIC from the pooled within-segment autocovariance (Yule–Walker by the Levinson–Durbin
+recursion of :mod:`gyrojax.noise.randomdrift`). Applying 1 − Σ φ_i B^i to the measurements and regressors of each
+segment, and dividing by s, gives a system whose errors are white with unit variance, so that standard errors and
+score tests stay honest (Hu ch. 4 §4-55 onwards treats random drift as AR/ARMA series in the same spirit).
+
+Every noise model here is a :class:`~gyrojax.noise.spec.NoiseSpec` with ``dt_s`` the residual's sample interval (its
+per-sample variances are those of the residual's unit squared: (deg/h)² for gyros, g² for accelerometers): white +
+one Gauss–Markov term (``method`` "reml"), whitened exactly by the Kalman filter of
+:func:`gyrojax.noise.reml.whiten_scan`, or an AR(p) colour of the white term (``method`` "ar").
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import replace
 
 import numpy as np
-from scipy.linalg import solve_toeplitz
 from scipy.signal import lfilter
 
-from gyrojax.errors import FormatError
-
 from . import reml
+from .randomdrift import levinson_durbin, segment_autocovariance_sums, yule_walker_cov
+from .spec import NoiseSpec
 
 P_MAX = 20
 TAU_SPAN_FRACTION = 8.0
@@ -32,25 +36,6 @@ over the
 records of the campaign and its REML sees the scatter of the position means too, so slow drift is estimated rather
 than assumed away (with the diagnosis' cap, 8-position standard errors under GM drift of τ = 300 s in 10-min
 positions came out 2.5× too small)."""
-
-
-@dataclass(frozen=True)
-class ARNoise:
-    """AR(p) noise model of one record's residuals: coefficients φ (p,), innovation std s, residual std σ."""
-
-    phi: np.ndarray
-    innovation_std: float
-    std: float
-
-    @property
-    def order(self) -> int:
-        """The AR order p (0: white noise)."""
-        return len(self.phi)
-
-    @property
-    def variance_ratio(self) -> float:
-        """σ²/s²: how much of the residual variance the colour explains (1 for white)."""
-        return (self.std / self.innovation_std) ** 2 if self.innovation_std > 0 else 1.0
 
 
 def segment_bounds(labels: np.ndarray) -> list[tuple[int, int]]:
@@ -69,52 +54,43 @@ def segment_bounds(labels: np.ndarray) -> list[tuple[int, int]]:
 
 
 def pooled_autocovariance(r: np.ndarray, bounds, max_lag: int) -> tuple[np.ndarray, int]:
-    """Autocovariance γ_0..γ_maxlag of ``r`` pooled over segments (lagged products never cross a segment)."""
-    acc = np.zeros(max_lag + 1)
-    n_tot = 0
-    for s, e in bounds:
-        x = r[s:e]
-        m = len(x)
-        n_tot += m
-        if m == 0:
-            continue
-        nfft = 1 << int(np.ceil(np.log2(2 * m)))
-        f = np.fft.rfft(x, nfft)
-        ac = np.fft.irfft(f * np.conj(f), nfft)[: max_lag + 1]
-        k = min(max_lag + 1, m)
-        acc[:k] += ac[:k]
+    """Autocovariance γ_0..γ_maxlag of ``r`` pooled over segments (lagged products never cross a segment): the
+    per-segment sums of :func:`gyrojax.noise.randomdrift.segment_autocovariance_sums`, over all samples."""
+    acc, n_tot = segment_autocovariance_sums(r, bounds, max_lag)
     return acc / max(n_tot, 1), n_tot
 
 
-def fit_ar(r: np.ndarray, labels: np.ndarray, p_max: int = P_MAX) -> ARNoise:
-    """AR noise model of the residual ``r`` by Yule–Walker, order by BIC (0 means white)."""
+def _white(s2: float, dt_s: float, method: str = "ar") -> NoiseSpec:
+    """White noise of per-sample variance ``s2`` at ``dt_s`` s."""
+    return NoiseSpec.from_sample_variances(s2, dt_s, method=method)
+
+
+def fit_ar(r: np.ndarray, labels: np.ndarray, dt_s: float, p_max: int = P_MAX) -> NoiseSpec:
+    """AR noise model of the residual ``r`` by Yule–Walker, order by BIC (0 means white); ``dt_s`` the sample
+    interval (s) of the spec's per-sample innovation variance."""
     bounds = segment_bounds(labels)
     lens = [e - s for s, e in bounds]
     if not lens:
-        return ARNoise(np.zeros(0), 1.0, 1.0)
+        return _white(1.0, dt_s)
     p_max = int(max(0, min(p_max, min(lens) // 4, sum(lens) // 50)))
     gamma, n = pooled_autocovariance(r, bounds, p_max)
     var = float(gamma[0])
     if var <= 0 or not np.isfinite(var):
-        return ARNoise(np.zeros(0), 0.0, 0.0)
-    best = (np.log(var), np.zeros(0), var)  # BIC of the white model (up to constants)
-    best_bic = n * np.log(var)
+        return _white(0.0, dt_s)
+    best = (np.zeros(0), var)  # the white model
+    best_bic = n * np.log(var)  # BIC up to constants
+    phis, sig, pacf = levinson_durbin(gamma, p_max) if p_max else ([], [var], [])
     for p in range(1, p_max + 1):
-        try:
-            phi = solve_toeplitz(gamma[:p], gamma[1 : p + 1])
-        except np.linalg.LinAlgError:
-            break
-        s2 = var - float(phi @ gamma[1 : p + 1])
-        if not s2 > 0:
-            break
-        # stationarity: all roots of 1 − Σ φ_i z^i outside the unit circle
-        if p and np.any(np.abs(np.roots(np.concatenate([[1.0], -phi]))) >= 1.0):
+        phi, s2 = phis[p - 1], float(sig[p])
+        if not s2 > 0 or abs(pacf[p - 1]) >= 1.0:  # stationary: every partial autocorrelation inside (−1, 1)
             break
         bic = n * np.log(s2) + p * np.log(n)
         if bic < best_bic - 1e-9:
-            best_bic, best = bic, (np.log(s2), phi, s2)
-    _, phi, s2 = best
-    return ARNoise(np.asarray(phi, dtype=float), float(np.sqrt(s2)), float(np.sqrt(var)))
+            best_bic, best = bic, (phi, s2)
+    phi, s2 = best
+    spec = NoiseSpec.from_sample_variances(s2, dt_s, ar=tuple(float(x) for x in phi), method="ar")
+    cov = yule_walker_cov(gamma, len(phi), s2, n)
+    return replace(spec, cov=cov, cov_names=tuple(f"ar{i + 1}" for i in range(len(phi))))
 
 
 def whiten(x: np.ndarray, labels: np.ndarray, noise, times: np.ndarray | None = None):
@@ -124,14 +100,15 @@ def whiten(x: np.ndarray, labels: np.ndarray, noise, times: np.ndarray | None = 
     reach before the segment) are dropped.
     """
     x = np.asarray(x, dtype=float)
-    if isinstance(noise, GMNoise):
+    if noise.gauss_markov:
         if times is None:
             raise ValueError("whitening under a Gauss–Markov model needs the measurement times")
         keep = np.flatnonzero(labels >= 0)
         w, _ = kalman_whiten(x[keep], times[keep], noise, reml.series_restarts(times[keep]))
         return w, keep
-    p = noise.order
-    b = np.concatenate([[1.0], -noise.phi]) / (noise.innovation_std if noise.innovation_std > 0 else 1.0)
+    p = len(noise.ar)
+    s = noise.innovation_std
+    b = np.concatenate([[1.0], -np.asarray(noise.ar)]) / (s if s > 0 else 1.0)
     rows, keep = [], []
     for s, e in segment_bounds(labels):
         if e - s <= p:
@@ -163,136 +140,35 @@ def first_difference_std(r: np.ndarray, labels: np.ndarray) -> float:
 # ---- white + first-order Gauss–Markov: exact whitening by the Kalman filter ------------------------------------
 
 
-@dataclass(frozen=True)
-class GMNoise:
-    """White noise (variance ``white_var``) plus a first-order Gauss–Markov process of stationary variance
-    ``gm_var`` and correlation time ``tau_s`` (s). Whitened exactly by the Kalman filter's normalised innovations,
-    across the gaps between segments (the drift stays correlated while the table moves).
-
-    Variances are in the residual's unit squared ((deg/h)² for gyros, g² for accelerometers); between samples Δt
-    apart the GM state decays by φ = exp(−Δt/τ).
-    """
-
-    tau_s: float
-    gm_var: float
-    white_var: float
-
-    order = "gm"
-
-    @property
-    def std(self) -> float:
-        """Stationary std of the residual, √(σ_g² + σ_w²), in the residual's unit."""
-        return float(np.sqrt(self.gm_var + self.white_var))
-
-    @property
-    def innovation_std(self) -> float:
-        """Steady-state innovation std for a unit step (the white-equivalent level)."""
-        return float(np.sqrt(self.white_var + self.gm_var * (1 - np.exp(-2.0 / max(self.tau_s, 1e-300)))))
-
-    @property
-    def variance_ratio(self) -> float:
-        """σ²/s² as for :class:`ARNoise` (dimensionless; 1 for white noise)."""
-        return self.std**2 / self.innovation_std**2
-
-
-def noise_to_json(nz) -> dict:
-    """A record's noise model (:class:`GMNoise` or :class:`ARNoise`) as JSON data, exact; :func:`noise_from_json`
-    reads it back equal. Variances in the residual's unit squared, τ in s."""
-    if isinstance(nz, GMNoise):
-        return {
-            "kind": "gauss_markov",
-            "tau_s": float(nz.tau_s),
-            "gm_var": float(nz.gm_var),
-            "white_var": float(nz.white_var),
-        }
-    if isinstance(nz, ARNoise):
-        return {
-            "kind": "ar",
-            "phi": np.asarray(nz.phi, dtype=float).tolist(),
-            "innovation_std": float(nz.innovation_std),
-            "std": float(nz.std),
-        }
-    raise TypeError(f"not a record noise model: {type(nz).__name__}")
-
-
-def noise_from_json(d: dict):
-    """The :class:`GMNoise` or :class:`ARNoise` of :func:`noise_to_json`; ``null`` numbers (non-finite) are NaN.
-    Raises :class:`~gyrojax.errors.FormatError` naming the key that is missing or wrong."""
-
-    def num(key):
-        v = d.get(key, "missing")
-        if v is not None and not isinstance(v, (int, float)) or isinstance(v, bool):
-            raise FormatError(f"noise model: key {key!r} is {v!r}, not a number")
-        return np.nan if v is None else float(v)
-
-    kind = d.get("kind") if isinstance(d, dict) else None
-    if kind == "gauss_markov":
-        return GMNoise(num("tau_s"), num("gm_var"), num("white_var"))
-    if kind == "ar":
-        phi = d.get("phi")
-        if not isinstance(phi, list) or not all(x is None or isinstance(x, (int, float)) for x in phi):
-            raise FormatError(f"noise model: key 'phi' is {phi!r}, not a list of numbers")
-        phi = np.array([np.nan if x is None else x for x in phi], dtype=float)
-        return ARNoise(phi, num("innovation_std"), num("std"))
-    raise FormatError(f"noise model: key 'kind' is {kind!r}, not 'gauss_markov' or 'ar'")
-
-
-def _kalman_scan(x, phi, white_var, gm_var):
-    """Normalised innovations of x (n, m) and log S (n,) for a GM(φ_k)+white model; φ_k = 0 restarts."""
-    import jax
-    import jax.numpy as jnp
-
-    def step(carry, inp):
-        pred, p_pred = carry
-        z, ph = inp
-        # propagate from the previous sample (φ = 0: a fresh, independent start)
-        p_pred = ph * ph * p_pred + gm_var * (1.0 - ph * ph)
-        pred = ph * pred
-        s = p_pred + white_var
-        k = p_pred / s
-        nu = z - pred
-        out = nu / jnp.sqrt(s)
-        pred = pred + k * nu
-        p_pred = (1.0 - k) * p_pred
-        return (pred, p_pred), (out, jnp.log(s))
-
-    m = x.shape[1]
-    (_, _), (w, logs) = jax.lax.scan(step, (jnp.zeros(m), jnp.asarray(gm_var)), (x, phi))
-    return w, logs
-
-
-_kalman_jit = None
-
-
-def kalman_whiten(x: np.ndarray, times: np.ndarray, nz: GMNoise, restart: np.ndarray | None = None):
-    """Exact GLS whitening under ``nz``: (whitened x, dimensionless; log S, S the innovation variance in x's unit
-    squared). ``times`` (s) give φ_k = exp(−Δt_k/τ); ``restart`` marks rows that start a new series."""
-    import jax
-
-    global _kalman_jit
-    if _kalman_jit is None:
-        _kalman_jit = jax.jit(_kalman_scan)
+def kalman_whiten(x: np.ndarray, times: np.ndarray, nz: NoiseSpec, restart: np.ndarray | None = None):
+    """Exact GLS whitening under ``nz`` by the Kalman filter of :func:`gyrojax.noise.reml.whiten_scan`: (whitened x,
+    dimensionless; log S, S the innovation variance in x's unit squared). ``times`` (s) give φ_k = exp(−Δt_k/τ);
+    ``restart`` marks rows that start a new series (as does a step that is not positive)."""
     x = np.asarray(x, dtype=float)
     x2 = x[:, None] if x.ndim == 1 else x
+    n = len(x2)
     dt = np.diff(times, prepend=times[0] if len(times) else 0.0)
-    phi = np.exp(-np.clip(dt, 0.0, None) / nz.tau_s)
     bad = dt <= 0
     if restart is not None:
         bad |= restart
-    phi[bad] = 0.0
-    w, logs = _kalman_jit(x2, phi, nz.white_var, nz.gm_var)
-    w = np.asarray(w)
-    return (w[:, 0] if x.ndim == 1 else w), np.asarray(logs)
+    nb = reml.bucket_rows(n)  # padded rows (masked) pass through: a few compiled shapes for every length
+    xp = np.zeros((nb, x2.shape[1]))
+    xp[:n] = x2
+    dtp, rp, mp = np.ones(nb), np.ones(nb, dtype=bool), np.zeros(nb, dtype=bool)
+    dtp[:n], rp[:n], mp[:n] = np.where(bad, 1.0, dt), bad, True
+    w, logs = reml.whiten_jit(np.asarray(nz.whitening_theta(), float), xp, dtp, rp, mp)
+    w = np.asarray(w)[:n]
+    return (w[:, 0] if x.ndim == 1 else w), np.asarray(logs)[:n]
 
 
-def gm_loglik(r: np.ndarray, labels: np.ndarray, times: np.ndarray, nz: GMNoise) -> tuple[float, int]:
-    """Exact Gaussian −2 log-likelihood (without the 2π term) of r under ``nz``, and the sample count.
+def gm_loglik(r: np.ndarray, labels: np.ndarray, times: np.ndarray, nz: NoiseSpec) -> tuple[float, int]:
+    """Exact Gaussian −2 log-likelihood (without the 2π term) of r under ``nz``, and the sample count
+    (:func:`gyrojax.noise.reml.neg2_loglik` without regressors).
 
-    ``r`` and ``nz`` in the same units (e.g. deg/h and (deg/h)²), ``times`` in s, ``labels`` −1 for excluded rows.
+    ``r`` and ``nz`` in the same units (e.g. deg/h and (deg/h)² per sample), ``times`` in s, ``labels`` −1 for
+    excluded rows.
     """
-    ok = labels >= 0
-    w, logs = kalman_whiten(r[ok], times[ok], nz, reml.series_restarts(times[ok]))
-    return float(np.sum(logs) + w @ w), int(ok.sum())
+    return gm_profile(r, None, labels, times, nz), int((np.asarray(labels) >= 0).sum())
 
 
 GLS_RANK_TOL = 1e-13
@@ -325,29 +201,22 @@ def gls_residual(rw: np.ndarray, jw: np.ndarray) -> tuple[np.ndarray, float]:
     return rw - q @ (q.T @ rw), float(2.0 * np.sum(np.log(d[keep])))
 
 
-def gm_reml(r: np.ndarray, design: np.ndarray, labels: np.ndarray, times: np.ndarray, nz: GMNoise) -> float:
+def gm_reml(r: np.ndarray, design: np.ndarray | None, labels: np.ndarray, times: np.ndarray, nz: NoiseSpec) -> float:
     """Restricted −2 log-likelihood of r under ``nz`` with the regressors ``design`` (n, p) estimated by GLS:
-    Σ log S_k + |ẽ|² + log det(J̃ᵀJ̃), with ẽ the whitened GLS residual and J̃ the whitened regressors.
+    Σ log S_k + |ẽ|² + log det(J̃ᵀJ̃), with ẽ the whitened GLS residual and J̃ the whitened regressors (the one REML
+    objective, :func:`gyrojax.noise.reml.neg2_loglik`).
 
     ``r`` and ``nz`` in the same units (as :func:`gm_loglik`), ``times`` in s.
     """
-    ok = labels >= 0
-    x = np.column_stack([r[ok], design[ok]])
-    w, logs = kalman_whiten(x, times[ok], nz, reml.series_restarts(times[ok]))
-    e, logdet = gls_residual(w[:, 0], w[:, 1:])
-    return float(np.sum(logs) + e @ e + logdet)
+    return reml.neg2_loglik(reml.prepare(r, design, labels, times, 1.0), nz.whitening_theta(), True)
 
 
-def gm_profile(r: np.ndarray, design: np.ndarray, labels: np.ndarray, times: np.ndarray, nz: GMNoise) -> float:
+def gm_profile(r: np.ndarray, design: np.ndarray | None, labels: np.ndarray, times: np.ndarray, nz: NoiseSpec) -> float:
     """Profile −2 log-likelihood (without 2π) of r under ``nz`` with ``design`` estimated by GLS: Σ log S_k + |ẽ|².
 
     ``r`` and ``nz`` in the same units (as :func:`gm_loglik`), ``times`` in s.
     """
-    ok = labels >= 0
-    x = np.column_stack([r[ok], design[ok]])
-    w, logs = kalman_whiten(x, times[ok], nz, reml.series_restarts(times[ok]))
-    e, _ = gls_residual(w[:, 0], w[:, 1:])
-    return float(np.sum(logs) + e @ e)
+    return reml.neg2_loglik(reml.prepare(r, design, labels, times, 1.0), nz.whitening_theta(), False)
 
 
 def fit_gm(
@@ -358,8 +227,8 @@ def fit_gm(
     design: np.ndarray | None = None,
     tau_span_fraction: float = TAU_SPAN_FRACTION,
     neutral_start: bool = False,
-    start: GMNoise | None = None,
-) -> GMNoise | None:
+    start: NoiseSpec | None = None,
+) -> NoiseSpec | None:
     """White + Gauss–Markov model from the pooled autocovariance: γ_0 = σ_w² + σ_g², γ_k = σ_g² φ^k (k ≥ 1),
     φ = exp(−Δt/τ) at the median step Δt (s, from ``times``), then refined by maximum likelihood (REML when
     ``design`` is given), τ capped at the span / ``tau_span_fraction`` (span: the longest series; stacked series
@@ -375,8 +244,9 @@ def fit_gm(
     lens = [e - s for s, e in bounds]
     if not lens or max(lens) < 8:
         return None
-    if start is not None and start.gm_var > 0 and start.white_var > 0:
-        return _gm_mle(r, labels, times, start, design, grid=False, tau_span_fraction=tau_span_fraction)
+    if start is not None and start.gm_variance > 0 and start.white_variance > 0:
+        theta0 = start.whitening_theta()
+        return _gm_mle(r, labels, times, theta0, design, grid=False, tau_span_fraction=tau_span_fraction)
     dt0 = float(np.median(np.diff(times))) if len(times) > 1 else 1.0
     if not dt0 > 0:
         dt0 = 1.0
@@ -400,34 +270,66 @@ def fit_gm(
     phi = float(1.0 - np.exp(sol.x))
     a = amp(phi)
     if 0 < a < g0:
-        start = GMNoise(-dt0 / np.log(phi), a, g0 - a)
+        theta0 = (-dt0 / np.log(phi), a, g0 - a)
     elif neutral_start:  # no admissible split by moments: let the likelihood decide from a neutral one
-        start = GMNoise(10 * dt0, 0.1 * g0, 0.9 * g0)
+        theta0 = (10 * dt0, 0.1 * g0, 0.9 * g0)
     else:
         return None
-    return _gm_mle(r, labels, times, start, design, tau_span_fraction=tau_span_fraction)
+    return _gm_mle(r, labels, times, theta0, design, tau_span_fraction=tau_span_fraction)
 
 
 def _gm_mle(
     r,
     labels,
     times,
-    start: GMNoise,
+    start: tuple,
     design=None,
     grid: bool = True,
     tau_span_fraction: float = TAU_SPAN_FRACTION,
-) -> GMNoise:
+) -> NoiseSpec:
     """Refine a white + Gauss–Markov model by maximising the exact (Kalman) likelihood — restricted (REML) when the
     regressors of the fit are given, so that the drift the fitted coefficients absorbed is not lost from σ_g².
 
     The autocovariance fit inside short segments underestimates τ when τ is comparable to a segment; the
     likelihood sees the correlation across the gaps between segments too. Jitted JAX likelihood with exact
     derivatives, minimised by quasi-Newton from the best of a grid of starts (:func:`gyrojax.noise.reml.fit`);
-    ``grid=False`` uses a coarser grid around ``start`` (a previous fit of a closely related residual).
+    ``grid=False`` uses a coarser grid around ``start`` = (τ s, σ_g², σ_w²) (a previous fit of a closely related
+    residual). The spec's ``dt_s`` is the median step of the series; its status is that of the search.
     """
     series = reml.prepare(r, design, labels, times, tau_span_fraction)
-    theta, *_ = reml.fit(series, (start.tau_s, start.gm_var, start.white_var), reml=design is not None, coarse=not grid)
-    return GMNoise(min(float(theta[0]), series.tau_max), float(theta[1]), float(theta[2]))
+    theta, _, _, (ok, why) = reml.fit(series, start, reml=design is not None, coarse=not grid)
+    tau = min(float(theta[0]), series.tau_max)
+    spec = NoiseSpec.from_sample_variances(float(theta[2]), series.dt0, [(float(theta[1]), tau)], method="reml")
+    return spec.with_status(ok, why)
+
+
+def with_reml_covariance(nz: NoiseSpec, r, design, labels, times, tau_span_fraction: float) -> NoiseSpec:
+    """``nz`` (white + Gauss–Markov, fitted by REML to ``r`` with ``design``) with the covariance of its natural
+    parameters (N, σ, T): 2H⁻¹ in u = log(τ, σ_g², σ_w²) (H the Hessian of −2 log L_R,
+    :func:`gyrojax.noise.reml.reml_hessian`), by the delta method (∂N/∂u_w = N/2, ∂σ/∂u_g = σ/2, ∂T/∂u_τ = T). A T at
+    its cap is pinned (infinite variance); a non-finite curvature leaves every variance infinite. ``times`` in s, τ
+    capped at the longest series' span (s) / ``tau_span_fraction``; N in deg/√h, σ deg/h, T s (the residual's unit in
+    place of deg/h for accelerometers)."""
+    if not nz.gauss_markov or nz.gm_variance <= 0 or nz.white_variance <= 0:
+        return nz
+    series = reml.prepare(r, design, labels, times, tau_span_fraction)
+    theta = nz.whitening_theta()
+    free = [1, 2] if theta[0] >= 0.999 * series.tau_max else [0, 1, 2]
+    cov_u = np.full((3, 3), 0.0)
+    np.fill_diagonal(cov_u, np.inf)
+    hess = reml.reml_hessian(series, theta)[np.ix_(free, free)]
+    if np.all(np.isfinite(hess)):
+        w, vec = np.linalg.eigh(0.5 * (hess + hess.T))
+        w = np.maximum(w, 1e-9 * max(float(w.max()), 1e-300))
+        cov_u[np.ix_(free, free)] = 2.0 * (vec / w) @ vec.T
+    (sigma, tau), n = nz.gauss_markov[0], nz.white
+    g = np.array([n / 2.0, sigma / 2.0, tau])  # natural (white, gm1_sigma, gm1_tau) per u (w, g, τ)
+    order = [2, 1, 0]
+    cu = cov_u[np.ix_(order, order)]
+    with np.errstate(invalid="ignore"):
+        cov = np.where(np.isfinite(cu), cu * np.outer(g, g), np.inf)
+    cov[~np.isfinite(cu) & ~np.eye(3, dtype=bool)] = 0.0
+    return replace(nz, cov=cov, cov_names=("white", "gm1_sigma", "gm1_tau"))
 
 
 def fit_noise(
@@ -439,8 +341,8 @@ def fit_noise(
     tau_span_fraction: float = TAU_SPAN_FRACTION,
     neutral_start: bool = False,
     prefer_gm: bool = False,
-    start: GMNoise | None = None,
-):
+    start: NoiseSpec | None = None,
+) -> NoiseSpec:
     """The noise model of a residual: white + Gauss–Markov (maximum likelihood), unless an AR(p ≥ 1) model is
     better by BIC.
 
@@ -453,14 +355,14 @@ def fit_noise(
     on a 2-hour servo record understated the long-run variance, ±2σ coverage 0.90 against 0.967 with GM).
 
     ``r`` in its own unit (deg/h for gyro residuals, g for accelerometers), ``times`` in s, ``design`` (n, p) the fit's
-    regressors; ``start`` as for :func:`fit_gm`. Returns an :class:`ARNoise` or a :class:`GMNoise`.
+    regressors; ``start`` as for :func:`fit_gm`. Returns a :class:`NoiseSpec`: white + Gauss–Markov or AR.
     """
     gm = fit_gm(
         r, labels, times, design=design, tau_span_fraction=tau_span_fraction, neutral_start=neutral_start, start=start
     )
     if prefer_gm and gm is not None:
         return gm
-    ar = fit_ar(r, labels, p_max)
+    ar = fit_ar(r, labels, reml.sample_interval(np.asarray(times, float)[np.asarray(labels) >= 0]), p_max)
     if gm is None or ar.innovation_std <= 0:
         return ar
     if ar.order == 0:

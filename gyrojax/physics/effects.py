@@ -1,4 +1,4 @@
-"""The built-in named effects (CONVENTIONS §6), registered on import: the SDF gyro's ten-term drift model and
+"""The built-in named effects (conventions §6), registered on import: the SDF gyro's ten-term drift model and
 scale-factor terms (Hu 2-45, IEEE 517), the test-set errors (table tilt and azimuth, encoder harmonics; Hu ch. 5),
 the TDF gyro's two channels (Hu 3-94), the pendulous accelerometer (Hu 3-38) and the optical gyros' terms (IEEE
 952/647, Titterton ch. 5). The registry itself (:class:`Effect`, :func:`register`, :func:`get`, …) is
@@ -47,7 +47,7 @@ __all__ = [
 
 
 # --------------------------------------------------------------------------------------------------------------
-# SDF gyro: the ten-term drift model (Hu 2-45 mathematical model; CONVENTIONS §4) and the scale-factor terms.
+# SDF gyro: the ten-term drift model (Hu 2-45 mathematical model; conventions §4) and the scale-factor terms.
 
 _AXIS_WORDS = {"I": "input", "O": "output", "S": "spin"}
 
@@ -208,7 +208,7 @@ register(
 )
 
 # --------------------------------------------------------------------------------------------------------------
-# TDF gyro: a ten-term set per sensing channel (Hu 2-45/2-46 per channel, 3-95; CONVENTIONS §4).
+# TDF gyro: a ten-term set per sensing channel (Hu 2-45/2-46 per channel, 3-95; conventions §4).
 
 _TDF_TERMS = ("F", "X", "Y", "Z", "XX", "YY", "ZZ", "XY", "XZ", "YZ")
 
@@ -241,7 +241,7 @@ for _ch in "XY":
         register(_tdf_term(_ch, _t))
 
 # --------------------------------------------------------------------------------------------------------------
-# Pendulous accelerometer (Hu 3-38 in CONVENTIONS axis names): S_nom·i = K_0 + K_1 a_I + K_2 a_I² + …
+# Pendulous accelerometer (Hu 3-38 in the conventions' axis names): S_nom·i = K_0 + K_1 a_I + K_2 a_I² + …
 
 _ACCEL_TERMS = (
     ("K_0", "g", "bias", lambda x, c: c[0] + 0.0 * x["a_I"]),
@@ -268,7 +268,7 @@ SDF_DRIFT_TERMS = ("D_F", "D_I", "D_O", "D_S", "D_II", "D_OO", "D_SS", "D_IO", "
 """The ten-term mathematical drift model of the SDF gyro (Hu 2-45)."""
 
 RANDOM_DRIFT = ("white", "gauss_markov", "random_walk", "quantization")
-"""Names of the random-drift processes (CONVENTIONS §6), kept apart from the deterministic effects."""
+"""Names of the random-drift processes (conventions §6), kept apart from the deterministic effects."""
 
 
 # ---- optical gyros (Titterton ch. 5) ------------------------------------------------------------------------

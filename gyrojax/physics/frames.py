@@ -1,4 +1,4 @@
-"""The local level frame L (ENU) at the test site: Earth rate and specific force (CONVENTIONS §2).
+"""The local level frame L (ENU) at the test site: Earth rate and specific force (conventions §2).
 
 All functions are pure JAX and differentiable in the latitude.
 """
@@ -9,7 +9,7 @@ from gyrojax import units
 
 
 def earth_rate_enu(latitude_rad):
-    """Earth rate in L, rad/s: Ω = ω_ie (0, cos φ, sin φ) (CONVENTIONS §2; Hu 3-13)."""
+    """Earth rate in L, rad/s: Ω = ω_ie (0, cos φ, sin φ) (conventions §2; Hu 3-13)."""
     return units.OMEGA_IE * jnp.stack([jnp.zeros_like(latitude_rad), jnp.cos(latitude_rad), jnp.sin(latitude_rad)])
 
 

@@ -1,4 +1,4 @@
-"""Turntable kinematics: the gimbal chain, platform attitude and angular rate (CONVENTIONS §3).
+"""Turntable kinematics: the gimbal chain, platform attitude and angular rate (conventions §3).
 
 A table has k axes, outermost first; axis i has unit vector u_i written in L with every angle at zero.
 
@@ -43,7 +43,7 @@ def chain(axes, angles):
 
 
 def platform_attitude(axes, angles):
-    """C(θ): platform coordinates → L coordinates (CONVENTIONS §3); ``angles`` in rad, ``axes`` unit vectors in L."""
+    """C(θ): platform coordinates → L coordinates (conventions §3); ``angles`` in rad, ``axes`` unit vectors in L."""
     return chain(axes, angles)[0]
 
 
@@ -58,7 +58,7 @@ def platform_state(axes, angles, rates, base=None):
 
     ``angles`` in rad, ``rates`` (angle rates) in rad/s, ``axes`` unit vectors in L.
 
-    ``base`` is a 3×3 matrix premultiplying every table axis and the platform attitude (CONVENTIONS §6,
+    ``base`` is a 3×3 matrix premultiplying every table axis and the platform attitude (conventions §6,
     ``table_tilt`` / ``table_azimuth``: base = I + [δ×]). Premultiplying each axis u_i → B u_i and the chain
     by B is, to first order in δ, the same as C → B C and ω_LP → B ω_LP, which is how it is applied here
     (exactly as the contract words it: both the axes and the attitude are premultiplied).
@@ -101,7 +101,7 @@ def platform_inputs(axes, trig, rates, delta, omega, force):
     """Inertial rate ω_P and specific force f_P in platform coordinates, for every sample (vector form).
 
     With B = I + [δ×] the base misorientation (``delta``, rad; :func:`platform_state`), C = B·R(u_1,θ_1)…R(u_k,θ_k)
-    and ω_LP = B Σ_i θ̇_i R(u_1,θ_1)…R(u_{i−1},θ_{i−1}) u_i: ω_P = Cᵀ(Ω + ω_LP), f_P = Cᵀ f (CONVENTIONS §3–§4).
+    and ω_LP = B Σ_i θ̇_i R(u_1,θ_1)…R(u_{i−1},θ_{i−1}) u_i: ω_P = Cᵀ(Ω + ω_LP), f_P = Cᵀ f (conventions §3–§4).
     ``axes`` (k, 3) unit vectors in L; ``trig`` per axis (cos θ_i, sin θ_i), each (n,); ``rates`` per axis θ̇_i (n,)
     in rad/s; ``omega`` (Ω, rad/s) and ``force`` (f, m/s²) in L, (3,). Returns two 3-tuples of (n,) arrays, in the
     units of ``omega`` and ``force``.

@@ -65,7 +65,7 @@ class Model:
 
     @property
     def coefficient_names(self) -> tuple[str, ...]:
-        """Coefficient names (CONVENTIONS §6) in θ order: the effects' coefficients, effect after effect."""
+        """Coefficient names (conventions §6) in θ order: the effects' coefficients, effect after effect."""
         return tuple(c for e in self.effects for c in e.coefficients)
 
     @property
@@ -177,7 +177,7 @@ class RecordData:
 def setup_values(model: Model, theta) -> dict:
     """Set-up effect values from θ (report units, arcsec) as the kinematics take them: ``delta`` (3,) the base
     rotation (δ_E, δ_N, δ_U) in rad, ``encoder`` (4,) the harmonics (c1, s1, c2, s2) in rad; zero for set-up effects
-    not in the model (CONVENTIONS §6)."""
+    not in the model (conventions §6)."""
     sl = model.slices()
 
     def take(name, n):
@@ -245,7 +245,7 @@ def _record_inputs(data: RecordData, trig, rates, delta) -> tuple:
 def sensed(axes, triad, latitude, gravity, angles, rates, delta):
     """Inertial rate (deg/h) and specific force (g) along the three instrument axes, for one sample.
 
-    ω_IP = Ω + ω_LP and f = (0, 0, g) in L, projected on C·axis (CONVENTIONS §3–§4); the same code as
+    ω_IP = Ω + ω_LP and f = (0, 0, g) in L, projected on C·axis (conventions §3–§4); the same code as
     :func:`instrument_inputs` (:func:`gyrojax.physics.kinematics.platform_inputs`), for angles (k,) rad and rates
     (k,) rad/s.
     """
@@ -285,7 +285,7 @@ def instrument_inputs(data: RecordData, setup: dict, angles=None, rates=None, tr
 
 
 def indicated_output(model: Model, theta, x: dict, kind: str):
-    """The balance equation: what the instrument indicates for inputs ``x`` (CONVENTIONS §4).
+    """The balance equation: what the instrument indicates for inputs ``x`` (conventions §4).
 
     SDF: ω_ind = ω_I + Σ effects (deg/h). TDF: channels X then Y stacked. Accelerometer: Σ effects (g; the
     K_1 a_I term is an effect like the others, Hu 3-38).

@@ -1,4 +1,4 @@
-"""The effect registry (CONVENTIONS §6): the :class:`Effect` type and the table of named effects.
+"""The effect registry (conventions §6): the :class:`Effect` type and the table of named effects.
 
 Each effect is one small, frozen object: its canonical name, its coefficients with their report units, a one-line
 physical description, the seed reference, flags that tell the measurement model how to treat it, and a pure
@@ -41,7 +41,7 @@ class Effect:
     """One named physical effect.
 
     Attributes:
-      name: canonical name (CONVENTIONS §6), e.g. ``"D_IS"``.
+      name: canonical name (conventions §6), e.g. ``"D_IS"``.
       coefficients: names of its coefficients, e.g. ``("M_O", "M_S")``.
       units: report unit of each coefficient.
       kinds: instrument kinds it applies to.

@@ -1,11 +1,11 @@
 """A three-axis gyro triad (MEMS IMU) as three SDF-like rate gyros, one per body axis (docs/conventions.md, triad).
 
 Channel c ∈ {x, y, z} senses the body axis e_c: its input axis IA = e_c, and its output and spin axes follow
-cyclically, so that IA × OA = SA as for an SDF gyro (CONVENTIONS §4):
+cyclically, so that IA × OA = SA as for an SDF gyro (conventions §4):
 
     x: (IA, OA, SA) = (x, y, z)      y: (y, z, x)      z: (z, x, y)
 
-Each channel obeys the SDF balance equation with its own coefficients (Hu 2-45; CONVENTIONS §4, §6),
+Each channel obeys the SDF balance equation with its own coefficients (Hu 2-45; conventions §4, §6),
 
     ω_ind,c = ω_I + E_SF ω_I + M_O ω_O + M_S ω_S + D_F + D_I a_I + D_O a_O + D_S a_S + …   (deg/h; a in g)
 

@@ -7,10 +7,11 @@ from __future__ import annotations
 import numpy as np
 
 from gyrojax.data import plans
+from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model
 from gyrojax.planning.criteria import criterion_values
-from gyrojax.planning.fisher import Noise, record_fisher
+from gyrojax.planning.fisher import DEFAULT_NOISE, record_fisher
 
 
 def measured_seconds(plan: plans.Plan) -> float:
@@ -30,7 +31,7 @@ def baseline_plans(hours: float = 4.0) -> dict:
 
 
 def compare(
-    terms, hours: float = 4.0, noise: Noise | None = None, designed: dict | None = None, kind: str = fx.SDF
+    terms, hours: float = 4.0, noise: NoiseSpec | None = None, designed: dict | None = None, kind: str = fx.SDF
 ) -> list[dict]:
     """Criterion values and Cramér–Rao stds of classical plans (and designed ones), all at ``hours`` of data.
 
@@ -39,7 +40,7 @@ def compare(
     from gyrojax.simulation.simulator import simulate
 
     model = Model.of(terms, kind)
-    noise = noise or Noise()
+    noise = DEFAULT_NOISE if noise is None else noise
     rows = []
     for name, plan in baseline_plans(hours).items():
         f = record_fisher(model, simulate(plan, {"coefficients": {}}), noise)

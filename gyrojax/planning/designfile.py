@@ -15,9 +15,10 @@ import numpy as np
 
 from gyrojax import protocol
 from gyrojax.errors import FormatError, ModelError
+from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics.model import Model
 from gyrojax.planning.criteria import Criterion
-from gyrojax.planning.fisher import Noise, Table
+from gyrojax.planning.fisher import Table
 from gyrojax.planning.optimal import DesignResult
 
 DESIGN_FORMAT = "gyrojax-design"
@@ -26,7 +27,8 @@ _KEYS = ("model", "criterion", "table", "noise", "dt_s", "angles_deg", "dwell_s"
 
 
 def design_to_dict(res: DesignResult) -> dict:
-    """The JSON-ready payload of a design (angles deg, dwell s, dt s, latitude deg, noise as :class:`Noise`)."""
+    """The JSON-ready payload of a design (angles deg, dwell s, dt s, latitude deg, noise as its saved
+    :class:`~gyrojax.noise.spec.NoiseSpec`)."""
     t, c = res.table, res.criterion
     return {
         "model": {"terms": list(res.model.terms), "kind": res.model.kind},
@@ -42,7 +44,7 @@ def design_to_dict(res: DesignResult) -> dict:
             "mount": dict(t.mount),
             "latitude_deg": t.latitude_deg,
         },
-        "noise": {"arw": res.noise.arw, "gm": None if res.noise.gm is None else list(res.noise.gm)},
+        "noise": res.noise.to_json(),
         "dt_s": res.dt_s,
         "angles_deg": np.asarray(res.angles_deg),
         "dwell_s": np.asarray(res.dwell_s),
@@ -73,7 +75,11 @@ def design_from_dict(d: dict, where: str = "design") -> DesignResult:
         model = Model.of(m["terms"], m["kind"])
         crit = Criterion(c["kind"], _tuple(c["vector"]), c["effect"], _tuple(c["magnitude"]), float(c["d_weight"]))
         table = Table.of(tuple((a, tuple(u)) for a, u in t["axes"]), dict(t["mount"]), float(t["latitude_deg"]))
-        noise = Noise(float(n["arw"]), _tuple(n["gm"]))
+        noise = (  # a saved NoiseSpec, or the {"arw", "gm"} of the first version-1 files
+            NoiseSpec.from_json(n, f"{where}: key 'noise'")
+            if protocol.FORMAT_KEY in n
+            else NoiseSpec(white=float(n["arw"]), gauss_markov=() if n["gm"] is None else (_tuple(n["gm"]),))
+        )
     except (KeyError, TypeError, ValueError, ModelError) as e:
         key = f" {e}" if isinstance(e, KeyError) else f": {e}"
         raise FormatError(f"{where}: key 'model', 'criterion', 'table' or 'noise' is malformed{key}") from None

@@ -25,7 +25,8 @@ the gimbal angles (and, through T_k, in the dwell fractions).
 F = Σ_records Jᵀ J / σ_w² from the records of a noise-free simulation, with σ_w² = (60 N)²/Δt per sample
 (white noise only).
 
-The noise (:class:`Noise`) is the white + first-order Gauss–Markov description these formulas take.
+The noise is a :class:`~gyrojax.noise.spec.NoiseSpec` of white + Gauss–Markov terms (the ones with a variance of a
+static mean, :meth:`~gyrojax.noise.spec.NoiseSpec.mean_variance`); :data:`DEFAULT_NOISE` when none is given.
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ import numpy as np
 from gyrojax.data import plans
 from gyrojax.data.arrays import record_data
 from gyrojax.errors import ModelError
+from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model, RecordData, jacobian
 
@@ -47,31 +49,8 @@ TIME_EFFECTS = ("bias_trend", "bias_temperature")
 
 # ---- noise ----------------------------------------------------------------------------------------------------
 
-
-@dataclass(frozen=True)
-class Noise:
-    """Random drift of the instrument: ARW ``arw`` (deg/√h) and optional Gauss–Markov ``gm`` = (σ deg/h, τ s)."""
-
-    arw: float = 0.01
-    gm: tuple[float, float] | None = None
-
-    def mean_variance(self, dwell_s, dt_s):
-        """Variance (deg/h)² of the mean of one static position of ``dwell_s`` seconds (module doc)."""
-        var = (60.0 * self.arw) ** 2 / dwell_s
-        if self.gm is not None:
-            s, tau = self.gm
-            x = dwell_s / tau
-            var = var + s * s * gm_mean_factor(x)
-        return var
-
-
-def gm_mean_factor(x):
-    """f(x) = 2(x − 1 + e^{−x})/x²: Var(mean of a GM process over T)/σ², x = T/τ (→ 1 as x → 0, → 2/x)."""
-    x = jnp.asarray(x, dtype=jnp.float64)
-    small = x < 1e-4
-    xs = jnp.where(small, 1.0, x)
-    big = 2.0 * (xs - 1.0 + jnp.exp(-xs)) / (xs * xs)
-    return jnp.where(small, 1.0 - x / 3.0, big)
+DEFAULT_NOISE = NoiseSpec(white=0.01)
+"""The noise of a design when none is given: ARW 0.01 deg/√h."""
 
 
 # ---- the static-position fast path ----------------------------------------------------------------------------
@@ -149,17 +128,18 @@ def position_rows(model: Model, table: Table, angles_rad, theta=None):
     return j.reshape(-1, n, model.size)
 
 
-def static_fisher(model: Model, table: Table, angles_rad, dwell_s, noise: Noise, dt_s: float = 1.0, theta=None):
-    """F = Σ_k j_kᵀ j_k / Var(ȳ_k) for static positions (module doc); ``dwell_s`` (n,) seconds."""
+def static_fisher(model: Model, table: Table, angles_rad, dwell_s, noise: NoiseSpec, dt_s: float = 1.0, theta=None):
+    """F = Σ_k j_kᵀ j_k / Var(ȳ_k) for static positions (module doc); ``dwell_s`` (n,) seconds (``dt_s``, the sample
+    interval, does not enter the variance of a mean)."""
     rows = position_rows(model, table, angles_rad, theta)
-    w = 1.0 / noise.mean_variance(jnp.asarray(dwell_s), dt_s)
+    w = 1.0 / noise.mean_variance(jnp.asarray(dwell_s))
     return jnp.einsum("cnp,n,cnq->pq", rows, w, rows)
 
 
 # ---- any plan, from its records -------------------------------------------------------------------------------
 
 
-def record_fisher(model: Model, records, noise: Noise, theta=None) -> np.ndarray:
+def record_fisher(model: Model, records, noise: NoiseSpec, theta=None) -> np.ndarray:
     """F = Σ Jᵀ J / σ² from records (white noise, σ² = (60 N)²/Δt per measurement) via ``campaign.linearize``."""
     from gyrojax.inference.campaign import Campaign, linearize
 
@@ -168,7 +148,7 @@ def record_fisher(model: Model, records, noise: Noise, theta=None) -> np.ndarray
     f = np.zeros((model.size, model.size))
     for (_r, j, lab, _t), d in zip(linearize(model, theta, camp), camp.data):
         dt = _measurement_dt(d, lab)
-        w = dt / (60.0 * noise.arw) ** 2
+        w = dt / (60.0 * noise.white) ** 2
         f += (j * w[:, None]).T @ j
     return f
 

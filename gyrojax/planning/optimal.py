@@ -27,6 +27,7 @@ import optax
 
 from gyrojax.data import plans
 from gyrojax.errors import ConvergenceWarning, ModelError
+from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model
 from gyrojax.planning.criteria import (
@@ -36,7 +37,7 @@ from gyrojax.planning.criteria import (
     detect_power,
     noncentrality,
 )
-from gyrojax.planning.fisher import Noise, Table, check_static, static_fisher
+from gyrojax.planning.fisher import DEFAULT_NOISE, Table, check_static, static_fisher
 
 SDF9 = ("D_F", "D_I", "D_O", "D_S", "D_II", "D_SS", "D_IO", "D_IS", "D_OS")
 CONVERGED_WINDOW = 10
@@ -55,7 +56,7 @@ class DesignResult:
     criterion: Criterion
     model: Model
     table: Table
-    noise: Noise
+    noise: NoiseSpec
     dt_s: float
     history: np.ndarray  # best start's loss per iteration (adam then L-BFGS)
     grad_norm: float  # at the end, best start
@@ -213,7 +214,7 @@ def design(
     criterion="D",
     *,
     table: Table | None = None,
-    noise: Noise | None = None,
+    noise: NoiseSpec | None = None,
     dt_s: float = 1.0,
     starts: int = 8,
     seed: int = 0,
@@ -235,7 +236,7 @@ def design(
     crit = criterion if isinstance(criterion, Criterion) else Criterion.parse(criterion, model)
     full = crit.design_model(model)
     table = table or Table.two_axis()
-    noise = noise or Noise()
+    noise = DEFAULT_NOISE if noise is None else noise
     total = hours * 3600.0
     m = 0.25 / n_positions if min_fraction is None else min_fraction
     k = len(table.axis_names)

@@ -212,8 +212,8 @@ def save(fig, path) -> None:
 def noise_model_figure(out: dict, title: str = "Allan deviation"):
     """``gyrojax noise --plot``: the empirical ADEV (deg/h against τ in s) with its 95 % band, the model ADEV, its
     processes drawn separately and the τ where the model leaves the band; ``out`` the dict of
-    :func:`gyrojax.noise.gmwm.noise_report`. Returns the figure."""
-    from gyrojax.noise import gmwm
+    :func:`gyrojax.noise.readoff.noise_report`. Returns the figure."""
+    from gyrojax.noise.spec import NoiseSpec
 
     taus = np.asarray(out["taus_s"])
     fig, ax = _figure(figsize=(7, 5))
@@ -222,7 +222,7 @@ def noise_model_figure(out: dict, title: str = "Allan deviation"):
     ax.plot(taus, out["adev_deg_per_h"], "o", ms=3, color="k", label="overlapping ADEV")
     ax.plot(taus, out["adev_model_deg_per_h"], "-", color="C3", lw=1.6, label=f"model ({out['method']})")
     if "model" in out:
-        nm = gmwm.NoiseModel.from_json(out["model"])
+        nm = NoiseSpec.from_json(out["model"])
         tt = np.geomspace(taus.min(), taus.max(), 200)
         for name, curve in nm.term_adev(tt).items():
             ax.plot(tt, curve, "--", lw=0.9, label=name)
@@ -242,7 +242,7 @@ def noise_model_figure(out: dict, title: str = "Allan deviation"):
 def allan_figure(res, fit, title: str = "Allan deviation"):
     """Log-log Allan deviation (deg/h against τ in s) with its ±1σ interval, the fitted total and each fitted
     term drawn separately (IEEE 952 annex C); ``res`` an :class:`gyrojax.noise.allan.AllanResult`, ``fit`` its
-    :class:`gyrojax.noise.allan.NoiseFit`. Returns the figure."""
+    :class:`gyrojax.noise.spec.NoiseSpec`. Returns the figure."""
     fig, ax = _figure(figsize=(7, 5))
     yerr = np.stack([res.adev - res.low, res.high - res.adev])
     ax.errorbar(res.taus_s, res.adev, yerr=yerr, fmt="o", ms=3, color="k", label="overlapping ADEV (±1σ)")

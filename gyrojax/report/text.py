@@ -36,10 +36,10 @@ def fit_table(res: FitResult) -> str:
     cond = idf.get("condition", float("nan"))
     lines.append(f"condition number {cond:.3g}; rank {idf.get('rank')} of {idf.get('size')}")
     for name, nz in zip(res.record_names, res.noise):
-        if getattr(nz, "order", 0) == "gm":
+        if nz.gauss_markov:
             lines.append(
-                f"  noise {name}: white {math.sqrt(nz.white_var):.3g} + Gauss–Markov "
-                f"{math.sqrt(nz.gm_var):.3g} deg/h, τ {nz.tau_s:.3g} s"
+                f"  noise {name}: white {math.sqrt(nz.white_variance):.3g} + Gauss–Markov "
+                f"{math.sqrt(nz.gm_variance):.3g} deg/h, τ {nz.gm_tau:.3g} s"
             )
         elif nz.order:
             lines.append(f"  noise {name}: AR({nz.order}), innovation std {nz.innovation_std:.3g} deg/h")

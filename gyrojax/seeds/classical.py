@@ -3,7 +3,7 @@
 Every function here is a pure numpy function of arrays; none of them calls the project's measurement model.
 They reproduce the book's procedures (harmonic analysis of a tumble or a servo run, the eight-position closed form,
 the torquer scale-factor table) with the book's misprints corrected; each docstring names the equations it
-implements and the corrections made. Outputs use CONVENTIONS names and signs (reaction-up specific force, so
+implements and the corrections made. Outputs use the conventions' names and signs (reaction-up specific force, so
 ``D_x(book) = −D_I``, ``D_y(book) = −D_O``, ``D_z(book) = −D_S``, squared and product terms unchanged).
 
 Units: rates and drifts in deg/h, angles in rad, latitude in deg, ``g`` is the site gravity in units of
@@ -11,7 +11,7 @@ g0 (= g_site/9.80665, so that the specific force along an axis is ``g·cos(angle
 
 Harmonic convention: a series in an angle θ is written ``A_0 + Σ_k (A_k cos kθ + B_k sin kθ)`` and returned as a
 dict ``{"A0": …, "A1": …, "B1": …}``; θ is the record's table angle (right-handed about the table axis,
-CONVENTIONS §3).
+conventions §3).
 """
 
 from __future__ import annotations
@@ -110,7 +110,7 @@ def tumble_coefficients(
     """Drift coefficients from the harmonics of a polar tumble, normal and flipped (Hu 3-14, 3-16, 3-18, 3-20, 3-21).
 
     Geometry (``gyrojax.data.plans.tumble``, Hu fig. 3-10/3-11): table axis polar, OA along the axis (up) in the normal
-    mounting and against it in the flipped one (turned 180° about IA), IA East at θ = 0. In CONVENTIONS signs the
+    mounting and against it in the flipped one (turned 180° about IA), IA East at θ = 0. In the conventions' signs the
     specific force is a_I = −g cosφ sinθ, a_O = ±g sinφ, a_S = ±g cosφ cosθ (upper sign normal), so the drift is
 
         A0 = D_F ± D_O g sinφ + D_OO g² sin²φ + ½(D_II + D_SS) g² cos²φ
@@ -118,7 +118,7 @@ def tumble_coefficients(
         A2 = ½(D_SS − D_II) g² cos²φ                B2 = ∓½ D_IS g² cos²φ
 
     Hu's angle runs the other way (θ_book = −θ, so B_book = −B) and his D_x, D_y, D_z carry the opposite sign. With
-    these, his separation (3-21), corrected, reads (book symbols → CONVENTIONS names):
+    these, his separation (3-21), corrected, reads (book symbols → the conventions' names):
 
         D_x = −(B11 + B12)/2g cosφ → −D_I;  D_z = (A12 − A11)/2g cosφ → −D_S;  D_xy = (B11 − B12)/g² sin2φ → D_IO;
         D_xz = −2B22/g² cos²φ = (B21 − B22)/g² cos²φ → D_IS;  D_yz = (A11 + A12)/g² sin2φ → D_OS;
@@ -212,7 +212,7 @@ def eight_position_solution(I_x, I_y, latitude_deg: float) -> dict:
 
 
 def eight_position_to_tdf(sol: dict, g: float = 1.0) -> dict:
-    """Hu's eight-position quantities in CONVENTIONS TDF names (§4; derivation in :func:`eight_position_solution`).
+    """Hu's eight-position quantities in conventions §4 TDF names (derivation in :func:`eight_position_solution`).
 
     Our channel X reads ω_X, i.e. Hu's y torquer; channel Y is Hu's x torquer. Hu's u's are drifts at the site's
     full gravity, ours are per g0, hence (``g`` = g_site/g0):
@@ -349,7 +349,7 @@ def two_axis_coefficients(h: dict, latitude_deg: float, g: float = 1.0, book_sig
 
     Misprints corrected in 3-53: D_0 prints +A9 and −A6; D_z prints −[B8/sinφ − (B2 + B4)/cosφ]/2g; the second
     D_xx is D_zz and prints A12 for A1. (3-50 and 3-52 misprints: see tests/test_classical.py.)
-    Returned in CONVENTIONS names (D_I = −D_x, D_O = −D_y, D_S = −D_z), or book symbols with ``book_signs``.
+    Returned in the conventions' names (D_I = −D_x, D_O = −D_y, D_S = −D_z), or book symbols with ``book_signs``.
     """
     phi = np.deg2rad(latitude_deg)
     c, s = np.cos(phi), np.sin(phi)

@@ -23,7 +23,7 @@ output rate (in input-rate units) is
 dead band.
 ``Model`` and ``indicated_output`` accept the new kind unchanged (it takes the SDF input names ω_I, ω_O, ω_S and
 the base output ω_I). Records declare ``"kind": "fog"`` or ``"rlg"`` with ``ia``, ``oa``, ``sa`` like an SDF gyro, and
-the bias, scale-factor, misalignment, trend and temperature effects of CONVENTIONS §6 apply to them
+the bias, scale-factor, misalignment, trend and temperature effects of conventions §6 apply to them
 (:data:`REUSABLE_EFFECTS`); g-sensitive drift terms do not.
 
 Units: rates in deg/h at the surface (any consistent unit for the pure functions), SI for lengths and wavelengths.

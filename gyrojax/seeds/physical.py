@@ -9,13 +9,13 @@ axes x = IA, y = OA, z = SA)
                                                + K_SI SF_I² − K_IS SF_S²]
 
 and the drift about the input axis is ω_d = −M_O/H (Hu 2-27 for the channel whose torquer is on the output axis).
-Hu's SF is the gravity vector (toward the ground), SF = −g0·a with a the specific force in g of CONVENTIONS §4, so
-the test engineer's view (CONVENTIONS §6 names) is
+Hu's SF is the gravity vector (toward the ground), SF = −g0·a with a the specific force in g of conventions §4, so
+the test engineer's view (conventions §6 names) is
 
     D_F = −M_F0/H,   D_I = m g0 l_S/H,   D_S = −m g0 l_I/H,
     D_II = −c K_SI,  D_SS = c K_IS,  D_IS = −c (K_SS − K_II),  D_IO = −c K_SO,  D_OS = c K_IO,   c = m² g0²/H,
 
-and D_O = D_OO = 0: they have no simple physical cause (DOMAIN; Hu 2-45 adds them to the mathematical model).
+and D_O = D_OO = 0: they have no simple physical cause (Hu 2-45 adds them to the mathematical model).
 With a symmetric compliance tensor D_II = −D_SS. Units are CGS, as in the gyro literature: H in g·cm²/s, m in g,
 l in cm, q in cm/dyn, M_F0 in dyn·cm; drift coefficients come out in deg/h per g^k.
 
@@ -60,7 +60,7 @@ class PhysicalSDF:
 
 
 def drift_coefficients(p: PhysicalSDF) -> dict:
-    """CONVENTIONS §6 drift coefficients (deg/h, deg/h/g, deg/h/g²) of a physical gyro (module doc)."""
+    """conventions §6 drift coefficients (deg/h, deg/h/g, deg/h/g²) of a physical gyro (module doc)."""
     k = np.asarray(p.q, dtype=float)
     i, o, s = 0, 1, 2
     to = 1.0 / units.DEG_PER_H

@@ -1,4 +1,4 @@
-"""Quasi-static simulation of a plan into records (CONVENTIONS §5).
+"""Quasi-static simulation of a plan into records (conventions §5).
 
 The instrument's indicated output comes from the same measurement model the fit uses
 (:func:`gyrojax.physics.model.predict`), with the truth's coefficients and set-up errors, plus random drift. Servo runs
@@ -53,7 +53,7 @@ def truth_model(truth: Truth, kind: str) -> tuple[Model, np.ndarray]:
 
 
 def run_meta(plan: Plan, run: Run) -> dict:
-    """The record JSON (CONVENTIONS §5) of one run: site (latitude in deg, gravity in m/s², WGS-84 normal gravity
+    """The record JSON (conventions §5) of one run: site (latitude in deg, gravity in m/s², WGS-84 normal gravity
     when the plan gives none), table axes, instrument, mode and nominal scale factor (deg/h/mA or g/mA)."""
     g = plan.gravity_mps2
     if g is None:
@@ -244,7 +244,7 @@ def _hold_blocks(rec: Record):
 
     Each sample's input is held for the segment's median interval, split into ``m`` equal sub-steps of at most
     LOOP_MAX_STEP_S; the loop starts each segment at the equilibrium of its first input (the table moved unlogged
-    in between, CONVENTIONS §5)."""
+    in between, conventions §5)."""
     seg, t = rec.segment_id, rec.time_s
     for sid in np.unique(seg):
         idx = np.flatnonzero(seg == sid)
@@ -349,7 +349,7 @@ def simulate(plan: Plan, truth, key=None, seed: int = 0, dynamics: str = "quasi-
     """Simulate every run of ``plan`` with ``truth`` (a :class:`Truth` or a truth dict) into records.
 
     Runs follow each other on one campaign clock. Each run draws its noise from ``fold_in(key, run index)``,
-    so a run's noise does not depend on the others. Records carry CONVENTIONS §5 units: time in s, angles in deg,
+    so a run's noise does not depend on the others. Records carry conventions §5 units: time in s, angles in deg,
     rates in deg/s, current in mA.
 
     ``dynamics="quasi-static"`` (default) writes the balance equation sample by sample. ``dynamics="loop"`` passes

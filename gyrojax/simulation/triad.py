@@ -1,7 +1,7 @@
 """Simulated hand calibrations of a MEMS gyro triad: a Ferraris session (six faces, three full turns) as an
 ``imu-triad`` record, from a per-channel truth, for Monte Carlo studies of :func:`gyrojax.inference.triad.fit_triad`.
 
-The motion is the physics of a body on a level table (CONVENTIONS §2): each face has the body axis ±e_i up and a
+The motion is the physics of a body on a level table (conventions §2): each face has the body axis ±e_i up and a
 random heading ψ ~ U(0, 2π); its inertial rate is the Earth rate C_kᵀ Ω and its specific force C_kᵀ (0, 0, g).
 Each rotation turns the body about its vertical axis e_i (face i_p) by Θ = angle + δ, δ ~ N(0, σ_Θ²), with a smooth
 hand profile θ̇ ∝ sin(π t / T) whose samples sum to Θ, the Earth rate seen through the turning attitude. Gyro channels
@@ -25,7 +25,7 @@ FACES = (("x_p", 0, 1.0), ("x_a", 0, -1.0), ("y_p", 1, 1.0), ("y_a", 1, -1.0), (
 
 
 def _rot(axis: np.ndarray, angle: float) -> np.ndarray:
-    """Rotation matrix R(u, θ) = I + sin θ [u×] + (1 − cos θ)[u×]² (CONVENTIONS §3)."""
+    """Rotation matrix R(u, θ) = I + sin θ [u×] + (1 − cos θ)[u×]² (conventions §3)."""
     k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
     return np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * k @ k
 

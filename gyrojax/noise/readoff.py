@@ -1,0 +1,153 @@
+"""What a fitted noise model (:class:`~gyrojax.noise.spec.NoiseSpec`) tells: the standard error of its Allan
+deviation, the IEEE 952 figures read off it (ARW, bias instability, RRW), its adequacy against the empirical
+Allan deviation, and the report of ``gyrojax noise``."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from gyrojax.noise.spec import BI_FACTOR, NoiseModelError, NoiseSpec, adev_jacobian
+from gyrojax.units import SECONDS_PER_HOUR
+
+
+def cov_finite(spec: NoiseSpec) -> np.ndarray:
+    """Cov of the parameters (``spec.cov_names``) with the rows/columns of pinned ones set to 0 (held fixed)."""
+    c = np.asarray(spec.cov, float).reshape(len(spec.cov_names), len(spec.cov_names))
+    return np.where(np.isfinite(c), c, 0.0)
+
+
+def adev_std(spec: NoiseSpec, taus_s) -> np.ndarray:
+    """Standard error of the model Allan deviation at ``taus_s`` (delta method), deg/h."""
+    jac = adev_jacobian(spec, np.asarray(taus_s, float))
+    return np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", jac, cov_finite(spec), jac), 0.0))
+
+
+def derived(spec: NoiseSpec, tau_min: float, tau_max: float, slope_tol: float = 0.1) -> dict:
+    """ARW, bias instability (flicker floor) and RRW read off the model's ADEV between ``tau_min`` and ``tau_max``
+    s, each with its standard error and the τ where it was read (``None`` with the reason when the model has no
+    range of that slope).
+
+    ARW N = σ(τ)√τ/60 at the shortest τ where the log-log slope is within ``slope_tol`` of −½ (a Gauss–Markov
+    process far beyond its correlation time is white too, so the shortest such τ is the sensor's ARW); RRW
+    K = σ(τ)√(3·3600/τ) where it is closest to +½ (within ``slope_tol``); bias instability B = σ_min/0.664 at an
+    interior minimum of σ(τ) (IEEE 952 C.1, :data:`~gyrojax.noise.spec.BI_FACTOR`).
+    """
+    tt = np.geomspace(tau_min, tau_max, 400)
+    lt = np.log(tt)
+    ad = spec.adev(tt)
+    slope = np.gradient(np.log(ad), lt)
+    cov = cov_finite(spec)
+    out = {}
+
+    def read(name, idx, factor, unit):
+        t = float(tt[idx])
+        g = adev_jacobian(spec, np.array([t]))[0] * factor
+        out[name] = {
+            "value": float(spec.adev(np.array([t]))[0] * factor),
+            "std": float(math.sqrt(max(g @ cov @ g, 0.0))),
+            "unit": unit,
+            "tau_s": t,
+        }
+
+    near = np.flatnonzero(np.abs(slope + 0.5) <= slope_tol)
+    i = int(near[0]) if near.size else int(np.argmin(np.abs(slope + 0.5)))  # the shortest white-like τ
+    if abs(slope[i] + 0.5) <= slope_tol:
+        read("arw", i, math.sqrt(tt[i]) / 60.0, "deg/sqrt(h)")
+    else:
+        out["arw"] = {"value": None, "reason": f"no range of slope -1/2 (closest {slope[i]:.2f})"}
+    i = int(np.argmin(ad))
+    if 0 < i < len(tt) - 1:
+        read("bias_instability", i, 1.0 / BI_FACTOR, "deg/h")
+    else:
+        out["bias_instability"] = {"value": None, "reason": "the model's ADEV has no minimum inside the τ range"}
+    i = int(np.argmin(np.abs(slope - 0.5)))
+    if abs(slope[i] - 0.5) <= slope_tol:
+        read("rrw", i, math.sqrt(3.0 * SECONDS_PER_HOUR / tt[i]), "deg/h/sqrt(h)")
+    else:
+        out["rrw"] = {"value": None, "reason": f"no range of slope +1/2 (closest {slope[i]:.2f})"}
+    return out
+
+
+# ---- adequacy --------------------------------------------------------------------------------------------------
+
+
+def adequacy(taus_s, adev, low, high, model_adev, min_tau_s: float = 0.0, max_half_width: float = 0.15) -> dict:
+    """Per-τ check of a model's ADEV against the empirical confidence interval [low, high] (deg/h).
+
+    Returns ``inside`` (per τ), ``ratio`` model/empirical, the τ outside, and the largest |ratio − 1| over the τ
+    ≥ ``min_tau_s`` whose interval half-width (relative) is under ``max_half_width`` (the well-measured τ).
+    """
+    taus_s, adev, low, high, model_adev = (np.asarray(a, float) for a in (taus_s, adev, low, high, model_adev))
+    inside = (model_adev >= low) & (model_adev <= high)
+    ratio = model_adev / adev
+    half = (high - low) / (2.0 * adev)
+    good = (taus_s >= min_tau_s) & (half < max_half_width)
+    worst = float(np.max(np.abs(ratio[good] - 1.0))) if good.any() else float("nan")
+    return {
+        "inside": [bool(x) for x in inside],
+        "ratio": [float(x) for x in ratio],
+        "n_outside": int((~inside).sum()),
+        "taus_outside_s": [float(t) for t in taus_s[~inside]],
+        "max_rel_deviation_well_measured": worst,
+    }
+
+
+# ---- the report of ``gyrojax noise`` ---------------------------------------------------------------------------
+
+ADEQUACY_CI = 0.95
+"""Confidence level of the empirical band the model's ADEV is checked against."""
+
+
+def noise_report(
+    segments, tau0: float, m_list=None, method: str = "gmwm", model: str = "auto", notes=(), gauss_markov: bool = False
+):
+    """Everything ``gyrojax noise --json`` prints, as a dict, plus the (AllanResult, IEEE 952 NoiseSpec, fitted
+    GMWM/AVLR NoiseSpec or None).
+
+    The empirical ADEV with ±1σ intervals and the IEEE 952 read-off (:mod:`gyrojax.noise.allan`), the model's
+    ADEV at the same τ with its standard error, the per-τ check against the empirical 95 % band
+    (:func:`adequacy`, :func:`verdict_line`), the derived ARW / bias instability / RRW and the model itself.
+
+    ``segments`` rate series (deg/h) at ``tau0`` s; ``m_list`` averaging factors (default log-spaced).
+    """
+    from gyrojax.noise import allan as allan_mod
+    from gyrojax.noise.gmwm import fit_gmwm
+
+    res, ieee = allan_mod.analyze(segments, tau0, m_list, gauss_markov=gauss_markov)
+    nm = None
+    if method in ("gmwm", "avlr"):
+        nm = fit_gmwm(segments, tau0, model=model, method=method)
+        model_adev = nm.adev(res.taus_s)
+        model_std = adev_std(nm, res.taus_s)
+    elif method == "ieee952":
+        model_adev = ieee.adev(res.taus_s)
+        model_std = np.full(len(res.taus_s), np.nan)
+    else:
+        raise NoiseModelError(f"method must be gmwm, avlr or ieee952, got {method!r}")
+    low95, high95 = allan_mod.confidence_interval(res.adev, res.edf, ADEQUACY_CI)
+    adq = adequacy(res.taus_s, res.adev, low95, high95, model_adev)
+    out = allan_mod.noise_json(res, ieee)
+    out["method"] = method
+    out["adev_model_deg_per_h"] = [float(x) for x in model_adev]
+    out["adev_model_std"] = [None if not np.isfinite(x) else float(x) for x in model_std]
+    out["adequacy"] = {"ci": ADEQUACY_CI, "low": [float(x) for x in low95], "high": [float(x) for x in high95], **adq}
+    out["adequacy"]["verdict"] = verdict_line(res.taus_s, adq)
+    if nm is not None:
+        out["derived"] = derived(nm, float(res.taus_s.min()), float(res.taus_s.max()))
+        out["model"] = {**nm.to_json(), "parameters": nm.parameters()}
+    out["notes"] = list(notes)
+    return out, res, ieee, nm
+
+
+def verdict_line(taus_s, adq: dict) -> str:
+    """One line: the model inside the empirical band at every τ, or where it is not."""
+    n = len(taus_s)
+    k = adq["n_outside"]
+    if k == 0:
+        return f"model inside the empirical {100 * ADEQUACY_CI:.0f} % band at all {n} taus"
+    ts = ", ".join(f"{t:.3g}" for t in adq["taus_outside_s"][:6]) + (" ..." if k > 6 else "")
+    expected = (1 - ADEQUACY_CI) * n
+    tag = "POOR FIT" if k > max(1.0, 2.0 * expected) else "fit"
+    return f"{tag}: model outside the empirical {100 * ADEQUACY_CI:.0f} % band at {k} of {n} taus (tau = {ts} s)"
