@@ -278,7 +278,8 @@ def imutk_acc_model(params: np.ndarray, raw: np.ndarray) -> np.ndarray:
 def ellipsoid_accelerometer(pose_means: np.ndarray, g: float, scale0: float, bias0) -> np.ndarray:
     """Parameters of :func:`imutk_acc_model` such that every pose mean (rows, raw units) has magnitude ``g``.
 
-    ``scale0`` (g per raw unit) and ``bias0`` (raw) start the least squares; at least 9 poses are needed."""
+    ``scale0`` (g per raw unit) and ``bias0`` (raw) start the least squares (scipy's Levenberg–Marquardt); at least
+    9 poses are needed. A search that does not converge raises :class:`RecordError` with scipy's reason."""
     pose_means = np.asarray(pose_means, dtype=float)
     if len(pose_means) < 9:
         raise RecordError(
@@ -290,4 +291,6 @@ def ellipsoid_accelerometer(pose_means: np.ndarray, g: float, scale0: float, bia
         return np.linalg.norm(imutk_acc_model(p, pose_means), axis=1) - g
 
     sol = optimize.least_squares(resid, x0, method="lm", x_scale="jac")
+    if not sol.success:  # never a calibration from a search that stopped short
+        raise RecordError(f"the accelerometer's ellipsoid fit did not converge ({sol.message}); check --acc-unit")
     return sol.x
