@@ -17,6 +17,7 @@ from gyrojax.cli.app import main
 from gyrojax.data.importers import FERRARIS_FACES, FERRARIS_ROTATIONS, import_csv, triad_from_arrays
 from gyrojax.data.records import load_records
 from gyrojax.data.segments import detect_rests
+from gyrojax.errors import RecordError
 from gyrojax.inference.triad import fit_triad
 from gyrojax.simulation.triad import simulate_multiposition
 
@@ -638,3 +639,21 @@ def test_xsens_rests_are_poses_and_the_gaps_between_them_turn():
     for u, v in zip(ups[:-1], ups[1:]):
         angle = np.degrees(np.arccos(np.clip(u @ v / np.linalg.norm(u) / np.linalg.norm(v), -1, 1)))
         assert angle > 2.0, angle
+
+
+def test_ellipsoid_search_that_stops_short_is_refused(monkeypatch):
+    """A calibration is never taken from a least-squares search that did not converge (scipy's status is read)."""
+    from types import SimpleNamespace
+
+    from gyrojax.data import segments
+
+    rng = np.random.default_rng(0)
+    means = rng.normal(size=(12, 3))
+    means /= np.linalg.norm(means, axis=1, keepdims=True)
+    good = segments.ellipsoid_accelerometer(means * 1000.0 + 5.0, 1.0, 1e-3, np.zeros(3))
+    np.testing.assert_allclose(good[3:6], 1e-3, rtol=1e-6)  # the unit sphere scaled by 1000 about (5, 5, 5)
+    np.testing.assert_allclose(good[6:9], 5.0, atol=1e-6)
+    stopped = SimpleNamespace(success=False, message="The maximum number of function evaluations is exceeded.", x=good)
+    monkeypatch.setattr(segments.optimize, "least_squares", lambda *a, **k: stopped)
+    with pytest.raises(RecordError, match="did not converge .*maximum number"):
+        segments.ellipsoid_accelerometer(means * 1000.0 + 5.0, 1.0, 1e-3, np.zeros(3))
