@@ -40,6 +40,7 @@ from gyrojax.inference.identify import (
     FitResult,
     campaign_noise,
     fit,
+    group_readout_variance,
     linearize,
     noise_scale,
     residue_columns,
@@ -48,7 +49,8 @@ from gyrojax.inference.identify import (
     solve,
     stack_whitened,
 )
-from gyrojax.noise.whiten import ARNoise, GMNoise, fit_noise, whiten
+from gyrojax.noise.readout import white_beside_readout
+from gyrojax.noise.whiten import ARNoise, GMNoise, fit_noise, gm_reml, whiten
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model, jacobian, record_data
 
@@ -219,7 +221,7 @@ def _nuisance(t: np.ndarray) -> np.ndarray:
     return np.ones((len(t), 1))
 
 
-def _noise_models(lin, cols, starts=None) -> list:
+def _noise_models(lin, cols, starts=None, readouts=None) -> list:
     """Per-record noise model from the residual left after projecting on the regressor columns ``cols`` and on a
     per-record offset.
 
@@ -228,9 +230,12 @@ def _noise_models(lin, cols, starts=None) -> list:
     under test. It is a nuisance regressor only here; REML keeps the noise estimate unbiased when it is absent.
     Slower-than-the-record drift is kept apart from noise by the cap on τ
     (:data:`gyrojax.noise.whiten.TAU_SPAN_FRACTION`). ``starts``: the previous round's models, whose Gauss–Markov
-    fits start this round's (one column more changes them little).
+    fits start this round's (one column more changes them little). ``readouts``: each record's servo readout noise
+    σ_q² ((deg/h)², :mod:`gyrojax.noise.readout`; 0 for none), beside which the rate noise is fitted, so that the
+    readout's MA(1) increments are not taken for colour.
     """
     starts = starts or [None] * len(lin)
+    readouts = readouts or [0.0] * len(lin)
     scales = [max(np.sqrt(np.mean(r * r)), 1e-300) for r, *_ in lin]
     n_rec = len(lin)
     blocks = []
@@ -242,10 +247,11 @@ def _noise_models(lin, cols, starts=None) -> list:
     ub = _basis(np.concatenate(blocks, axis=0))
     res = r_all - ub @ (ub.T @ r_all)
     out, i0 = [], 0
-    for (r, j, lab, t), s, st in zip(lin, scales, starts):
+    for (r, j, lab, t), s, st, q in zip(lin, scales, starts, readouts):
         n = len(r)
         design = np.column_stack([j[:, cols], _nuisance(t)])
-        nz = fit_noise(res[i0 : i0 + n] * s, lab, t, design=design, start=st if isinstance(st, GMNoise) else None)
+        start = st if isinstance(st, GMNoise) else None
+        nz = fit_noise(res[i0 : i0 + n] * s, lab, t, design=design, start=start, readout_var=q)
         out.append(nz if nz.innovation_std > 0 else ARNoise(np.zeros(0), s, s))
         i0 += n
     return out
@@ -387,9 +393,10 @@ def diagnose(
     # (each round's noise fits start from the previous round's)
     extra: list[str] = []
     noises = None
+    readouts = [group_readout_variance(camp, [i]) for i in range(len(camp.records))]
     for _round in range(4):
         cols = np.concatenate([np.arange(p0)] + [np.arange(full.size)[sl[c]] for c in extra]).astype(int)
-        noises = _noise_models(lin, cols, noises)
+        noises = _noise_models(lin, cols, noises, readouts)
         tested, perps, unexcited = _score(lin, noises, model, full, cand, p0, res.residual_rms)
         live = [c for c in tested if c.df > 0]
         if not live:
@@ -398,6 +405,13 @@ def diagnose(
         if best.log10_p + math.log10(len(live)) >= math.log10(alpha) or best.name in extra:
             break
         extra.append(best.name)
+
+    if model_free and any(d.mode == "servo" for d in camp.data):
+        # servo records: the noise beside every candidate and every shape, so that slow structure a few cycles per
+        # table turn is tested, not taken for drift (gyrojax.inference.adequacy.saturated_servo_noise)
+        blocks = [s[4] for s in adequacy.shapes(camp, res)]
+        noises = adequacy.saturated_servo_noise(camp, lin, noises, np.arange(full.size), blocks)
+        tested, perps, unexcited = _score(lin, noises, model, full, cand, p0, res.residual_rms)
 
     # aliases between candidates: collinear projected regressors
     names_t = [c.name for c in tested if c.name in perps]
@@ -416,7 +430,7 @@ def diagnose(
     explaining = [c.name for c in live]  # named effects that may explain a shape: not refused, plausible
     for _round in range(2):
         cols = np.concatenate([np.arange(full.size)[sl[c]] for c in explaining]).astype(int) if explaining else []
-        shapes = adequacy.residual_structure(camp, lin, res.noise, p0, cols) if model_free else []
+        shapes = adequacy.residual_structure(camp, lin, res.noise, p0, cols, result=res) if model_free else []
         adj = adequacy.holm_log10([c.log10_p for c in live] + [s.log10_p for s in shapes])
         for c, a in zip(live + shapes, adj):
             c.p_adjusted = float(10.0**a)
@@ -437,7 +451,7 @@ def diagnose(
             c.indistinguishable.append("gauss_markov")
 
     # colour that no deterministic effect explains: report it as gauss_markov
-    gm = _colour_candidate(noises, lin, alpha)
+    gm = _colour_candidate(noises, lin, alpha, p0)
     if gm is not None:
         if significant:
             tested.insert(len(significant), gm)
@@ -455,12 +469,22 @@ def diagnose(
     return Diagnosis(verdict, res, tested, alpha, unexcited, unexplained, proposal, family)
 
 
-def _colour_candidate(noises, lin, alpha) -> Candidate | None:
-    """Likelihood-ratio test of the AR noise model against white noise, pooled over records."""
+def _colour_candidate(noises, lin, alpha, p0: int = 0) -> Candidate | None:
+    """Likelihood-ratio test of the AR noise model against white noise, pooled over records.
+
+    A servo record whose readout noise is known (:mod:`gyrojax.noise.readout`) is tested by the REML likelihood
+    ratio of its white + Gauss–Markov rate noise against white rate noise, both beside the readout (the first ``p0``
+    columns of J the fitted regressors): colour is then that of the rate, never the readout's MA(1) increments."""
     stat, df, rms_acc, n_acc = 0.0, 0, 0.0, 0
-    for nz, (r, *_) in zip(noises, lin):
+    for nz, (r, j, lab, t) in zip(noises, lin):
         n = len(r)
-        if nz.order and nz.innovation_std > 0:
+        if isinstance(nz, GMNoise) and nz.readout_var > 0:
+            if nz.gm_var > 0:
+                design = np.column_stack([j[:, :p0], np.ones(n)])
+                white = white_beside_readout(r, design, lab, t, nz)
+                stat += max(gm_reml(r, design, lab, t, white) - gm_reml(r, design, lab, t, nz), 0.0)
+            df += 2
+        elif nz.order and nz.innovation_std > 0:
             stat += n * math.log(max(nz.variance_ratio, 1.0))
             df += 2 if nz.order == "gm" else nz.order
         rms_acc += nz.innovation_std**2 * n

@@ -168,12 +168,15 @@ class GMNoise:
     across the gaps between segments (the drift stays correlated while the table moves).
 
     Variances are in the residual's unit squared ((deg/h)² for gyros, g² for accelerometers); between samples Δt
-    apart the GM state decays by φ = exp(−Δt/τ).
+    apart the GM state decays by φ = exp(−Δt/τ). ``readout_var`` (servo records): the variance σ_q² of the angle
+    readout's white error over the sample interval, e/Δ, which differences into the increments
+    (:func:`gyrojax.noise.reml.readout_scan`; it is known, not fitted: :mod:`gyrojax.noise.readout`).
     """
 
     tau_s: float
     gm_var: float
     white_var: float
+    readout_var: float = 0.0
 
     order = "gm"
 
@@ -230,6 +233,8 @@ def kalman_whiten(x: np.ndarray, times: np.ndarray, nz: GMNoise, restart: np.nda
         _kalman_jit = jax.jit(_kalman_scan)
     x = np.asarray(x, dtype=float)
     x2 = x[:, None] if x.ndim == 1 else x
+    if nz.readout_var > 0:
+        return _readout_whiten(x, x2, times, nz, restart)
     dt = np.diff(times, prepend=times[0] if len(times) else 0.0)
     phi = np.exp(-np.clip(dt, 0.0, None) / nz.tau_s)
     bad = dt <= 0
@@ -239,6 +244,39 @@ def kalman_whiten(x: np.ndarray, times: np.ndarray, nz: GMNoise, restart: np.nda
     w, logs = _kalman_jit(x2, phi, nz.white_var, nz.gm_var)
     w = np.asarray(w)
     return (w[:, 0] if x.ndim == 1 else w), np.asarray(logs)
+
+
+def _readout_whiten(x, x2, times, nz: GMNoise, restart):
+    """:func:`kalman_whiten` with the servo readout's noise (:func:`gyrojax.noise.reml.readout_scan`), rows and
+    columns padded to the likelihood's buckets so that one compiled filter serves records of similar length."""
+    import jax
+
+    global _readout_jit
+    if _readout_jit is None:
+        _readout_jit = jax.jit(reml.readout_scan)
+    n, m = x2.shape
+    nb, mb = reml.bucket_rows(n), reml.bucket_cols(m)
+    dt = np.ones(nb)
+    dt[:n] = np.diff(times, prepend=times[0] if n else 0.0)
+    rs = np.ones(nb, dtype=bool)
+    rs[:n] = dt[:n] <= 0
+    if n:
+        rs[0] = True
+    if restart is not None:
+        rs[:n] |= np.asarray(restart, dtype=bool)
+    steps = dt[1:n][~rs[1:n]]
+    step = float(np.median(steps)) if steps.size else 1.0
+    mask = np.zeros(nb, dtype=bool)
+    mask[:n] = True
+    xp = np.zeros((nb, mb))
+    xp[:n, :m] = x2
+    theta = np.array([nz.tau_s, nz.gm_var, nz.white_var])
+    w, logs = _readout_jit(theta, np.array([nz.readout_var, step]), xp, dt, rs, mask)
+    w, logs = np.asarray(w)[:n, :m], np.asarray(logs)[:n]
+    return (w[:, 0] if x.ndim == 1 else w), logs
+
+
+_readout_jit = None
 
 
 def gm_loglik(r: np.ndarray, labels: np.ndarray, times: np.ndarray, nz: GMNoise) -> tuple[float, int]:
@@ -315,6 +353,7 @@ def fit_gm(
     tau_span_fraction: float = TAU_SPAN_FRACTION,
     neutral_start: bool = False,
     start: GMNoise | None = None,
+    readout_var: float = 0.0,
 ) -> GMNoise | None:
     """White + Gauss–Markov model from the pooled autocovariance: γ_0 = σ_w² + σ_g², γ_k = σ_g² φ^k (k ≥ 1),
     φ = exp(−Δt/τ) at the median step Δt (s, from ``times``), then refined by maximum likelihood (REML when
@@ -323,7 +362,8 @@ def fit_gm(
     autocovariance gives no admissible split (0 < σ_g² < γ_0) — unless ``neutral_start``, when the likelihood then
     starts from a neutral split instead (the fit's choice; the diagnosis keeps such residuals for its candidates).
     Variances in the unit of ``r`` squared. ``start``: a previous fit of a closely related residual (the diagnosis'
-    rounds) to start from instead of the moment estimate.
+    rounds) to start from instead of the moment estimate. ``readout_var``: a servo readout's known angle noise
+    (:class:`GMNoise`), beside which the rate noise is fitted.
     """
     from scipy.optimize import minimize_scalar
 
@@ -332,7 +372,7 @@ def fit_gm(
     if not lens or max(lens) < 8:
         return None
     if start is not None and start.gm_var > 0 and start.white_var > 0:
-        return _gm_mle(r, labels, times, start, design, grid=False, tau_span_fraction=tau_span_fraction)
+        return _gm_mle(r, labels, times, start, design, False, tau_span_fraction, readout_var)
     dt0 = float(np.median(np.diff(times))) if len(times) > 1 else 1.0
     if not dt0 > 0:
         dt0 = 1.0
@@ -341,6 +381,10 @@ def fit_gm(
     g0 = gamma[0]
     if g0 <= 0:
         return None
+    if readout_var > 0:  # the readout's MA(1) is no part of the rate's autocovariance
+        gamma[0] -= 2.0 * readout_var
+        gamma[1] += readout_var
+        g0 = max(gamma[0], 1e-3 * (gamma[0] + 2.0 * readout_var))
     k = np.arange(1, lag + 1)
     g = gamma[1:]
 
@@ -361,7 +405,7 @@ def fit_gm(
         start = GMNoise(10 * dt0, 0.1 * g0, 0.9 * g0)
     else:
         return None
-    return _gm_mle(r, labels, times, start, design, tau_span_fraction=tau_span_fraction)
+    return _gm_mle(r, labels, times, start, design, tau_span_fraction=tau_span_fraction, readout_var=readout_var)
 
 
 def _gm_mle(
@@ -372,6 +416,7 @@ def _gm_mle(
     design=None,
     grid: bool = True,
     tau_span_fraction: float = TAU_SPAN_FRACTION,
+    readout_var: float = 0.0,
 ) -> GMNoise:
     """Refine a white + Gauss–Markov model by maximising the exact (Kalman) likelihood — restricted (REML) when the
     regressors of the fit are given, so that the drift the fitted coefficients absorbed is not lost from σ_g².
@@ -381,9 +426,9 @@ def _gm_mle(
     derivatives, minimised by quasi-Newton from the best of a grid of starts (:func:`gyrojax.noise.reml.fit`);
     ``grid=False`` uses a coarser grid around ``start`` (a previous fit of a closely related residual).
     """
-    series = reml.prepare(r, design, labels, times, tau_span_fraction)
+    series = reml.prepare(r, design, labels, times, tau_span_fraction, readout_var=readout_var)
     theta, *_ = reml.fit(series, (start.tau_s, start.gm_var, start.white_var), reml=design is not None, coarse=not grid)
-    return GMNoise(min(float(theta[0]), series.tau_max), float(theta[1]), float(theta[2]))
+    return GMNoise(min(float(theta[0]), series.tau_max), float(theta[1]), float(theta[2]), readout_var)
 
 
 def fit_noise(
@@ -396,6 +441,7 @@ def fit_noise(
     neutral_start: bool = False,
     prefer_gm: bool = False,
     start: GMNoise | None = None,
+    readout_var: float = 0.0,
 ):
     """The noise model of a residual: white + Gauss–Markov (maximum likelihood), unless an AR(p ≥ 1) model is
     better by BIC.
@@ -410,11 +456,21 @@ def fit_noise(
 
     ``r`` in its own unit (deg/h for gyro residuals, g for accelerometers), ``times`` in s, ``design`` (n, p) the fit's
     regressors; ``start`` as for :func:`fit_gm`. Returns an :class:`ARNoise` or a :class:`GMNoise`.
+
+    ``readout_var`` > 0 (a servo record's known angle readout noise, :class:`GMNoise`): always the white +
+    Gauss–Markov rate beside it, which an AR model of the increments cannot hold.
     """
     gm = fit_gm(
-        r, labels, times, design=design, tau_span_fraction=tau_span_fraction, neutral_start=neutral_start, start=start
+        r,
+        labels,
+        times,
+        design=design,
+        tau_span_fraction=tau_span_fraction,
+        neutral_start=neutral_start or readout_var > 0,
+        start=start,
+        readout_var=readout_var,
     )
-    if prefer_gm and gm is not None:
+    if (prefer_gm or readout_var > 0) and gm is not None:
         return gm
     ar = fit_ar(r, labels, p_max)
     if gm is None or ar.innovation_std <= 0:
