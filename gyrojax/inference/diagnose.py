@@ -428,6 +428,12 @@ def diagnose(
     live = [c for c in tested if c.df > 0]
     tested.sort(key=lambda c: (c.log10_p if c.df > 0 else 0.0, -c.statistic))  # by evidence (log p never underflows)
     explaining = [c.name for c in live]  # named effects that may explain a shape: not refused, plausible
+    if any(d.mode == "servo" for d in camp.data):
+        # servo records: a candidate's column is its drift seen through the servo, and those built on ω_I (the nulled
+        # input, ≈ −drift: sf_quadratic's ω_I² holds every harmonic the fitted drift has) span slow shapes jointly
+        # with sizes no instrument has; only the candidates the data asks for (significant at α, Holm) explain them
+        bar = math.log10(alpha) - math.log10(max(len(live), 1))
+        explaining = [c.name for c in live if c.log10_p < bar]
     for _round in range(2):
         cols = np.concatenate([np.arange(full.size)[sl[c]] for c in explaining]).astype(int) if explaining else []
         shapes = adequacy.residual_structure(camp, lin, res.noise, p0, cols, result=res) if model_free else []
