@@ -35,7 +35,7 @@ import numpy as np
 from scipy import stats
 
 from gyrojax import units
-from gyrojax.noise.whiten import TAU_SPAN_FRACTION, fit_noise, whiten
+from gyrojax.noise.whiten import whiten
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import (
     Model,
@@ -402,26 +402,6 @@ class WhitenedSystem:
         return cls(np.concatenate(rows_r), np.concatenate(rows_j, axis=0), np.concatenate(rows_x, axis=0), cols, p0)
 
 
-def saturated_servo_noise(campaign, lin, noises, cols, blocks_per_shape) -> list:
-    """The noise model of each servo record re-fitted from its residual with the named columns ``cols`` and every
-    shape beside it (REML, the readout's noise kept, τ capped as the diagnosis caps it); other records keep theirs.
-
-    A servo record's shapes are slow: a missing term of a few cycles per table turn is structure the white +
-    Gauss–Markov rate noise can take in when it is fitted beside the model alone (a planted a_O³ over a 24 h polar
-    turn became a Gauss–Markov drift of 3 h, and whitened by it the 3θ shape lost its power). Fitted beside the
-    shapes, the noise cannot hold what they test, so the tests keep their size and their power."""
-    out = list(noises)
-    for i, (d, (r, j, lab, t)) in enumerate(zip(campaign.data, lin)):
-        if d.mode != "servo":
-            continue
-        design = np.column_stack([j[:, cols]] + [b[i] for b in blocks_per_shape])
-        q = float(getattr(noises[i], "readout_var", 0.0))
-        out[i] = fit_noise(
-            r, lab, t, design=design, tau_span_fraction=TAU_SPAN_FRACTION, neutral_start=True, readout_var=q
-        )
-    return out
-
-
 def residual_structure(campaign, lin, noises, p0: int, candidate_cols=None, result=None) -> list[Structure]:
     """Test the whitened residual against every shape of :func:`shapes` (module doc); p-values not yet adjusted.
 
@@ -440,9 +420,8 @@ def residual_structure(campaign, lin, noises, p0: int, candidate_cols=None, resu
     lib = shapes(campaign, result)
     if not lib:
         return []
-    cols = np.arange(lin[0][1].shape[1]) if candidate_cols is None else np.union1d(np.arange(p0), candidate_cols)
-    noises = saturated_servo_noise(campaign, lin, noises, cols.astype(int), [s[4] for s in lib])
     ws = WhitenedSystem.build(lin, noises, [s[4] for s in lib], p0)
+    cols = np.arange(ws.j.shape[1]) if candidate_cols is None else np.union1d(np.arange(p0), candidate_cols)
     u0 = basis(ws.j[:, :p0])
     u_named = basis(ws.j[:, cols.astype(int)])
     r0 = _perp(u0, ws.r)

@@ -406,13 +406,6 @@ def diagnose(
             break
         extra.append(best.name)
 
-    if model_free and any(d.mode == "servo" for d in camp.data):
-        # servo records: the noise beside every candidate and every shape, so that slow structure a few cycles per
-        # table turn is tested, not taken for drift (gyrojax.inference.adequacy.saturated_servo_noise)
-        blocks = [s[4] for s in adequacy.shapes(camp, res)]
-        noises = adequacy.saturated_servo_noise(camp, lin, noises, np.arange(full.size), blocks)
-        tested, perps, unexcited = _score(lin, noises, model, full, cand, p0, res.residual_rms)
-
     # aliases between candidates: collinear projected regressors
     names_t = [c.name for c in tested if c.name in perps]
     for i, a in enumerate(names_t):
