@@ -496,7 +496,7 @@ class FitResult:
 
 def _noise_json(nz) -> dict:
     if getattr(nz, "order", 0) == "gm":
-        return {
+        out = {
             "kind": "white+gauss_markov",
             "white_std": float(np.sqrt(nz.white_var)),
             "gauss_markov_std": float(np.sqrt(nz.gm_var)),
@@ -504,6 +504,9 @@ def _noise_json(nz) -> dict:
             "innovation_std": nz.innovation_std,
             "std": nz.std,
         }
+        if nz.readout_var > 0:  # a servo readout's angle error over the interval (gyrojax.noise.readout)
+            out["readout_std"] = float(np.sqrt(nz.readout_var))
+        return out
     return {"kind": "ar", "ar_order": int(nz.order), "innovation_std": nz.innovation_std, "std": nz.std}
 
 
