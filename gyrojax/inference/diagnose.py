@@ -289,7 +289,7 @@ def _score(lin, noises, model: Model, full: Model, cand, p0: int, rms_now: float
             aliases = sorted({fx.effect_of_coefficient(model.coefficient_names[k]) for k in idx}, key=model.terms.index)
             tested.append(Candidate(c, 0.0, 0, 1.0, 1.0, aliases, rms_now))
             continue
-        uc = _basis(xp, tol=1e-7)
+        uc = adequacy.perp_basis(u0, x, tol=1e-7)  # directions measured against the candidate's own columns
         proj = uc.T @ r_perp
         stat = float(proj @ proj) / sigma2
         df = uc.shape[1]
