@@ -16,9 +16,9 @@ adjusted for testing every candidate at once (Holm's step-down procedure); the v
 adjusted p-value is below α.
 
 A candidate whose X⊥ vanishes is indistinguishable from the model in this plan; two candidates whose X⊥ are
-collinear are **aliases** of each other in this plan, and :func:`separating_plans` names built-in plans that
-would tell them apart. Residual colour that no candidate explains is reported as ``gauss_markov``, never as a
-deterministic effect (conventions §6).
+collinear are **aliases** of each other in this plan, and
+:func:`gyrojax.inference.separation.separating_plans` names built-in plans that would tell them apart. Residual
+colour that no candidate explains is reported as ``gauss_markov``, never as a deterministic effect (conventions §6).
 """
 
 from __future__ import annotations
