@@ -151,6 +151,7 @@ def test_saved_spec_loads_back_whole(tmp_path):
         converged=False,
         reason="Levenberg-Marquardt stopped at its iteration limit (80) before converging",
         info={"model": "white+2gm+rw", "p_value": None, "selection": [{"model": "white", "wic": 3.5}]},
+        readout_var=0.0027,
     )
     p = spec.save(tmp_path / "n.json")
     text = p.read_text()
@@ -163,6 +164,9 @@ def test_saved_spec_loads_back_whole(tmp_path):
     assert back.std("gm1_tau") == 2.0 and math.isnan(back.std("gm1_sigma"))
     with pytest.raises(Exception, match="exists"):
         spec.save(p)
+    assert doc["readout_var"] == 0.0027
+    old = {k: v for k, v in doc.items() if k != "readout_var"}  # a file written before the servo readout term
+    assert NoiseSpec.from_json(old) == replace(spec, readout_var=0.0)
     doc["format_version"] = 7
     (tmp_path / "bad.json").write_text(json.dumps(doc))
     with pytest.raises(NoiseModelError, match="format_version"):
@@ -182,6 +186,8 @@ def test_bad_specs_are_refused_naming_the_field():
         NoiseSpec(ar=(0.5,))
     with pytest.raises(NoiseModelError, match="random_walk"):
         NoiseSpec(white=0.1, random_walk=0.1, dt_s=1.0).whitening_theta()
+    with pytest.raises(NoiseModelError, match="readout_var"):
+        NoiseSpec(readout_var=-1e-3)
 
 
 def test_whitening_parameters():

@@ -33,6 +33,7 @@ import jax.numpy as jnp
 import numpy as np
 from scipy import stats
 
+from gyrojax.inference.drift_rows import rows_of, servo_state
 from gyrojax.noise.whiten import whiten
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import instrument_inputs
@@ -109,44 +110,52 @@ def suggest_name(s: Structure) -> str:
 # ---- the shapes -------------------------------------------------------------------------------------------------
 
 
-def _measurement_rows(arr: np.ndarray, data) -> np.ndarray:
-    """Per-sample values -> per-measurement values (servo: interval means; TDF: the two channels stacked)."""
-    a = np.asarray(arr, dtype=float)
-    if data.mode == "servo":
-        return 0.5 * (a[1:] + a[:-1])
-    if data.kind == fx.TDF:
-        return np.concatenate([a, a])
-    return a
-
-
 def _harmonic(p: dict, axis: str, k: int) -> np.ndarray:
-    th = p["angle"].get(axis, np.zeros(len(p["seg"])))
+    th = p["angle"].get(axis, np.zeros_like(p["ones"]))
     return np.column_stack([np.cos(k * th), np.sin(k * th)])
 
 
-def shapes(campaign) -> list[tuple]:
+def shapes(campaign, result=None) -> list[tuple]:
     """Every shape the records can show: ``(versus, shape, expression, unit, blocks)`` with ``blocks[i]`` the
-    regressors (measurement rows of record i kept by its labels, q columns) in raw input units."""
+    regressors (measurement rows of record i kept by its labels, q columns) in raw input units.
+
+    Each shape is a drift term (output unit per unit of the shape): on a rebalance record it is the regressor
+    itself; on a servo record, the interval mean of its effect on the table rate
+    (:func:`gyrojax.inference.drift_rows.servo_state`), with the inputs at the table rate the fitted model ``result``
+    predicts (none from the recorded rate)."""
     kind = campaign.kind
     out_unit = "g" if kind == fx.ACCEL else "deg/h"
     per_rec = []
     zero = {"delta": jnp.zeros(3), "encoder": jnp.zeros(4)}
     for rec, d, lab in zip(campaign.records, campaign.data, campaign.labels):
         ok = lab >= 0
-        x = {k: np.asarray(v) for k, v in instrument_inputs(d, zero).items()}
         n = rec.n
-        v = {k: _measurement_rows(x[k][:n], d)[ok] for k in x if not k.startswith("channel_is")}
-        ang = {a: _measurement_rows(np.deg2rad(rec.angles_deg[:, i]), d)[ok] for i, a in enumerate(rec.axis_names)}
-        rate = {a: _measurement_rows(rec.rates_dps[:, i] * 3600.0, d)[ok] for i, a in enumerate(rec.axis_names)}
-        temp = None if rec.temperature_C is None else _measurement_rows(rec.temperature_C, d)[ok]
-        seg = _measurement_rows(rec.segment_id.astype(float), d)[ok].round().astype(int)
-        per_rec.append({"x": v, "angle": ang, "rate": rate, "temp": temp, "seg": seg})
+        if d.mode == "servo":
+            x, gain, tr = servo_state(d, result)
+            rate = {a: tr[:, i] for i, a in enumerate(rec.axis_names)}
+        else:
+            x = {k: np.asarray(v) for k, v in instrument_inputs(d, zero).items()}
+            gain = None
+            rate = {a: rec.rates_dps[:, i] * 3600.0 for i, a in enumerate(rec.axis_names)}
+        rows = rows_of(d, ok, gain)
+        v = {k: np.asarray(x[k])[:n] for k in x if not k.startswith("channel_is")}
+        ang = {a: np.deg2rad(rec.angles_deg[:, i]) for i, a in enumerate(rec.axis_names)}
+        temp = None if rec.temperature_C is None else np.asarray(rec.temperature_C, dtype=float)
+        seg_samples = rec.segment_id.astype(float)
+        if d.mode == "servo":
+            seg = (0.5 * (seg_samples[1:] + seg_samples[:-1]))[ok].round().astype(int)
+        elif d.kind == fx.TDF:
+            seg = np.concatenate([seg_samples, seg_samples])[ok].round().astype(int)
+        else:
+            seg = seg_samples[ok].round().astype(int)
+        p = {"x": v, "angle": ang, "rate": rate, "temp": temp, "seg": seg, "rows": rows, "m": len(seg)}
+        per_rec.append({**p, "ones": np.ones(n)})
 
     def stacked(get):
         return np.concatenate([np.asarray(get(p), dtype=float) for p in per_rec]) if per_rec else np.zeros(0)
 
-    def blocks(fn):
-        return [np.asarray(fn(p), dtype=float).reshape(len(p["seg"]), -1) for p in per_rec]
+    def blocks(fn):  # per-sample values of a drift shape -> its regressors in each record's measurement rows
+        return [p["rows"](np.asarray(fn(p), dtype=float)).reshape(p["m"], -1) for p in per_rec]
 
     out = []
     # table angles: harmonics
@@ -207,7 +216,7 @@ def shapes(campaign) -> list[tuple]:
                     name,
                     None,
                     None,
-                    blocks(lambda p, a=a, f=f, s=scale: f(p["rate"].get(a, np.zeros(len(p["seg"]))) / s)),
+                    blocks(lambda p, a=a, f=f, s=scale: f(p["rate"].get(a, np.zeros_like(p["ones"])) / s)),
                 )
             )
     # time on the campaign clock
@@ -288,6 +297,30 @@ def _perp(u: np.ndarray, x: np.ndarray) -> np.ndarray:
     return x - u @ (u.T @ x) if u.shape[1] else x
 
 
+def perp_basis(u: np.ndarray, x: np.ndarray, tol: float = UNSEEN) -> np.ndarray:
+    """Orthonormal basis (dimensionless) of the part of span(``x``) orthogonal to the orthonormal ``u``: the
+    directions whose size is at least ``tol`` of ``x``'s own columns.
+
+    Sizes are measured against the columns of ``x`` before the projection: a column that ``u`` spans up to
+    rounding (cos 2θ beside D_OO's a_O²) leaves a residue of 1e-16 of itself, which normalised on its own would be a
+    direction of rounding errors, neither orthogonal to ``u`` nor a shape of the data.
+    """
+    if x.ndim == 1:
+        x = x[:, None]
+    norms = np.sqrt((x * x).sum(axis=0))
+    live = norms > 0
+    if not live.any():
+        return np.zeros((x.shape[0], 0))
+    z = _perp(u, x[:, live] / norms[live])
+    ev, vec = np.linalg.eigh(z.T @ z)
+    keep = ev > tol**2
+    if not keep.any():
+        return np.zeros((x.shape[0], 0))
+    b = _perp(u, z @ (vec[:, keep] / np.sqrt(ev[keep])))  # a second projection: orthogonal to u to rounding
+    ch = np.linalg.cholesky(b.T @ b)
+    return np.linalg.solve(ch, b.T).T
+
+
 @dataclass
 class WhitenedSystem:
     """Residual, regressors (model p0 columns, then the candidates') and shapes, whitened by one noise model."""
@@ -316,7 +349,7 @@ class WhitenedSystem:
         return cls(np.concatenate(rows_r), np.concatenate(rows_j, axis=0), np.concatenate(rows_x, axis=0), cols, p0)
 
 
-def residual_structure(campaign, lin, noises, p0: int, candidate_cols=None) -> list[Structure]:
+def residual_structure(campaign, lin, noises, p0: int, candidate_cols=None, result=None) -> list[Structure]:
     """Test the whitened residual against every shape of :func:`shapes` (module doc); p-values not yet adjusted.
 
     Args:
@@ -326,10 +359,12 @@ def residual_structure(campaign, lin, noises, p0: int, candidate_cols=None) -> l
       noises: one noise model per record (the fit's), used to whiten residual, regressors and shapes alike.
       p0: number of the model's own columns in J (the rest are the named candidates').
       candidate_cols: columns of J to project out besides the model's (default: all of them).
+      result: the fit (:class:`gyrojax.inference.identify.FitResult`) whose predicted table rate gives a servo
+        record's inputs (:func:`shapes`); without it, the rate of a drift-free instrument.
 
     Returns: one :class:`Structure` per shape that the model and the candidates do not span, strongest first.
     """
-    lib = shapes(campaign)
+    lib = shapes(campaign, result)
     if not lib:
         return []
     ws = WhitenedSystem.build(lin, noises, [s[4] for s in lib], p0)
@@ -354,10 +389,7 @@ def residual_structure(campaign, lin, noises, p0: int, candidate_cols=None) -> l
         xn = float(np.sqrt((x * x).sum()))
         if xn == 0.0:
             continue
-        xp = _perp(u_named, x)
-        if float(np.sqrt((xp * xp).sum())) / xn < UNSEEN:
-            continue
-        uc = basis(xp)
+        uc = perp_basis(u_named, x)
         if uc.shape[1] == 0:
             continue
         proj = uc.T @ r0

@@ -16,37 +16,40 @@ adjusted for testing every candidate at once (Holm's step-down procedure); the v
 adjusted p-value is below α.
 
 A candidate whose X⊥ vanishes is indistinguishable from the model in this plan; two candidates whose X⊥ are
-collinear are **aliases** of each other in this plan, and :func:`separating_plans` names built-in plans that
-would tell them apart. Residual colour that no candidate explains is reported as ``gauss_markov``, never as a
-deterministic effect (conventions §6).
+collinear are **aliases** of each other in this plan, and
+:func:`gyrojax.inference.separation.separating_plans` names built-in plans that would tell them apart. Residual
+colour that no candidate explains is reported as ``gauss_markov``, never as a deterministic effect (conventions §6).
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field
-from functools import lru_cache
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 from scipy import stats
 
-from gyrojax.data.arrays import record_data
 from gyrojax.errors import ModelError
 from gyrojax.inference import adequacy
 from gyrojax.inference.campaign import Campaign, linearize
 from gyrojax.inference.identifiability import residue_columns
 from gyrojax.inference.identify import fit
-from gyrojax.inference.noisefit import campaign_noise, noise_scale, satterthwaite_dof, small_sample_factor
+from gyrojax.inference.noisefit import (
+    campaign_noise,
+    group_readout_variance,
+    noise_scale,
+    satterthwaite_dof,
+    small_sample_factor,
+)
 from gyrojax.inference.result import FitResult
+from gyrojax.inference.separation import separating_plans
 from gyrojax.inference.solver import solve, stack_whitened
 from gyrojax.noise import reml
+from gyrojax.noise.readout import white_beside_readout
 from gyrojax.noise.spec import NoiseSpec
-from gyrojax.noise.whiten import fit_noise, whiten
+from gyrojax.noise.whiten import fit_noise, gm_reml, whiten
 from gyrojax.physics import effects as fx
-from gyrojax.physics.model import Model, jacobian
+from gyrojax.physics.model import Model
 
 SLOW = ("bias_trend", "bias_temperature")
 """Candidates that vary slowly in time and so compete with long-memory drift for the same residual structure. They
@@ -215,7 +218,7 @@ def _nuisance(t: np.ndarray) -> np.ndarray:
     return np.ones((len(t), 1))
 
 
-def _noise_models(lin, cols, starts=None) -> list:
+def _noise_models(lin, cols, starts=None, readouts=None) -> list:
     """Per-record noise model from the residual left after projecting on the regressor columns ``cols`` and on a
     per-record offset.
 
@@ -224,9 +227,12 @@ def _noise_models(lin, cols, starts=None) -> list:
     under test. It is a nuisance regressor only here; REML keeps the noise estimate unbiased when it is absent.
     Slower-than-the-record drift is kept apart from noise by the cap on τ
     (:data:`gyrojax.noise.whiten.TAU_SPAN_FRACTION`). ``starts``: the previous round's models, whose Gauss–Markov
-    fits start this round's (one column more changes them little).
+    fits start this round's (one column more changes them little). ``readouts``: each record's servo readout noise
+    σ_q² ((deg/h)², :mod:`gyrojax.noise.readout`; 0 for none), beside which the rate noise is fitted, so that the
+    readout's MA(1) increments are not taken for colour.
     """
     starts = starts or [None] * len(lin)
+    readouts = readouts or [0.0] * len(lin)
     scales = [max(np.sqrt(np.mean(r * r)), 1e-300) for r, *_ in lin]
     n_rec = len(lin)
     blocks = []
@@ -238,12 +244,11 @@ def _noise_models(lin, cols, starts=None) -> list:
     ub = _basis(np.concatenate(blocks, axis=0))
     res = r_all - ub @ (ub.T @ r_all)
     out, i0 = [], 0
-    for (r, j, lab, t), s, st in zip(lin, scales, starts):
+    for (r, j, lab, t), s, st, q in zip(lin, scales, starts, readouts):
         n = len(r)
         design = np.column_stack([j[:, cols], _nuisance(t)])
-        nz = fit_noise(
-            res[i0 : i0 + n] * s, lab, t, design=design, start=st if st is not None and st.gauss_markov else None
-        )
+        start = st if st is not None and st.gauss_markov else None
+        nz = fit_noise(res[i0 : i0 + n] * s, lab, t, design=design, start=start, readout_var=q)
         out.append(nz if nz.innovation_std > 0 else NoiseSpec.from_sample_variances(s * s, reml.sample_interval(t)))
         i0 += n
     return out
@@ -281,7 +286,7 @@ def _score(lin, noises, model: Model, full: Model, cand, p0: int, rms_now: float
             aliases = sorted({fx.effect_of_coefficient(model.coefficient_names[k]) for k in idx}, key=model.terms.index)
             tested.append(Candidate(c, 0.0, 0, 1.0, 1.0, aliases, rms_now))
             continue
-        uc = _basis(xp, tol=1e-7)
+        uc = adequacy.perp_basis(u0, x, tol=1e-7)  # directions measured against the candidate's own columns
         proj = uc.T @ r_perp
         stat = float(proj @ proj) / sigma2
         df = uc.shape[1]
@@ -385,9 +390,10 @@ def diagnose(
     # (each round's noise fits start from the previous round's)
     extra: list[str] = []
     noises = None
+    readouts = [group_readout_variance(camp, [i]) for i in range(len(camp.records))]
     for _round in range(4):
         cols = np.concatenate([np.arange(p0)] + [np.arange(full.size)[sl[c]] for c in extra]).astype(int)
-        noises = _noise_models(lin, cols, noises)
+        noises = _noise_models(lin, cols, noises, readouts)
         tested, perps, unexcited = _score(lin, noises, model, full, cand, p0, res.residual_rms)
         live = [c for c in tested if c.df > 0]
         if not live:
@@ -412,9 +418,15 @@ def diagnose(
     live = [c for c in tested if c.df > 0]
     tested.sort(key=lambda c: (c.log10_p if c.df > 0 else 0.0, -c.statistic))  # by evidence (log p never underflows)
     explaining = [c.name for c in live]  # named effects that may explain a shape: not refused, plausible
+    if any(d.mode == "servo" for d in camp.data):
+        # servo records: a candidate's column is its drift seen through the servo, and those built on ω_I (the nulled
+        # input, ≈ −drift: sf_quadratic's ω_I² holds every harmonic the fitted drift has) span slow shapes jointly
+        # with sizes no instrument has; only the candidates the data asks for (significant at α, Holm) explain them
+        bar = math.log10(alpha) - math.log10(max(len(live), 1))
+        explaining = [c.name for c in live if c.log10_p < bar]
     for _round in range(2):
         cols = np.concatenate([np.arange(full.size)[sl[c]] for c in explaining]).astype(int) if explaining else []
-        shapes = adequacy.residual_structure(camp, lin, res.noise, p0, cols) if model_free else []
+        shapes = adequacy.residual_structure(camp, lin, res.noise, p0, cols, result=res) if model_free else []
         adj = adequacy.holm_log10([c.log10_p for c in live] + [s.log10_p for s in shapes])
         for c, a in zip(live + shapes, adj):
             c.p_adjusted = float(10.0**a)
@@ -435,7 +447,7 @@ def diagnose(
             c.indistinguishable.append("gauss_markov")
 
     # colour that no deterministic effect explains: report it as gauss_markov
-    gm = _colour_candidate(noises, lin, alpha)
+    gm = _colour_candidate(noises, lin, alpha, p0)
     if gm is not None:
         if significant:
             tested.insert(len(significant), gm)
@@ -453,12 +465,22 @@ def diagnose(
     return Diagnosis(verdict, res, tested, alpha, unexcited, unexplained, proposal, family)
 
 
-def _colour_candidate(noises, lin, alpha) -> Candidate | None:
-    """Likelihood-ratio test of the AR noise model against white noise, pooled over records."""
+def _colour_candidate(noises, lin, alpha, p0: int = 0) -> Candidate | None:
+    """Likelihood-ratio test of the AR noise model against white noise, pooled over records.
+
+    A servo record whose readout noise is known (:mod:`gyrojax.noise.readout`) is tested by the REML likelihood
+    ratio of its white + Gauss–Markov rate noise against white rate noise, both beside the readout (the first ``p0``
+    columns of J the fitted regressors): colour is then that of the rate, never the readout's MA(1) increments."""
     stat, df, rms_acc, n_acc = 0.0, 0, 0.0, 0
-    for nz, (r, *_) in zip(noises, lin):
+    for nz, (r, j, lab, t) in zip(noises, lin):
         n = len(r)
-        if nz.order and nz.innovation_std > 0:
+        if nz.gauss_markov and nz.readout_var > 0:
+            if nz.gm_variance > 0:
+                design = np.column_stack([j[:, :p0], np.ones(n)])
+                white = white_beside_readout(r, design, lab, t, nz)
+                stat += max(gm_reml(r, design, lab, t, white) - gm_reml(r, design, lab, t, nz), 0.0)
+            df += 2
+        elif nz.order and nz.innovation_std > 0:
             stat += n * math.log(max(nz.variance_ratio, 1.0))
             df += 2 if nz.order == "gm" else nz.order
         rms_acc += nz.innovation_std**2 * n
@@ -480,89 +502,6 @@ def _colour_candidate(noises, lin, alpha) -> Candidate | None:
         {"ar_order": {"value": df, "unit": "-"}},
         log10_p=logp / math.log(10),
     )
-
-
-# ---- which test would separate aliased effects ------------------------------------------------------------------
-
-
-@lru_cache(maxsize=4)
-def _plan_jacobians(kind: str):
-    """Regressors of every named effect in a few short built-in plans (computed once per process)."""
-    from gyrojax.data import plans
-    from gyrojax.simulation.simulator import plan_records
-
-    options = {
-        "multiposition-24": lambda: plans.multiposition(24, minutes=1.0, dt_s=6.0),
-        "tumble (flipped, CW/CCW)": lambda: plans.tumble(revolutions=1.0, dt_s=60.0),
-        "two-axis-tumble 5:1": lambda: plans.two_axis_tumble(5, 1, revolutions=1.0, dt_s=60.0),
-        "rate-ladder": lambda: plans.rate_ladder(seconds=5.0, dt_s=1.0),
-        "eight-position": lambda: plans.eight_position(minutes=1.0, dt_s=6.0),
-    }
-    model = Model(tuple(n for n in fx.names(kind) if n != "bias_temperature"), kind)
-    runs, owner = [], []
-    for name, build in options.items():
-        for rec in plan_records(build()):
-            runs.append(rec)
-            owner.append(name)
-    # one compile for all: every run padded to two table axes (a still dummy axis outermost) and one length
-    n_max = max(r.n for r in runs)
-    padded, lengths = [], []
-    for rec in runs:
-        d = record_data(rec)
-        n = rec.n
-        pad = lambda a: np.concatenate([a, np.repeat(a[-1:], n_max - n, axis=0)], axis=0)  # noqa: E731
-        angles, rates, axes = np.asarray(d.angles), np.asarray(d.rates), np.asarray(d.axes)
-        if axes.shape[0] == 1:
-            angles = np.column_stack([np.zeros(n), angles])
-            rates = np.column_stack([np.zeros(n), rates])
-            axes = np.vstack([[0.0, 0.0, 1.0], axes])
-        padded.append(
-            dataclasses.replace(
-                d,
-                axes=axes,
-                angles=pad(angles),
-                rates=pad(rates),
-                time_s=pad(np.asarray(d.time_s)),
-                temperature=pad(np.asarray(d.temperature)),
-                y=pad(np.asarray(d.y)),
-                weight=pad(np.asarray(d.weight)),
-                command=pad(np.asarray(d.command)),
-                dt=np.zeros(n_max - 1),
-                triad=np.asarray(d.triad),
-                latitude=np.asarray(d.latitude),
-                gravity=np.asarray(d.gravity),
-                encoder_axis=1,
-            )
-        )
-        lengths.append(n)
-    batch = jax.tree_util.tree_map(lambda *xs: np.stack(xs), *padded)
-    jac = jax.jit(jax.vmap(lambda d: jacobian(model, jnp.zeros(model.size), d)))(batch)
-    out: dict = {}
-    for name, n, j in zip(owner, lengths, np.asarray(jac)):
-        out.setdefault(name, []).append(j[:n])
-    return model, {k: np.concatenate(v, axis=0) for k, v in out.items()}
-
-
-def separating_plans(kind: str, effects: tuple) -> list:
-    """Built-in plans in which the regressors of ``effects`` (with D_F) are not collinear: the extra test to run."""
-    if kind != fx.SDF:
-        return []
-    model, jacs = _plan_jacobians(kind)
-    sl = model.slices()
-    names = tuple(dict.fromkeys(("D_F",) + tuple(effects)))
-    if any(n not in sl for n in names):
-        return []
-    cols = np.concatenate([np.arange(model.size)[sl[n]] for n in names])
-    out = []
-    for plan, j in jacs.items():
-        sub = j[:, cols]
-        norms = np.sqrt((sub * sub).sum(axis=0))
-        if np.any(norms == 0):
-            continue
-        s = np.linalg.svd(sub / norms, compute_uv=False)
-        if s[-1] > 1e-3 * s[0]:
-            out.append(plan)
-    return out
 
 
 def add_and_refit(records, terms, effect: str | None = None, *, diagnosis: Diagnosis | None = None, **kw):

@@ -13,6 +13,7 @@ from gyrojax.errors import ConvergenceWarning
 from gyrojax.inference.campaign import Campaign
 from gyrojax.inference.solver import solve, stack_whitened
 from gyrojax.noise import reml
+from gyrojax.noise.readout import record_readout_variance, white_beside_readout
 from gyrojax.noise.spec import NoiseSpec
 from gyrojax.noise.whiten import (
     FIT_TAU_SPAN_FRACTION,
@@ -70,7 +71,9 @@ def campaign_noise(lin, campaign: Campaign) -> list:
     noises = [None] * len(lin)
     for idx in noise_groups(campaign):
         r, j, lab, t = group_series(lin, idx)
-        nz = fit_noise(r, lab, t, design=j, tau_span_fraction=FIT_TAU_SPAN_FRACTION, neutral_start=True, prefer_gm=True)
+        q = group_readout_variance(campaign, idx)
+        kw = {"tau_span_fraction": FIT_TAU_SPAN_FRACTION, "neutral_start": True, "prefer_gm": True, "readout_var": q}
+        nz = fit_noise(r, lab, t, design=j, **kw)
         if nz.gauss_markov:
             nz = _white_unless_drift(r, j, lab, t, nz)
         if nz.gauss_markov:
@@ -85,6 +88,14 @@ WHITE_LR_CRITICAL = 2.71
 ½χ²₀ + ½χ²₁, the null law of a variance on its boundary."""
 
 
+def group_readout_variance(campaign: Campaign, idx) -> float:
+    """The servo readout's noise σ_q² ((deg/h)², :mod:`gyrojax.noise.readout`) of the records ``idx`` of one noise
+    group (their largest; 0 for records that are not servo or not quantised)."""
+    return max(
+        record_readout_variance(campaign.records[i], mean_interval(campaign.times[i], campaign.labels[i])) for i in idx
+    )
+
+
 def _white_unless_drift(r, j, lab, t, gm: NoiseSpec):
     """White noise instead of ``gm`` when the pooled REML cannot tell the drift from white (ratio below
     :data:`WHITE_LR_CRITICAL`). On white data a Gauss–Markov variance is estimated on its boundary, so positive by
@@ -92,6 +103,11 @@ def _white_unless_drift(r, j, lab, t, gm: NoiseSpec):
     ±2σ coverage 0.974 with it, 0.959 without). The pooled REML sees the scatter of the position means, so a drift
     that matters for them is not missed by this test (8-position, τ = 300 s drift: 0.934)."""
     ok = lab >= 0
+    if gm.readout_var > 0:  # white rate noise beside the known readout: its REML optimum by a 1-D search
+        white = white_beside_readout(r, j, lab, t, gm)
+        if gm_reml(r, j, lab, t, white) - gm_reml(r, j, lab, t, gm) >= WHITE_LR_CRITICAL:
+            return gm
+        return white.with_status(gm.converged, gm.reason)
     e, _ = gls_residual(r[ok], j[ok])
     rank = np.linalg.matrix_rank(j[ok]) if j.shape[1] else 0
     var = float(e @ e) / max(int(ok.sum()) - rank, 1)

@@ -234,7 +234,7 @@ class FitResult(Estimates):
 def _noise_json(nz: NoiseSpec) -> dict:
     """The per-record summary of a noise model in ``records[i].noise_model`` (per-sample stds, τ in s)."""
     if nz.gauss_markov:
-        return {
+        out = {
             "kind": "white+gauss_markov",
             "white_std": float(np.sqrt(nz.white_variance)),
             "gauss_markov_std": float(np.sqrt(nz.gm_variance)),
@@ -243,6 +243,9 @@ def _noise_json(nz: NoiseSpec) -> dict:
             "std": nz.stationary_std,
             "converged": nz.converged,
         }
+        if nz.readout_var > 0:  # a servo readout's angle error over the interval (gyrojax.noise.readout)
+            out["readout_std"] = float(np.sqrt(nz.readout_var))
+        return out
     return {
         "kind": "ar",
         "ar_order": int(nz.order),
@@ -326,7 +329,8 @@ def _noise_of_summary(s: dict) -> NoiseSpec:
     sample interval not kept (taken as 1 s, so N here is the per-sample std / 60), AR coefficients unknown (NaN)."""
     if s.get("kind") == "white+gauss_markov":
         gm = [(float(s["gauss_markov_std"]) ** 2, float(s["tau_s"]))]
-        return NoiseSpec.from_sample_variances(float(s["white_std"]) ** 2, 1.0, gm, method="reml")
+        q = float(s.get("readout_std", 0.0)) ** 2  # a servo readout's noise, when the file has one
+        return NoiseSpec.from_sample_variances(float(s["white_std"]) ** 2, 1.0, gm, method="reml", readout_var=q)
     ar = (math.nan,) * int(s["ar_order"])
     return NoiseSpec.from_sample_variances(float(s["innovation_std"]) ** 2, 1.0, ar=ar, method="ar")
 

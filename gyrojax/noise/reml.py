@@ -92,6 +92,7 @@ class Series:
     dt0: float
     var0: float
     norms: np.ndarray
+    readout: object = None  # (σ_q², Δ s) of a servo record's angle readout (:func:`readout_scan`), or None
 
     @property
     def arrays(self):
@@ -126,10 +127,13 @@ def longest_span(times: np.ndarray, restart: np.ndarray) -> float:
     return float(max(np.ptp(times[s:e]) for s, e in zip(starts, ends))) or 1.0
 
 
-def prepare(r, design, labels, times, tau_span_fraction: float, select: bool = True) -> Series:
+def prepare(
+    r, design, labels, times, tau_span_fraction: float, select: bool = True, readout_var: float = 0.0
+) -> Series:
     """A :class:`Series` of the rows with ``labels`` ≥ 0 of ``r`` (n,), ``design`` (n, p) or None and ``times`` (s);
     τ capped at the longest series' span / ``tau_span_fraction``. ``select=False`` keeps every column (for
-    :func:`whitened_gram`; the likelihood needs the independent ones)."""
+    :func:`whitened_gram`; the likelihood needs the independent ones). ``readout_var`` σ_q² > 0: the increments also
+    carry a servo readout's white angle noise (:func:`readout_scan`; Δ the median step)."""
     ok = np.asarray(labels) >= 0
     r = np.asarray(r, dtype=float)[ok]
     t = np.asarray(times, dtype=float)[ok]
@@ -159,8 +163,20 @@ def prepare(r, design, labels, times, tau_span_fraction: float, select: bool = T
     dt0 = dt0 if dt0 > 0 else 1.0
     tau_max = max(longest_span(t, restart[:n]) / tau_span_fraction, 1e-9)
     var0 = float(np.var(r)) if n else 1.0
+    readout = jnp.asarray([readout_var, dt0], dtype=jnp.float64) if readout_var > 0 else None
     return Series(
-        x, dt, restart, mask, float(2.0 * np.sum(np.log(norms))), n, p, tau_max, dt0, var0 if var0 > 0 else 1.0, norms
+        x,
+        dt,
+        restart,
+        mask,
+        float(2.0 * np.sum(np.log(norms))),
+        n,
+        p,
+        tau_max,
+        dt0,
+        var0 if var0 > 0 else 1.0,
+        norms,
+        readout,
     )
 
 
@@ -267,7 +283,56 @@ def _mobius_prefix_jvp(primals, tangents):
     return p, affine_prefix(slope, drive[:, None])[:, 0]
 
 
-def whiten_scan(theta, x, dt, restart, mask):
+def readout_scan(theta, readout, x, dt, restart, mask):
+    """:func:`whiten_scan` with the angle readout's white noise of a servo record (Hu 5-51: the Inductosyn's
+    quantisation and electrical error) beside the rate noise: exact GLS whitening of
+
+        y_k = g_k + w_k + ε_{k+1} − ε_k,
+
+    y_k the interval's mean rate, g the Gauss–Markov rate (σ_g², τ), w the white rate noise (σ_w²) and ε_k = e_k/Δ
+    the readout error e_k of the angle read at the interval's start over the sample interval Δ (variance σ_q², the
+    residual's unit squared: (deg/h)² when e is in arcsec and Δ in s, since 1 arcsec/s = 1 deg/h). Successive
+    increments share a read angle, so the readout alone makes them MA(1) with lag-1 correlation −σ_q²/(σ_w² + 2σ_q²);
+    a Gauss–Markov model of the rate would read that as colour.
+
+    ``readout`` = (σ_q², Δ in s): a row more than 1.5 Δ after the previous one reads a fresh angle (the interval
+    between them was dropped, e.g. across segments); a restart row starts everything afresh. The filter carries
+    (g_k, ε_k) and a 2×2 covariance; ε_{k+1} enters fresh with each row and is the ε of the next (a sequential
+    ``lax.scan``). Masked rows pass through unchanged with log S = 0.
+    """
+    tau, g, w = theta[0], theta[1], theta[2]
+    q, step = readout[0], readout[1]
+    phi = jnp.where(restart, 0.0, jnp.exp(-jnp.where(restart, 0.0, dt) / tau))
+    fresh = restart | (dt > 1.5 * step)
+
+    def one(carry, inp):
+        mg, me, pgg, pge, pee = carry
+        z, ph, rs, fr, ok = inp
+        # predict: the Gauss–Markov rate decays; a restart (φ = 0) or a fresh angle forgets the readout error
+        mg_p, pgg_p, pge_p = ph * mg, ph * ph * pgg + g * (1.0 - ph * ph), ph * pge
+        me_p = jnp.where(fr, 0.0, me)
+        pee_p = jnp.where(fr, q, pee)
+        pge_p = jnp.where(fr, 0.0, pge_p)
+        # measurement z = g − ε_k + ε_{k+1} + w, ε_{k+1} fresh (variance q)
+        hp = pgg_p - pge_p  # Cov(g, z)
+        s = pgg_p - 2.0 * pge_p + pee_p + q + w
+        nu = z - (mg_p - me_p)
+        mg_n = mg_p + (hp / s) * nu
+        me_n = (q / s) * nu  # ε_{k+1} given z: the next row's ε_k
+        new = (mg_n, me_n, pgg_p - hp * hp / s, -hp * q / s, q - q * q / s)
+        out = nu / jnp.sqrt(s)
+        keep = (mg, me, pgg, pge, pee)
+        carry = tuple(jnp.where(ok, a, b) for a, b in zip(new, keep))
+        return carry, (jnp.where(ok, out, z), jnp.where(ok, jnp.log(s), 0.0))
+
+    m = x.shape[1]
+    zero = jnp.zeros(m, dtype=x.dtype)
+    init = (zero, zero, jnp.asarray(g, dtype=x.dtype), jnp.asarray(0.0, dtype=x.dtype), jnp.asarray(q, dtype=x.dtype))
+    _, (out, logs) = jax.lax.scan(one, init, (x, phi, restart, fresh, mask))
+    return out, logs
+
+
+def whiten_scan(theta, x, dt, restart, mask, readout=None):
     """Normalised Kalman innovations of every column of ``x`` (N, m) and log S (N,) under white (σ_w²) + GM (σ_g², τ);
     ``theta`` = (τ s, σ_g², σ_w²) in x's unit squared (exact GLS whitening). A restart row starts an independent
     series (φ = 0); masked rows pass through unchanged with log S = 0.
@@ -276,7 +341,11 @@ def whiten_scan(theta, x, dt, restart, mask):
     vectorised otherwise; cheap to differentiate in forward mode): the filtered GM variance
     P_k = (φ_k² P_{k−1} + q_k) σ_w² / S_k, S_k = φ_k² P_{k−1} + q_k + σ_w², q_k = σ_g²(1 − φ_k²), is a linear-fractional
     map of P_{k−1}; the filtered state x̂_k = φ_k (σ_w²/S_k) x̂_{k−1} + K_k z_k, K_k = 1 − σ_w²/S_k, an affine one.
+
+    ``readout`` = (σ_q², Δ s): a servo record's angle readout noise as well (:func:`readout_scan`).
     """
+    if readout is not None:
+        return readout_scan(theta, readout, x, dt, restart, mask)
     tau, g, w = theta[0], theta[1], theta[2]
     # a restart's step (negative where stacked records restart their clocks) must not reach exp: its derivative would
     # overflow there and turn the reverse-mode gradient into NaN through the unselected branch of the where
@@ -303,16 +372,16 @@ def whiten_scan(theta, x, dt, restart, mask):
     return out, jnp.where(mask, jnp.log(s), 0.0)
 
 
-def gram_scan(theta, x, dt, restart, mask):
-    """(X̃ᵀX̃ of the whitened columns of ``x`` (m, m), Σ log S) under ``theta``."""
-    out, logs = whiten_scan(theta, x, dt, restart, mask)
+def gram_scan(theta, x, dt, restart, mask, readout=None):
+    """(X̃ᵀX̃ of the whitened columns of ``x`` (m, m), Σ log S) under ``theta`` (and ``readout``, :func:`whiten_scan`)."""
+    out, logs = whiten_scan(theta, x, dt, restart, mask, readout)
     return out.T @ out, jnp.sum(logs)
 
 
-def likelihood_terms(theta, x, dt, restart, mask):
+def likelihood_terms(theta, x, dt, restart, mask, readout=None):
     """(Σ log S_k, |ẽ|², log det(X̃ᵀX̃) of the normalised columns), dimensionless, under ``theta`` = (τ in s,
-    σ_g², σ_w² in the residual's unit squared); ``dt`` the sample steps in s."""
-    gram, logs = gram_scan(theta, x, dt, restart, mask)
+    σ_g², σ_w² in the residual's unit squared); ``dt`` the sample steps in s; ``readout`` as :func:`whiten_scan`."""
+    gram, logs = gram_scan(theta, x, dt, restart, mask, readout)
     a, b, rr = gram[1:, 1:], gram[1:, 0], gram[0, 0]
     sc = jnp.sqrt(jnp.diag(a))
     chol = jnp.linalg.cholesky(a / jnp.outer(sc, sc))
@@ -322,10 +391,11 @@ def likelihood_terms(theta, x, dt, restart, mask):
     return logs, quad, logdet
 
 
-def objective(u, x, dt, restart, mask, reml):
+def objective(u, x, dt, restart, mask, reml, readout=None):
     """−2 log L (profile, ``reml`` = 0) or −2 log L_R (``reml`` = 1) at u = (log τ, log σ_g², log σ_w²), without
-    the 2π terms and the constant of the column scaling (dimensionless; τ in s, ``dt`` in s)."""
-    logs, quad, logdet = likelihood_terms(jnp.exp(u), x, dt, restart, mask)
+    the 2π terms and the constant of the column scaling (dimensionless; τ in s, ``dt`` in s); ``readout`` the fixed
+    (σ_q², Δ) or None (:func:`whiten_scan`)."""
+    logs, quad, logdet = likelihood_terms(jnp.exp(u), x, dt, restart, mask, readout)
     return logs + quad + reml * logdet
 
 
@@ -340,10 +410,10 @@ error is ~1e-8 relative, and the compiled first-order functions are reused inste
 
 
 @jax.jit
-def gram(u, x, dt, restart, mask):
+def gram(u, x, dt, restart, mask, readout=None):
     """X̃ᵀX̃ (P, P) of the normalised, padded columns of a :class:`Series` (dimensionless), at u = (log τ/s, log σ_g²,
     log σ_w²); ``dt`` the sample steps in s."""
-    return gram_scan(jnp.exp(u), x, dt, restart, mask)[0][1:, 1:]
+    return gram_scan(jnp.exp(u), x, dt, restart, mask, readout)[0][1:, 1:]
 
 
 # ---- the minimiser ------------------------------------------------------------------------------------------------
@@ -352,7 +422,7 @@ def gram(u, x, dt, restart, mask):
 def neg2_loglik(s: Series, theta, reml: bool) -> float:
     """−2 log L_R (``reml``) or −2 log L_P of the series under ``theta`` = (τ s, σ_g², σ_w²) (σ_g² may be 0: white)."""
     th = np.asarray(theta, dtype=float)
-    logs, quad, logdet = likelihood_terms_jit(th, *s.arrays)
+    logs, quad, logdet = likelihood_terms_jit(th, *s.arrays, s.readout)
     return float(logs + quad + (float(logdet) + s.logdet_const if reml else 0.0))
 
 
@@ -383,7 +453,7 @@ def minimise(s: Series, u0, reml: bool, max_iter: int = 80, ftol: float = 1e-10)
     arrays = s.arrays
     c = 1.0 if reml else 0.0
     u = np.clip(np.asarray(u0, dtype=float), lo, hi)
-    f, g = value_and_grad(u, *arrays, c)
+    f, g = value_and_grad(u, *arrays, c, s.readout)
     f, g = float(f), np.asarray(g)
     # initial curvature: differences of the exact gradient (3 evaluations; the Hessian's own compiled function is
     # kept for where the curvature itself is the result), eigenvalues made positive
@@ -391,7 +461,7 @@ def minimise(s: Series, u0, reml: bool, max_iter: int = 80, ftol: float = 1e-10)
     for k in range(3):
         e = np.zeros(3)
         e[k] = 1e-3 if u[k] + 1e-3 <= hi[k] else -1e-3
-        h0[:, k] = (np.asarray(value_and_grad(u + e, *arrays, c)[1]) - g) / e[k]
+        h0[:, k] = (np.asarray(value_and_grad(u + e, *arrays, c, s.readout)[1]) - g) / e[k]
     if not np.all(np.isfinite(h0)):  # a difference reached a non-finite value: start from a scaled identity
         h0 = np.eye(3) * max(float(np.abs(np.nan_to_num(g)).max()), 1.0)
     ev, vec = np.linalg.eigh(0.5 * (h0 + h0.T))
@@ -420,7 +490,7 @@ def minimise(s: Series, u0, reml: bool, max_iter: int = 80, ftol: float = 1e-10)
         step = np.zeros(3)
         step[free] = d
         un = np.clip(u + step, lo, hi)
-        fn, gn = value_and_grad(un, *arrays, c)
+        fn, gn = value_and_grad(un, *arrays, c, s.readout)
         fn, gn = float(fn), np.asarray(gn)
         if not (np.isfinite(fn) and fn < f):
             radius = 0.25 * min(radius, norm)
@@ -468,7 +538,7 @@ def values(s: Series, us, reml: bool) -> np.ndarray:
     """−2 log L (without the column-scaling constant) at each row of ``us`` (k, 3), by the compiled value-and-gradient
     function (one compiled function per shape serves the search; a vmapped one would be a second compilation)."""
     c = 1.0 if reml else 0.0
-    return np.array([float(value_and_grad(u, *s.arrays, c)[0]) for u in us])
+    return np.array([float(value_and_grad(u, *s.arrays, c, s.readout)[0]) for u in us])
 
 
 def fit(s: Series, start, reml: bool = True, coarse: bool = False):
@@ -490,8 +560,8 @@ def reml_hessian(s: Series, theta, step: float = HESSIAN_STEP) -> np.ndarray:
     u = np.log(np.asarray(theta, dtype=float))
     cols = []
     for e in np.eye(3) * step:
-        gp = np.asarray(value_and_grad(u + e, *s.arrays, 1.0)[1])
-        gm = np.asarray(value_and_grad(u - e, *s.arrays, 1.0)[1])
+        gp = np.asarray(value_and_grad(u + e, *s.arrays, 1.0, s.readout)[1])
+        gm = np.asarray(value_and_grad(u - e, *s.arrays, 1.0, s.readout)[1])
         cols.append((gp - gm) / (2.0 * step))
     h = np.column_stack(cols)
     return 0.5 * (h + h.T)
@@ -504,10 +574,11 @@ def whitened_gram(s: Series, theta, step: float = HESSIAN_STEP):
     u = np.log(np.asarray(theta, dtype=float))
     p, d = s.rank, s.norms
     scale = np.outer(d, d)
-    a = np.asarray(gram(u, *s.arrays))[:p, :p] * scale
+    a = np.asarray(gram(u, *s.arrays, s.readout))[:p, :p] * scale
     da = np.stack(
         [
-            (np.asarray(gram(u + e, *s.arrays)) - np.asarray(gram(u - e, *s.arrays)))[:p, :p] / (2.0 * step)
+            (np.asarray(gram(u + e, *s.arrays, s.readout)) - np.asarray(gram(u - e, *s.arrays, s.readout)))[:p, :p]
+            / (2.0 * step)
             for e in np.eye(3) * step
         ],
         axis=-1,

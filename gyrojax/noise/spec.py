@@ -136,10 +136,15 @@ class NoiseSpec:
     reason: str = ""
     info: dict = field(default_factory=dict, compare=True, hash=False)
     """Method-specific figures of the estimate (JSON values: e.g. GMWM's objective, p-value, model selection)."""
+    readout_var: float = 0.0
+    """σ_q² ((deg/h)² per sample of ``dt_s``) of a servo readout's white angle error over the sample interval, e/Δ,
+    which differences into the increments (:func:`gyrojax.noise.reml.readout_scan`); known, not fitted
+    (:mod:`gyrojax.noise.readout`); 0: none."""
 
     def __post_init__(self):
         for k in LINEAR:
             object.__setattr__(self, k, _number(getattr(self, k), f"noise model: {k}"))
+        object.__setattr__(self, "readout_var", _number(self.readout_var, "noise model: readout_var"))
         gms = []
         for i, pair in enumerate(self.gauss_markov):
             if len(pair) != 2:
@@ -268,6 +273,7 @@ class NoiseSpec:
         return not (
             any(getattr(self, k) for k in ("white", "quantization", "bias_instability", "random_walk", "rate_ramp"))
             or any(s for s, _ in self.gauss_markov)
+            or self.readout_var
         )
 
     def _dt(self, what: str) -> float:
@@ -364,6 +370,11 @@ class NoiseSpec:
             return (1.0, 0.0, w)
         s, t = self.gauss_markov[0]
         return (t, s * s, w)
+
+    def whitening_readout(self, step_s: float):
+        """(σ_q², Δ s) of the servo readout for :func:`gyrojax.noise.reml.whiten_scan` at sample step ``step_s``, or
+        None without one."""
+        return (self.readout_var, float(step_s)) if self.readout_var > 0 else None
 
     # -- truth files (conventions §8)
     @classmethod

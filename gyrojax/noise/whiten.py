@@ -100,7 +100,7 @@ def whiten(x: np.ndarray, labels: np.ndarray, noise, times: np.ndarray | None = 
     reach before the segment) are dropped.
     """
     x = np.asarray(x, dtype=float)
-    if noise.gauss_markov:
+    if noise.gauss_markov or noise.readout_var > 0:
         if times is None:
             raise ValueError("whitening under a Gauss–Markov model needs the measurement times")
         keep = np.flatnonzero(labels >= 0)
@@ -143,7 +143,8 @@ def first_difference_std(r: np.ndarray, labels: np.ndarray) -> float:
 def kalman_whiten(x: np.ndarray, times: np.ndarray, nz: NoiseSpec, restart: np.ndarray | None = None):
     """Exact GLS whitening under ``nz`` by the Kalman filter of :func:`gyrojax.noise.reml.whiten_scan`: (whitened x,
     dimensionless; log S, S the innovation variance in x's unit squared). ``times`` (s) give φ_k = exp(−Δt_k/τ);
-    ``restart`` marks rows that start a new series (as does a step that is not positive)."""
+    ``restart`` marks rows that start a new series (as does a step that is not positive). A servo readout's noise
+    (``nz.readout_var`` > 0) enters the filter too (:func:`gyrojax.noise.reml.readout_scan`, Δ the median step)."""
     x = np.asarray(x, dtype=float)
     x2 = x[:, None] if x.ndim == 1 else x
     n = len(x2)
@@ -156,7 +157,10 @@ def kalman_whiten(x: np.ndarray, times: np.ndarray, nz: NoiseSpec, restart: np.n
     xp[:n] = x2
     dtp, rp, mp = np.ones(nb), np.ones(nb, dtype=bool), np.zeros(nb, dtype=bool)
     dtp[:n], rp[:n], mp[:n] = np.where(bad, 1.0, dt), bad, True
-    w, logs = reml.whiten_jit(np.asarray(nz.whitening_theta(), float), xp, dtp, rp, mp)
+    steps = dt[~bad]
+    readout = nz.whitening_readout(float(np.median(steps)) if steps.size else 1.0)
+    readout = None if readout is None else np.asarray(readout, float)
+    w, logs = reml.whiten_jit(np.asarray(nz.whitening_theta(), float), xp, dtp, rp, mp, readout)
     w = np.asarray(w)[:n]
     return (w[:, 0] if x.ndim == 1 else w), np.asarray(logs)[:n]
 
@@ -208,7 +212,8 @@ def gm_reml(r: np.ndarray, design: np.ndarray | None, labels: np.ndarray, times:
 
     ``r`` and ``nz`` in the same units (as :func:`gm_loglik`), ``times`` in s.
     """
-    return reml.neg2_loglik(reml.prepare(r, design, labels, times, 1.0), nz.whitening_theta(), True)
+    series = reml.prepare(r, design, labels, times, 1.0, readout_var=nz.readout_var)
+    return reml.neg2_loglik(series, nz.whitening_theta(), True)
 
 
 def gm_profile(r: np.ndarray, design: np.ndarray | None, labels: np.ndarray, times: np.ndarray, nz: NoiseSpec) -> float:
@@ -216,7 +221,8 @@ def gm_profile(r: np.ndarray, design: np.ndarray | None, labels: np.ndarray, tim
 
     ``r`` and ``nz`` in the same units (as :func:`gm_loglik`), ``times`` in s.
     """
-    return reml.neg2_loglik(reml.prepare(r, design, labels, times, 1.0), nz.whitening_theta(), False)
+    series = reml.prepare(r, design, labels, times, 1.0, readout_var=nz.readout_var)
+    return reml.neg2_loglik(series, nz.whitening_theta(), False)
 
 
 def fit_gm(
@@ -228,6 +234,7 @@ def fit_gm(
     tau_span_fraction: float = TAU_SPAN_FRACTION,
     neutral_start: bool = False,
     start: NoiseSpec | None = None,
+    readout_var: float = 0.0,
 ) -> NoiseSpec | None:
     """White + Gauss–Markov model from the pooled autocovariance: γ_0 = σ_w² + σ_g², γ_k = σ_g² φ^k (k ≥ 1),
     φ = exp(−Δt/τ) at the median step Δt (s, from ``times``), then refined by maximum likelihood (REML when
@@ -236,7 +243,8 @@ def fit_gm(
     autocovariance gives no admissible split (0 < σ_g² < γ_0) — unless ``neutral_start``, when the likelihood then
     starts from a neutral split instead (the fit's choice; the diagnosis keeps such residuals for its candidates).
     Variances in the unit of ``r`` squared. ``start``: a previous fit of a closely related residual (the diagnosis'
-    rounds) to start from instead of the moment estimate.
+    rounds) to start from instead of the moment estimate. ``readout_var``: a servo readout's known angle noise
+    (:attr:`NoiseSpec.readout_var`), beside which the rate noise is fitted.
     """
     from scipy.optimize import minimize_scalar
 
@@ -246,7 +254,7 @@ def fit_gm(
         return None
     if start is not None and start.gm_variance > 0 and start.white_variance > 0:
         theta0 = start.whitening_theta()
-        return _gm_mle(r, labels, times, theta0, design, grid=False, tau_span_fraction=tau_span_fraction)
+        return _gm_mle(r, labels, times, theta0, design, False, tau_span_fraction, readout_var)
     dt0 = float(np.median(np.diff(times))) if len(times) > 1 else 1.0
     if not dt0 > 0:
         dt0 = 1.0
@@ -255,6 +263,10 @@ def fit_gm(
     g0 = gamma[0]
     if g0 <= 0:
         return None
+    if readout_var > 0:  # the readout's MA(1) is no part of the rate's autocovariance
+        gamma[0] -= 2.0 * readout_var
+        gamma[1] += readout_var
+        g0 = max(gamma[0], 1e-3 * (gamma[0] + 2.0 * readout_var))
     k = np.arange(1, lag + 1)
     g = gamma[1:]
 
@@ -275,7 +287,7 @@ def fit_gm(
         theta0 = (10 * dt0, 0.1 * g0, 0.9 * g0)
     else:
         return None
-    return _gm_mle(r, labels, times, theta0, design, tau_span_fraction=tau_span_fraction)
+    return _gm_mle(r, labels, times, theta0, design, tau_span_fraction=tau_span_fraction, readout_var=readout_var)
 
 
 def _gm_mle(
@@ -286,6 +298,7 @@ def _gm_mle(
     design=None,
     grid: bool = True,
     tau_span_fraction: float = TAU_SPAN_FRACTION,
+    readout_var: float = 0.0,
 ) -> NoiseSpec:
     """Refine a white + Gauss–Markov model by maximising the exact (Kalman) likelihood — restricted (REML) when the
     regressors of the fit are given, so that the drift the fitted coefficients absorbed is not lost from σ_g².
@@ -294,12 +307,14 @@ def _gm_mle(
     likelihood sees the correlation across the gaps between segments too. Jitted JAX likelihood with exact
     derivatives, minimised by quasi-Newton from the best of a grid of starts (:func:`gyrojax.noise.reml.fit`);
     ``grid=False`` uses a coarser grid around ``start`` = (τ s, σ_g², σ_w²) (a previous fit of a closely related
-    residual). The spec's ``dt_s`` is the median step of the series; its status is that of the search.
+    residual). The spec's ``dt_s`` is the median step of the series; its status is that of the search. ``readout_var``
+    (:func:`fit_gm`) is carried into the spec.
     """
-    series = reml.prepare(r, design, labels, times, tau_span_fraction)
+    series = reml.prepare(r, design, labels, times, tau_span_fraction, readout_var=readout_var)
     theta, _, _, (ok, why) = reml.fit(series, start, reml=design is not None, coarse=not grid)
     tau = min(float(theta[0]), series.tau_max)
-    spec = NoiseSpec.from_sample_variances(float(theta[2]), series.dt0, [(float(theta[1]), tau)], method="reml")
+    gm = [(float(theta[1]), tau)]
+    spec = NoiseSpec.from_sample_variances(float(theta[2]), series.dt0, gm, method="reml", readout_var=readout_var)
     return spec.with_status(ok, why)
 
 
@@ -312,7 +327,7 @@ def with_reml_covariance(nz: NoiseSpec, r, design, labels, times, tau_span_fract
     place of deg/h for accelerometers)."""
     if not nz.gauss_markov or nz.gm_variance <= 0 or nz.white_variance <= 0:
         return nz
-    series = reml.prepare(r, design, labels, times, tau_span_fraction)
+    series = reml.prepare(r, design, labels, times, tau_span_fraction, readout_var=nz.readout_var)
     theta = nz.whitening_theta()
     free = [1, 2] if theta[0] >= 0.999 * series.tau_max else [0, 1, 2]
     cov_u = np.full((3, 3), 0.0)
@@ -342,6 +357,7 @@ def fit_noise(
     neutral_start: bool = False,
     prefer_gm: bool = False,
     start: NoiseSpec | None = None,
+    readout_var: float = 0.0,
 ) -> NoiseSpec:
     """The noise model of a residual: white + Gauss–Markov (maximum likelihood), unless an AR(p ≥ 1) model is
     better by BIC.
@@ -356,11 +372,21 @@ def fit_noise(
 
     ``r`` in its own unit (deg/h for gyro residuals, g for accelerometers), ``times`` in s, ``design`` (n, p) the fit's
     regressors; ``start`` as for :func:`fit_gm`. Returns a :class:`NoiseSpec`: white + Gauss–Markov or AR.
+
+    ``readout_var`` > 0 (a servo record's known angle readout noise, :attr:`NoiseSpec.readout_var`): always the
+    white + Gauss–Markov rate beside it, which an AR model of the increments cannot hold.
     """
     gm = fit_gm(
-        r, labels, times, design=design, tau_span_fraction=tau_span_fraction, neutral_start=neutral_start, start=start
+        r,
+        labels,
+        times,
+        design=design,
+        tau_span_fraction=tau_span_fraction,
+        neutral_start=neutral_start or readout_var > 0,
+        start=start,
+        readout_var=readout_var,
     )
-    if prefer_gm and gm is not None:
+    if (prefer_gm or readout_var > 0) and gm is not None:
         return gm
     ar = fit_ar(r, labels, reml.sample_interval(np.asarray(times, float)[np.asarray(labels) >= 0]), p_max)
     if gm is None or ar.innovation_std <= 0:

@@ -363,9 +363,14 @@ def predict(model: Model, theta, data: RecordData, trig=None):
     if data.mode == "servo":
         r, _ = servo_rate(model, theta, data, setup)
         s = data.servo_axis
-        h, _ = encoder_error(setup["encoder"], data.angles[:, data.encoder_axis])
         mean_rate = 0.5 * (r[1:] + r[:-1])
-        dh = (h[1:] - h[:-1]) / data.dt if data.encoder_axis == s else 0.0
+        dh = 0.0
+        if data.encoder_axis == s:
+            # the readout error's change over the interval, the trapezoid of dh/dθ times the predicted increment: the
+            # read increment carries the measurement's own noise, so h at the next read angle would make a regressor
+            # of the measurement itself (issue 28); dh/dθ at both ends keeps the readout noise of the angles symmetric
+            _, slope = encoder_error(setup["encoder"], data.angles[:, s])
+            dh = 0.5 * (slope[1:] + slope[:-1]) * mean_rate
         return (mean_rate + dh) / units.DEG_PER_H * data.weight
     x = instrument_inputs(data, setup, trig=trig)
     return indicated_output(model, theta, x, data.kind)
