@@ -25,8 +25,8 @@ import time
 import numpy as np
 
 from gyrojax import plans, simulate
-from gyrojax.data.record import Record
 from gyrojax.inference.diagnose import diagnose
+from gyrojax.simulation.simulator import quantise_angles
 
 BASE = {"D_F": 0.4, "D_I": 0.6, "D_O": -0.2, "D_S": 0.3}
 TERMS = ["D_F", "D_I", "D_O", "D_S"]
@@ -57,34 +57,9 @@ SERVO_TERMS = {o: list(t) for o, t in SERVO_TRUTH.items()}
 SERVO_TERMS["vertical"] = ["D_F"]  # a_I = g throughout: D_F + g·D_I is what the test sees
 
 
-def polar_north_south(hours: float, dt_s: float, lat: float = plans.DEFAULT_LATITUDE) -> plans.Plan:
-    """Hu's polar servo test: the servo axis along the Earth's axis, IA along it (north) and against it (south)."""
-    ax = np.array(plans.polar_axis(lat))
-    runs = []
-    for name, sign in (("north", 1.0), ("south", -1.0)):
-        ia = sign * ax
-        oa = np.array([1.0, 0.0, 0.0]) - ia[0] * ia
-        seg = (plans.Segment((0.0,), hours * 3600.0, dt_s),)
-        mount = plans.sdf_mount(ia, oa)
-        runs.append(plans.Run(f"polar-{name}", (("servo", tuple(ax)),), mount, seg, mode="servo", servo_axis="servo"))
-    return plans.Plan("polar-north-south", tuple(runs), lat)
-
-
-def quantised(records, q_arcsec: float = Q_ARCSEC):
-    """The records with every table angle rounded to the readout step ``q_arcsec`` (arcsec)."""
-    out = []
-    for r in records:
-        cols = dict(r.columns)
-        for a in r.axis_names:
-            key = f"angle_{a}_deg"
-            cols[key] = np.round(np.asarray(cols[key]) * 3600.0 / q_arcsec) * q_arcsec / 3600.0
-        out.append(Record(r.meta, cols))
-    return out
-
-
 def _servo_plan(orientation: str, hours: float):
     if orientation == "polar":
-        return lambda dt: polar_north_south(hours, dt)
+        return lambda dt: plans.polar_servo_north_south(hours, dt)
     return lambda dt: plans.servo(orientation, hours=hours, dt_s=dt)
 
 
@@ -103,7 +78,7 @@ def study(name: str, seeds: int = 40, first_seed: int = 1000, dt_s: float = 10.0
     found, missing, colour, seconds, what = 0, 0, 0, [], []
     for s in range(first_seed, first_seed + seeds):
         recs = simulate(plan, {"coefficients": truth, "noise": noise}, seed=s)
-        recs = quantised(recs) if servo else recs
+        recs = quantise_angles(recs, Q_ARCSEC) if servo else recs
         t0 = time.perf_counter()
         d = diagnose(recs, terms, suggest_tests=False)
         seconds.append(time.perf_counter() - t0)

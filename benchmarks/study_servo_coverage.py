@@ -1,6 +1,6 @@
 """Servo coverage (issue 28): is (θ̂ − θ)/σ̂ standard normal for a polar servo campaign with a quantised readout?
 
-Hu's polar servo test, north and south mountings (:func:`benchmarks.study_adequacy_null.polar_north_south`), 2 h per
+Hu's polar servo test, north and south mountings (:func:`gyrojax.data.plans.polar_servo_north_south`), 2 h per
 mounting, the table angle read every 10 s and quantised at 0.18″; the model D_F, D_I, D_O, D_S equal to the truth
 (coefficients drawn from N(0, 0.3²) deg/h, deg/h/g per campaign). Noise: white rate noise N = 0.0007 deg/√h
 integrated into the angle, and the same with a Gauss–Markov rate σ = 0.005 deg/h, τ = 1800 s. Printed per noise
@@ -17,10 +17,11 @@ import time
 
 import numpy as np
 
-from benchmarks.study_adequacy_null import polar_north_south, quantised
+from benchmarks.study_adequacy_null import Q_ARCSEC
+from gyrojax.data.plans import polar_servo_north_south
 from gyrojax.data.record import Record
 from gyrojax.inference.identify import fit
-from gyrojax.simulation.simulator import simulate
+from gyrojax.simulation.simulator import quantise_angles, simulate
 
 TERMS = ("D_F", "D_I", "D_O", "D_S")
 NOISES = {"white": {"white": 0.0007}, "white+GM": {"white": 0.0007, "gauss_markov": [0.005, 1800.0]}}
@@ -39,12 +40,12 @@ def _off_grid(records, rng):
 
 def study(noise: dict, campaigns: int, first_seed: int = 5000):
     """z of every coefficient, (campaigns, 4), with the readout known and ignored."""
-    plan = polar_north_south(2.0, 10.0)
+    plan = polar_servo_north_south(2.0, 10.0)
     rng = np.random.default_rng(first_seed)
     known, ignored = [], []
     for s in range(first_seed, first_seed + campaigns):
         truth = dict(zip(TERMS, rng.normal(0.0, 0.3, len(TERMS))))
-        recs = quantised(simulate(plan, {"coefficients": truth, "noise": noise}, seed=s))
+        recs = quantise_angles(simulate(plan, {"coefficients": truth, "noise": noise}, seed=s), Q_ARCSEC)
         for recs_, out in ((recs, known), (_off_grid(recs, rng), ignored)):
             res = fit(recs_, TERMS)
             out.append([(res.values[k] - truth[k]) / res.stds[k] for k in TERMS])

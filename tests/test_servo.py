@@ -12,42 +12,16 @@ import pytest
 
 import gyrojax as gj
 from gyrojax.data import plans as P
-from gyrojax.data.record import Record
 from gyrojax.inference.diagnose import diagnose
 from gyrojax.inference.identify import fit
 from gyrojax.noise import reml
 from gyrojax.noise.readout import angle_quantum, readout_variance
 from gyrojax.noise.spec import NoiseSpec
 from gyrojax.noise.whiten import kalman_whiten
+from gyrojax.simulation.simulator import quantise_angles as quantised
 
 Q_ARCSEC = 0.18
 TRUTH7 = {"D_F": 0.5, "D_I": 0.3, "D_O": -0.2, "D_S": 0.25, "D_IS": 0.02, "D_OO": 0.015, "D_OS": -0.01}
-
-
-def polar_north_south(hours: float, dt_s: float, lat: float = 45.0) -> P.Plan:
-    """Hu's polar servo test: the servo axis along the Earth's axis, IA along it (north) and against it (south)."""
-    ax = np.array(P.polar_axis(lat))
-    runs = []
-    for name, sign in (("north", 1.0), ("south", -1.0)):
-        ia = sign * ax
-        oa = np.array([1.0, 0.0, 0.0]) - ia[0] * ia
-        seg = (P.Segment((0.0,), hours * 3600.0, dt_s),)
-        runs.append(
-            P.Run(f"polar-{name}", (("servo", tuple(ax)),), P.sdf_mount(ia, oa), seg, mode="servo", servo_axis="servo")
-        )
-    return P.Plan("polar-north-south", tuple(runs), lat)
-
-
-def quantised(records, q_arcsec: float):
-    """The records with every table angle rounded to the readout step ``q_arcsec``."""
-    out = []
-    for r in records:
-        cols = dict(r.columns)
-        for a in r.axis_names:
-            key = f"angle_{a}_deg"
-            cols[key] = np.round(np.asarray(cols[key]) * 3600.0 / q_arcsec) * q_arcsec / 3600.0
-        out.append(Record(r.meta, cols))
-    return out
 
 
 def _dense_cov(t, dt0, tau, g, w, q):
@@ -88,7 +62,9 @@ def test_readout_filter_is_exact_gls_against_the_dense_covariance():
 
 
 def test_quantised_angles_are_recognised_and_give_q2_over_12():
-    recs = gj.simulate(polar_north_south(1.0, 10.0), {"coefficients": TRUTH7, "noise": {"white": 0.0007}}, seed=2)
+    recs = gj.simulate(
+        P.polar_servo_north_south(1.0, 10.0, 45.0), {"coefficients": TRUTH7, "noise": {"white": 0.0007}}, seed=2
+    )
     raw = recs[0].angles_deg[:, 0]
     assert angle_quantum(raw) is None  # a simulated angle is not on any grid
     for q in (0.05, 0.18, 1.0):
@@ -100,7 +76,7 @@ def test_quantised_angles_are_recognised_and_give_q2_over_12():
 @pytest.fixture(scope="module")
 def polar_null():
     truth = {"coefficients": TRUTH7, "noise": {"white": 0.0007}}
-    return quantised(gj.simulate(polar_north_south(12.0, 10.0), truth, seed=1), Q_ARCSEC)
+    return quantised(gj.simulate(P.polar_servo_north_south(12.0, 10.0, 45.0), truth, seed=1), Q_ARCSEC)
 
 
 def test_polar_servo_null_is_adequate_with_the_readout_in_the_noise(polar_null):
@@ -123,7 +99,7 @@ def test_planted_cube_of_a_O_is_unexplained_and_its_effect_recovers_it():
 
     truth = {"coefficients": {**TRUTH7, "U3": 0.03}, "noise": {"white": 0.0007}}
     with ex.defined("U3=a_O**3"):
-        recs = quantised(gj.simulate(polar_north_south(24.0, 30.0), truth, seed=5), Q_ARCSEC)
+        recs = quantised(gj.simulate(P.polar_servo_north_south(24.0, 30.0, 45.0), truth, seed=5), Q_ARCSEC)
     d = diagnose(recs, tuple(TRUTH7), suggest_tests=False)
     assert d.verdict == "missing-effect"
     assert ("a_O", "cubic", "a_O**3") in [(s.versus, s.shape, s.expression) for s in d.unexplained]

@@ -320,6 +320,28 @@ def servo(orientation: str = "polar", hours: float = 24.0, dt_s: float = 1.0, la
     )
 
 
+def polar_servo_north_south(hours: float = 12.0, dt_s: float = 10.0, latitude_deg=DEFAULT_LATITUDE) -> Plan:
+    """Hu's polar servo test in its two mountings: the servo axis along the Earth's axis, the IA along it (north)
+    and against it (south), ``hours`` each (h), read every ``dt_s`` (s), at ``latitude_deg`` (deg) (Hu 3-86..3-90:
+    the two mountings separate the IA terms of even and odd order)."""
+    ax = np.array(polar_axis(latitude_deg))
+    runs = []
+    for name, sign in (("north", 1.0), ("south", -1.0)):
+        ia = sign * ax
+        oa = np.array([1.0, 0.0, 0.0]) - ia[0] * ia  # East, made normal to the IA
+        seg = (Segment((0.0,), hours * 3600.0, dt_s),)
+        runs.append(
+            Run(f"polar-{name}", (("servo", tuple(ax)),), sdf_mount(ia, oa), seg, mode="servo", servo_axis="servo")
+        )
+    return Plan(
+        "polar-north-south",
+        tuple(runs),
+        latitude_deg,
+        description="polar servo test, north and south mountings",
+        reference="Hu 3-86 to 3-90",
+    )
+
+
 def rate_ladder(
     rates_dps=(1, 2, 5, 10, 20, 50, 100),
     seconds: float = 60.0,

@@ -345,6 +345,22 @@ def _setup_dict(truth: Truth) -> dict:
     return {"delta": delta, "encoder": jnp.asarray(enc, dtype=jnp.float64) * units.ARCSEC}
 
 
+def quantise_angles(records, q_arcsec: float) -> list[Record]:
+    """The records with every table angle read through a readout of step ``q_arcsec`` (arcsec): rounded to the
+    nearest step, as an encoder or a digitised resolver reads it (its error uniform, variance q²/12)."""
+    if not q_arcsec > 0:
+        raise PlanError(f"the readout step must be > 0 arcsec, got {q_arcsec!r}")
+    q_deg = q_arcsec / 3600.0
+    out = []
+    for r in records:
+        cols = dict(r.columns)
+        for a in r.axis_names:
+            key = f"angle_{a}_deg"
+            cols[key] = np.round(np.asarray(cols[key]) / q_deg) * q_deg
+        out.append(Record(r.meta, cols))
+    return out
+
+
 def simulate(plan: Plan, truth, key=None, seed: int = 0, dynamics: str = "quasi-static", loop=None) -> list[Record]:
     """Simulate every run of ``plan`` with ``truth`` (a :class:`Truth` or a truth dict) into records.
 
