@@ -80,6 +80,11 @@ def sensors(rec):
     )
 
 
+def csv_argv(path, out, *options) -> list:
+    """``gyrojax import csv PATH --map MAP --gyro-unit dps [options] --out OUT`` as an argv list."""
+    return ["import", "csv", str(path), "--map", MAP, "--gyro-unit", "dps", *options, "--out", str(out)]
+
+
 def write_log(path, columns: dict, delimiter=",", fmt="%.10g"):
     """A log file with a header row and the given columns (name → array), ``delimiter`` between fields."""
     data = np.column_stack(list(columns.values()))
@@ -183,19 +188,7 @@ def test_a_longer_minimum_rest_drops_the_short_ones_and_says_which(session, tmp_
     rec, _ = session
     planted = planted_rests(rec)
     path = write_log(tmp_path / "hand.csv", log_columns(rec))
-    argv = [
-        "import",
-        "csv",
-        str(path),
-        "--map",
-        MAP,
-        "--gyro-unit",
-        "dps",
-        "--min-rest",
-        "2",
-        "--out",
-        str(tmp_path / "o"),
-    ]
+    argv = csv_argv(path, tmp_path / "o", "--min-rest", "2")
     assert main(argv) == 0
     text = capsys.readouterr().out
     (imp,) = load_records(tmp_path / "o")
@@ -412,19 +405,7 @@ def test_semicolon_log_with_a_jittering_receive_time_and_a_wrapping_sample_count
     assert np.allclose(imp.time_s, np.arange(n) / 100.0, atol=1e-12)
     assert imp.meta["import"]["rests_found"] == 36
     # the receive time alone: imported, and the note says it jitters and what to use
-    argv = [
-        "import",
-        "csv",
-        str(path),
-        "--map",
-        MAP,
-        "--gyro-unit",
-        "dps",
-        "--time-unit",
-        "us",
-        "--out",
-        str(tmp_path / "o2"),
-    ]
+    argv = csv_argv(path, tmp_path / "o2", "--time-unit", "us")
     assert main(argv) == 0
     text = capsys.readouterr().out
     assert "jitters" in text and "a sample counter (sample=COL with --rate-hz)" in text
@@ -439,19 +420,7 @@ def test_delimiters_and_a_millisecond_time_column(session, tmp_path, capsys, del
     cols = log_columns(rec)
     cols["t"] = np.round(rec.time_s * 1e3, 6)
     path = write_log(tmp_path / name, cols, delimiter=delim)  # numpy gzips a name ending .gz
-    argv = [
-        "import",
-        "csv",
-        str(path),
-        "--map",
-        MAP,
-        "--gyro-unit",
-        "dps",
-        "--time-unit",
-        "ms",
-        "--out",
-        str(tmp_path / "o"),
-    ]
+    argv = csv_argv(path, tmp_path / "o", "--time-unit", "ms")
     assert main(argv + (["--delimiter", flag] if flag else [])) == 0
     text = capsys.readouterr().out
     assert ("detected" in text) == (flag is None) and "jitters" not in text
@@ -541,24 +510,7 @@ def test_an_uncalibrated_accelerometer_is_calibrated_with_a_note(session, tmp_pa
     acc, _ = sensors(rec)
     raw = imutk_raw(acc, 1.0 / (units.G0 * np.array([1.048, 1.044, 1.052])))  # m/s², |a| 4.8 % high
     path = write_log(tmp_path / "log.csv", log_columns(rec, acc=raw))
-    assert (
-        main(
-            [
-                "import",
-                "csv",
-                str(path),
-                "--map",
-                MAP,
-                "--gyro-unit",
-                "dps",
-                "--acc-unit",
-                unit,
-                "--out",
-                str(tmp_path / "o"),
-            ]
-        )
-        == 0
-    )
+    assert main(csv_argv(path, tmp_path / "o", "--acc-unit", unit)) == 0
     text = capsys.readouterr().out
     assert "calibrated by imu_tk's ellipsoid" in text
     if unit == "m/s^2":  # the median excess of |a| over the planted rests, computed here from the raw data
@@ -581,21 +533,7 @@ def test_an_accelerometer_in_the_wrong_unit_is_refused(session, tmp_path, capsys
     rec, _ = session
     acc, _ = sensors(rec)
     path = write_log(tmp_path / "log.csv", log_columns(rec, acc=acc * units.G0))  # m/s² declared as g
-    rc = main(
-        [
-            "import",
-            "csv",
-            str(path),
-            "--map",
-            MAP,
-            "--gyro-unit",
-            "dps",
-            "--acc-unit",
-            "g",
-            "--out",
-            str(tmp_path / "o"),
-        ]
-    )
+    rc = main(csv_argv(path, tmp_path / "o", "--acc-unit", "g"))
     err = capsys.readouterr().err
     assert rc == 2 and err.count("\n") == 1 and "--acc-unit g" in err and "9.8" in err, err
 
