@@ -97,3 +97,24 @@ def test_segments_that_drive_chi2_are_named(tmp_path):
     old = load_triad_fit(tmp_path / "v1.json")
     assert old.variance_components == {} and old.segment_residuals == []
     np.testing.assert_array_equal(old.theta, res.theta)
+
+
+def test_a_component_search_that_stops_short_makes_the_fit_not_converged(monkeypatch):
+    """The REML search's scipy status reaches the fit: a search that stopped short gives converged false, the reason
+    and a ConvergenceWarning, never calm numbers."""
+    from scipy import optimize as opt
+
+    from gyrojax.errors import ConvergenceWarning
+    from gyrojax.inference import triad_components as tc
+
+    real = opt.minimize
+
+    def stopped(*a, **k):
+        sol = real(*a, **{**k, "options": {**k.get("options", {}), "maxiter": 1}})
+        sol.success, sol.status, sol.message = False, 1, "STOP: TOTAL NO. OF ITERATIONS REACHED LIMIT"
+        return sol
+
+    monkeypatch.setattr(tc.optimize, "minimize", stopped)
+    with pytest.warns(ConvergenceWarning, match="variance components' REML search stopped"):
+        res = fit_triad(session(400, MOVE_DEG, STEP_DPH))
+    assert not res.converged and "ITERATIONS REACHED LIMIT" in res.convergence_note

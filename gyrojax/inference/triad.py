@@ -277,12 +277,12 @@ def fit_triad(
     else:
         if passes > 1:
             why = why or f"the noise did not settle with the fitted scale in {MAX_NOISE_PASSES} passes"
-    tau2 = {}
+    tau2, why_components = {}, ""
     if moves:
         base_w = (lin_r, lin_j, move_w)  # the white-noise model's rows: its χ² says how poor that model is
         if components and not why:
             groups = _component_groups(model, segments, y - base, jac, q, s_mat, theta, packed, move_w)
-            tau2 = estimate_components(groups)
+            tau2, why_components = estimate_components(groups)
         if any(v > 0 for v in tau2.values()):  # refit with the components in the covariance
             lin_r, lin_j = whiten_segments(segments, y - base, jac, q, s_mat, tau2.get("pose", 0.0))
             move_w = _move_whitening(moves, q, s_mat, tau2.get("move", 0.0))
@@ -294,6 +294,7 @@ def fit_triad(
             theta, n_eval, why = damped_least_squares(system, theta, max_iter)
             iterations += n_eval
         rw, jw = system(theta)
+        why = why or why_components
     else:
         rw, jw = lin_r, lin_j
         theta = np.zeros(3 * model.size)

@@ -58,12 +58,13 @@ def reml_objective(groups, tau2: dict, col_scale: np.ndarray, rank_tol: float = 
     return logdet + 2.0 * float(np.log(s[keep]).sum()) + float(e @ e - proj @ proj)
 
 
-def estimate_components(groups, kinds=("pose", "move")) -> dict:
-    """REML estimates of the variance components ``kinds`` present in ``groups`` (module doc): {kind: τ̂²}, natural
-    units ((deg/h)² for poses, rad² for moves); a component the data cannot tell from zero comes back 0."""
+def estimate_components(groups, kinds=("pose", "move")) -> tuple[dict, str]:
+    """REML estimates of the variance components ``kinds`` present in ``groups`` (module doc): ({kind: τ̂²}, why),
+    natural units ((deg/h)² for poses, rad² for moves); a component the data cannot tell from zero comes back 0.
+    ``why`` is "" when the best start's search converged, else scipy's reason (the fit then says it did not)."""
     kinds = [k for k in kinds if sum(g.kind == k for g in groups) >= 2]
     if not kinds:
-        return {}
+        return {}, ""
     scale = {k: float(np.mean([np.trace(g.cov) / len(g.r) for g in groups if g.kind == k])) for k in kinds}
     col_scale = np.linalg.norm(whiten(groups, {})[1], axis=0)
     col_scale[col_scale == 0] = 1.0
@@ -86,4 +87,8 @@ def estimate_components(groups, kinds=("pose", "move")) -> dict:
     for k in kinds:  # a component that lowers −2ℓ_R by less than NEGLIGIBLE is zero (the σ then do not wander)
         if reml_objective(groups, {**out, k: 0.0}, col_scale) - best.fun < NEGLIGIBLE:
             out[k] = 0.0
-    return out
+    # L-BFGS-B's status 1 is its iteration/evaluation limit: stopped short. Status 2 (ABNORMAL_TERMINATION_IN_LNSRCH)
+    # is a line search that could not lower −2ℓ_R any further at the precision of its finite-difference gradient,
+    # which here happens at the minimum: it counts as converged.
+    why = f"the variance components' REML search stopped: {best.message}" if best.status == 1 else ""
+    return out, why
