@@ -63,9 +63,37 @@ PLAUSIBLE_MAX = {
 }
 """Plausible |coefficient| (report units) by coefficient name; TDF terms follow their SDF counterparts."""
 
+MEMS_PLAUSIBLE_MAX = {
+    # MEMS gyro triads (consumer to tactical; IEEE 1431-like datasheets): turn-on bias up to a few deg/s, g-sensitivity
+    # up to ~0.1 deg/s/g, scale factor within ~10 %, axes misaligned by up to a degree or two, bias drift over a hand
+    # session of deg/h per minute, temperature sensitivity ~0.05 deg/s/°C; about ten times those values
+    "D_F": 1e5,
+    "D_I": 1e4,
+    "D_O": 1e4,
+    "D_S": 1e4,
+    "D_II": 1e3,
+    "D_OO": 1e3,
+    "D_SS": 1e3,
+    "D_IO": 1e3,
+    "D_IS": 1e3,
+    "D_OS": 1e3,
+    "E_SF": 2e5,
+    "E_A": 2e4,
+    "E_2": 100.0,
+    "M_O": 36000.0,
+    "M_S": 36000.0,
+    "D_T": 1e5,
+    "D_TEMP": 2e3,
+    "D_F_step": 1e5,
+    "dt_acc": 0.1,
+}
+"""Plausible |coefficient| of the ``imu-triad`` kind (report units: deg/h, deg/h/g, ppm, arcsec, deg/h/h, s)."""
+KIND_LIMITS = {"imu-triad": MEMS_PLAUSIBLE_MAX}
 
-def limit(coefficient: str, overrides: dict | None = None) -> float | None:
-    """Plausible |value| of ``coefficient`` in its report unit (None: no limit is known)."""
+
+def limit(coefficient: str, overrides: dict | None = None, kind: str | None = None) -> float | None:
+    """Plausible |value| of ``coefficient`` in its report unit (None: no limit is known); ``kind`` ``"imu-triad"``
+    takes the MEMS limits (:data:`MEMS_PLAUSIBLE_MAX`; ``D_F_step_<k>`` as ``D_F_step``)."""
     from gyrojax.physics import expression
 
     overrides = overrides or {}
@@ -73,8 +101,10 @@ def limit(coefficient: str, overrides: dict | None = None) -> float | None:
     for key in (coefficient, effect):
         if key is not None and key in overrides:
             return float(overrides[key])
-    if coefficient in PLAUSIBLE_MAX:
-        return PLAUSIBLE_MAX[coefficient]
+    table = KIND_LIMITS.get(kind, PLAUSIBLE_MAX)
+    base = coefficient.rsplit("_", 1)[0] if coefficient.startswith("D_F_step_") else coefficient
+    if base in table:
+        return table[base]
     if effect in expression.PLAUSIBLE_MAX:
         return expression.PLAUSIBLE_MAX[effect]
     if coefficient.startswith(("DX_", "DY_")):  # TDF: as the SDF term of the same order
@@ -83,12 +113,12 @@ def limit(coefficient: str, overrides: dict | None = None) -> float | None:
     return None
 
 
-def implausible(estimate: dict, overrides: dict | None = None) -> str | None:
+def implausible(estimate: dict, overrides: dict | None = None, kind: str | None = None) -> str | None:
     """A sentence naming the coefficients of ``estimate`` (name -> {"value", "unit"}) beyond their plausible size,
-    or None when all are plausible (or have no known limit)."""
+    or None when all are plausible (or have no known limit); ``kind`` as in :func:`limit`."""
     bad = []
     for name, e in estimate.items():
-        lim = limit(name, overrides)
+        lim = limit(name, overrides, kind)
         v = e.get("value") if isinstance(e, dict) else e
         if lim is not None and v is not None and abs(v) > lim:
             unit = e.get("unit", "") if isinstance(e, dict) else ""

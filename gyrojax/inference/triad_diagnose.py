@@ -1,0 +1,567 @@
+"""Diagnosis of a triad fit: which named effect, noise process or unnamed structure explains what the fit leaves.
+
+The loop of :mod:`gyrojax.inference.diagnose` on ``imu-triad`` records (:mod:`gyrojax.inference.triad`). Every
+candidate is a set of regressors R(ω, a, t, T) (deg/h per coefficient unit) added to the indicated rate of one
+channel c — a named effect of the registry (conventions §6) through the channel's SDF inputs (Hu 2-45), a MEMS
+candidate (conventions §9: ``bias_turn_on``, ``time_offset``) or a model-free shape (cross-axis rate products,
+|ω|, a bias while moving, t²). Its columns in the fit's rows:
+
+* static pose or known-angle rotation: the mean of R over the segment's samples (as the fit models a segment mean);
+* gravity-to-gravity move: the first-order change of the move's attitude residual when channel c indicates R β
+  more, ∂r/∂β = −Σ_l (∂r/∂g_{l,c}) R_l (one Jacobian of the move integration by the current linear model, at the
+  fit), so that every candidate is carried along the moves as the fit carries its own terms.
+
+Rows and columns are whitened as the fit whitens them (segment-mean covariance with the per-pose bias scatter,
+move angle noise with the per-move angle component, both REML; :mod:`gyrojax.inference.triad_components`). The
+score test of each candidate is that of :mod:`gyrojax.inference.diagnose`, S/k ~ F(k, ν), σ̃² estimated from the
+residual left by the current model, and one Holm family holds every channel × candidate and every shape. Exact
+aliases (X⊥ ≈ 0) name the model terms that already explain the candidate; statistical aliases are candidates
+whose projected regressors are collinear. The two noise processes between segments — ``pose_bias_scatter`` (a
+bias step at each move) and ``move_angle_noise`` (a per-move angle error) — are tested by the REML likelihood
+ratio of their variance component against zero (boundary: p = ½ P(χ²₁ > LR)), as ``gauss_markov`` is on a
+turntable; they are noise, never proposed as deterministic effects. Sizes are checked against the MEMS limits
+of :mod:`gyrojax.physics.plausibility`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from scipy import stats
+
+from gyrojax import units
+from gyrojax.data.record import Record
+from gyrojax.data.triad import gyro_dph
+from gyrojax.data.triad_segments import triad_segments
+from gyrojax.errors import ModelError
+from gyrojax.inference import adequacy
+from gyrojax.inference import triad as tf
+from gyrojax.inference.diagnose import COLLINEAR, UNSEEN, Candidate, Diagnosis, holm
+from gyrojax.inference.triad_components import Group, estimate_components, reml_objective
+from gyrojax.physics import effects as fx
+from gyrojax.physics import plausibility
+from gyrojax.physics import triad as tp
+
+MEMS_CANDIDATES = ("bias_turn_on", "time_offset")
+"""Triad candidates beyond the registry (conventions §9): a bias step at each turn-on (one level per record after
+the first, per channel, deg/h) and a time offset between the gyro and accelerometer streams (one for the triad, s)."""
+NOISE_PROCESSES = ("pose_bias_scatter", "move_angle_noise")
+"""Variance components between segments (:mod:`gyrojax.inference.triad_components`), tested as noise."""
+SHAPES = ("rate_cross", "rate_magnitude", "motion_bias", "time_quadratic")
+"""Model-free residual shapes per channel: ω_I ω_O, ω_I ω_S, ω_O ω_S ((deg/s)²); |ω| (deg/s); a bias present only
+while the body moves (the residual against a move's duration); t² (h²)."""
+SHAPE_LINES = {
+    "rate_cross": "products of body rates about two axes (ω_I ω_O, ω_I ω_S, ω_O ω_S), deg/h per (deg/s)²",
+    "rate_magnitude": "the body rate's magnitude |ω| (peak rate of a move), deg/h per deg/s",
+    "motion_bias": "a bias present only while the body moves (∝ a move's duration), deg/h",
+    "time_quadratic": "a quadratic drift in time, deg/h/h²",
+}
+
+
+@dataclass
+class TriadDiagnosis(Diagnosis):
+    """A :class:`~gyrojax.inference.diagnose.Diagnosis` of a triad fit, with its noise processes and the χ² of the
+    fit's rows whitened with the variance components (what a model that names them leaves)."""
+
+    noise_processes: list = field(default_factory=list)
+    chi2_components: float = float("nan")
+    dof: int = 0
+
+    @property
+    def noise_floor(self) -> float:
+        """RMS of the per-sample noise of the channels, deg/h (√ mean q)."""
+        return float(np.sqrt(np.mean(self.fit.noise_q)))
+
+    def to_json(self) -> dict:
+        """The diagnosis JSON (conventions §7 shape) with ``noise_processes`` and ``chi2_with_components``."""
+        d = super().to_json()
+        d["instrument"] = "imu-triad"
+        d["noise_processes"] = [c.to_json() for c in self.noise_processes]
+        d["chi2_with_components"] = {"chi2": self.chi2_components, "dof": self.dof}
+        return d
+
+    def text(self) -> str:
+        """The verdict, the candidates that matter, the noise processes and the unnamed structure."""
+        lines = [f"verdict: {self.verdict} (alpha {self.alpha:g}, {self.tests} tests, Holm)"]
+        lines.append(
+            f"fit: chi2 {self.fit.chi2:.4g} on {self.fit.dof} dof (white noise); "
+            f"{self.chi2_components:.4g} on {self.dof} with the variance components"
+        )
+        for c in self.noise_processes:
+            est = ", ".join(f"{k} {v['value']:.3g} {v['unit']}" for k, v in c.estimate.items())
+            lines.append(f"noise process {c.name}: LR {c.statistic:.3g}, p {c.p_value:.2g} ({est})")
+        for c in self.candidates[:8]:
+            if c.df == 0:
+                lines.append(f"  {c.name}: indistinguishable from {', '.join(c.aliases) or 'the model'}")
+                continue
+            est = ", ".join(f"{k} {v['value']:.4g} {v['unit']}" for k, v in c.estimate.items())
+            flag = f" [implausible: {c.implausible}]" if c.implausible else ""
+            flag += f" [refused: {c.refused}]" if c.refused else ""
+            alias = f" aliases {', '.join(c.aliases)}" if c.aliases else ""
+            lines.append(f"  {c.name}: p_adj {c.p_adjusted:.2g} ({est}){alias}{flag}")
+        for s in self.unexplained:
+            lines.append(f"unexplained structure: {s.name}: p_adj {s.p_adjusted:.2g} ({SHAPE_LINES.get(s.effect, '')})")
+        lines.append(f"proposal: {self.proposal}" if self.proposal else "proposal: none")
+        return "\n".join(lines)
+
+
+@dataclass
+class Regressor:
+    """One candidate or shape on one channel (``channel`` None: on all three at once, as ``time_offset``)."""
+
+    name: str
+    effect: str
+    channel: int | None
+    coefficients: tuple
+    units: tuple
+    func: object  # (inputs dict of one channel or of the triad) -> (n, k) deg/h per coefficient unit
+
+
+@dataclass
+class Shape:
+    """A significant model-free shape (the ``unexplained`` entries of the diagnosis)."""
+
+    name: str
+    effect: str
+    statistic: float
+    df: int
+    p_value: float
+    log10_p: float
+    p_adjusted: float = 1.0
+
+    def to_json(self) -> dict:
+        """One entry of ``unexplained``."""
+        return {
+            "name": self.name,
+            "shape": self.effect,
+            "description": SHAPE_LINES.get(self.effect, ""),
+            "statistic": float(self.statistic),
+            "df": int(self.df),
+            "p_value": float(self.p_value),
+            "p_adjusted": float(self.p_adjusted),
+        }
+
+
+# ---- the regressors ---------------------------------------------------------------------------------------------
+
+
+def _named(name: str, c: int) -> Regressor:
+    eff = fx.get(name)
+
+    def func(x, eff=eff):
+        k = len(eff.coefficients)
+        return np.column_stack(
+            [np.asarray(eff.contribution(x, jnp.eye(k)[i])) * np.ones(len(x["t_h"])) for i in range(k)]
+        )
+
+    return Regressor(f"{name}[{tp.CHANNELS[c]}]", name, c, eff.coefficients, eff.units, func)
+
+
+def _shape(name: str, c: int) -> Regressor:
+    def func(x, name=name):
+        dps = 1.0 / units.SECONDS_PER_HOUR
+        wi, wo, ws = (np.asarray(x[k]) * dps for k in ("w_I", "w_O", "w_S"))
+        if name == "rate_cross":
+            return np.column_stack([wi * wo, wi * ws, wo * ws])
+        if name == "rate_magnitude":
+            return np.sqrt(wi**2 + wo**2 + ws**2)[:, None]
+        if name == "motion_bias":
+            return np.asarray(x["moving"], dtype=float)[:, None]
+        return ((np.asarray(x["t_h"]) - x["t_mid"]) ** 2 * np.ones(len(wi)))[:, None]
+
+    n_coef = 3 if name == "rate_cross" else 1
+    unit = {"rate_cross": "deg/h/(deg/s)^2", "rate_magnitude": "deg/h/(deg/s)", "motion_bias": "deg/h"}
+    return Regressor(
+        f"{name}[{tp.CHANNELS[c]}]", name, c, (name,) * n_coef, (unit.get(name, "deg/h/h^2"),) * n_coef, func
+    )
+
+
+def candidate_regressors(model, data, candidates=None) -> list:
+    """The named and MEMS candidates of every channel absent from ``model`` that the session can carry."""
+    names = candidates
+    if names is None:
+        temp = np.concatenate([x["temperature_C"] for x in data["inputs"]])
+        names = [
+            n
+            for n in fx.names(fx.SDF)
+            if n not in model.terms and n not in tp.TURNTABLE_ONLY and (n != "bias_temperature" or np.ptp(temp) > 1e-6)
+        ]
+        names += [n for n in MEMS_CANDIDATES if n != "bias_turn_on" or data["n_records"] > 1]
+    out = []
+    for n in names:
+        if n == "bias_turn_on":
+            k = data["n_records"] - 1
+            if k < 1:
+                raise ModelError("bias_turn_on needs records of two or more turn-ons")
+            for c in range(3):
+                out.append(
+                    Regressor(
+                        f"bias_turn_on[{tp.CHANNELS[c]}]",
+                        n,
+                        c,
+                        tuple(f"D_F_step_{i + 1}" for i in range(k)),
+                        ("deg/h",) * k,
+                        lambda x, k=k: np.eye(k + 1)[np.asarray(x["record"], dtype=int)][:, 1:],
+                    )
+                )
+        elif n == "time_offset":
+            out.append(Regressor("time_offset", n, None, ("dt_acc",), ("s",), lambda x: x["g_dot"][..., None]))
+        elif n in fx.names(fx.SDF) and n not in tp.TURNTABLE_ONLY:
+            out.extend(_named(n, c) for c in range(3))
+        else:
+            raise ModelError(f"unknown triad candidate {n!r} (registry effects, {', '.join(MEMS_CANDIDATES)})")
+    return out
+
+
+def shape_regressors() -> list:
+    """The model-free shapes of every channel (:data:`SHAPES`)."""
+    return [_shape(s, c) for s in SHAPES for c in range(3)]
+
+
+# ---- the rows of the fit ----------------------------------------------------------------------------------------
+
+_move_dr_dg = jax.jit(
+    jax.vmap(jax.jacfwd(tf.move_residual, argnums=2), in_axes=(None, None, 0, 0, 0, 0, 0, 0)), static_argnums=0
+)
+
+
+def _move_times(record: Record):
+    """Per move segment: (t_h, temperature °C) of the samples the fit integrates (the move and its boundaries)."""
+    t = np.asarray(record.time_s, dtype=float)
+    temp = record.columns.get("temperature_C")
+    temp = np.full(len(t), 20.0) if temp is None else np.asarray(temp, dtype=float)
+    seg = np.asarray(record.columns["segment"]).astype(int)
+    out = []
+    for spec in record.meta["segments"]:
+        if spec["type"] != "move":
+            continue
+        sel = np.flatnonzero(seg == spec["label"])
+        lo, hi = max(sel[0] - 1, 0), min(sel[-1] + 2, len(t))
+        out.append((t[lo:hi] / units.SECONDS_PER_HOUR, temp[lo:hi]))
+    return out
+
+
+def session_data(records, fit, earth_rate=None) -> dict:
+    """The fit's rows rebuilt at its θ: segments and moves, the whitened residual and Jacobian of the current model
+    (with the fit's variance components), and each segment's and move's channel inputs for the regressors."""
+    recs = [records] if isinstance(records, Record) else list(records)
+    model, theta = fit.model, np.asarray(fit.theta, dtype=float)
+    segments, moves, seg_rec, mv_rec, mv_times = [], [], [], [], []
+    for i, r in enumerate(recs):
+        s, _q, _mode, mv = triad_segments(r, earth_rate)
+        segments.extend(s)
+        moves.extend(mv)
+        seg_rec += [i] * len(s)
+        mv_rec += [i] * len(mv)
+        mv_times.extend(_move_times(r))
+        gyro_dph(r)  # refuses a record without gyro columns here, by name
+    q = np.asarray(fit.noise_q, dtype=float)
+    b, s_mat, g_mat = (np.asarray(m) for m in tf.linear_matrices(model, jnp.asarray(theta)))
+    comp = fit.variance_components or {}
+    tau2 = {
+        "pose": comp.get("pose_bias_scatter_deg_per_h", 0.0) ** 2,
+        "move": math.radians(comp.get("move_angle_noise_deg", 0.0)) ** 2,
+    }
+    arrays = tf.pack_segments(segments)
+    th = jnp.asarray(theta)
+    y = np.concatenate([sg.y for sg in segments])
+    resid = y - np.asarray(tf.segment_means_jit(model, th, arrays))
+    jac = np.asarray(tf.segment_jacobian_jit(model, th, arrays))
+    t_all = np.concatenate([sg.t_h for sg in segments] + [t for t, _ in mv_times])
+    t_mid = 0.5 * (t_all.min() + t_all.max())
+    inputs = []
+    for sg, ri in zip(segments, seg_rec):
+        n = len(sg.t_h)
+        inputs.append(
+            {
+                "w": sg.w * np.ones((n, 3)),
+                "a": sg.a * np.ones((n, 3)),
+                "t_h": sg.t_h,
+                "temperature_C": sg.temp,
+                "record": np.full(n, ri),
+                "moving": np.full(n, sg.kind == "rotation"),
+                "t_mid": t_mid,
+                "g_dot": np.zeros((n, 3)),
+            }
+        )
+    data = {
+        "model": model,
+        "theta": theta,
+        "segments": segments,
+        "moves": moves,
+        "q": q,
+        "s_mat": s_mat,
+        "tau2": tau2,
+        "resid": resid,
+        "jac": jac,
+        "n_records": len(recs),
+        "seg_inputs": inputs,
+    }
+    data["inputs"] = list(inputs)
+    if moves:
+        packed = tf.pack_moves(moves)
+        move_w = tf._move_whitening(moves, q, s_mat, tau2["move"])
+        mr, mj = tf._move_rows(model, theta, packed, move_w)
+        data.update(packed=packed, move_w=move_w, move_r=mr, move_j=mj)
+        data["dr_dg"] = np.asarray(_move_dr_dg(model, th, *packed))  # (M, 3, L, 3)
+        mv_inputs = []
+        for m, ri, (t_h, temp) in zip(moves, mv_rec, mv_times):
+            w_cal = np.linalg.solve(s_mat, (m.g - b - m.a @ g_mat.T).T).T  # deg/h, the calibrated body rate
+            a_dot = np.gradient(m.a, m.dt, axis=0) if len(m.a) > 1 else np.zeros_like(m.a)
+            n = len(m.g)
+            mv_inputs.append(
+                {
+                    "w": w_cal,
+                    "a": m.a,
+                    "t_h": t_h[:n],
+                    "temperature_C": temp[:n],
+                    "record": np.full(n, ri),
+                    "moving": np.ones(n, dtype=bool),
+                    "t_mid": t_mid,
+                    "g_dot": a_dot @ g_mat.T,
+                }
+            )
+        data["move_inputs"] = mv_inputs
+        data["inputs"] += mv_inputs
+    return data
+
+
+def _channel_x(x: dict, c: int) -> dict:
+    out = tp.channel_inputs(x["w"], x["a"], x["t_h"], x["temperature_C"], c)
+    out.update({k: x[k] for k in ("record", "moving", "t_mid")})
+    out["g_dot"] = x["g_dot"][:, c]
+    return out
+
+
+def raw_columns(reg: Regressor, data: dict) -> tuple[np.ndarray, np.ndarray]:
+    """(segment-mean rows (3m, k), move rows (M, 3, k)) of a regressor, unwhitened (deg/h and dimensionless)."""
+    chans = range(3) if reg.channel is None else (reg.channel,)
+    k = len(reg.coefficients)
+    seg = np.zeros((3 * len(data["segments"]), k))
+    for i, x in enumerate(data["seg_inputs"]):
+        for c in chans:
+            seg[3 * i + c] = np.asarray(reg.func(_channel_x(x, c))).mean(axis=0)
+    mv = np.zeros((len(data["moves"]), 3, k))
+    for m, x in enumerate(data.get("move_inputs", [])):
+        n = len(x["t_h"])
+        for c in chans:
+            rl = np.asarray(reg.func(_channel_x(x, c)))  # (n, k)
+            mv[m] += data["dr_dg"][m, :, :n, c] @ rl  # −∂r/∂β with the model indicating R β more (module doc)
+    return seg, mv
+
+
+def whitened_system(data: dict, regs: list):
+    """(r̃, J̃₀, [X̃ of each regressor]) stacked as the fit whitens its rows (segments, then 2 rows per move)."""
+    cols = [raw_columns(r, data) for r in regs]
+    p0 = data["jac"].shape[1]
+    big = np.column_stack([data["jac"]] + [s for s, _ in cols]) if cols else data["jac"]
+    rw, jw = tf.whiten_segments(data["segments"], data["resid"], big, data["q"], data["s_mat"], data["tau2"]["pose"])
+    rw = rw - jw[:, :p0] @ np.zeros(p0)  # the rows are at θ̂ already
+    blocks_r, blocks_j = [rw], [jw]
+    if data["moves"]:
+        mx = []
+        for m, (p, sd) in enumerate(data["move_w"]):
+            mx.append(np.concatenate([p.T @ mv[m] / sd for _, mv in cols], axis=1) if cols else np.zeros((2, 0)))
+        blocks_r.append(data["move_r"])
+        blocks_j.append(np.column_stack([data["move_j"], np.concatenate(mx, axis=0)]))
+    r_all = np.concatenate(blocks_r)
+    j_all = np.concatenate(blocks_j, axis=0)
+    xs, i0 = [], p0
+    for r in regs:
+        k = len(r.coefficients)
+        xs.append(j_all[:, i0 : i0 + k])
+        i0 += k
+    return r_all, j_all[:, :p0], xs
+
+
+# ---- the tests --------------------------------------------------------------------------------------------------
+
+
+def _score_all(r, j0, xs, regs, model_names):
+    """Score statistic and F p-value of every regressor (module doc of :mod:`gyrojax.inference.diagnose`)."""
+    u0 = adequacy.basis(j0)
+    r_perp = r - u0 @ (u0.T @ r)
+    dof = max(len(r) - u0.shape[1], 1)
+    sigma2 = float(r_perp @ r_perp) / dof
+    out, perps = [], {}
+    for reg, x in zip(regs, xs):
+        xn = float(np.sqrt((x * x).sum()))
+        if xn == 0.0:
+            out.append((reg, None))
+            continue
+        xp = x - u0 @ (u0.T @ x)
+        if float(np.sqrt((xp * xp).sum())) / xn < UNSEEN:
+            b, *_ = np.linalg.lstsq(j0, x, rcond=None)
+            weight = np.abs(b).max(axis=1) * np.linalg.norm(j0, axis=0)
+            idx = np.flatnonzero(weight > 1e-3 * weight.max())
+            out.append((reg, Candidate(reg.name, 0.0, 0, 1.0, 1.0, sorted({model_names[i] for i in idx}), math.nan)))
+            continue
+        uc = adequacy.perp_basis(u0, x, tol=1e-7)
+        proj = uc.T @ r_perp
+        stat = float(proj @ proj) / sigma2
+        df = uc.shape[1]
+        logp = float(stats.f.logsf(stat / df, df, dof))
+        beta, *_ = np.linalg.lstsq(xp, r_perp, rcond=None)
+        rms = float(np.sqrt(np.mean((r_perp - xp @ beta) ** 2)))
+        est = {
+            (f"{n}[{reg.name.split('[')[1]}" if "[" in reg.name else n): {"value": float(v), "unit": u}
+            for n, v, u in zip(reg.coefficients, beta, reg.units)
+        }
+        cand = Candidate(reg.name, stat, df, math.exp(logp), 1.0, [], rms, est, log10_p=logp / math.log(10))
+        out.append((reg, cand))
+        perps[reg.name] = uc
+    return out, perps, dof
+
+
+def _noise_processes(data: dict, alpha: float) -> tuple[list, dict]:
+    """REML likelihood-ratio test of each variance component between segments against zero; (candidates, τ̂²)."""
+    model, theta = data["model"], data["theta"]
+    groups = []
+    for i, seg in enumerate(data["segments"]):
+        sl = slice(3 * i, 3 * i + 3)
+        cov = np.diag(data["q"] / seg.n) + data["s_mat"] @ seg.extra @ data["s_mat"].T
+        groups.append(Group(cov, data["resid"][sl], data["jac"][sl], "pose" if seg.kind == "static" else ""))
+    if data["moves"]:
+        r = np.asarray(tf.moves_residual_jit(model, jnp.asarray(theta), *data["packed"]))
+        j = -np.asarray(tf.moves_jacobian_jit(model, jnp.asarray(theta), *data["packed"]))
+        # the move whitening without the angle component (the component is what is tested)
+        for k, (p, sd) in enumerate(tf._move_whitening(data["moves"], data["q"], data["s_mat"])):
+            groups.append(Group(sd**2 * np.eye(2), p.T @ r[k], p.T @ j[k], "move"))
+    tau2, _why = estimate_components(groups)
+    col = np.linalg.norm(np.concatenate([np.linalg.solve(np.linalg.cholesky(g.cov), g.jac) for g in groups]), axis=0)
+    col[col == 0] = 1.0
+    best = reml_objective(groups, tau2, col)
+    out = []
+    for kind, name in (("pose", "pose_bias_scatter"), ("move", "move_angle_noise")):
+        if kind not in tau2:
+            continue
+        lr = max(reml_objective(groups, {**tau2, kind: 0.0}, col) - best, 0.0)
+        p = 0.5 * float(stats.chi2.sf(lr, 1)) if lr > 0 else 1.0
+        v = math.sqrt(tau2[kind])
+        est = {"tau": {"value": v if kind == "pose" else math.degrees(v), "unit": "deg/h" if kind == "pose" else "deg"}}
+        cand = Candidate(name, lr, 1, p, p, [], math.nan, est, log10_p=math.log10(max(p, 1e-300)))
+        if p < alpha:
+            out.append(cand)
+    return out, tau2
+
+
+def _implausible(c: Candidate, overrides) -> str | None:
+    est = {k.split("[")[0]: v for k, v in c.estimate.items()}
+    return plausibility.implausible(est, overrides, kind="imu-triad")
+
+
+def diagnose_triad(
+    records,
+    terms=None,
+    *,
+    alpha: float = 0.01,
+    candidates=None,
+    result=None,
+    model_free: bool = True,
+    plausible: dict | None = None,
+    earth_rate: bool | None = None,
+    vet: bool = True,
+) -> TriadDiagnosis:
+    """Rank what the triad fit of ``terms`` to ``records`` is missing (module doc).
+
+    Args:
+      records: ``imu-triad`` records of one instrument.
+      terms: the current model (effect names on every channel); default as :func:`~gyrojax.inference.triad.fit_triad`.
+      alpha: family-wise level of the verdict (Holm over channels × candidates and shapes).
+      candidates: effect names to test (default: every registry effect a triad channel can carry and the session
+        excites, and :data:`MEMS_CANDIDATES`).
+      result: the fit of ``terms`` to these records, if at hand.
+      model_free: test the shapes :data:`SHAPES` too.
+      plausible: overrides of the MEMS plausible sizes, by coefficient or effect name.
+      vet: refit with the top significant candidate to see whether :func:`fit_triad` accepts it (``refused``).
+
+    Returns: a :class:`TriadDiagnosis`, verdict ``missing-effect`` or ``adequate``; estimates in report units.
+    """
+    recs = [records] if isinstance(records, Record) else list(records)
+    res = result or tf.fit_triad(recs, terms, earth_rate=earth_rate)
+    data = session_data(recs, res, earth_rate)
+    regs = candidate_regressors(res.model, data, candidates)
+    shapes = shape_regressors() if model_free else []
+    r, j0, xs = whitened_system(data, regs + shapes)
+    scored, perps, dof = _score_all(r, j0, xs, regs + shapes, list(res.names))
+    tested = [c for reg, c in scored[: len(regs)] if c is not None]
+    unexcited = [reg.name for reg, c in scored[: len(regs)] if c is None]
+    shape_c = [(reg, c) for reg, c in scored[len(regs) :] if c is not None and c.df > 0]
+    live = [c for c in tested if c.df > 0]
+    # shapes a named candidate explains: tested beside every named candidate (their projection out)
+    named_cols = [x for (reg, c), x in zip(scored[: len(regs)], xs[: len(regs)]) if c is not None and c.df > 0]
+    shape_list = []
+    if shape_c:
+        u_all = adequacy.basis(np.column_stack([j0] + named_cols)) if named_cols else adequacy.basis(j0)
+        r_perp = r - u_all @ (u_all.T @ r)
+        dof_all = max(len(r) - u_all.shape[1], 1)
+        s2 = float(r_perp @ r_perp) / dof_all
+        for (reg, _c), x in zip(scored[len(regs) :], xs[len(regs) :]):
+            if _c is None or _c.df == 0:
+                continue
+            uc = adequacy.perp_basis(u_all, x, tol=1e-7)
+            if uc.shape[1] == 0:
+                continue
+            proj = uc.T @ r_perp
+            stat = float(proj @ proj) / s2
+            logp = float(stats.f.logsf(stat / uc.shape[1], uc.shape[1], dof_all))
+            shape_list.append(Shape(reg.name, reg.effect, stat, uc.shape[1], math.exp(logp), logp / math.log(10)))
+    adj = holm(np.array([10.0**c.log10_p for c in live] + [10.0**s.log10_p for s in shape_list]))
+    for c, a in zip(live + shape_list, adj):
+        c.p_adjusted = float(a)
+    family = len(live) + len(shape_list)
+
+    # statistical aliases: collinear projected regressors
+    names_t = [c.name for c in live]
+    for i, a in enumerate(names_t):
+        for b in names_t[i + 1 :]:
+            s = np.linalg.svd(perps[a].T @ perps[b], compute_uv=False)
+            if s.size and s[0] > COLLINEAR:
+                next(c for c in live if c.name == a).aliases.append(b)
+                next(c for c in live if c.name == b).aliases.append(a)
+    for c in live:
+        c.implausible = _implausible(c, plausible)
+    tested.sort(key=lambda c: (c.log10_p if c.df > 0 else 0.0, -c.statistic))
+    significant = [c for c in tested if c.df > 0 and c.p_adjusted < alpha]
+    unexplained = sorted([s for s in shape_list if s.p_adjusted < alpha], key=lambda s: s.log10_p)
+    proposal = None
+    for c in significant:
+        effect = c.name.split("[")[0]
+        if c.implausible or c.aliases:
+            continue
+        if effect in MEMS_CANDIDATES:
+            c.refused = f"{effect} is a diagnosis candidate; fit_triad has no term for it yet"
+            continue
+        if vet:
+            try:
+                tf.fit_triad(recs, tuple(res.model.terms) + (effect,), earth_rate=earth_rate)
+            except ModelError as e:
+                c.refused = str(e)
+                continue
+        proposal = effect
+        break
+    noise, _tau2 = _noise_processes(data, alpha)
+    verdict = "missing-effect" if significant or unexplained else "adequate"
+    return TriadDiagnosis(
+        verdict, res, tested, alpha, unexcited, unexplained, proposal, family, noise, float(r @ r), dof
+    )
+
+
+def add_and_refit_triad(records, terms=None, effect: str | None = None, *, diagnosis=None, **kw):
+    """Add ``effect`` (default: the diagnosis' proposal) to every channel's terms, refit, diagnose again.
+
+    Returns ``(new_terms, new_fit, new_diagnosis, added)``."""
+    recs = [records] if isinstance(records, Record) else list(records)
+    d = diagnosis or diagnose_triad(recs, terms, **kw)
+    if effect is None:
+        if d.proposal is None:
+            why = "; ".join(s.name for s in d.unexplained[:3]) or "the model is adequate for these records"
+            raise ModelError(f"no named effect to add: {why}")
+        effect = d.proposal
+    new_terms = tuple(d.fit.model.terms) + (effect,)
+    new_fit = tf.fit_triad(recs, new_terms, earth_rate=kw.get("earth_rate"))
+    return new_terms, new_fit, diagnose_triad(recs, new_terms, result=new_fit, **kw), effect
