@@ -136,12 +136,34 @@ def cmd_diagnose(args) -> int:
     if not 0.0 < args.alpha < 1.0:
         raise UsageError(f"--alpha must lie in (0, 1), got {args.alpha}")
     recs = load_records(args.records)
+    if recs[0].kind == "imu-triad":
+        return _diagnose_triad(args, recs)
     names = effects_from_args(args, recs[0].kind)
     d = diagnose(recs, terms_with_effects(parse_terms(args.terms), names, recs[0].kind), alpha=args.alpha)
     if args.json:
         print(json.dumps(d.to_json()))
     else:
         print(diagnosis_text(d))
+    return 0
+
+
+def _diagnose_triad(args, recs) -> int:
+    """``gyrojax diagnose`` on imu-triad records (:mod:`gyrojax.inference.triad_diagnose`): a user effect
+    (``--effect``, ``--effects-file``) is an SDF effect of every channel, added to the model as on a turntable."""
+    from gyrojax.inference.triad_diagnose import default_terms, diagnose_triad
+    from gyrojax.physics.effects import SDF
+
+    names = effects_from_args(args, SDF)  # each channel is an SDF-like rate gyro (gyrojax.physics.triad)
+    terms = parse_terms(args.terms)
+    if names:
+        base = list(terms) if terms else list(default_terms(recs))
+        terms = base + [n for n in names if n not in base]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        d = diagnose_triad(recs, terms or None, alpha=args.alpha)
+    if not d.fit.converged:
+        raise ModelError(f"the triad fit did not converge ({d.fit.convergence_note}); nothing is diagnosed")
+    print(json.dumps(d.to_json()) if args.json else d.text())
     return 0
 
 

@@ -146,6 +146,14 @@ class Shape:
         }
 
 
+def default_terms(records) -> tuple:
+    """The terms :func:`~gyrojax.inference.triad.fit_triad` takes by default for ``records``: the linear model
+    with scale factor and misalignment when a rotation or move segment is there, else bias and g-terms."""
+    recs = [records] if isinstance(records, Record) else list(records)
+    moving = any(s["type"] in ("rotation", "move") for r in recs for s in r.meta["segments"])
+    return tf.DEFAULT_ROTATION_TERMS if moving else tf.DEFAULT_STATIC_TERMS
+
+
 # ---- the regressors ---------------------------------------------------------------------------------------------
 
 
@@ -355,7 +363,8 @@ def raw_columns(reg: Regressor, data: dict) -> tuple[np.ndarray, np.ndarray]:
 
 
 def whitened_system(data: dict, regs: list):
-    """(r̃, J̃₀, [X̃ of each regressor]) stacked as the fit whitens its rows (segments, then 2 rows per move)."""
+    """(r̃, J̃₀, [X̃ of each regressor], [raw segment-mean rows of each]) stacked as the fit whitens its rows
+    (segments, then 2 rows per move); the raw rows are in deg/h per coefficient unit."""
     cols = [raw_columns(r, data) for r in regs]
     p0 = data["jac"].shape[1]
     big = np.column_stack([data["jac"]] + [s for s, _ in cols]) if cols else data["jac"]
@@ -375,20 +384,22 @@ def whitened_system(data: dict, regs: list):
         k = len(r.coefficients)
         xs.append(j_all[:, i0 : i0 + k])
         i0 += k
-    return r_all, j_all[:, :p0], xs
+    return r_all, j_all[:, :p0], xs, [sg for sg, _ in cols]
 
 
 # ---- the tests --------------------------------------------------------------------------------------------------
 
 
-def _score_all(r, j0, xs, regs, model_names):
-    """Score statistic and F p-value of every regressor (module doc of :mod:`gyrojax.inference.diagnose`)."""
+def _score_all(r, j0, xs, regs, model_names, raw=None):
+    """Score statistic and F p-value of every regressor (module doc of :mod:`gyrojax.inference.diagnose`); with
+    ``raw`` = (segment residual, its Jacobian, each regressor's raw segment rows) the RMS of the segment-mean
+    residuals after adding it (one step, deg/h)."""
     u0 = adequacy.basis(j0)
     r_perp = r - u0 @ (u0.T @ r)
     dof = max(len(r) - u0.shape[1], 1)
     sigma2 = float(r_perp @ r_perp) / dof
     out, perps = [], {}
-    for reg, x in zip(regs, xs):
+    for i_reg, (reg, x) in enumerate(zip(regs, xs)):
         xn = float(np.sqrt((x * x).sum()))
         if xn == 0.0:
             out.append((reg, None))
@@ -406,7 +417,11 @@ def _score_all(r, j0, xs, regs, model_names):
         df = uc.shape[1]
         logp = float(stats.f.logsf(stat / df, df, dof))
         beta, *_ = np.linalg.lstsq(xp, r_perp, rcond=None)
-        rms = float(np.sqrt(np.mean((r_perp - xp @ beta) ** 2)))
+        rms = math.nan
+        if raw is not None:
+            res0, jac0, xr = raw
+            b_model = np.linalg.lstsq(j0, x, rcond=None)[0]
+            rms = float(np.sqrt(np.mean((res0 - (xr[i_reg] - jac0 @ b_model) @ beta) ** 2)))
         est = {
             (f"{n}[{reg.name.split('[')[1]}" if "[" in reg.name else n): {"value": float(v), "unit": u}
             for n, v, u in zip(reg.coefficients, beta, reg.units)
@@ -486,8 +501,9 @@ def diagnose_triad(
     data = session_data(recs, res, earth_rate)
     regs = candidate_regressors(res.model, data, candidates)
     shapes = shape_regressors() if model_free else []
-    r, j0, xs = whitened_system(data, regs + shapes)
-    scored, perps, dof = _score_all(r, j0, xs, regs + shapes, list(res.names))
+    r, j0, xs, xr = whitened_system(data, regs + shapes)
+    raw = (data["resid"], data["jac"], xr)
+    scored, perps, dof = _score_all(r, j0, xs, regs + shapes, list(res.names), raw)
     tested = [c for reg, c in scored[: len(regs)] if c is not None]
     unexcited = [reg.name for reg, c in scored[: len(regs)] if c is None]
     shape_c = [(reg, c) for reg, c in scored[len(regs) :] if c is not None and c.df > 0]
