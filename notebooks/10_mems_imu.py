@@ -95,6 +95,18 @@ for n in res.names:
         print(f"{n:8s} {res.values[n]:8.1f} ± {res.stds[n]:5.1f} deg/h/g   t = {t:+.2f}")
 
 # %% [markdown]
+# ## What the fit is missing: `diagnose` on the triad
+# The loop of a turntable on the six faces and three turns: every named effect a channel can carry (g² terms,
+# scale-factor asymmetry and nonlinearity, trend), the model-free shapes (rate products, |ω|, t²) and the noise
+# processes between segments, tested against this fit with one Holm family (`gyrojax diagnose RECORDS`).
+
+# %%
+from gyrojax.inference.triad_diagnose import diagnose_triad
+
+diag = diagnose_triad(rec, result=res)
+print(diag.text())
+
+# %% [markdown]
 # ## Calibrated rates
 # `apply` inverts ω_ind = S ω + G a + b sample by sample. The integral of each turn, from the nominal scale and from
 # the calibration:

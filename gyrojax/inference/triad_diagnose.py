@@ -233,7 +233,7 @@ def shape_regressors() -> list:
 # ---- the rows of the fit ----------------------------------------------------------------------------------------
 
 _move_dr_dg = jax.jit(
-    jax.vmap(jax.jacfwd(tf.move_residual, argnums=2), in_axes=(None, None, 0, 0, 0, 0, 0, 0)), static_argnums=0
+    jax.vmap(jax.jacrev(tf.move_residual, argnums=2), in_axes=(None, None, 0, 0, 0, 0, 0, 0)), static_argnums=0
 )
 
 
@@ -310,6 +310,7 @@ def session_data(records, fit, earth_rate=None) -> dict:
         "seg_inputs": inputs,
     }
     data["inputs"] = list(inputs)
+    data["seg_stacked"] = _stacked(inputs)
     if moves:
         packed = tf.pack_moves(moves)
         move_w = tf._move_whitening(moves, q, s_mat, tau2["move"])
@@ -334,6 +335,7 @@ def session_data(records, fit, earth_rate=None) -> dict:
                 }
             )
         data["move_inputs"] = mv_inputs
+        data["move_stacked"] = _stacked(mv_inputs)
         data["inputs"] += mv_inputs
     return data
 
@@ -345,27 +347,37 @@ def _channel_x(x: dict, c: int) -> dict:
     return out
 
 
+def _stacked(inputs: list) -> tuple[dict, np.ndarray]:
+    """The inputs of several segments as one (one evaluation of a regressor serves them all) and their bounds."""
+    keys = ("w", "a", "t_h", "temperature_C", "record", "moving", "g_dot")
+    x = {k: np.concatenate([np.asarray(d[k]) for d in inputs]) for k in keys}
+    x["t_mid"] = inputs[0]["t_mid"]
+    return x, np.cumsum([0] + [len(d["t_h"]) for d in inputs])
+
+
 def raw_columns(reg: Regressor, data: dict) -> tuple[np.ndarray, np.ndarray]:
     """(segment-mean rows (3m, k), move rows (M, 3, k)) of a regressor, unwhitened (deg/h and dimensionless)."""
     chans = range(3) if reg.channel is None else (reg.channel,)
     k = len(reg.coefficients)
     seg = np.zeros((3 * len(data["segments"]), k))
-    for i, x in enumerate(data["seg_inputs"]):
-        for c in chans:
-            seg[3 * i + c] = np.asarray(reg.func(_channel_x(x, c))).mean(axis=0)
+    x, bounds = data["seg_stacked"]
+    for c in chans:
+        f = np.asarray(reg.func(_channel_x(x, c)), dtype=float)
+        seg[c::3] = np.add.reduceat(f, bounds[:-1], axis=0) / np.diff(bounds)[:, None]
     mv = np.zeros((len(data["moves"]), 3, k))
-    for m, x in enumerate(data.get("move_inputs", [])):
-        n = len(x["t_h"])
+    if data["moves"]:
+        x, bounds = data["move_stacked"]
         for c in chans:
-            rl = np.asarray(reg.func(_channel_x(x, c)))  # (n, k)
-            mv[m] += data["dr_dg"][m, :, :n, c] @ rl  # −∂r/∂β with the model indicating R β more (module doc)
+            f = np.asarray(reg.func(_channel_x(x, c)), dtype=float)
+            for m in range(len(data["moves"])):
+                lo, hi = bounds[m], bounds[m + 1]
+                mv[m] += data["dr_dg"][m, :, : hi - lo, c] @ f[lo:hi]  # −∂r/∂β, the model indicating R β more
     return seg, mv
 
 
-def whitened_system(data: dict, regs: list):
+def whitened_system(data: dict, regs: list, cols: list):
     """(r̃, J̃₀, [X̃ of each regressor], [raw segment-mean rows of each]) stacked as the fit whitens its rows
-    (segments, then 2 rows per move); the raw rows are in deg/h per coefficient unit."""
-    cols = [raw_columns(r, data) for r in regs]
+    (segments, then 2 rows per move); ``cols`` the :func:`raw_columns` of ``regs``, in deg/h per coefficient unit."""
     p0 = data["jac"].shape[1]
     big = np.column_stack([data["jac"]] + [s for s, _ in cols]) if cols else data["jac"]
     rw, jw = tf.whiten_segments(data["segments"], data["resid"], big, data["q"], data["s_mat"], data["tau2"]["pose"])
@@ -432,20 +444,41 @@ def _score_all(r, j0, xs, regs, model_names, raw=None):
     return out, perps, dof
 
 
-def _noise_processes(data: dict, alpha: float) -> tuple[list, dict]:
-    """REML likelihood-ratio test of each variance component between segments against zero; (candidates, τ̂²)."""
+def _groups(data: dict, extra: list) -> list:
+    """The fit's rows as REML groups (natural units), the Jacobian extended by the raw columns ``extra`` of the
+    candidates taken in (:func:`raw_columns`), the moves without their angle component (what is estimated)."""
     model, theta = data["model"], data["theta"]
     groups = []
     for i, seg in enumerate(data["segments"]):
         sl = slice(3 * i, 3 * i + 3)
         cov = np.diag(data["q"] / seg.n) + data["s_mat"] @ seg.extra @ data["s_mat"].T
-        groups.append(Group(cov, data["resid"][sl], data["jac"][sl], "pose" if seg.kind == "static" else ""))
+        jac = np.column_stack([data["jac"][sl]] + [sg[sl] for sg, _ in extra])
+        groups.append(Group(cov, data["resid"][sl], jac, "pose" if seg.kind == "static" else ""))
     if data["moves"]:
         r = np.asarray(tf.moves_residual_jit(model, jnp.asarray(theta), *data["packed"]))
         j = -np.asarray(tf.moves_jacobian_jit(model, jnp.asarray(theta), *data["packed"]))
-        # the move whitening without the angle component (the component is what is tested)
         for k, (p, sd) in enumerate(tf._move_whitening(data["moves"], data["q"], data["s_mat"])):
-            groups.append(Group(sd**2 * np.eye(2), p.T @ r[k], p.T @ j[k], "move"))
+            jac = np.column_stack([p.T @ j[k]] + [p.T @ mv[k] for _, mv in extra])
+            groups.append(Group(sd**2 * np.eye(2), p.T @ r[k], jac, "move"))
+    return groups
+
+
+def with_components(data: dict, extra: list) -> dict:
+    """``data`` whitened with the variance components re-estimated by REML with the candidates ``extra`` (raw
+    columns) among the fixed effects: a missing effect is then not taken for pose scatter or move angle noise."""
+    tau2, _why = estimate_components(_groups(data, extra))
+    out = dict(data)
+    out["tau2"] = {"pose": tau2.get("pose", 0.0), "move": tau2.get("move", 0.0)}
+    if data["moves"]:
+        out["move_w"] = tf._move_whitening(data["moves"], data["q"], data["s_mat"], out["tau2"]["move"])
+        out["move_r"], out["move_j"] = tf._move_rows(data["model"], data["theta"], data["packed"], out["move_w"])
+    return out
+
+
+def _noise_processes(data: dict, alpha: float, extra: list) -> tuple[list, dict]:
+    """REML likelihood-ratio test of each variance component between segments against zero, beside the candidates
+    ``extra`` the diagnosis took in; (candidates, τ̂²)."""
+    groups = _groups(data, extra)
     tau2, _why = estimate_components(groups)
     col = np.linalg.norm(np.concatenate([np.linalg.solve(np.linalg.cholesky(g.cov), g.jac) for g in groups]), axis=0)
     col[col == 0] = 1.0
@@ -501,9 +534,22 @@ def diagnose_triad(
     data = session_data(recs, res, earth_rate)
     regs = candidate_regressors(res.model, data, candidates)
     shapes = shape_regressors() if model_free else []
-    r, j0, xs, xr = whitened_system(data, regs + shapes)
-    raw = (data["resid"], data["jac"], xr)
-    scored, perps, dof = _score_all(r, j0, xs, regs + shapes, list(res.names), raw)
+    allr = regs + shapes
+    cols = [raw_columns(g, data) for g in allr]
+    # forward selection as on a turntable: the components re-estimated with the most significant candidate among
+    # the fixed effects, until none is significant (a strong missing effect then does not pass for noise)
+    taken: list[int] = []
+    for _round in range(4):
+        r, j0, xs, xr = whitened_system(data, allr, cols)
+        scored, perps, dof = _score_all(r, j0, xs, allr, list(res.names), (data["resid"], data["jac"], xr))
+        live_i = [i for i, (_g, c) in enumerate(scored) if c is not None and c.df > 0]  # shapes too
+        if not live_i:
+            break
+        best = min(live_i, key=lambda i: scored[i][1].log10_p)
+        if scored[best][1].log10_p + math.log10(len(live_i)) >= math.log10(alpha) or best in taken:
+            break
+        taken.append(best)
+        data = with_components(data, [cols[i] for i in taken])
     tested = [c for reg, c in scored[: len(regs)] if c is not None]
     unexcited = [reg.name for reg, c in scored[: len(regs)] if c is None]
     shape_c = [(reg, c) for reg, c in scored[len(regs) :] if c is not None and c.df > 0]
@@ -560,7 +606,7 @@ def diagnose_triad(
                 continue
         proposal = effect
         break
-    noise, _tau2 = _noise_processes(data, alpha)
+    noise, _tau2 = _noise_processes(data, alpha, [cols[i] for i in taken])
     verdict = "missing-effect" if significant or unexplained else "adequate"
     return TriadDiagnosis(
         verdict, res, tested, alpha, unexcited, unexplained, proposal, family, noise, float(r @ r), dof
