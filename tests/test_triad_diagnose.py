@@ -114,13 +114,17 @@ def test_mems_plausible_sizes():
 
 
 def test_cli_diagnose_triad(tmp_path, capsys):
-    """``gyrojax diagnose`` takes imu-triad records: text and --json, exit 0; a planted E_A is on top in both."""
+    """``gyrojax diagnose`` takes imu-triad records: text and --json, exit 0; a planted E_A is on top in both, and
+    is not proposed while `fit` refuses it (a session with moves)."""
     rec = session(3, {"E_A[x]": 1500.0})
     path = save_record(rec, tmp_path)
     assert main(["diagnose", str(path), "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
     assert d["instrument"] == "imu-triad" and d["verdict"] == "missing-effect"
     assert d["candidates"][0]["name"] == "sf_asymmetry[x]"
+    # fit refuses E_A in a session with moves today: the candidate says so and nothing is proposed
+    assert "moves" in d["candidates"][0]["refused"] and d["proposal"] is None
+    assert {"noise_processes", "chi2_with_components", "unexplained", "family_size"} <= set(d)
     assert main(["diagnose", str(path)]) == 0
     out = capsys.readouterr().out
     assert "verdict: missing-effect" in out and "sf_asymmetry[x]" in out
