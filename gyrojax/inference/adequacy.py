@@ -289,8 +289,14 @@ def basis(a: np.ndarray, tol: float = 1e-7) -> np.ndarray:
         return np.zeros((a.shape[0], 0))
     u = z @ (vec[:, keep] / np.sqrt(ev[keep]))
     # one more Gram pass restores orthonormality to machine precision (CholQR2)
+    return _cholqr(u)
+
+
+def _cholqr(u: np.ndarray) -> np.ndarray:
+    """Q of u = QR by the Cholesky factor of the small Gram matrix: u (Lᵀ)⁻¹ by the inverse of the p×p triangle (a
+    general solve against the tall matrix cost ten times more)."""
     ch = np.linalg.cholesky(u.T @ u)
-    return np.linalg.solve(ch, u.T).T
+    return u @ np.linalg.inv(ch).T
 
 
 def _perp(u: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -317,8 +323,7 @@ def perp_basis(u: np.ndarray, x: np.ndarray, tol: float = UNSEEN) -> np.ndarray:
     if not keep.any():
         return np.zeros((x.shape[0], 0))
     b = _perp(u, z @ (vec[:, keep] / np.sqrt(ev[keep])))  # a second projection: orthogonal to u to rounding
-    ch = np.linalg.cholesky(b.T @ b)
-    return np.linalg.solve(ch, b.T).T
+    return _cholqr(b)
 
 
 @dataclass
@@ -349,7 +354,29 @@ class WhitenedSystem:
         return cls(np.concatenate(rows_r), np.concatenate(rows_j, axis=0), np.concatenate(rows_x, axis=0), cols, p0)
 
 
-def residual_structure(campaign, lin, noises, p0: int, candidate_cols=None, result=None) -> list[Structure]:
+@dataclass
+class ShapeSystem:
+    """The shapes of :func:`shapes` and the system whitened with them, the model's basis and residual beside it: what
+    every call of :func:`residual_structure` on one fit shares (the diagnosis' vetting rounds differ only in the
+    candidate columns)."""
+
+    lib: list
+    ws: WhitenedSystem
+    u0: np.ndarray
+    r0: np.ndarray
+
+    @classmethod
+    def build(cls, campaign, lin, noises, p0: int, result=None) -> "ShapeSystem":
+        """As the arguments of :func:`residual_structure`."""
+        lib = shapes(campaign, result)
+        ws = WhitenedSystem.build(lin, noises, [s[4] for s in lib], p0)
+        u0 = basis(ws.j[:, :p0])
+        return cls(lib, ws, u0, _perp(u0, ws.r))
+
+
+def residual_structure(
+    campaign, lin, noises, p0: int, candidate_cols=None, result=None, system: ShapeSystem | None = None
+) -> list[Structure]:
     """Test the whitened residual against every shape of :func:`shapes` (module doc); p-values not yet adjusted.
 
     Args:
@@ -361,17 +388,16 @@ def residual_structure(campaign, lin, noises, p0: int, candidate_cols=None, resu
       candidate_cols: columns of J to project out besides the model's (default: all of them).
       result: the fit (:class:`gyrojax.inference.identify.FitResult`) whose predicted table rate gives a servo
         record's inputs (:func:`shapes`); without it, the rate of a drift-free instrument.
+      system: the :class:`ShapeSystem` of these arguments, if already built (one per fit).
 
     Returns: one :class:`Structure` per shape that the model and the candidates do not span, strongest first.
     """
-    lib = shapes(campaign, result)
-    if not lib:
+    sy = system or ShapeSystem.build(campaign, lin, noises, p0, result)
+    if not sy.lib:
         return []
-    ws = WhitenedSystem.build(lin, noises, [s[4] for s in lib], p0)
+    lib, ws, u0, r0 = sy.lib, sy.ws, sy.u0, sy.r0
     cols = np.arange(ws.j.shape[1]) if candidate_cols is None else np.union1d(np.arange(p0), candidate_cols)
-    u0 = basis(ws.j[:, :p0])
     u_named = basis(ws.j[:, cols.astype(int)])
-    r0 = _perp(u0, ws.r)
     # σ̃²: after the model, the named candidates and every shape (no deterministic structure can inflate it)
     u_all = basis(np.column_stack([ws.j[:, cols.astype(int)], ws.x]))
     n = len(ws.r)
@@ -518,6 +544,7 @@ def vet(
     slices: dict,
     alpha: float,
     plausible: dict | None = None,
+    memo: dict | None = None,
 ) -> str | None:
     """Decide what the diagnosis may propose; returns the name of the effect to add (None: no named effect).
 
@@ -526,14 +553,19 @@ def vet(
     candidate ``fit`` refuses is marked ``refused`` with fit's reason and ``rms_after`` is fit's own residual RMS
     (``rms_after_refit``); and the refitted sizes against :mod:`gyrojax.physics.plausibility` (``implausible``).
     The first candidate that passes is the proposal. Candidates that are not refitted keep their one-step estimates,
-    checked for plausibility too.
+    checked for plausibility too. ``memo``: a dict kept across the rounds of one diagnosis (same ``tested``, ``lin``
+    and ``noises``), where each candidate's near-aliases are computed once.
     """
     from gyrojax.errors import ModelError
     from gyrojax.inference.identify import fit
     from gyrojax.physics import plausibility
 
     live = {c.name: slices[c.name] for c in tested if c.df > 0 and c.name in slices}
-    near = near_aliases(lin, noises, p0, live, [c.name for c in significant if c.name in live], alpha)
+    memo = {} if memo is None else memo
+    todo = [c.name for c in significant if c.name in live and c.name not in memo]
+    if todo:
+        memo.update(near_aliases(lin, noises, p0, live, todo, alpha))
+    near = memo
     proposal = None
     refits = sum(1 for c in significant if c.rms_after_refit or c.refused)  # one budget across the diagnosis' rounds
     for c in significant:

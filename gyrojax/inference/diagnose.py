@@ -424,16 +424,18 @@ def diagnose(
         # with sizes no instrument has; only the candidates the data asks for (significant at α, Holm) explain them
         bar = math.log10(alpha) - math.log10(max(len(live), 1))
         explaining = [c.name for c in live if c.log10_p < bar]
+    system = adequacy.ShapeSystem.build(camp, lin, res.noise, p0, res) if model_free else None
+    near: dict = {}  # near-aliases, computed once per candidate across the rounds
     for _round in range(2):
         cols = np.concatenate([np.arange(full.size)[sl[c]] for c in explaining]).astype(int) if explaining else []
-        shapes = adequacy.residual_structure(camp, lin, res.noise, p0, cols, result=res) if model_free else []
+        shapes = adequacy.residual_structure(camp, lin, res.noise, p0, cols, res, system) if model_free else []
         adj = adequacy.holm_log10([c.log10_p for c in live] + [s.log10_p for s in shapes])
         for c, a in zip(live + shapes, adj):
             c.p_adjusted = float(10.0**a)
         sig = {id(c) for c, a in zip(live + shapes, adj) if a < math.log10(alpha)}
         significant = [c for c in tested if id(c) in sig]
         unexplained = [s for s in shapes if id(s) in sig]
-        proposal = adequacy.vet(tested, significant, camp, res, lin, noises, p0, sl, alpha, plausible)
+        proposal = adequacy.vet(tested, significant, camp, res, lin, noises, p0, sl, alpha, plausible, near)
         barred = {c.name for c in significant if c.refused or c.implausible}
         if not barred & set(explaining):
             break
