@@ -17,7 +17,7 @@ from gyrojax.data import plans
 from gyrojax.data.planfile import load_plan
 from gyrojax.data.records import load_records, save_record
 from gyrojax.inference.identify import fit
-from gyrojax.planning.separate import case_turns
+from gyrojax.inference.separation import case_turns
 from gyrojax.simulation.simulator import plan_records, simulate
 from tests import power
 
@@ -118,3 +118,17 @@ def test_no_records_exit_2(tmp_path, capsys):
     (tmp_path / "empty").mkdir()
     argv = ["design", "--separate", "D_II,D_SS", "--from", str(tmp_path / "empty"), "--out", str(tmp_path / "p")]
     assert "no record" in _one_line_error(capsys, argv)
+
+
+def test_diagnose_names_the_designed_test(tumble_dir):
+    from gyrojax.inference.diagnose import diagnose
+
+    d = diagnose(load_records(tumble_dir), BASE)
+    c = next(c for c in d.candidates if c.name == "D_SS")
+    assert "D_II" in c.aliases
+    entry = c.separated_by[0]
+    assert entry.startswith("design --separate D_SS,D_II:")
+    p = float(entry.split("power ")[1].split()[0])
+    assert 0.5 <= p <= 1.0
+    # the built-in plans are still named beside it
+    assert any(not s.startswith("design --separate") for s in c.separated_by)

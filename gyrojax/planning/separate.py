@@ -29,7 +29,6 @@ Gauss–Markov noise of a position mean); the records' information is Jᵀ J / �
 
 from __future__ import annotations
 
-import itertools
 import math
 from dataclasses import dataclass, replace
 
@@ -40,6 +39,7 @@ import optax
 
 from gyrojax.data import plans
 from gyrojax.errors import ModelError
+from gyrojax.inference.separation import case_turns
 from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model, jacobian
@@ -51,19 +51,6 @@ TARGET_POWER = 0.9
 ALPHA = 0.01  # level of the score tests
 NULL_RTOL = 1e-10  # eigenvalue / largest below which a direction of the normalised information is unseen
 NULL_PART = 1e-3  # a null vector "involves" an effect when its coefficients carry more than this (unit norm)
-
-
-def case_turns() -> np.ndarray:
-    """The 24 proper rotations by multiples of 90° (signed permutation matrices, det +1), identity first."""
-    out = []
-    for perm in itertools.permutations(range(3)):
-        for signs in itertools.product((1.0, -1.0), repeat=3):
-            p = np.zeros((3, 3))
-            p[range(3), perm] = signs
-            if np.linalg.det(p) > 0:
-                out.append(p)
-    out.sort(key=lambda p: -np.trace(p))
-    return np.array(out)
 
 
 @dataclass(frozen=True)
