@@ -19,7 +19,8 @@ def parse_pair(text: str) -> tuple[str, str]:
 
 
 def cmd_design_separate(args) -> int:
-    """Design, print each predicted power and the time it needs, write the plan file to ``--out``; exit code."""
+    """Design, print each predicted power (dimensionless) and the time it needs (h of dwell), write the plan file to
+    ``--out``; exit code."""
     from gyrojax.cli.args import parse_terms
     from gyrojax.data.planfile import plan_to_json
     from gyrojax.data.records import load_records
