@@ -118,12 +118,19 @@ def test_no_records_exit_2(tmp_path, capsys):
     (tmp_path / "empty").mkdir()
     argv = ["design", "--separate", "D_II,D_SS", "--from", str(tmp_path / "empty"), "--out", str(tmp_path / "p")]
     assert "no record" in _one_line_error(capsys, argv)
+    assert "--separate" in _one_line_error(capsys, ["design", "--from", str(tmp_path), "--out", str(tmp_path / "p")])
+
+
+def test_options_separate_does_not_use_are_refused(tumble_dir, tmp_path, capsys):
+    argv = ["design", "--separate", "D_II,D_SS", "--from", str(tumble_dir), "--out", str(tmp_path / "p")]
+    assert "--arw" in _one_line_error(capsys, argv + ["--arw", "0.02"])
+    assert "--criterion" in _one_line_error(capsys, argv + ["--criterion", "A"])
 
 
 def test_diagnose_names_the_designed_test(tumble_dir):
     from gyrojax.inference.diagnose import diagnose
 
-    d = diagnose(load_records(tumble_dir), BASE)
+    d = diagnose(load_records(tumble_dir), BASE, model_free=False)
     c = next(c for c in d.candidates if c.name == "D_SS")
     assert "D_II" in c.aliases
     entry = c.separated_by[0]

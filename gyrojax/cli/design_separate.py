@@ -28,6 +28,25 @@ def cmd_design_separate(args) -> int:
     from gyrojax.planning.separate import ALPHA, TARGET_POWER, separate
     from gyrojax.protocol import atomic_write_text
 
+    if not args.separate:
+        raise UsageError("--from gives the records of --separate A,B; pass --separate too")
+    ignored = [
+        option
+        for option, given in (
+            ("--criterion", args.criterion != "D"),
+            ("--arw", args.arw != 0.01),
+            ("--gm", args.gm is not None),
+            ("--noise-model", args.noise_model is not None),
+            ("--dt", args.dt != 1.0),
+            ("--effect", bool(getattr(args, "effect", None))),
+            ("--effects-file", bool(getattr(args, "effects_file", None))),
+        )
+        if given
+    ]
+    if ignored:
+        raise UsageError(
+            f"{', '.join(ignored)}: not used by --separate (criterion, noise and sampling come from the records)"
+        )
     a, b = parse_pair(args.separate)
     if not args.from_records:
         raise UsageError("design --separate needs the campaign's records: --from RECORD...")

@@ -149,8 +149,8 @@ def _record_information(model: Model, records, white=None) -> np.ndarray:
 
 def reachable_null(setup: Setup, records, samples: int = 96, seed: int = 0) -> str:
     """Why no test on the records' table separates A and B ("" when one can): the null combinations of the
-    normalised information of the records and of ``samples`` random chain angles (rad, uniform on [0, 2π)) at each of the
-    24 mountings."""
+    normalised information of the records and of ``samples`` random chain angles (rad, uniform on [0, 2π)) at each
+    of the 24 mountings."""
     model, k = setup.model, len(setup.table.axis_names)
     rng = np.random.default_rng(seed)
     ang = jnp.asarray(rng.uniform(0.0, 2.0 * math.pi, (samples, k)))
