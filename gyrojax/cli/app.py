@@ -128,6 +128,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", required=True, help="the plan JSON to write")
     s.add_argument("--force", action="store_true", help="overwrite an existing plan file")
     s.add_argument("--json", action="store_true")
+    s.add_argument("--separate", metavar="A,B", help="design the test on the records' table that separates A from B")
+    s.add_argument("--from", dest="from_records", nargs="+", metavar="RECORD", help="the records of --separate")
     add_effect_arguments(s)
     s.set_defaults(func=_command("design"))
 

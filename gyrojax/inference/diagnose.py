@@ -460,7 +460,8 @@ def diagnose(
         for c in tested[:5]:
             group = (c.name,) + tuple(a for a in c.aliases + c.indistinguishable if a in fx.names())
             if len(group) > 1 and c.name in perps:
-                c.separated_by = separating_plans(model.kind, group) or adequacy.setup_measurements(group)
+                context = (camp, lin, full, res, tested)  # for the test designed on this table (issue 27)
+                c.separated_by = separating_plans(model.kind, group, context) or adequacy.setup_measurements(group)
     for c in slow:
         if "gauss_markov" in c.indistinguishable:
             c.separated_by = [*c.separated_by, DRIFT_SEPARATION]

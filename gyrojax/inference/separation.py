@@ -1,9 +1,14 @@
 """Which built-in test plan would separate effects that a campaign cannot tell apart: the plans in which their
-regressors (with D_F) are not collinear (the ``separated_by`` of :class:`gyrojax.inference.diagnose.Candidate`)."""
+regressors (with D_F) are not collinear (the ``separated_by`` of :class:`gyrojax.inference.diagnose.Candidate`);
+and, for a pair on an SDF campaign, the predicted power of a follow-up test on the campaign's own table
+(:func:`designed_entry`, the cheap bound of what ``gyrojax design --separate`` designs by gradients,
+:mod:`gyrojax.planning.separate`)."""
 
 from __future__ import annotations
 
 import dataclasses
+import itertools
+import math
 from functools import lru_cache
 
 import jax
@@ -73,10 +78,17 @@ def _plan_jacobians(kind: str):
     return model, {k: np.concatenate(v, axis=0) for k, v in out.items()}
 
 
-def separating_plans(kind: str, effects: tuple) -> list:
-    """Built-in plans in which the regressors of ``effects`` (with D_F) are not collinear: the extra test to run."""
+def separating_plans(kind: str, effects: tuple, context=None) -> list:
+    """Built-in plans in which the regressors of ``effects`` (with D_F) are not collinear: the extra test to run;
+    with ``context`` (campaign, linearisation, full model, fit, candidates of a diagnosis) the designed test on the
+    campaign's table first (:func:`designed_entry`)."""
     if kind != fx.SDF:
         return []
+    first = [] if context is None else [e for e in [designed_entry(effects[0], effects[1], *context)] if e]
+    return first + _built_in(kind, effects)
+
+
+def _built_in(kind: str, effects: tuple) -> list:
     model, jacs = _plan_jacobians(kind)
     sl = model.slices()
     names = tuple(dict.fromkeys(("D_F",) + tuple(effects)))
@@ -93,3 +105,113 @@ def separating_plans(kind: str, effects: tuple) -> list:
         if s[-1] > 1e-3 * s[0]:
             out.append(plan)
     return out
+
+
+# ---- a follow-up test on the campaign's own table ---------------------------------------------------------------
+
+ENTRY_HOURS = 1.0  # dwell of the cheap follow-up test whose power diagnose quotes
+ENTRY_POSITIONS = 48  # random chain angles per mounting in that test
+ENTRY_MIN_POWER = 0.5  # below it the entry is left out
+
+
+def case_turns() -> np.ndarray:
+    """The 24 proper rotations by multiples of 90° (signed permutation matrices, det +1), identity first: the
+    mountings reachable by turning an instrument's case on its faces (rows act on the instrument axes)."""
+    out = []
+    for perm in itertools.permutations(range(3)):
+        for signs in itertools.product((1.0, -1.0), repeat=3):
+            p = np.zeros((3, 3))
+            p[range(3), perm] = signs
+            if np.linalg.det(p) > 0:
+                out.append(p)
+    out.sort(key=lambda p: -np.trace(p))
+    return np.array(out)
+
+
+def static_rows(model: Model, data, triad, angles_rad):
+    """Regressor rows (n, p) at θ = 0 of static positions ``angles_rad`` (n, k) of ``data``'s table at mounting
+    ``triad`` (instrument axes as rows, platform coordinates); traceable (``jit``, ``vmap``, ``grad``)."""
+    n, k = angles_rad.shape
+    d = dataclasses.replace(
+        data,
+        triad=triad,
+        time_s=jnp.zeros(n),
+        angles=angles_rad,
+        rates=jnp.zeros((n, k)),
+        temperature=jnp.full(n, 20.0),
+        y=jnp.zeros(n),
+        weight=jnp.ones(n),
+        command=jnp.zeros(n),
+        dt=jnp.ones(max(n - 1, 0)),
+        mode="rebalance",
+        servo_axis=None,
+    )
+    return jacobian(model, jnp.zeros(model.size), d).reshape(n, model.size)
+
+
+@lru_cache(maxsize=8)
+def _rows_jit(model: Model):
+    return jax.jit(jax.vmap(lambda d, t, a: static_rows(model, d, t, a), in_axes=(None, 0, None)))
+
+
+def schur_noncentrality(f: np.ndarray, test: np.ndarray, rest: np.ndarray, delta: np.ndarray) -> float:
+    """δᵀ (F_tt − F_tr F_rr⁻¹ F_rt) δ: the score-test noncentrality of the coefficients ``test`` beside ``rest``."""
+    ftr = f[np.ix_(test, rest)]
+    s = f[np.ix_(test, test)] - ftr @ np.linalg.lstsq(f[np.ix_(rest, rest)], ftr.T, rcond=None)[0]
+    return float(delta @ s @ delta)
+
+
+def designed_entry(a: str, b: str, campaign, lin, full: Model, result, candidates) -> str:
+    """``separated_by`` text for the pair (a, b) of an SDF campaign: the power at 1 % of the weaker score test (a
+    with b in the model, and b with a) of the joint fit of the campaign and a test of :data:`ENTRY_HOURS` h on the
+    campaign's table, its dwell shared by :data:`ENTRY_POSITIONS` random chain angles at the best of the 24 case
+    mountings, at the sizes of the current estimates ("" when the pair is not in ``full``, not estimated, or the
+    power is below :data:`ENTRY_MIN_POWER`). A bound from below on what ``gyrojax design --separate`` designs."""
+    from scipy import stats
+
+    sl = full.slices()
+    model = result.model
+    if a not in sl or b not in sl or not campaign.data:
+        return ""
+    sizes = {}
+    for name in (a, b):
+        if name in model.terms:
+            sizes[name] = np.asarray(result.theta[model.slices()[name]], float)
+        else:
+            c = next((c for c in candidates if c.name == name and c.estimate), None)
+            if c is None:
+                return ""
+            sizes[name] = np.array([c.estimate[k]["value"] for k in fx.get(name).coefficients], float)
+    cols = np.arange(full.size)
+    base = np.setdiff1d(cols[: model.size], np.concatenate([cols[sl[a]], cols[sl[b]]]))
+    ia = np.arange(len(base), len(base) + len(cols[sl[a]]))
+    ib = np.arange(ia[-1] + 1, ia[-1] + 1 + len(cols[sl[b]]))
+    keep = np.concatenate([base, cols[sl[a]], cols[sl[b]]])
+    sub = Model(tuple(t for t in model.terms if t not in (a, b)) + (a, b), full.kind)
+    white = [float(nz.white) for nz in result.noise]
+    if not all(w > 0 and math.isfinite(w) for w in white):
+        return ""
+    f_rec = np.zeros((keep.size, keep.size))
+    for (_r, j, _lab, _t), d, w in zip(lin, campaign.data, white):  # σ² = (60 N)²/Δt per measurement
+        dt = np.asarray(d.dt)
+        jj = j[:, keep]
+        f_rec += jj.T @ jj * (float(np.median(dt)) if dt.size else 1.0) / (60.0 * w) ** 2
+    d0 = campaign.data[0]
+    k = int(np.asarray(d0.angles).shape[1])
+    ang = jnp.asarray(np.random.default_rng(0).uniform(0.0, 2.0 * math.pi, (ENTRY_POSITIONS, k)))
+    triads = jnp.asarray(np.einsum("mij,jk->mik", case_turns(), np.asarray(d0.triad)))
+    rows = np.asarray(_rows_jit(sub)(d0, triads, ang))
+    per_sample = ENTRY_HOURS * 3600.0 / ENTRY_POSITIONS / (60.0 * float(np.sqrt(np.mean(np.square(white))))) ** 2
+    best, bi = 0.0, np.arange(len(base))
+    for r in rows:
+        f = f_rec + per_sample * r.T @ r
+        lam_a = schur_noncentrality(f, ia, np.concatenate([bi, ib]), sizes[a])
+        best = max(best, min(lam_a, schur_noncentrality(f, ib, np.concatenate([bi, ia]), sizes[b])))
+    q = max(sizes[a].size, sizes[b].size)
+    pw = float(stats.ncx2.sf(stats.chi2.isf(0.01, q), q, max(best, 1e-300)))
+    if pw < ENTRY_MIN_POWER:  # not worth naming: the set-up measurements or built-in plans speak instead
+        return ""
+    return (
+        f"design --separate {a},{b}: a follow-up test on this table (case remounted) has power {pw:.2f} "
+        f"in {ENTRY_HOURS:g} h, or more as designed"
+    )
