@@ -45,6 +45,7 @@ import jax.numpy as jnp
 import numpy as np
 from scipy import optimize, stats
 
+from gyrojax.noise import gmwm_select as sel
 from gyrojax.noise import wavelet as wv
 from gyrojax.noise.allan import overlapping_avar
 from gyrojax.noise.gmwm_model import (
@@ -431,11 +432,32 @@ def _fit_theta(spec: ModelSpec, est: WaveletVariance, omega, method: str, grid, 
 
 
 def select_model(est: WaveletVariance, candidates=DEFAULT_CANDIDATES, method: str = "gmwm") -> NoiseSpec:
-    """The identified model selection of :mod:`gyrojax.noise.gmwm_select` (admissible candidates only, penalty
-    calibrated for the stated false-component rate, the sensor's filtered short scales dropped)."""
-    from gyrojax.noise.gmwm_select import select_model as select
-
-    return select(est, candidates, method)
+    """The identified model selection (module doc, :mod:`gyrojax.noise.gmwm_select`): the sensor filter's short
+    scales dropped (:func:`~gyrojax.noise.gmwm_select.short_scale_limit`), every candidate fitted with the weights
+    Ω of the largest, the admissible one of least Q + c·p refitted with its own efficient weights (GMWM) or by
+    AVLR. ``info["selection"]`` lists every candidate's objective, criterion and rejection, ``info["tau_min_s"]``
+    the shortest τ fitted and ``info["short_scales"]`` why shorter ones were dropped. Candidates with more
+    parameters than scales are skipped."""
+    k, why = sel.short_scale_limit(est)
+    if k:
+        est = WaveletVariance(est.m[k:], est.nu2[k:], est.counts[k:], est.dt, est.n_samples)
+    cands = [c for c in candidates if c.n_params < len(est.m)]
+    if not cands:
+        raise NoiseModelError(f"{len(est.m)} scales are too few for any candidate model")
+    grid = _Grid(est.m)
+    memo: dict = {}
+    largest = max(cands, key=lambda c: c.n_params)
+    _, ref_omega = _fit_spec(largest, est, None, "gmwm", grid, 2, memo)
+    rows = [sel.table_row(c, _fit_spec(c, est, ref_omega, "gmwm", grid, 2, memo)[0]) for c in cands]
+    out = fit_spec(cands[sel.choose(rows)], est, method=method, grid=grid, memo=memo)
+    out.info.update(
+        selection=rows,
+        penalty=sel.PENALTY,
+        tau_min_s=float(est.m[0] * est.dt),
+        short_scales=why,
+        rejected=sel.rejection(out) or None,
+    )
+    return out
 
 
 def fit_gmwm(segments, dt: float, model="auto", method: str = "gmwm") -> NoiseSpec:

@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import math
 
-from gyrojax.noise.gmwm_model import DEFAULT_CANDIDATES
 from gyrojax.noise.spec import NoiseModelError, NoiseSpec
 
 PENALTY = 3.0
@@ -93,51 +92,26 @@ def rejection(ns: NoiseSpec) -> str:
     return ""
 
 
-def select_model(est, candidates=DEFAULT_CANDIDATES, method: str = "gmwm", penalty: float = PENALTY) -> NoiseSpec:
-    """The admissible candidate (module doc) of least Q(θ̂; Ω_ref) + ``penalty``·p, refitted with its own
-    efficient weights (GMWM) or by AVLR. ``info["selection"]`` lists every candidate's objective, criterion and
-    rejection; ``info["tau_min_s"]`` the shortest τ fitted and ``info["short_scales"]`` why shorter ones were
-    dropped. Candidates with more parameters than scales are skipped."""
-    from gyrojax.noise.gmwm import WaveletVariance, _fit_spec, _Grid, fit_spec
+def table_row(spec, ns: NoiseSpec, penalty: float = PENALTY) -> dict:
+    """The selection-table row of candidate ``spec`` fitted as ``ns`` (with the reference weights): its objective
+    Q, criterion Q + ``penalty``·p and rejection (None when admissible)."""
+    objective = float(ns.info["objective"])
+    return {
+        "model": spec.label(),
+        "n_params": spec.n_params,
+        "objective": objective,
+        "criterion": objective + penalty * spec.n_params,
+        "rejected": rejection(ns) or None,
+    }
 
-    k, why = short_scale_limit(est)
-    if k:
-        est = WaveletVariance(est.m[k:], est.nu2[k:], est.counts[k:], est.dt, est.n_samples)
-    cands = [c for c in candidates if c.n_params < len(est.m)]
-    if not cands:
-        raise NoiseModelError(f"{len(est.m)} scales are too few for any candidate model")
-    grid = _Grid(est.m)
-    memo: dict = {}
-    largest = max(cands, key=lambda c: c.n_params)
-    _, ref_omega = _fit_spec(largest, est, None, "gmwm", grid, 2, memo)
-    rows, ok = [], []
-    for c in cands:
-        ns, _ = _fit_spec(c, est, ref_omega, "gmwm", grid, 2, memo)
-        objective = float(ns.info["objective"])
-        why_not = rejection(ns)
-        rows.append(
-            {
-                "model": c.label(),
-                "n_params": c.n_params,
-                "objective": objective,
-                "criterion": objective + penalty * c.n_params,
-                "rejected": why_not or None,
-            }
-        )
-        if not why_not:
-            ok.append(len(rows) - 1)
+
+def choose(rows) -> int:
+    """Index of the admissible row of least criterion; :class:`NoiseModelError` listing every rejection when no
+    candidate is identified."""
+    ok = [i for i, r in enumerate(rows) if not r["rejected"]]
     if not ok:
         raise NoiseModelError(
             "no candidate noise model is identified by this record: "
             + "; ".join(f"{r['model']}: {r['rejected']}" for r in rows)
         )
-    best = min(ok, key=lambda i: rows[i]["criterion"])
-    out = fit_spec(cands[best], est, method=method, grid=grid, memo=memo)
-    out.info.update(
-        selection=rows,
-        penalty=penalty,
-        tau_min_s=float(est.m[0] * est.dt),
-        short_scales=why,
-        rejected=rejection(out) or None,
-    )
-    return out
+    return min(ok, key=lambda i: rows[i]["criterion"])
