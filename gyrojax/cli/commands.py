@@ -257,8 +257,28 @@ def cmd_noise(args) -> int:
                 print(f"gauss_markov: sigma {sigma:.6g} deg/h, tau {tau:.6g} s")
             elif not k.startswith("gm"):
                 print(f"{k}: {ieee.value(k):.6g} {UNITS[k]}")
+    _print_headline(out["headline"])
     print(out["adequacy"]["verdict"])
     return 0
+
+
+def _print_headline(head: dict) -> None:
+    """The headline IEEE 952 read-offs of ``gyrojax noise``: the curve's and the model's, side by side."""
+
+    def one(v):
+        if v["value"] is None:
+            return "not read"
+        where = f" at tau = {v['tau_s']:.3g} s" if v.get("tau_s") else ""
+        bound = "<= " if v.get("kind") == "upper bound" else ""
+        return f"{bound}{v['value']:.4g} ± {v['std']:.2g}{where}"
+
+    print("headline (IEEE 952 read-offs): curve | model")
+    for k, v in head.items():
+        if v["curve"]["value"] is None and v["model"]["value"] is None:
+            continue
+        unit = v["curve"].get("unit") or v["model"].get("unit", "")
+        flag = "" if v["agree"] in (None, True) else "  DISAGREE"
+        print(f"  {k}: {one(v['curve'])} | {one(v['model'])} {unit}{flag}")
 
 
 def cmd_design(args) -> int:
