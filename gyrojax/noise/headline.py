@@ -6,8 +6,9 @@ Curve read-offs (IEEE 952-1997 annex C, conventions §6 units), from the overlap
 ``SLOPE_TOL`` of the term's:
 
 - N (deg/√h), slope −½: σ(τ)·√τ/60 at the point of the range nearest τ = 1 s (the −½ line's value at 1 s);
-- B (deg/h), the flat minimum: σ_min/0.664 (:data:`~gyrojax.noise.spec.BI_FACTOR`) at an interior minimum of σ;
-  when σ still falls at the longest τ, an upper bound σ_high(τ_max)/0.664;
+- B (deg/h), the flat minimum: σ_min/0.664 (:data:`~gyrojax.noise.spec.BI_FACTOR`) at an interior minimum of σ
+  where the local slope is flat (within ``SLOPE_TOL`` of 0); when σ still falls there (a noisy dip of a falling
+  curve, or the curve's last τ), an upper bound σ_high/0.664 at the minimum;
 - K (deg/h/√h), slope +½: σ(τ)·√(3·3600/τ); when no such range is seen, the upper bound σ_high(τ_max)·√(3·3600/τ_max)
   (a random walk of that size would reach the curve's upper limit at the longest τ);
 - Q (arcsec), slope −1: σ(τ)·τ/√3; R (deg/h/h), slope +1: σ(τ)·√2·3600/τ; only where the slope is seen.
@@ -70,9 +71,9 @@ def curve_readoffs(res) -> dict:
         near = np.flatnonzero(np.abs(slope - s) <= SLOPE_TOL)
         if name == "bias_instability":
             i = int(np.argmin(ad))
-            if 0 < i < len(taus) - 1:
+            if 0 < i < len(taus) - 1 and abs(slope[i]) <= SLOPE_TOL:
                 read(name, i, unit)
-            elif i == len(taus) - 1 and slope[-1] < 0:
+            elif slope[i] < 0:
                 read(name, i, unit, "upper bound", level=float(res.high[i]))
             else:
                 out[name] = {"value": None, "reason": "the curve has no minimum inside the tau range", "unit": unit}
@@ -110,8 +111,9 @@ def compare(model: dict, curve: dict) -> dict:
                 tol = max(2 * math.hypot(c["std"], m.get("std", 0.0)), AGREE_REL * abs(c["value"]))
                 agree = diff <= tol
                 if not agree:
+                    at = f" (tau {m['tau_s']:.3g} s)" if m.get("tau_s") else ""
                     note = (
-                        f"model {m['value']:.4g} (tau {m['tau_s']:.3g} s) and curve {c['value']:.4g} "
+                        f"model {m['value']:.4g}{at} and curve {c['value']:.4g} "
                         f"(tau {c['tau_s']:.3g} s) differ by {100 * diff / abs(c['value']):.0f} %"
                     )
         elif c["value"] is not None:

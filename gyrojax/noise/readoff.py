@@ -105,7 +105,14 @@ ADEQUACY_CI = 0.95
 
 
 def noise_report(
-    segments, tau0: float, m_list=None, method: str = "gmwm", model: str = "auto", notes=(), gauss_markov: bool = False
+    segments,
+    tau0: float,
+    m_list=None,
+    method: str = "gmwm",
+    model: str = "auto",
+    notes=(),
+    gauss_markov: bool = False,
+    mask_glitches: bool = True,
 ):
     """Everything ``gyrojax noise --json`` prints, as a dict, plus the (AllanResult, IEEE 952 NoiseSpec, fitted
     GMWM/AVLR NoiseSpec or None).
@@ -114,10 +121,20 @@ def noise_report(
     ADEV at the same τ with its standard error, the per-τ check against the empirical 95 % band
     (:func:`adequacy`, :func:`verdict_line`), the derived ARW / bias instability / RRW and the model itself.
 
-    ``segments`` rate series (deg/h) at ``tau0`` s; ``m_list`` averaging factors (default log-spaced).
+    ``segments`` rate series (deg/h) at ``tau0`` s; ``m_list`` averaging factors (default log-spaced). Spikes and
+    stuck stretches are found and (``mask_glitches``) masked first (:mod:`gyrojax.noise.glitch`: ``glitches`` in
+    the output, a sentence in ``notes``).
     """
     from gyrojax.noise import allan as allan_mod
+    from gyrojax.noise import glitch
     from gyrojax.noise.gmwm import fit_gmwm
+
+    notes = list(notes)
+    cleaned, found = glitch.clean(segments, tau0)
+    if glitch.note(found):
+        notes.append(glitch.note(found) if mask_glitches else glitch.note(found, masked=False))
+        if mask_glitches:
+            segments = cleaned
 
     res, ieee = allan_mod.analyze(segments, tau0, m_list, gauss_markov=gauss_markov)
     nm = None
@@ -137,9 +154,9 @@ def noise_report(
     out["adev_model_deg_per_h"] = [float(x) for x in model_adev]
     out["adev_model_std"] = [None if not np.isfinite(x) else float(x) for x in model_std]
     out["adequacy"] = {"ci": ADEQUACY_CI, "low": [float(x) for x in low95], "high": [float(x) for x in high95], **adq}
+    out["glitches"] = {**found, "masked": bool(mask_glitches)}
     tau_fit = None if nm is None else nm.info.get("tau_min_s")
     out["adequacy"]["verdict"] = verdict_line(res.taus_s, adq, tau_fit, nm.info.get("short_scales", "") if nm else "")
-    notes = list(notes)
     if nm is not None:
         out["derived"] = derived(nm, float(res.taus_s.min()), float(res.taus_s.max()))
         out["model"] = {**nm.to_json(), "parameters": nm.parameters()}
