@@ -195,7 +195,7 @@ def cmd_design(args) -> int:
         if args.gm:
             raise UsageError("--noise-model and --gm both give the noise; pass one")
         nm = load_noise_model(args.noise_model)
-        nm.whitening_theta(1.0)  # white + at most one Gauss-Markov process, or a NoiseModelError naming the rest
+        nm.mean_variance(1.0)  # white, quantization, any Gauss-Markov terms; a NoiseModelError naming the rest
         noise = nm
     res = design(
         terms,
@@ -267,8 +267,8 @@ def cmd_mc(args) -> int:
             from gyrojax.noise.gmwm_model import load_noise_model
             from gyrojax.noise.spec import NoiseSpec
 
-            # the terms a study file holds (a model with others is refused with the reason)
-            noise = NoiseSpec.from_truth(load_noise_model(args.noise_model).to_truth(), "--noise-model")
+            # the simulated terms of the model (any noise --model choice); its fit details stay behind
+            noise = NoiseSpec.simulation_terms(load_noise_model(args.noise_model))
             study = replace(study, noise=noise)
         if args.start < 0:
             raise StudyError(f"--start must be >= 0, got {args.start}")
