@@ -1,7 +1,7 @@
 """GMWM noise models: speed on 10⁶ samples, `gyrojax noise` against allantools, and Monte Carlo coverage.
 
-1. GMWM of a white + Gauss–Markov + random-walk model on 10⁶ samples (warm: after compilation), and the WIC
-   selection among the 16 default candidates.
+1. GMWM of a white + Gauss–Markov + random-walk model on 10⁶ samples (warm: after compilation), and the identified
+   model selection among the 16 default candidates.
 2. The `gyrojax noise` analysis (overlapping ADEV + EDF intervals + IEEE 952 read-off + GMWM model + adequacy +
    derived figures) on 10⁶ samples against allantools.oadev at the same taus, both warm: time ratio, and the
    ADEV ratio / difference.
@@ -58,7 +58,8 @@ def speed(n=1_000_000):
         f"GMWM, n = {n}: fixed model {SPEC.label()} {t_fix:.3f} s warm (first call incl. compile {first:.1f} s), "
         f"of which the wavelet variance {t_est:.3f} s"
     )
-    print(f"  WIC selection over {len(gmwm.DEFAULT_CANDIDATES)} candidates: {t_sel:.3f} s warm -> {s.info['model']}")
+    n_cand = len(gmwm.DEFAULT_CANDIDATES)
+    print(f"  identified selection over {n_cand} candidates: {t_sel:.3f} s warm -> {s.info['model']}")
     for k, v in m.parameters().items():
         print(f"  {k:10s} {v['value']:.5g} ± {v['std']:.2g} {v['unit']}  (true {TRUE[k]:g})")
 

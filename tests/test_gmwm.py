@@ -62,8 +62,8 @@ def test_selection_finds_the_simulated_sum(long_fit):
     y, _ = long_fit
     m = gmwm.fit_gmwm(y, DT)
     assert m.info["model"] == SPEC.label(), m.info["selection"]
-    wic = {r["model"]: r["wic"] for r in m.info["selection"]}
-    assert wic["white+gm+rw"] < wic["white+gm"] - 10 and wic["white+gm+rw"] < wic["white+rw"] - 10
+    crit = {r["model"]: r["criterion"] for r in m.info["selection"]}
+    assert crit["white+gm+rw"] < crit["white+gm"] - 10 and crit["white+gm+rw"] < crit["white+rw"] - 10
 
 
 def test_selection_keeps_white_noise_white():

@@ -106,9 +106,11 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--plot", metavar="PNG", help="write a log-log Allan plot: empirical band, model and processes")
     s.add_argument("--taus", help="octave | decade | all | comma-separated taus in s (default: 10 per decade)")
     s.add_argument("--method", default="gmwm", choices=("gmwm", "avlr", "ieee952"), help="noise-model fit")
-    s.add_argument("--model", default="auto", help="auto (WIC selection) or a sum such as white+gm+rw, white+2gm")
+    s.add_argument("--model", default="auto", help="auto (identified selection) or a sum: white+gm+rw, white+2gm")
     s.add_argument("--gauss-markov", action="store_true", help="add a Gauss-Markov term to the IEEE 952 read-off")
-    s.add_argument("--force", action="store_true", help="overwrite the plot file")
+    s.add_argument("--kalibr", metavar="YAML", help="write Kalibr's imu.yaml (noise densities, random walks)")
+    s.add_argument("--rostopic", default="/imu0", help="the rostopic written into the Kalibr file (default /imu0)")
+    s.add_argument("--force", action="store_true", help="overwrite the plot / Kalibr file")
     s.set_defaults(func=_command("noise"))
 
     s = sub.add_parser("design", help="design a static multi-position plan by gradients (D/A/E/c/detect)")

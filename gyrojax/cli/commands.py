@@ -12,6 +12,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from gyrojax.cli.args import UsageError, parse_gm, parse_options, parse_terms
+from gyrojax.cli.noise import MAX_TAU_WORK, cmd_noise, parse_taus  # noqa: F401  (gyrojax noise: its own module)
 from gyrojax.errors import ConvergenceWarning, ModelError
 
 
@@ -179,110 +180,6 @@ def cmd_demo(args) -> int:
 # ---- noise, design and Monte Carlo -----------------------------------------------------------------------------
 
 
-MAX_TAU_WORK = 4e9
-"""Largest (number of τ) × (samples) evaluated for ``noise --taus all`` (each τ costs one pass over the data)."""
-
-
-def parse_taus(spec: str | None, n: int, tau0: float):
-    """Averaging factors m for ``--taus``: ``octave`` (m = 2^k), ``decade`` (1, 2, 4 × 10^k), ``all`` (every m),
-    or a comma-separated list of τ in s (each a multiple of τ0 within 1 % of τ0, and 2m ≤ n − 1); None: default.
-    Returns an integer array, or None."""
-    if spec is None:
-        return None
-    import math
-
-    import numpy as np
-
-    m_max = (n - 1) // 2
-    if m_max < 1:
-        raise UsageError(f"--taus: {n} samples leave no averaging time")
-    key = spec.strip().lower()
-    if key == "octave":
-        return 2 ** np.arange(int(math.floor(math.log2(m_max))) + 1)
-    if key == "decade":
-        out = [d * 10**k for k in range(int(math.log10(m_max)) + 1) for d in (1, 2, 4)]
-        return np.array([m for m in out if m <= m_max])
-    if key == "all":
-        if m_max * n > MAX_TAU_WORK:
-            raise UsageError(
-                f"--taus all: {m_max} taus over {n} samples is too much work; use octave, decade or a list"
-            )
-        return np.arange(1, m_max + 1)
-    try:
-        taus = [float(x) for x in spec.split(",") if x.strip()]
-    except ValueError:
-        msg = f"--taus {spec!r}: expected octave, decade, all or a comma-separated list of seconds"
-        raise UsageError(msg) from None
-    if not taus:
-        raise UsageError("--taus: empty list")
-    ms = []
-    for t in taus:
-        if not (math.isfinite(t) and t > 0):
-            raise UsageError(f"--taus: {t!r} is not a positive time in s")
-        m = round(t / tau0)
-        if m < 1 or abs(m * tau0 - t) > 0.01 * tau0:
-            raise UsageError(f"--taus: {t:g} s is not a multiple of the sample interval {tau0:.9g} s")
-        if m > m_max:
-            raise UsageError(f"--taus: {t:g} s is longer than half the longest segment ({m_max * tau0:g} s)")
-        ms.append(m)
-    if len(set(ms)) != len(ms):
-        raise UsageError("--taus: two of the taus fall on the same multiple of the sample interval")
-    return np.array(sorted(ms))
-
-
-def cmd_noise(args) -> int:
-    """``gyrojax noise``: Allan deviation (deg/h against τ in s), noise model and adequacy of static records."""
-    from gyrojax.data.records import load_records
-    from gyrojax.data.static import static_rate_segments
-    from gyrojax.noise.readoff import noise_report
-    from gyrojax.noise.spec import UNITS
-
-    recs = load_records(args.records)
-    notes: list[str] = []
-    segs, tau0 = static_rate_segments(recs, notes=notes)
-    if args.plot and Path(args.plot).exists() and not args.force:
-        raise UsageError(f"{args.plot}: exists; pass --force to overwrite")
-    m_list = parse_taus(args.taus, max(len(s) for s in segs), tau0)
-    out, res, ieee, nm = noise_report(
-        segs, tau0, m_list, method=args.method, model=args.model, notes=notes, gauss_markov=args.gauss_markov
-    )
-    if args.plot:  # matplotlib is imported only when a plot is asked for
-        from gyrojax.report.figures import noise_model_figure, save
-
-        save(noise_model_figure(out, title=", ".join(r.name for r in recs)), args.plot)
-    if args.json:
-        print(json.dumps(out))
-        return 0
-    for note in notes:
-        print(f"note: {note}")
-    print(f"{'tau_s':>12s} {'adev_deg_per_h':>15s} {'low':>11s} {'high':>11s} {'model':>11s}  in 95% band")
-    for i, t in enumerate(res.taus_s):
-        print(
-            f"{t:12.4g} {res.adev[i]:15.6g} {res.low[i]:11.5g} {res.high[i]:11.5g} "
-            f"{out['adev_model_deg_per_h'][i]:11.5g}  {'yes' if out['adequacy']['inside'][i] else 'NO'}"
-        )
-    if nm is not None:
-        p_value = float("nan") if nm.info["p_value"] is None else nm.info["p_value"]
-        print(f"model {nm.info['model']} ({nm.method}), J-test p = {p_value:.3g}")
-        for k, v in nm.parameters().items():
-            std = "pinned at a bound" if v["std"] is None else f"± {v['std']:.2g}"
-            print(f"  {k}: {v['value']:.6g} {std} {v['unit']}")
-        for k, v in out["derived"].items():
-            if v["value"] is None:
-                print(f"  {k}: not read ({v['reason']})")
-            else:
-                print(f"  {k}: {v['value']:.4g} ± {v['std']:.2g} {v['unit']} (read at tau = {v['tau_s']:.3g} s)")
-    else:
-        for k in ieee.names:
-            if k == "gm1_sigma":
-                sigma, tau = ieee.gauss_markov[0]
-                print(f"gauss_markov: sigma {sigma:.6g} deg/h, tau {tau:.6g} s")
-            elif not k.startswith("gm"):
-                print(f"{k}: {ieee.value(k):.6g} {UNITS[k]}")
-    print(out["adequacy"]["verdict"])
-    return 0
-
-
 def cmd_design(args) -> int:
     """``gyrojax design``: design a static plan (ARW in deg/√h, GM as σ deg/h and τ s, total dwell in h), write
     the plan file to ``--out`` and print its comparison with the classical set; exit code."""
@@ -324,7 +221,7 @@ def cmd_design(args) -> int:
         if args.gm:
             raise UsageError("--noise-model and --gm both give the noise; pass one")
         nm = load_noise_model(args.noise_model)
-        nm.whitening_theta(1.0)  # white + at most one Gauss-Markov process, or a NoiseModelError naming the rest
+        nm.mean_variance(1.0)  # white, quantization, any Gauss-Markov terms; a NoiseModelError naming the rest
         noise = nm
     res = design(
         terms,
@@ -396,8 +293,8 @@ def cmd_mc(args) -> int:
             from gyrojax.noise.gmwm_model import load_noise_model
             from gyrojax.noise.spec import NoiseSpec
 
-            # the terms a study file holds (a model with others is refused with the reason)
-            noise = NoiseSpec.from_truth(load_noise_model(args.noise_model).to_truth(), "--noise-model")
+            # the simulated terms of the model (any noise --model choice); its fit details stay behind
+            noise = NoiseSpec.simulation_terms(load_noise_model(args.noise_model))
             study = replace(study, noise=noise)
         if args.start < 0:
             raise StudyError(f"--start must be >= 0, got {args.start}")

@@ -16,7 +16,7 @@ from gyrojax import protocol
 from gyrojax.data import plans as plans_mod
 from gyrojax.data.truth import SETUP_SIZES
 from gyrojax.errors import GyrojaxError
-from gyrojax.noise.spec import NoiseSpec
+from gyrojax.noise.spec import NoiseModelError, NoiseSpec
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model
 from gyrojax.protocol import read_json_file
@@ -56,14 +56,21 @@ class Study:
     solver: str = "cholesky"
 
     def __post_init__(self):
-        if not isinstance(self.noise, NoiseSpec):  # a truth file's noise dict (conventions §8), as in study files
+        if isinstance(self.noise, dict) and protocol.FORMAT_KEY in self.noise:  # a saved noise model
+            object.__setattr__(self, "noise", NoiseSpec.from_json(self.noise, where="study: key 'noise'"))
+        elif not isinstance(self.noise, NoiseSpec):  # a truth file's noise dict (conventions §8), as in study files
             object.__setattr__(self, "noise", NoiseSpec.from_truth(self.noise, "study: key 'noise'"))
 
     def to_dict(self) -> dict:
         """The study as a JSON-ready dict (the study file format, ``STUDY_FORMAT`` version ``STUDY_VERSION``)."""
         d = asdict(self)
         d["terms"] = list(self.terms)
-        d["noise"] = self.noise.to_truth()
+        # a truth dict when the noise is one (conventions §8); otherwise (e.g. two Gauss–Markov terms from
+        # gyrojax noise) the saved noise model, tagged
+        try:
+            d["noise"] = self.noise.to_truth()
+        except NoiseModelError:
+            d["noise"] = self.noise.to_json()
         d[protocol.FORMAT_KEY] = STUDY_FORMAT
         d[protocol.VERSION_KEY] = STUDY_VERSION
         return d
@@ -169,7 +176,11 @@ def study_from_dict(d, where: str = "study") -> Study:
             _expand(name, f"{where}: key '{key}.{name}'", setup)
             _prior(v, f"{where}: key '{key}.{name}'")
     try:
-        noise = NoiseSpec.from_truth(d.get("noise"), f"{where}: key 'noise'")
+        nd = d.get("noise")
+        if isinstance(nd, dict) and protocol.FORMAT_KEY in nd:  # a saved noise model (e.g. two Gauss–Markov terms)
+            noise = NoiseSpec.from_json(nd, where=f"{where}: key 'noise'")
+        else:
+            noise = NoiseSpec.from_truth(nd, f"{where}: key 'noise'")
     except GyrojaxError as e:
         raise StudyError(str(e)) from None
     for key in ("draws", "seed", "chunk"):

@@ -18,9 +18,10 @@ the T are fixed).
 by the delta method. The quadratic form Q(θ̂) is asymptotically χ²(J − p) under the model (Hansen's J test):
 its p-value is the model's adequacy test at the dyadic scales.
 
-**Model selection.** Among candidate sums (default :data:`DEFAULT_CANDIDATES`), the one of least
-WIC = Q(θ̂) + 2p, every candidate weighed with the Ω of the largest one — the information criterion of the GMWM
-literature (Guerrier et al.'s WIC estimates the optimism by 2·tr(…), which is 2p under efficient weights).
+**Model selection** (:mod:`gyrojax.noise.gmwm_select`). Among candidate sums (default
+:data:`DEFAULT_CANDIDATES`) that the record identifies (no parameter at a bound, no duplicate or unidentified
+component), the one of least Q(θ̂) + c·p, every candidate weighed with the Ω of the largest one; c is calibrated
+by Monte Carlo for the stated false-component rate (the WIC's c = 2 of Guerrier et al. is not).
 
 **AVLR** (Allan-variance linear regression, Guerrier et al. 2016) is the same fit with relative least-squares
 weights diag(1/ν̂²) instead of Ω⁻¹; its covariance is the sandwich with the model's Ω. The IEEE 952 read-off
@@ -44,6 +45,7 @@ import jax.numpy as jnp
 import numpy as np
 from scipy import optimize, stats
 
+from gyrojax.noise import gmwm_select as sel
 from gyrojax.noise import wavelet as wv
 from gyrojax.noise.allan import overlapping_avar
 from gyrojax.noise.gmwm_model import (
@@ -156,7 +158,7 @@ def _nnls(basis, nu_hat, p_mat):
 
 def _bounds(spec: ModelSpec, m, nu_hat, n_samples):
     """Box for θ: each variance between 1e-10 and 1e4 times the value that explains ν̂ on its own at its most
-    constraining scale; AR1 rates a = Δt/T with T from 0.05 samples to 100·n samples."""
+    constraining scale; AR1 rates a = Δt/T with T inside what the scales can identify (:func:`gm_tau_limits`)."""
     lo, hi = [], []
     unit = _basis(ModelSpec(white=True, quantization=True, random_walk=True, drift=True, n_gm=0), m, [])
     lin = ("white", "quantization", "random_walk", "drift")
@@ -166,10 +168,24 @@ def _bounds(spec: ModelSpec, m, nu_hat, n_samples):
             lo.append(math.log(full[k] * 1e-10))
             hi.append(math.log(full[k] * 1e4))
     gm_full = float(np.max(nu_hat)) / 0.2  # an AR1 peaks at ν² ≈ 0.19 s²
+    t_lo, t_hi = gm_tau_limits(m)
     for _ in range(spec.n_gm):
-        lo += [math.log(gm_full * 1e-10), math.log(1.0 / (100.0 * n_samples))]
-        hi += [math.log(gm_full * 1e4), math.log(20.0)]
+        lo += [math.log(gm_full * 1e-10), math.log(1.0 / t_hi)]
+        hi += [math.log(gm_full * 1e4), math.log(1.0 / t_lo)]
     return np.asarray(lo), np.asarray(hi)
+
+
+TAU_MIN_SAMPLES = 3.0
+"""Shortest Gauss–Markov correlation time, in sample intervals: a shorter one is white noise under another name
+(its Allan deviation has the −½ slope from the first scale on) and only trades variance with the white term."""
+
+
+def gm_tau_limits(m) -> tuple[float, float]:
+    """(T_min, T_max) of a Gauss–Markov component, in samples, for a fit at half-widths ``m``: from
+    max(:data:`TAU_MIN_SAMPLES`, the shortest scale) to the longest scale. A longer T shows only its rising +½ part
+    inside the record (a rate random walk, which the candidates hold); a shorter one is white at every scale."""
+    m = np.asarray(m, float)
+    return max(TAU_MIN_SAMPLES, float(m.min())), max(float(m.max()), 2.0 * TAU_MIN_SAMPLES)
 
 
 def starting_values(spec: ModelSpec, m, nu_hat, p_mat, n_samples, memo: dict | None = None) -> np.ndarray:
@@ -180,7 +196,7 @@ def starting_values(spec: ModelSpec, m, nu_hat, p_mat, n_samples, memo: dict | N
     ``memo``: a dict shared by the fits of one model selection; each greedy step is a function of the linear
     processes, the rates already chosen and the data (m, ν̂, P), so candidates that share them reuse it."""
     m = np.asarray(m, float)
-    grid = np.geomspace(0.3, 4.0 * m.max(), 28)  # T in samples
+    grid = np.geomspace(*gm_tau_limits(m), 28)  # T in samples
     data_key = (m.tobytes(), np.asarray(nu_hat, float).tobytes(), np.asarray(p_mat, float).tobytes())
     rates: list[float] = []
     for _ in range(spec.n_gm):
@@ -416,9 +432,15 @@ def _fit_theta(spec: ModelSpec, est: WaveletVariance, omega, method: str, grid, 
 
 
 def select_model(est: WaveletVariance, candidates=DEFAULT_CANDIDATES, method: str = "gmwm") -> NoiseSpec:
-    """Fit every candidate and return the one of least WIC = Q(θ̂; Ω_ref) + 2p (module doc), refitted with its own
-    efficient weights; ``info["selection"]`` lists every candidate's criterion. Candidates with more parameters than
-    scales are skipped."""
+    """The identified model selection (module doc, :mod:`gyrojax.noise.gmwm_select`): the sensor filter's short
+    scales dropped (:func:`~gyrojax.noise.gmwm_select.short_scale_limit`), every candidate fitted with the weights
+    Ω of the largest, the admissible one of least Q + c·p refitted with its own efficient weights (GMWM) or by
+    AVLR. ``info["selection"]`` lists every candidate's objective, criterion and rejection, ``info["tau_min_s"]``
+    the shortest τ fitted and ``info["short_scales"]`` why shorter ones were dropped. Candidates with more
+    parameters than scales are skipped."""
+    k, why = sel.short_scale_limit(est)
+    if k:
+        est = WaveletVariance(est.m[k:], est.nu2[k:], est.counts[k:], est.dt, est.n_samples)
     cands = [c for c in candidates if c.n_params < len(est.m)]
     if not cands:
         raise NoiseModelError(f"{len(est.m)} scales are too few for any candidate model")
@@ -426,22 +448,22 @@ def select_model(est: WaveletVariance, candidates=DEFAULT_CANDIDATES, method: st
     memo: dict = {}
     largest = max(cands, key=lambda c: c.n_params)
     _, ref_omega = _fit_spec(largest, est, None, "gmwm", grid, 2, memo)
-    rows = []
-    for c in cands:  # only the criterion of each candidate is needed: no Jacobian, no covariance
-        theta, p_mat, _, m, _, _, _ = _fit_theta(c, est, ref_omega, "gmwm", grid, 2, memo)
-        r = _weighted_residual(c, theta, est, p_mat, m)
-        objective = float(r @ r)
-        rows.append({"model": c.label(), "objective": objective, "wic": objective + 2 * c.n_params})
-    best = min(range(len(cands)), key=lambda i: rows[i]["wic"])
-    out = fit_spec(cands[best], est, method=method, grid=grid, memo=memo)
-    out.info["selection"] = rows
+    rows = [sel.table_row(c, _fit_spec(c, est, ref_omega, "gmwm", grid, 2, memo)[0]) for c in cands]
+    out = fit_spec(cands[sel.choose(rows)], est, method=method, grid=grid, memo=memo)
+    out.info.update(
+        selection=rows,
+        penalty=sel.PENALTY,
+        tau_min_s=float(est.m[0] * est.dt),
+        short_scales=why,
+        rejected=sel.rejection(out) or None,
+    )
     return out
 
 
 def fit_gmwm(segments, dt: float, model="auto", method: str = "gmwm") -> NoiseSpec:
     """GMWM (or AVLR) noise model of rate series (deg/h) sampled every ``dt`` s.
 
-    ``model``: ``"auto"`` (selection by WIC among :data:`DEFAULT_CANDIDATES`), a label such as ``"white+gm+rw"``,
+    ``model``: ``"auto"`` (identified selection among :data:`DEFAULT_CANDIDATES`), a label such as ``"white+gm+rw"``,
     a :class:`ModelSpec` or a list of them (selection among those).
     """
     return fit_wv(WaveletVariance.of(segments, dt), model, method)

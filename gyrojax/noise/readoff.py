@@ -8,7 +8,8 @@ import math
 
 import numpy as np
 
-from gyrojax.noise.spec import BI_FACTOR, NoiseModelError, NoiseSpec, adev_jacobian
+from gyrojax.noise import headline
+from gyrojax.noise.spec import BI_FACTOR, UNITS, NoiseModelError, NoiseSpec, adev_jacobian
 from gyrojax.units import SECONDS_PER_HOUR
 
 
@@ -38,18 +39,10 @@ def derived(spec: NoiseSpec, tau_min: float, tau_max: float, slope_tol: float = 
     lt = np.log(tt)
     ad = spec.adev(tt)
     slope = np.gradient(np.log(ad), lt)
-    cov = cov_finite(spec)
     out = {}
 
     def read(name, idx, factor, unit):
-        t = float(tt[idx])
-        g = adev_jacobian(spec, np.array([t]))[0] * factor
-        out[name] = {
-            "value": float(spec.adev(np.array([t]))[0] * factor),
-            "std": float(math.sqrt(max(g @ cov @ g, 0.0))),
-            "unit": unit,
-            "tau_s": t,
-        }
+        out[name] = read_at(spec, float(tt[idx]), factor, unit)
 
     near = np.flatnonzero(np.abs(slope + 0.5) <= slope_tol)
     i = int(near[0]) if near.size else int(np.argmin(np.abs(slope + 0.5)))  # the shortest white-like τ
@@ -68,6 +61,17 @@ def derived(spec: NoiseSpec, tau_min: float, tau_max: float, slope_tol: float = 
     else:
         out["rrw"] = {"value": None, "reason": f"no range of slope +1/2 (closest {slope[i]:.2f})"}
     return out
+
+
+def read_at(spec: NoiseSpec, tau: float, factor: float, unit: str) -> dict:
+    """``factor`` × the model's ADEV at ``tau`` s, with its standard error (delta method) and that τ."""
+    g = adev_jacobian(spec, np.array([tau]))[0] * factor
+    return {
+        "value": float(spec.adev(np.array([tau]))[0] * factor),
+        "std": float(math.sqrt(max(g @ cov_finite(spec) @ g, 0.0))),
+        "unit": unit,
+        "tau_s": float(tau),
+    }
 
 
 # ---- adequacy --------------------------------------------------------------------------------------------------
@@ -101,7 +105,14 @@ ADEQUACY_CI = 0.95
 
 
 def noise_report(
-    segments, tau0: float, m_list=None, method: str = "gmwm", model: str = "auto", notes=(), gauss_markov: bool = False
+    segments,
+    tau0: float,
+    m_list=None,
+    method: str = "gmwm",
+    model: str = "auto",
+    notes=(),
+    gauss_markov: bool = False,
+    mask_glitches: bool = True,
 ):
     """Everything ``gyrojax noise --json`` prints, as a dict, plus the (AllanResult, IEEE 952 NoiseSpec, fitted
     GMWM/AVLR NoiseSpec or None).
@@ -110,10 +121,20 @@ def noise_report(
     ADEV at the same τ with its standard error, the per-τ check against the empirical 95 % band
     (:func:`adequacy`, :func:`verdict_line`), the derived ARW / bias instability / RRW and the model itself.
 
-    ``segments`` rate series (deg/h) at ``tau0`` s; ``m_list`` averaging factors (default log-spaced).
+    ``segments`` rate series (deg/h) at ``tau0`` s; ``m_list`` averaging factors (default log-spaced). Spikes and
+    stuck stretches are found and (``mask_glitches``) masked first (:mod:`gyrojax.noise.glitch`: ``glitches`` in
+    the output, a sentence in ``notes``).
     """
     from gyrojax.noise import allan as allan_mod
+    from gyrojax.noise import glitch
     from gyrojax.noise.gmwm import fit_gmwm
+
+    notes = list(notes)
+    cleaned, found = glitch.clean(segments, tau0)
+    if glitch.note(found):
+        notes.append(glitch.note(found) if mask_glitches else glitch.note(found, masked=False))
+        if mask_glitches:
+            segments = cleaned
 
     res, ieee = allan_mod.analyze(segments, tau0, m_list, gauss_markov=gauss_markov)
     nm = None
@@ -133,21 +154,72 @@ def noise_report(
     out["adev_model_deg_per_h"] = [float(x) for x in model_adev]
     out["adev_model_std"] = [None if not np.isfinite(x) else float(x) for x in model_std]
     out["adequacy"] = {"ci": ADEQUACY_CI, "low": [float(x) for x in low95], "high": [float(x) for x in high95], **adq}
-    out["adequacy"]["verdict"] = verdict_line(res.taus_s, adq)
+    out["glitches"] = {**found, "masked": bool(mask_glitches)}
+    tau_fit = None if nm is None else nm.info.get("tau_min_s")
+    out["adequacy"]["verdict"] = verdict_line(res.taus_s, adq, tau_fit, nm.info.get("short_scales", "") if nm else "")
     if nm is not None:
         out["derived"] = derived(nm, float(res.taus_s.min()), float(res.taus_s.max()))
         out["model"] = {**nm.to_json(), "parameters": nm.parameters()}
-    out["notes"] = list(notes)
+        model_figs = {**out["derived"], **_direct(nm)}
+    else:
+        model_figs = {k: v for k, v in _direct(ieee).items()}
+    curve = headline.curve_readoffs(res)
+    b = curve["bias_instability"]
+    if nm is not None and model_figs["bias_instability"]["value"] is None and b.get("kind") == "read":
+        # the model has no minimum of its own (e.g. a sum of Gauss–Markov terms): read it where the curve is flat
+        at_b = read_at(nm, b["tau_s"], 1.0 / BI_FACTOR, "deg/h")
+        model_figs["bias_instability"] = {**at_b, "kind": "at the curve's minimum"}
+    out["headline"] = headline.compare(model_figs, curve)
+    b_terms = ieee.bias_instability
+    b_head = out["headline"]["bias_instability"]["curve"]
+    if b_terms > 0 and b_head["value"] is not None and abs(b_terms - b_head["value"]) > 0.1 * b_head["value"]:
+        notes.append(
+            f"terms.bias_instability {b_terms:.4g} deg/h is the IEEE 952 least-squares term fit; the curve's "
+            f"flat-minimum read-off (headline) is {b_head['value']:.4g} deg/h at tau = {b_head['tau_s']:.3g} s"
+        )
+    notes += [f"{k}: {v['note']}" for k, v in out["headline"].items() if v["note"]]
+    out["notes"] = notes
     return out, res, ieee, nm
 
 
-def verdict_line(taus_s, adq: dict) -> str:
-    """One line: the model inside the empirical band at every τ, or where it is not."""
+def _direct(spec: NoiseSpec) -> dict:
+    """Read-offs that are model parameters themselves: Q and R of a model that has them (and, for the IEEE 952
+    term fit, N, B, K), with their standard errors."""
+    names = {"quantization": "quantization", "rate_ramp": "rate_ramp"}
+    if spec.method == "ieee952":
+        names.update(white="arw", bias_instability="bias_instability", random_walk="rrw")
+    out = {}
+    for k, figure in names.items():
+        v = getattr(spec, k)
+        if v > 0:
+            std = spec.std(k) if k in spec.cov_names else float("nan")
+            out[figure] = {"value": float(v), "std": std if math.isfinite(std) else 0.0, "unit": UNITS[k]}
+            out[figure]["tau_s"] = None
+    return out
+
+
+def verdict_line(taus_s, adq: dict, tau_fit_s: float | None = None, cause: str = "") -> str:
+    """One line: the model inside the empirical band at every τ, or where it is not, by how much (the largest
+    |model/empirical − 1| among those τ) and, when they all lie below the shortest τ the fit used
+    (``tau_fit_s``), the cause named there (``cause``: e.g. the sensor's own filter)."""
     n = len(taus_s)
     k = adq["n_outside"]
     if k == 0:
         return f"model inside the empirical {100 * ADEQUACY_CI:.0f} % band at all {n} taus"
-    ts = ", ".join(f"{t:.3g}" for t in adq["taus_outside_s"][:6]) + (" ..." if k > 6 else "")
+    taus = np.asarray(taus_s, float)
+    out_mask = ~np.asarray(adq["inside"], bool)
+    dev = np.abs(np.asarray(adq["ratio"], float)[out_mask] - 1.0)
+    worst = int(np.argmax(dev))
+    t_out = taus[out_mask]
     expected = (1 - ADEQUACY_CI) * n
     tag = "POOR FIT" if k > max(1.0, 2.0 * expected) else "fit"
-    return f"{tag}: model outside the empirical {100 * ADEQUACY_CI:.0f} % band at {k} of {n} taus (tau = {ts} s)"
+    line = (
+        f"{tag}: model outside the empirical {100 * ADEQUACY_CI:.0f} % band at {k} of {n} taus "
+        f"(tau {t_out.min():.3g} to {t_out.max():.3g} s), by up to {100 * dev[worst]:.2g} % "
+        f"(at tau = {t_out[worst]:.3g} s)"
+    )
+    if tau_fit_s and cause and np.all(t_out < tau_fit_s * (1 + 1e-9)):
+        line += f"; all at or below the fitted range: {cause}"
+    elif tau_fit_s and cause and np.any(t_out < tau_fit_s):
+        line += f"; partly below the fitted range ({cause})"
+    return line

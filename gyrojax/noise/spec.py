@@ -340,15 +340,16 @@ class NoiseSpec:
     # -- the mean of a static interval
     def mean_variance(self, span_s):
         """Variance ((deg/h)²) of the mean rate over ``span_s`` seconds (a static position): 3600 N²/T from the
-        white term, σ²·2(x − 1 + e^{−x})/x² (x = T/τ) from each Gauss–Markov term (:func:`gm_mean_factor`).
-        Terms with no stationary mean variance (quantization, flicker, random walk, ramp, AR) are refused."""
-        other = [k for k in ("quantization", "bias_instability", "random_walk", "rate_ramp") if getattr(self, k)]
+        white term, σ²·2(x − 1 + e^{−x})/x² (x = T/τ) from each Gauss–Markov term (:func:`gm_mean_factor`), 2Q²/T²
+        from quantization (the mean rate is the angle error's difference over T, Q² its variance, IEEE 952 C.3).
+        Terms with no stationary mean variance (flicker, random walk, ramp, AR) are refused."""
+        other = [k for k in ("bias_instability", "random_walk", "rate_ramp") if getattr(self, k)]
         if other or self.ar or self.ma:
             raise NoiseModelError(
-                f"noise model: the variance of a mean is defined here for white + Gauss-Markov terms, not "
-                f"{', '.join(other + (['ar'] if self.ar else []))}"
+                "noise model: the variance of a mean is defined here for white, quantization and Gauss-Markov terms, "
+                f"not {', '.join(other + (['ar'] if self.ar else []))}"
             )
-        var = (60.0 * self.white) ** 2 / span_s
+        var = (60.0 * self.white) ** 2 / span_s + 2.0 * self.quantization**2 / span_s**2
         for s, t in self.gauss_markov:
             var = var + s * s * gm_mean_factor(span_s / t)
         return var
@@ -403,6 +404,13 @@ class NoiseSpec:
             else:
                 kw[k] = _number(v, f"{where}.{k}", TruthError)
         return cls(**kw)
+
+    @classmethod
+    def simulation_terms(cls, spec: "NoiseSpec") -> "NoiseSpec":
+        """The processes of ``spec`` alone (values and sample interval; no covariance, method or fit details): what
+        a simulation of it needs."""
+        keep = ("white", "quantization", "bias_instability", "random_walk", "rate_ramp", "flicker_band", "ar", "ma")
+        return cls(**{k: getattr(spec, k) for k in keep}, gauss_markov=spec.gauss_markov, dt_s=spec.dt_s)
 
     def to_truth(self) -> dict:
         """The truth file's ``noise`` dict (conventions §8): the terms that are not zero."""

@@ -1,0 +1,212 @@
+"""``gyrojax noise``: the Allan deviation, noise model, headline IEEE 952 figures and glitches of static records —
+SDF records pooled, imu-triad records per channel — and Kalibr's imu.yaml (``--kalibr``)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from gyrojax.cli.args import UsageError
+
+MAX_TAU_WORK = 4e9
+"""Largest (number of τ) × (samples) evaluated for ``noise --taus all`` (each τ costs one pass over the data)."""
+
+
+def parse_taus(spec: str | None, n: int, tau0: float):
+    """Averaging factors m for ``--taus``: ``octave`` (m = 2^k), ``decade`` (1, 2, 4 × 10^k), ``all`` (every m),
+    or a comma-separated list of τ in s (each a multiple of τ0 within 1 % of τ0, and 2m ≤ n − 1); None: default.
+    Returns an integer array, or None."""
+    if spec is None:
+        return None
+    import math
+
+    import numpy as np
+
+    m_max = (n - 1) // 2
+    if m_max < 1:
+        raise UsageError(f"--taus: {n} samples leave no averaging time")
+    key = spec.strip().lower()
+    if key == "octave":
+        return 2 ** np.arange(int(math.floor(math.log2(m_max))) + 1)
+    if key == "decade":
+        out = [d * 10**k for k in range(int(math.log10(m_max)) + 1) for d in (1, 2, 4)]
+        return np.array([m for m in out if m <= m_max])
+    if key == "all":
+        if m_max * n > MAX_TAU_WORK:
+            raise UsageError(
+                f"--taus all: {m_max} taus over {n} samples is too much work; use octave, decade or a list"
+            )
+        return np.arange(1, m_max + 1)
+    try:
+        taus = [float(x) for x in spec.split(",") if x.strip()]
+    except ValueError:
+        msg = f"--taus {spec!r}: expected octave, decade, all or a comma-separated list of seconds"
+        raise UsageError(msg) from None
+    if not taus:
+        raise UsageError("--taus: empty list")
+    ms = []
+    for t in taus:
+        if not (math.isfinite(t) and t > 0):
+            raise UsageError(f"--taus: {t!r} is not a positive time in s")
+        m = round(t / tau0)
+        if m < 1 or abs(m * tau0 - t) > 0.01 * tau0:
+            raise UsageError(f"--taus: {t:g} s is not a multiple of the sample interval {tau0:.9g} s")
+        if m > m_max:
+            raise UsageError(f"--taus: {t:g} s is longer than half the longest segment ({m_max * tau0:g} s)")
+        ms.append(m)
+    if len(set(ms)) != len(ms):
+        raise UsageError("--taus: two of the taus fall on the same multiple of the sample interval")
+    return np.array(sorted(ms))
+
+
+def cmd_noise(args) -> int:
+    """``gyrojax noise``: Allan deviation (deg/h against τ in s), noise model and adequacy of static records."""
+    from gyrojax.data.records import load_records
+    from gyrojax.data.static import static_rate_segments
+    from gyrojax.noise.readoff import noise_report
+    from gyrojax.noise.spec import UNITS
+
+    recs = load_records(args.records)
+    for option in (args.plot, args.kalibr):
+        if option and Path(option).exists() and not args.force:
+            raise UsageError(f"{option}: exists; pass --force to overwrite")
+    if any(r.meta["instrument"]["kind"] == "imu-triad" for r in recs):
+        return _noise_triad(args, recs)
+    notes: list[str] = []
+    segs, tau0 = static_rate_segments(recs, notes=notes)
+    m_list = parse_taus(args.taus, max(len(s) for s in segs), tau0)
+    out, res, ieee, nm = noise_report(
+        segs, tau0, m_list, method=args.method, model=args.model, notes=notes, gauss_markov=args.gauss_markov
+    )
+    if args.plot:  # matplotlib is imported only when a plot is asked for
+        from gyrojax.report.figures import noise_model_figure, save
+
+        save(noise_model_figure(out, title=", ".join(r.name for r in recs)), args.plot)
+    if args.kalibr:
+        _write_kalibr(args, {"gyro": out}, {}, tau0, ", ".join(r.name for r in recs))
+        out["kalibr"] = args.kalibr_figures
+    if args.json:
+        print(json.dumps(out))
+        return 0
+    for note in notes:
+        print(f"note: {note}")
+    print(f"{'tau_s':>12s} {'adev_deg_per_h':>15s} {'low':>11s} {'high':>11s} {'model':>11s}  in 95% band")
+    for i, t in enumerate(res.taus_s):
+        print(
+            f"{t:12.4g} {res.adev[i]:15.6g} {res.low[i]:11.5g} {res.high[i]:11.5g} "
+            f"{out['adev_model_deg_per_h'][i]:11.5g}  {'yes' if out['adequacy']['inside'][i] else 'NO'}"
+        )
+    if nm is not None:
+        p_value = float("nan") if nm.info["p_value"] is None else nm.info["p_value"]
+        print(f"model {nm.info['model']} ({nm.method}), J-test p = {p_value:.3g}")
+        for k, v in nm.parameters().items():
+            std = "pinned at a bound" if v["std"] is None else f"± {v['std']:.2g}"
+            print(f"  {k}: {v['value']:.6g} {std} {v['unit']}")
+        for k, v in out["derived"].items():
+            if v["value"] is None:
+                print(f"  {k}: not read ({v['reason']})")
+            else:
+                print(f"  {k}: {v['value']:.4g} ± {v['std']:.2g} {v['unit']} (read at tau = {v['tau_s']:.3g} s)")
+    else:
+        for k in ieee.names:
+            if k == "gm1_sigma":
+                sigma, tau = ieee.gauss_markov[0]
+                print(f"gauss_markov: sigma {sigma:.6g} deg/h, tau {tau:.6g} s")
+            elif not k.startswith("gm"):
+                print(f"{k}: {ieee.value(k):.6g} {UNITS[k]}")
+    _print_headline(out["headline"])
+    print(out["adequacy"]["verdict"])
+    return 0
+
+
+def _write_kalibr(args, gyro: dict, accel: dict, tau0: float, source: str) -> None:
+    """Kalibr's imu.yaml from per-channel noise reports (gyro deg/h, accelerometer m/s²) to ``--kalibr``; the
+    figures are left in ``args.kalibr_figures`` for the JSON."""
+    from gyrojax.noise import kalibr
+    from gyrojax.protocol import atomic_write_text
+
+    g = {k: kalibr.densities(v) for k, v in gyro.items()}
+    a = {k: kalibr.densities(v, 1.0) for k, v in accel.items()}
+    fig = kalibr.kalibr_figures(g, a, 1.0 / tau0, args.rostopic)
+    atomic_write_text(args.kalibr, kalibr.imu_yaml(fig, source))
+    args.kalibr_figures = fig
+
+
+def _noise_triad(args, recs) -> int:
+    """``gyrojax noise`` on imu-triad records: every gyro and accelerometer channel analysed on its own (never
+    pooled), from the records' static poses (each pose a segment); per channel the report of an SDF record."""
+    import numpy as np
+
+    from gyrojax.data.timebase import uniform_interval
+    from gyrojax.data.triad import CHANNELS, acc_g, gyro_dph
+    from gyrojax.noise.readoff import noise_report
+    from gyrojax.units import G0
+
+    if not all(r.meta["instrument"]["kind"] == "imu-triad" for r in recs):
+        raise UsageError("noise: imu-triad records and SDF records cannot be analysed together")
+    if args.plot:
+        raise UsageError("noise --plot takes SDF records; for imu-triad records use --json per channel")
+    series: dict = {}
+    tau0 = None
+    for r in recs:
+        seg = np.asarray(r.columns["segment"]).astype(int)
+        gyro, acc = gyro_dph(r), acc_g(r)
+        for spec in r.meta["segments"]:
+            sel = np.flatnonzero(seg == spec["label"])
+            if spec["type"] != "static" or len(sel) < 16:
+                continue
+            d, _ = uniform_interval(np.asarray(r.time_s, float)[sel])
+            if tau0 is None:
+                tau0 = d
+            elif abs(d - tau0) > 1e-3 * tau0:
+                raise UsageError(f"{r.name}: sample interval {d:g} s differs from {tau0:g} s of the other rests")
+            for i, c in enumerate(CHANNELS):
+                series.setdefault(f"gyro_{c}", []).append(gyro[sel, i])
+                if acc is not None:
+                    series.setdefault(f"acc_{c}", []).append(acc[sel, i] * G0)
+    if tau0 is None:
+        raise UsageError("noise: the imu-triad records hold no static pose of 16 samples or more")
+    reports = {}
+    for name, segs in series.items():
+        m_list = parse_taus(args.taus, max(len(s) for s in segs), tau0)
+        out, *_ = noise_report(segs, tau0, m_list, method=args.method, model=args.model, gauss_markov=args.gauss_markov)
+        if name.startswith("acc_"):
+            out["notes"].append("accelerometer channel analysed in m/s^2 where the units say deg/h")
+        reports[name] = out
+    result = {"instrument": "imu-triad", "tau0_s": tau0, "channels": reports}
+    if args.kalibr:
+        gyro = {k: v for k, v in reports.items() if k.startswith("gyro_")}
+        accel = {k: v for k, v in reports.items() if k.startswith("acc_")}
+        _write_kalibr(args, gyro, accel, tau0, ", ".join(r.name for r in recs))
+        result["kalibr"] = args.kalibr_figures
+    if args.json:
+        print(json.dumps(result))
+        return 0
+    for name, out in reports.items():
+        print(f"{name}: model {out['model']['info']['model'] if 'model' in out else args.method}")
+        for note in out["notes"]:
+            print(f"  note: {note}")
+        _print_headline(out["headline"])
+        print(f"  {out['adequacy']['verdict']}")
+    if args.kalibr:
+        print(f"Kalibr imu.yaml -> {args.kalibr}")
+    return 0
+
+
+def _print_headline(head: dict) -> None:
+    """The headline IEEE 952 read-offs of ``gyrojax noise``: the curve's and the model's, side by side."""
+
+    def one(v):
+        if v["value"] is None:
+            return "not read"
+        where = f" at tau = {v['tau_s']:.3g} s" if v.get("tau_s") else ""
+        bound = "<= " if v.get("kind") == "upper bound" else ""
+        return f"{bound}{v['value']:.4g} ± {v['std']:.2g}{where}"
+
+    print("headline (IEEE 952 read-offs): curve | model")
+    for k, v in head.items():
+        if v["curve"]["value"] is None and v["model"]["value"] is None:
+            continue
+        unit = v["curve"].get("unit") or v["model"].get("unit", "")
+        flag = "" if v["agree"] in (None, True) else "  DISAGREE"
+        print(f"  {k}: {one(v['curve'])} | {one(v['model'])} {unit}{flag}")

@@ -1,0 +1,124 @@
+"""One set of headline noise figures: the IEEE 952 read-offs of the Allan curve and of the fitted model, side by
+side, each with its standard error and the τ where it was read, and a note wherever the two disagree.
+
+Curve read-offs (IEEE 952-1997 annex C, conventions §6 units), from the overlapping Allan deviation σ(τ) and its
+±1σ χ² interval (:class:`~gyrojax.noise.allan.AllanResult`), in the τ ranges where the local slope of σ is within
+``SLOPE_TOL`` of the term's:
+
+- N (deg/√h), slope −½: σ(τ)·√τ/60 at the point of the range nearest τ = 1 s (the −½ line's value at 1 s);
+- B (deg/h), the flat minimum: σ_min/0.664 (:data:`~gyrojax.noise.spec.BI_FACTOR`) at an interior minimum of σ
+  where the local slope is flat (within ``SLOPE_TOL`` of 0); when σ still falls there (a noisy dip of a falling
+  curve, or the curve's last τ), an upper bound σ_high/0.664 at the minimum;
+- K (deg/h/√h), slope +½: σ(τ)·√(3·3600/τ); when no such range is seen, the upper bound σ_high(τ_max)·√(3·3600/τ_max)
+  (a random walk of that size would reach the curve's upper limit at the longest τ);
+- Q (arcsec), slope −1: σ(τ)·τ/√3; R (deg/h/h), slope +1: σ(τ)·√2·3600/τ; only where the slope is seen.
+
+The standard error of a curve read-off is that of σ at its τ (half the width of the ±1σ interval), scaled.
+Model read-offs are :func:`gyrojax.noise.readoff.derived`. Two values agree when they differ by less than 2
+standard errors of their difference (or 10 %, whichever is larger: the curve's τ grid is coarse).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from gyrojax.noise.allan import local_slope
+from gyrojax.noise.spec import BI_FACTOR
+from gyrojax.units import SECONDS_PER_HOUR
+
+SLOPE_TOL = 0.12
+"""Largest |local slope of σ − the term's slope| of a read-off range."""
+
+AGREE_REL = 0.10
+"""Relative difference two read-offs may always have and still agree."""
+
+FIGURES = (
+    ("arw", -0.5, "deg/sqrt(h)"),
+    ("bias_instability", 0.0, "deg/h"),
+    ("rrw", 0.5, "deg/h/sqrt(h)"),
+    ("quantization", -1.0, "arcsec"),
+    ("rate_ramp", 1.0, "deg/h/h"),
+)
+
+
+def _factor(name: str, tau: float) -> float:
+    return {
+        "arw": math.sqrt(tau) / 60.0,
+        "bias_instability": 1.0 / BI_FACTOR,
+        "rrw": math.sqrt(3.0 * SECONDS_PER_HOUR / tau),
+        "quantization": tau / math.sqrt(3.0),
+        "rate_ramp": math.sqrt(2.0) * SECONDS_PER_HOUR / tau,
+    }[name]
+
+
+def curve_readoffs(res) -> dict:
+    """The IEEE 952 read-offs of an :class:`~gyrojax.noise.allan.AllanResult` (module doc): per figure a dict with
+    ``value``, ``std``, ``unit``, ``tau_s`` and ``kind`` ("read" or "upper bound"), or ``value`` None and the
+    ``reason``."""
+    taus, ad = np.asarray(res.taus_s, float), np.asarray(res.adev, float)
+    sd = (np.asarray(res.high, float) - np.asarray(res.low, float)) / 2.0
+    slope = local_slope(taus, ad**2) / 2.0
+    out = {}
+
+    def read(name, i, unit, kind="read", level=None):
+        f = _factor(name, float(taus[i]))
+        v = (ad[i] if level is None else level) * f
+        out[name] = {"value": float(v), "std": float(sd[i] * f), "unit": unit, "tau_s": float(taus[i]), "kind": kind}
+
+    for name, s, unit in FIGURES:
+        near = np.flatnonzero(np.abs(slope - s) <= SLOPE_TOL)
+        if name == "bias_instability":
+            i = int(np.argmin(ad))
+            if 0 < i < len(taus) - 1 and abs(slope[i]) <= SLOPE_TOL:
+                read(name, i, unit)
+            elif slope[i] < 0:
+                read(name, i, unit, "upper bound", level=float(res.high[i]))
+            else:
+                out[name] = {"value": None, "reason": "the curve has no minimum inside the tau range", "unit": unit}
+        elif near.size:
+            if name == "arw":
+                i = int(near[np.argmin(np.abs(np.log(taus[near])))])
+            elif name == "rrw":
+                i = int(near[-1])
+            else:
+                i = int(near[0]) if s < 0 else int(near[-1])
+            read(name, i, unit)
+        elif name == "rrw":
+            read(name, len(taus) - 1, unit, "upper bound", level=float(res.high[-1]))
+        else:
+            closest = float(slope[np.argmin(np.abs(slope - s))])
+            out[name] = {"value": None, "reason": f"no range of slope {s:+g} (closest {closest:.2f})", "unit": unit}
+    return out
+
+
+def compare(model: dict, curve: dict) -> dict:
+    """``headline``: per figure {``curve``, ``model``, ``agree``, ``note``}; ``agree`` None when either is not
+    read; the note says which is used and why when they differ or one is missing."""
+    out = {}
+    for name, _, _ in FIGURES:
+        c = curve.get(name, {"value": None, "reason": "not read"})
+        m = model.get(name, {"value": None, "reason": "not a model read-off"})
+        agree, note = None, ""
+        if c["value"] is not None and m["value"] is not None:
+            if c.get("kind") == "upper bound":
+                agree = m["value"] <= c["value"] + 2 * c["std"]
+                rel = "within" if agree else "ABOVE"
+                note = f"the model's {m['value']:.4g} is {rel} the curve's upper bound {c['value']:.4g}"
+            else:
+                diff = abs(m["value"] - c["value"])
+                tol = max(2 * math.hypot(c["std"], m.get("std", 0.0)), AGREE_REL * abs(c["value"]))
+                agree = diff <= tol
+                if not agree:
+                    at = f" (tau {m['tau_s']:.3g} s)" if m.get("tau_s") else ""
+                    note = (
+                        f"model {m['value']:.4g}{at} and curve {c['value']:.4g} "
+                        f"(tau {c['tau_s']:.3g} s) differ by {100 * diff / abs(c['value']):.0f} %"
+                    )
+        elif c["value"] is not None:
+            note = f"model: not read ({m.get('reason', '')}); the curve's {c.get('kind', 'read')} is the figure"
+        elif m["value"] is not None:
+            note = f"curve: not read ({c.get('reason', '')}); the model's value is the figure"
+        out[name] = {"curve": c, "model": m, "agree": agree, "note": note}
+    return out
