@@ -264,6 +264,10 @@ def cmd_noise(args) -> int:
 def cmd_design(args) -> int:
     """``gyrojax design``: design a static plan (ARW in deg/√h, GM as σ deg/h and τ s, total dwell in h), write
     the plan file to ``--out`` and print its comparison with the classical set; exit code."""
+    if any(getattr(args, k, None) is not None for k in ("instrument", "poses", "minutes", "placement_deg")):
+        from gyrojax.cli.design_triad import design_triad  # a hand IMU protocol (--instrument imu-triad)
+
+        return design_triad(args)
     import jax.numpy as jnp
     import numpy as np
 
