@@ -69,7 +69,10 @@ def triad_model(terms):
     bad = [t for t in terms if t not in known]
     if bad:
         raise ModelError(f"unknown effect {bad[0]!r}; the imu-triad protocol designs for {', '.join(LINEAR_TERMS)}")
-    model = tp.channel_model(terms)
+    try:
+        model = tp.channel_model(terms)
+    except ModelError as e:
+        raise ModelError(f"{e} (not an effect of an imu-triad's channels)") from None
     other = [t for t in model.terms if t not in LINEAR_TERMS]
     if other:
         raise ModelError(
@@ -80,11 +83,13 @@ def triad_model(terms):
 
 
 def min_poses(model) -> int:
-    """Fewest rests that can identify the model: the rests give 3 rows each, the moves 2 each, and each channel's
-    bias and g-terms need as many rests as they have coefficients (D_F, D_I, D_O, D_S: 4)."""
+    """Fewest rests that can identify the model: the rests give 3 rows each, the moves 2 each; each channel's
+    bias and g-terms need as many rests as they have coefficients (D_F, D_I, D_O, D_S: 4), and the scale and
+    misalignment (9 for the triad) are seen by the moves alone (2 rows each): 6 rests for the six linear terms."""
     static = sum(1 for c in model.coefficient_names if c.startswith("D_"))
+    scale = 3 * sum(1 for c in model.coefficient_names if not c.startswith("D_"))  # seen by the moves only
     n = max(static, 2)
-    while 3 * n + 2 * (n - 1) < 3 * model.size:
+    while 3 * n + 2 * (n - 1) < 3 * model.size or 2 * (n - 1) < scale:
         n += 1
     return n
 
@@ -406,6 +411,8 @@ def design_protocol(
     final = np.where(np.isfinite(np.asarray(final)), np.asarray(final), np.inf)
     b = int(np.argmin(final))
     best = jax.tree_util.tree_map(lambda a: a[b], p)
+    if not np.isfinite(final[b]):
+        raise ModelError(f"no start of the search found a protocol of {n_poses} poses that identifies the terms")
     att, up, rest, axes, ang, dur = (np.asarray(x) for x in design_parts(best, total))
     # heading is not designed (the fit marginalises it): start at heading 0 with the first rest's Up
     steps_out = [{"type": "rest", "rest_s": float(rest[0])}]
