@@ -20,6 +20,7 @@ from gyrojax.inference.triad import fit_triad
 from gyrojax.montecarlo.triad import mems_truth
 from gyrojax.planning import triad_protocol as tpr
 from gyrojax.planning.triad_fisher import TriadNoise, coefficient_names
+from gyrojax.simulation.triad import random_attitude
 from gyrojax.simulation.triad_session import simulate_session
 
 TERMS = ("D_F", "D_I", "D_O", "D_S", "sf_error", "ia_misalignment")
@@ -156,3 +157,18 @@ def test_bad_input_exits_2_with_one_line(extra, says, tmp_path, capsys):
 def test_triad_options_need_the_instrument(tmp_path, capsys):
     assert main(["design", "--poses", "8", "--out", str(tmp_path / "p.json")]) == 2
     assert "--instrument imu-triad" in capsys.readouterr().err
+
+
+def test_figure_draws_every_rest(tmp_path):
+    from gyrojax.report.protocol_figure import protocol_figure
+
+    c0, st = tpr.random_steps(6, 200.0, seed=1)
+    proto = tpr.TriadProtocol(TERMS, tpr.TriadCriterion("D"), NOISE, 200.0, c0, st, 0.0, np.zeros(1), np.zeros(1))
+    # the steps' turns (axis, angle) carry the box through the drawn attitudes, and the table's Up is theirs
+    rng = np.random.default_rng(1)
+    drawn = [random_attitude(rng) for _ in range(6)]
+    for c, d, row in zip(proto.attitudes(), drawn, proto.table()):
+        assert np.allclose(c, d, atol=1e-9)
+        assert np.allclose(row["up_body"], d[2])
+    protocol_figure(proto, tmp_path / "p.png")
+    assert (tmp_path / "p.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
