@@ -133,6 +133,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--separate", metavar="A,B", help="design the test on the records' table that separates A from B")
     s.add_argument("--from", dest="from_records", nargs="+", metavar="RECORD", help="the records of --separate")
     add_effect_arguments(s)
+    s.add_argument("--instrument", choices=("imu-triad",), help="imu-triad: a hand calibration protocol for a MEMS IMU")
+    s.add_argument("--poses", type=int, help="imu-triad: number of rests (default 12)")
+    s.add_argument("--minutes", type=float, help="imu-triad: total time of rests and turns (default 10)")
+    s.add_argument("--placement-deg", type=float, help="imu-triad: hand placement error per axis, deg (default 0)")
     s.set_defaults(func=_command("design"))
 
     s = sub.add_parser("mc", help="Monte Carlo study: simulate and fit many gyros (docs/montecarlo.md)")

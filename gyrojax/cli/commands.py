@@ -187,6 +187,10 @@ def cmd_design(args) -> int:
         from gyrojax.cli.design_separate import cmd_design_separate
 
         return cmd_design_separate(args)
+    if any(getattr(args, k, None) is not None for k in ("instrument", "poses", "minutes", "placement_deg")):
+        from gyrojax.cli.design_triad import design_triad  # a hand IMU protocol (--instrument imu-triad)
+
+        return design_triad(args)
     import jax.numpy as jnp
     import numpy as np
 
