@@ -86,14 +86,15 @@ def _expm_so3(v):
     return jnp.eye(3) + a * k + b * (k @ k)
 
 
-def move_residual(model, theta, g, a, mask, dt, u_from, u_to):
+def move_residual(model, theta, g, a, t_h, temp, mask, dt, u_from, u_to):
     """Residual u_to − Rᵀ u_from of a gravity-to-gravity move: R is the body's rotation over the move, integrated
-    from the calibrated rates ω = S⁻¹ (ω_ind − b − G a) (sample by sample, exact exponential of each step's mean
-    rate); Up stays fixed in space, so the predicted Up at the end is Rᵀ u_from (imu_tk, Tedaldi et al. §IV-C).
-    ``g`` (n, 3) deg/h, ``a`` (n, 3) g, ``dt`` s, unit vectors ``u_from``/``u_to``; the residual is dimensionless.
-    ``mask`` (n−1,) is 1 for the steps of the move and 0 for padding (moves are padded to one length, one compile)."""
-    b, s, gm = linear_matrices(model, theta)
-    w = jnp.linalg.solve(s, (g - b - a @ gm.T).T).T * units.DEG_PER_H  # rad/s
+    from the calibrated rates ω of the whole channel model (:func:`gyrojax.physics.triad.body_rates`: bias, g-terms,
+    scale factor and misalignment, E_A, E_2, trend and temperature at each sample; sample by sample, exact
+    exponential of each step's mean rate); Up stays fixed in space, so the predicted Up at the end is Rᵀ u_from
+    (imu_tk, Tedaldi et al. §IV-C). ``g`` (n, 3) deg/h, ``a`` (n, 3) g, ``t_h`` (n,) h, ``temp`` (n,) °C, ``dt`` s,
+    unit vectors ``u_from``/``u_to``; the residual is dimensionless. ``mask`` (n−1,) is 1 for the steps of the move
+    and 0 for padding (moves are padded to one length, one compile)."""
+    w = tp.body_rates(model, theta.reshape(3, model.size), g, a, t_h, temp) * units.DEG_PER_H  # rad/s
     steps = 0.5 * (w[1:] + w[:-1]) * dt * mask[:, None]
 
     def step(r, v):
@@ -103,15 +104,15 @@ def move_residual(model, theta, g, a, mask, dt, u_from, u_to):
     return u_to - r.T @ u_from
 
 
-def _moves_residual(model, theta, g, a, mask, dt, u_from, u_to):
+def _moves_residual(model, theta, g, a, t_h, temp, mask, dt, u_from, u_to):
     """:func:`move_residual` of every move at once (arrays of :func:`pack_moves`: gyro deg/h, specific force g,
-    dt s, Up directions unit vectors); (M, 3), dimensionless."""
-    return jax.vmap(move_residual, in_axes=(None, None, 0, 0, 0, 0, 0, 0))(model, theta, g, a, mask, dt, u_from, u_to)
+    time h, temperature °C, dt s, Up directions unit vectors); (M, 3), dimensionless."""
+    axes = (None, None) + (0,) * 8
+    return jax.vmap(move_residual, in_axes=axes)(model, theta, g, a, t_h, temp, mask, dt, u_from, u_to)
 
 
 moves_residual_jit = jax.jit(_moves_residual, static_argnums=0)
 moves_jacobian_jit = jax.jit(jax.jacfwd(_moves_residual, argnums=1), static_argnums=0)
-LINEAR_TERMS = ("D_F", "D_I", "D_O", "D_S", "sf_error", "ia_misalignment")
 
 
 def long_run_variance(resid: list[np.ndarray], max_lag: int = NW_MAX_LAG) -> np.ndarray:
@@ -225,11 +226,6 @@ def fit_triad(
     if terms is None:
         terms = DEFAULT_ROTATION_TERMS if has_rot else DEFAULT_STATIC_TERMS
     model = tp.channel_model(terms)
-    if moves and any(t not in LINEAR_TERMS for t in model.terms):
-        raise ModelError(
-            f"gravity-to-gravity moves integrate the calibrated rate of the linear model ({', '.join(LINEAR_TERMS)}); "
-            f"drop {[t for t in model.terms if t not in LINEAR_TERMS]}"
-        )
     names = [tp.channel_name(c, ch) for ch in tp.CHANNELS for c in model.coefficient_names]
     q = long_run_variance(resid) if noise_q is None else _channel_variances(noise_q)
 
@@ -381,8 +377,8 @@ def _channel_variances(noise_q) -> np.ndarray:
 
 
 def _scale_coefficient(name: str) -> bool:
-    """True for the coefficients of S (E_SF, M_O, M_S of any channel)."""
-    return tp.split_channel_name(name)[0] in ("E_SF", "M_O", "M_S")
+    """True for the coefficients that multiply the rate (E_SF, M_O, M_S, E_A, E_2 of any channel)."""
+    return tp.split_channel_name(name)[0] in ("E_SF", "M_O", "M_S", "E_A", "E_2")
 
 
 def whiten_segments(segments, resid, jac, q, s_mat, pose_var: float = 0.0):
@@ -522,20 +518,27 @@ def _move_whitening(moves, q, s_mat, angle_var_extra: float = 0.0) -> list:
 
 
 def pack_moves(moves) -> tuple:
-    """The moves padded to one length: (g (M, L, 3), a (M, L, 3), mask (M, L−1), dt (M,), u_from (M, 3), u_to)."""
+    """The moves padded to one length: (g (M, L, 3), a (M, L, 3), t_h (M, L), temp (M, L), mask (M, L−1), dt (M,),
+    u_from (M, 3), u_to); a move without times or temperatures gets 0 h and 20 °C."""
     length = max(len(m.g) for m in moves)
     g = np.zeros((len(moves), length, 3))
     a = np.zeros((len(moves), length, 3))
+    t_h = np.zeros((len(moves), length))
+    temp = np.full((len(moves), length), 20.0)
     mask = np.zeros((len(moves), length - 1))
     for i, m in enumerate(moves):
         n = len(m.g)
         g[i, :n], a[i, :n] = m.g, m.a
         g[i, n:], a[i, n:] = m.g[-1], m.a[-1]
+        if m.t_h is not None:
+            t_h[i, :n], t_h[i, n:] = m.t_h, m.t_h[-1]
+        if m.temp is not None:
+            temp[i, :n], temp[i, n:] = m.temp, m.temp[-1]
         mask[i, : n - 1] = 1.0
     dt = np.array([m.dt for m in moves])
     u0 = np.array([m.u_from for m in moves])
     u1 = np.array([m.u_to for m in moves])
-    return tuple(jnp.asarray(x) for x in (g, a, mask, dt, u0, u1))
+    return tuple(jnp.asarray(x) for x in (g, a, t_h, temp, mask, dt, u0, u1))
 
 
 def _move_rows(model, theta, packed, whitening):
