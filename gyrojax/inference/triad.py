@@ -49,6 +49,7 @@ from gyrojax.errors import ConvergenceWarning, ModelError
 from gyrojax.inference.campaign import check_one_instrument
 from gyrojax.inference.identifiability import IdentifiabilityError, alias_analysis, alias_message, residue_columns
 from gyrojax.inference.solver import damped_least_squares, solve
+from gyrojax.inference.triad_accel import accelerometer_json, fit_accelerometer, needs_calibration
 from gyrojax.inference.triad_components import Group, estimate_components
 from gyrojax.inference.triad_result import TriadFit
 from gyrojax.noise.whiten import pooled_autocovariance
@@ -213,6 +214,10 @@ def fit_triad(
     if not is_triad_input(recs):
         raise ModelError("fit_triad takes imu-triad records only")
     check_one_instrument(recs)
+    acc_fit = fit_accelerometer(recs)
+    if needs_calibration(acc_fit, recs):  # off g beyond the tolerance: calibrated here, never taken on trust
+        recs = [with_calibrated_accelerometer(r, acc_fit) for r in recs]
+        acc_fit["applied"] = True
     segments, resid, modes, moves = [], [], set(), []
     for r in recs:
         s, q, mode, mv = triad_segments(r, earth_rate)
@@ -321,11 +326,12 @@ def fit_triad(
             "also M_O, M_S times it in D_O, D_S); the horizontal Earth rate (unknown heading) is marginalised with "
             "its mean square over the sites of the sphere, (2/3) (15.04 deg/h)^2"
         )
+    s_fit = np.asarray(linear_matrices(model, jnp.asarray(theta))[1])
     if dof > 0 and stats.chi2.sf(chi2, dof) < 0.01:
-        comp = _components_report(tau2)
+        comp = _components_report(tau2, s_fit)
         if any(v > 0 for v in comp.values()):
             tail = "the standard errors include the variance components estimated by REML: " + ", ".join(
-                f"{k} {v:.3g}" for k, v in comp.items()
+                f"{k} {v:.3g}" for k, v in comp.items() if "indicated" not in k
             )
         else:
             tail = "the standard errors assume the noise model and may be too small"
@@ -357,9 +363,21 @@ def fit_triad(
         iterations=iterations,
         converged=not why,
         convergence_note=why,
-        variance_components=_components_report(tau2),
+        variance_components=_components_report(tau2, s_fit),
         segment_residuals=seg_rows,
+        accelerometer=accelerometer_json(acc_fit),
     )
+
+
+def with_calibrated_accelerometer(record: Record, acc_fit: dict) -> Record:
+    """``record`` with its ``acc_<c>_g`` columns calibrated by the fitted accelerometer model."""
+    from gyrojax.inference.triad_accel import calibrate
+
+    a = calibrate(acc_fit, np.column_stack([record.columns[f"acc_{c}_g"] for c in tp.CHANNELS]))
+    cols = dict(record.columns)
+    for j, c in enumerate(tp.CHANNELS):
+        cols[f"acc_{c}_g"] = a[:, j]
+    return Record(record.meta, cols)
 
 
 def _channel_variances(noise_q) -> np.ndarray:
@@ -426,11 +444,17 @@ def _check_moves_converged(model, theta, packed, moves) -> None:
         )
 
 
-def _components_report(tau2: dict) -> dict:
-    """The REML components as standard deviations in report units (empty when none were estimated)."""
+def _components_report(tau2: dict, s_mat=None) -> dict:
+    """The REML components as standard deviations in report units (empty when none were estimated). The per-pose
+    bias scatter τ_b is estimated in indicated units (τ_b² I₃ on each pose's rows); reported in calibrated deg/h,
+    the rms over the body axes of S⁻¹ τ_b² S⁻ᵀ (τ_b √(tr(S⁻¹ S⁻ᵀ)/3) at the fitted S: independent of the nominal
+    scale given at import), and as estimated, ``pose_bias_scatter_indicated_deg_per_h``."""
     out = {}
     if "pose" in tau2:
-        out["pose_bias_scatter_deg_per_h"] = float(np.sqrt(tau2["pose"]))
+        s_inv = np.linalg.inv(np.eye(3) if s_mat is None else np.asarray(s_mat))
+        tau = float(np.sqrt(tau2["pose"]))
+        out["pose_bias_scatter_deg_per_h"] = tau * float(np.sqrt(np.trace(s_inv @ s_inv.T) / 3.0))
+        out["pose_bias_scatter_indicated_deg_per_h"] = tau
     if "move" in tau2:
         out["move_angle_noise_deg"] = float(np.degrees(np.sqrt(tau2["move"])))
     return out

@@ -42,6 +42,7 @@ class TriadFit(Estimates):
     convergence_note: str = ""  # why the moves' fit did not converge ("" when it did)
     variance_components: dict = field(default_factory=dict)  # REML: pose bias scatter deg/h, move angle noise deg
     segment_residuals: list = field(default_factory=list)  # per pose/rotation/move: whitened, natural, chi2
+    accelerometer: dict | None = None  # imu_tk's 9 parameters with σ (inference.triad_accel.accelerometer_json)
 
     def chi2_drivers(self, top: int = 3) -> list:
         """The segments with the largest share of χ² (white-noise model): [(name, share)], largest first."""
@@ -75,7 +76,13 @@ class TriadFit(Estimates):
         rate is part of ω, as a navigator wants it. Refuses a record without the accelerometer columns when the
         model has g-terms, without ``temperature_C`` when it has ``bias_temperature``, and an inversion that does
         not reproduce the indicated rates (to 1e-9 of their size)."""
-        return calibrated_rates(self.model, self.theta, record)
+        return calibrated_rates(self.model, self.theta, record, self.accelerometer)
+
+    def specific_force(self, record: Record) -> np.ndarray | None:
+        """Calibrated specific force (n, 3) g of a triad record by the fitted accelerometer model (imu_tk's
+        a_cal = T K (a − b)); the record's own when the fit has no accelerometer model (fewer than 9 poses, whose
+        |a| the fit then checked against g); None without accelerometer columns."""
+        return _specific_force(record, self.accelerometer)
 
     def to_json(self) -> dict:
         """The fit JSON (conventions §7 shape, per-channel names ``D_F[x]``), with the matrix forms."""
@@ -135,6 +142,7 @@ class TriadFit(Estimates):
                 **({"reason": self.convergence_note} if not self.converged else {}),
             },
             "notes": list(self.notes),
+            **({"accelerometer": self.accelerometer} if self.accelerometer else {}),
             "gyrojax_version": __version__,
         }
 
@@ -167,7 +175,7 @@ class TriadFit(Estimates):
         if any(v > 0 for v in self.variance_components.values()):
             lines.append(
                 "sigma include the variance components (REML): "
-                + ", ".join(f"{k} {v:.3g}" for k, v in self.variance_components.items())
+                + ", ".join(f"{k} {v:.3g}" for k, v in self.variance_components.items() if "indicated" not in k)
             )
         if not self.converged:
             lines.append(f"not converged: {self.convergence_note}")
@@ -179,11 +187,24 @@ G_TERMS = ("D_I", "D_O", "D_S", "D_II", "D_OO", "D_SS", "D_IO", "D_IS", "D_OS")
 INVERSION_RTOL = 1e-9  # relative residual of the indicated rates above which apply's inversion has failed
 
 
-def calibrated_rates(model, theta, record: Record) -> np.ndarray:
-    """Body rates (n, 3) deg/h of a triad ``record`` under the channel ``model`` at ``theta`` (3p,), report units
-    (:meth:`TriadFit.apply`); the inversion is checked against the forward model, never returned unchecked."""
-    g = gyro_dph(record)
+def _specific_force(record: Record, accelerometer: dict | None):
+    from gyrojax.data.segments import imutk_acc_model
+
     a = acc_g(record)
+    if a is None or not accelerometer:
+        return a
+    return imutk_acc_model(np.asarray(accelerometer["params"], dtype=float), a)
+
+
+def calibrated_rates(model, theta, record: Record, accelerometer: dict | None = None) -> np.ndarray:
+    """Body rates (n, 3) deg/h of a triad ``record`` under the channel ``model`` at ``theta`` (3p,), report units
+    (:meth:`TriadFit.apply`); the g-terms at the specific force as the fit saw it (calibrated by ``accelerometer``
+    when the fit calibrated it before the gyro fit). The inversion is checked against the forward model, never
+    returned unchecked."""
+    g = gyro_dph(record)
+    a = _specific_force(
+        record, accelerometer if accelerometer and accelerometer.get("calibrated_before_gyro_fit") else None
+    )
     th = np.asarray(theta, dtype=float).reshape(3, model.size)
     if a is None:
         uses_g = [n for n, v in zip(model.coefficient_names, th.T) if n in G_TERMS and np.any(v != 0)]
@@ -271,4 +292,5 @@ def _triad_fit_of(d: dict) -> TriadFit:
         convergence_note=str(d["fit"].get("reason", "")),
         variance_components={k: float(v) for k, v in d.get("variance_components", {}).items()},  # version 2
         segment_residuals=[dict(r) for r in d.get("segment_residuals", [])],
+        accelerometer=d.get("accelerometer"),  # absent in files before the accelerometer was fitted
     )
