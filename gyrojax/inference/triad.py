@@ -11,8 +11,13 @@ segments of ``imu-triad`` records (:mod:`gyrojax.data.triad`, as arrays by :mod:
   the rate (scale factor, misalignment, bias, g-terms) then depends on Θ only, never on the invented shape; the
   rate-nonlinear ones (E_A, E_2) use the shape to first order.
 
-Every coefficient enters linearly, so one generalized-least-squares solve fits them (exact derivatives by
-``jax.jacfwd`` of the same measurement model), through the one rank-cut least-squares core
+A **gravity-to-gravity move** is integrated from the body rates the whole channel model inverts
+(:func:`gyrojax.physics.triad.body_rates`: every named effect of the fit, E_A, E_2, trend and temperature
+included), its residual the Up direction carried against the one measured. The accelerometer's imu_tk model is
+fitted from the same rests (:mod:`gyrojax.inference.triad_accel`).
+
+Every coefficient enters the segment means linearly, so one generalized-least-squares solve fits them (exact
+derivatives by ``jax.jacfwd`` of the same measurement model), through the one rank-cut least-squares core
 (:func:`gyrojax.inference.solver.solve`) after the one identifiability analysis
 (:func:`gyrojax.inference.identifiability.alias_analysis`). The covariance of the segment means is built from
 
