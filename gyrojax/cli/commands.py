@@ -476,7 +476,8 @@ def import_summary(report: dict) -> str:
 
 
 def cmd_apply(args) -> int:
-    """``gyrojax apply FIT.json RECORDS --out DIR``: write calibrated body rates (deg/s) of imu-triad records."""
+    """``gyrojax apply FIT.json RECORDS --out DIR``: write calibrated body rates (deg/s) and specific force (g) of
+    imu-triad records."""
     import numpy as np
 
     from gyrojax.data.records import load_records
@@ -493,6 +494,9 @@ def cmd_apply(args) -> int:
             raise UsageError(f"{target}: exists; pass --force to overwrite")
         w = fit_res.apply(rec) / 3600.0
         cols = {"time_s": rec.time_s, "gyro_x_dps": w[:, 0], "gyro_y_dps": w[:, 1], "gyro_z_dps": w[:, 2]}
+        acc = fit_res.specific_force(rec)  # calibrated specific force beside the calibrated rates
+        if acc is not None:
+            cols.update({f"acc_{c}_g": acc[:, j] for j, c in enumerate("xyz")})
         lines = [",".join(cols)] + [
             ",".join(repr(float(v)) for v in row) for row in np.column_stack(list(cols.values()))
         ]

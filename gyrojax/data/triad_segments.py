@@ -47,7 +47,8 @@ class TriadSegment:
 class Move:
     """A gravity-to-gravity move (imu_tk): gyro samples ``g`` (n, 3) deg/h and specific force ``a`` (n, 3) g between
     two static poses whose Up directions in the body frame are ``u_from`` and ``u_to`` (unit vectors, from the
-    accelerometer); ``dt`` s; ``var_dir`` the variance (rad², per axis) of the two directions' noise."""
+    accelerometer); ``dt`` s; ``var_dir`` the variance (rad², per axis) of the two directions' noise; ``t_h`` (n,) h
+    and ``temp`` (n,) °C of the samples (time and temperature terms integrate along the move)."""
 
     name: str
     g: np.ndarray
@@ -57,6 +58,8 @@ class Move:
     u_to: np.ndarray
     var_dir: float
     earth_var: float = 0.0
+    t_h: np.ndarray | None = None
+    temp: np.ndarray | None = None
 
 
 def earth_terms(record, earth_rate: bool | None = None):
@@ -87,7 +90,7 @@ def triad_segments(record, earth_rate: bool | None = None):
     for spec in record.meta["segments"]:
         sel = np.flatnonzero(seg == spec["label"])
         if spec["type"] == "move":
-            mv = _move(record, spec, gyro, acc, t, seg)
+            mv = _move(record, spec, gyro, acc, t, seg, temp)
             # Up is fixed to the Earth, the gyro integrates the inertial rate: over the move the Earth turns Up by
             # Ω_h T about a horizontal axis of unknown heading, variance (Ω_h T)²/2 per component
             mv.earth_var = (horizontal * len(mv.g) * mv.dt * units.DEG_PER_H) ** 2 / 2.0
@@ -168,7 +171,7 @@ def triad_segments(record, earth_rate: bool | None = None):
     return out, resid, mode, moves
 
 
-def _move(record, spec: dict, gyro, acc, t, seg) -> Move:
+def _move(record, spec: dict, gyro, acc, t, seg, temp) -> Move:
     """The :class:`Move` of a ``move`` segment (module doc of :mod:`gyrojax.data.triad`)."""
     if acc is None:
         raise ModelError(f"{record.name}: move segment {spec['label']} needs the accelerometer (acc_<c>_g columns)")
@@ -186,4 +189,6 @@ def _move(record, spec: dict, gyro, acc, t, seg) -> Move:
     # the samples of the move plus the boundary samples, so that the integration spans the whole motion
     lo, hi = max(sel[0] - 1, 0), min(sel[-1] + 2, len(t))
     dt = (t[hi - 1] - t[lo]) / max(hi - lo - 1, 1)
-    return Move(spec.get("name", f"move-{spec['label']}"), gyro[lo:hi], acc[lo:hi], float(dt), u0, u1, v0 + v1)
+    name = spec.get("name", f"move-{spec['label']}")
+    th = t[lo:hi] / units.SECONDS_PER_HOUR
+    return Move(name, gyro[lo:hi], acc[lo:hi], float(dt), u0, u1, v0 + v1, t_h=th, temp=temp[lo:hi])

@@ -11,8 +11,13 @@ segments of ``imu-triad`` records (:mod:`gyrojax.data.triad`, as arrays by :mod:
   the rate (scale factor, misalignment, bias, g-terms) then depends on Θ only, never on the invented shape; the
   rate-nonlinear ones (E_A, E_2) use the shape to first order.
 
-Every coefficient enters linearly, so one generalized-least-squares solve fits them (exact derivatives by
-``jax.jacfwd`` of the same measurement model), through the one rank-cut least-squares core
+A **gravity-to-gravity move** is integrated from the body rates the whole channel model inverts
+(:func:`gyrojax.physics.triad.body_rates`: every named effect of the fit, E_A, E_2, trend and temperature
+included), its residual the Up direction carried against the one measured. The accelerometer's imu_tk model is
+fitted from the same rests (:mod:`gyrojax.inference.triad_accel`).
+
+Every coefficient enters the segment means linearly, so one generalized-least-squares solve fits them (exact
+derivatives by ``jax.jacfwd`` of the same measurement model), through the one rank-cut least-squares core
 (:func:`gyrojax.inference.solver.solve`) after the one identifiability analysis
 (:func:`gyrojax.inference.identifiability.alias_analysis`). The covariance of the segment means is built from
 
@@ -49,6 +54,7 @@ from gyrojax.errors import ConvergenceWarning, ModelError
 from gyrojax.inference.campaign import check_one_instrument
 from gyrojax.inference.identifiability import IdentifiabilityError, alias_analysis, alias_message, residue_columns
 from gyrojax.inference.solver import damped_least_squares, solve
+from gyrojax.inference.triad_accel import accelerometer_json, fit_accelerometer, needs_calibration
 from gyrojax.inference.triad_components import Group, estimate_components
 from gyrojax.inference.triad_result import TriadFit
 from gyrojax.noise.whiten import pooled_autocovariance
@@ -86,14 +92,15 @@ def _expm_so3(v):
     return jnp.eye(3) + a * k + b * (k @ k)
 
 
-def move_residual(model, theta, g, a, mask, dt, u_from, u_to):
+def move_residual(model, theta, g, a, t_h, temp, mask, dt, u_from, u_to):
     """Residual u_to − Rᵀ u_from of a gravity-to-gravity move: R is the body's rotation over the move, integrated
-    from the calibrated rates ω = S⁻¹ (ω_ind − b − G a) (sample by sample, exact exponential of each step's mean
-    rate); Up stays fixed in space, so the predicted Up at the end is Rᵀ u_from (imu_tk, Tedaldi et al. §IV-C).
-    ``g`` (n, 3) deg/h, ``a`` (n, 3) g, ``dt`` s, unit vectors ``u_from``/``u_to``; the residual is dimensionless.
-    ``mask`` (n−1,) is 1 for the steps of the move and 0 for padding (moves are padded to one length, one compile)."""
-    b, s, gm = linear_matrices(model, theta)
-    w = jnp.linalg.solve(s, (g - b - a @ gm.T).T).T * units.DEG_PER_H  # rad/s
+    from the calibrated rates ω of the whole channel model (:func:`gyrojax.physics.triad.body_rates`: bias, g-terms,
+    scale factor and misalignment, E_A, E_2, trend and temperature at each sample; sample by sample, exact
+    exponential of each step's mean rate); Up stays fixed in space, so the predicted Up at the end is Rᵀ u_from
+    (imu_tk, Tedaldi et al. §IV-C). ``g`` (n, 3) deg/h, ``a`` (n, 3) g, ``t_h`` (n,) h, ``temp`` (n,) °C, ``dt`` s,
+    unit vectors ``u_from``/``u_to``; the residual is dimensionless. ``mask`` (n−1,) is 1 for the steps of the move
+    and 0 for padding (moves are padded to one length, one compile)."""
+    w = tp.body_rates(model, theta.reshape(3, model.size), g, a, t_h, temp) * units.DEG_PER_H  # rad/s
     steps = 0.5 * (w[1:] + w[:-1]) * dt * mask[:, None]
 
     def step(r, v):
@@ -103,15 +110,15 @@ def move_residual(model, theta, g, a, mask, dt, u_from, u_to):
     return u_to - r.T @ u_from
 
 
-def _moves_residual(model, theta, g, a, mask, dt, u_from, u_to):
+def _moves_residual(model, theta, g, a, t_h, temp, mask, dt, u_from, u_to):
     """:func:`move_residual` of every move at once (arrays of :func:`pack_moves`: gyro deg/h, specific force g,
-    dt s, Up directions unit vectors); (M, 3), dimensionless."""
-    return jax.vmap(move_residual, in_axes=(None, None, 0, 0, 0, 0, 0, 0))(model, theta, g, a, mask, dt, u_from, u_to)
+    time h, temperature °C, dt s, Up directions unit vectors); (M, 3), dimensionless."""
+    axes = (None, None) + (0,) * 8
+    return jax.vmap(move_residual, in_axes=axes)(model, theta, g, a, t_h, temp, mask, dt, u_from, u_to)
 
 
 moves_residual_jit = jax.jit(_moves_residual, static_argnums=0)
 moves_jacobian_jit = jax.jit(jax.jacfwd(_moves_residual, argnums=1), static_argnums=0)
-LINEAR_TERMS = ("D_F", "D_I", "D_O", "D_S", "sf_error", "ia_misalignment")
 
 
 def long_run_variance(resid: list[np.ndarray], max_lag: int = NW_MAX_LAG) -> np.ndarray:
@@ -212,6 +219,10 @@ def fit_triad(
     if not is_triad_input(recs):
         raise ModelError("fit_triad takes imu-triad records only")
     check_one_instrument(recs)
+    acc_fit = fit_accelerometer(recs)
+    if needs_calibration(acc_fit, recs):  # off g beyond the tolerance: calibrated here, never taken on trust
+        recs = [with_calibrated_accelerometer(r, acc_fit) for r in recs]
+        acc_fit["applied"] = True
     segments, resid, modes, moves = [], [], set(), []
     for r in recs:
         s, q, mode, mv = triad_segments(r, earth_rate)
@@ -225,11 +236,6 @@ def fit_triad(
     if terms is None:
         terms = DEFAULT_ROTATION_TERMS if has_rot else DEFAULT_STATIC_TERMS
     model = tp.channel_model(terms)
-    if moves and any(t not in LINEAR_TERMS for t in model.terms):
-        raise ModelError(
-            f"gravity-to-gravity moves integrate the calibrated rate of the linear model ({', '.join(LINEAR_TERMS)}); "
-            f"drop {[t for t in model.terms if t not in LINEAR_TERMS]}"
-        )
     names = [tp.channel_name(c, ch) for ch in tp.CHANNELS for c in model.coefficient_names]
     q = long_run_variance(resid) if noise_q is None else _channel_variances(noise_q)
 
@@ -325,11 +331,12 @@ def fit_triad(
             "also M_O, M_S times it in D_O, D_S); the horizontal Earth rate (unknown heading) is marginalised with "
             "its mean square over the sites of the sphere, (2/3) (15.04 deg/h)^2"
         )
+    s_fit = np.asarray(linear_matrices(model, jnp.asarray(theta))[1])
     if dof > 0 and stats.chi2.sf(chi2, dof) < 0.01:
-        comp = _components_report(tau2)
+        comp = _components_report(tau2, s_fit)
         if any(v > 0 for v in comp.values()):
             tail = "the standard errors include the variance components estimated by REML: " + ", ".join(
-                f"{k} {v:.3g}" for k, v in comp.items()
+                f"{k} {v:.3g}" for k, v in comp.items() if "indicated" not in k
             )
         else:
             tail = "the standard errors assume the noise model and may be too small"
@@ -361,9 +368,21 @@ def fit_triad(
         iterations=iterations,
         converged=not why,
         convergence_note=why,
-        variance_components=_components_report(tau2),
+        variance_components=_components_report(tau2, s_fit),
         segment_residuals=seg_rows,
+        accelerometer=accelerometer_json(acc_fit),
     )
+
+
+def with_calibrated_accelerometer(record: Record, acc_fit: dict) -> Record:
+    """``record`` with its ``acc_<c>_g`` columns calibrated by the fitted accelerometer model."""
+    from gyrojax.inference.triad_accel import calibrate
+
+    a = calibrate(acc_fit, np.column_stack([record.columns[f"acc_{c}_g"] for c in tp.CHANNELS]))
+    cols = dict(record.columns)
+    for j, c in enumerate(tp.CHANNELS):
+        cols[f"acc_{c}_g"] = a[:, j]
+    return Record(record.meta, cols)
 
 
 def _channel_variances(noise_q) -> np.ndarray:
@@ -381,8 +400,8 @@ def _channel_variances(noise_q) -> np.ndarray:
 
 
 def _scale_coefficient(name: str) -> bool:
-    """True for the coefficients of S (E_SF, M_O, M_S of any channel)."""
-    return tp.split_channel_name(name)[0] in ("E_SF", "M_O", "M_S")
+    """True for the coefficients that multiply the rate (E_SF, M_O, M_S, E_A, E_2 of any channel)."""
+    return tp.split_channel_name(name)[0] in ("E_SF", "M_O", "M_S", "E_A", "E_2")
 
 
 def whiten_segments(segments, resid, jac, q, s_mat, pose_var: float = 0.0):
@@ -430,11 +449,17 @@ def _check_moves_converged(model, theta, packed, moves) -> None:
         )
 
 
-def _components_report(tau2: dict) -> dict:
-    """The REML components as standard deviations in report units (empty when none were estimated)."""
+def _components_report(tau2: dict, s_mat=None) -> dict:
+    """The REML components as standard deviations in report units (empty when none were estimated). The per-pose
+    bias scatter τ_b is estimated in indicated units (τ_b² I₃ on each pose's rows); reported in calibrated deg/h,
+    the rms over the body axes of S⁻¹ τ_b² S⁻ᵀ (τ_b √(tr(S⁻¹ S⁻ᵀ)/3) at the fitted S: independent of the nominal
+    scale given at import), and as estimated, ``pose_bias_scatter_indicated_deg_per_h``."""
     out = {}
     if "pose" in tau2:
-        out["pose_bias_scatter_deg_per_h"] = float(np.sqrt(tau2["pose"]))
+        s_inv = np.linalg.inv(np.eye(3) if s_mat is None else np.asarray(s_mat))
+        tau = float(np.sqrt(tau2["pose"]))
+        out["pose_bias_scatter_deg_per_h"] = tau * float(np.sqrt(np.trace(s_inv @ s_inv.T) / 3.0))
+        out["pose_bias_scatter_indicated_deg_per_h"] = tau
     if "move" in tau2:
         out["move_angle_noise_deg"] = float(np.degrees(np.sqrt(tau2["move"])))
     return out
@@ -522,20 +547,27 @@ def _move_whitening(moves, q, s_mat, angle_var_extra: float = 0.0) -> list:
 
 
 def pack_moves(moves) -> tuple:
-    """The moves padded to one length: (g (M, L, 3), a (M, L, 3), mask (M, L−1), dt (M,), u_from (M, 3), u_to)."""
+    """The moves padded to one length: (g (M, L, 3), a (M, L, 3), t_h (M, L), temp (M, L), mask (M, L−1), dt (M,),
+    u_from (M, 3), u_to); a move without times or temperatures gets 0 h and 20 °C."""
     length = max(len(m.g) for m in moves)
     g = np.zeros((len(moves), length, 3))
     a = np.zeros((len(moves), length, 3))
+    t_h = np.zeros((len(moves), length))
+    temp = np.full((len(moves), length), 20.0)
     mask = np.zeros((len(moves), length - 1))
     for i, m in enumerate(moves):
         n = len(m.g)
         g[i, :n], a[i, :n] = m.g, m.a
         g[i, n:], a[i, n:] = m.g[-1], m.a[-1]
+        if m.t_h is not None:
+            t_h[i, :n], t_h[i, n:] = m.t_h, m.t_h[-1]
+        if m.temp is not None:
+            temp[i, :n], temp[i, n:] = m.temp, m.temp[-1]
         mask[i, : n - 1] = 1.0
     dt = np.array([m.dt for m in moves])
     u0 = np.array([m.u_from for m in moves])
     u1 = np.array([m.u_to for m in moves])
-    return tuple(jnp.asarray(x) for x in (g, a, mask, dt, u0, u1))
+    return tuple(jnp.asarray(x) for x in (g, a, t_h, temp, mask, dt, u0, u1))
 
 
 def _move_rows(model, theta, packed, whitening):

@@ -33,7 +33,6 @@ import jax.numpy as jnp
 import numpy as np
 from scipy import stats
 
-from gyrojax import units
 from gyrojax.data.record import Record
 from gyrojax.data.triad import gyro_dph
 from gyrojax.data.triad_segments import triad_segments
@@ -139,24 +138,8 @@ def default_terms(records) -> tuple:
 # ---- the rows of the fit ----------------------------------------------------------------------------------------
 
 _move_dr_dg = jax.jit(
-    jax.vmap(jax.jacrev(tf.move_residual, argnums=2), in_axes=(None, None, 0, 0, 0, 0, 0, 0)), static_argnums=0
+    jax.vmap(jax.jacrev(tf.move_residual, argnums=2), in_axes=(None, None, 0, 0, 0, 0, 0, 0, 0, 0)), static_argnums=0
 )
-
-
-def _move_times(record: Record):
-    """Per move segment: (t_h, temperature °C) of the samples the fit integrates (the move and its boundaries)."""
-    t = np.asarray(record.time_s, dtype=float)
-    temp = record.columns.get("temperature_C")
-    temp = np.full(len(t), 20.0) if temp is None else np.asarray(temp, dtype=float)
-    seg = np.asarray(record.columns["segment"]).astype(int)
-    out = []
-    for spec in record.meta["segments"]:
-        if spec["type"] != "move":
-            continue
-        sel = np.flatnonzero(seg == spec["label"])
-        lo, hi = max(sel[0] - 1, 0), min(sel[-1] + 2, len(t))
-        out.append((t[lo:hi] / units.SECONDS_PER_HOUR, temp[lo:hi]))
-    return out
 
 
 def session_data(records, fit, earth_rate=None) -> dict:
@@ -171,13 +154,13 @@ def session_data(records, fit, earth_rate=None) -> dict:
         moves.extend(mv)
         seg_rec += [i] * len(s)
         mv_rec += [i] * len(mv)
-        mv_times.extend(_move_times(r))
+        mv_times.extend((m.t_h, m.temp) for m in mv)  # the samples the fit integrates
         gyro_dph(r)  # refuses a record without gyro columns here, by name
     q = np.asarray(fit.noise_q, dtype=float)
     b, s_mat, g_mat = (np.asarray(m) for m in tf.linear_matrices(model, jnp.asarray(theta)))
     comp = fit.variance_components or {}
     tau2 = {
-        "pose": comp.get("pose_bias_scatter_deg_per_h", 0.0) ** 2,
+        "pose": comp.get("pose_bias_scatter_indicated_deg_per_h", comp.get("pose_bias_scatter_deg_per_h", 0.0)) ** 2,
         "move": math.radians(comp.get("move_angle_noise_deg", 0.0)) ** 2,
     }
     arrays = tf.pack_segments(segments)

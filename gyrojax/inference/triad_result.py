@@ -1,5 +1,5 @@
 """The result of a triad fit: per-channel coefficients with their covariance, the matrix forms (b, S, G; imucal's
-and Kalibr's), the calibration of records by the linear model, and the saved file it is read back from
+and Kalibr's), the calibration of records by the fitted model, and the saved file it is read back from
 (:mod:`gyrojax.protocol`, format :data:`~gyrojax.inference.formats.TRIAD_FORMAT`)."""
 
 from __future__ import annotations
@@ -42,6 +42,7 @@ class TriadFit(Estimates):
     convergence_note: str = ""  # why the moves' fit did not converge ("" when it did)
     variance_components: dict = field(default_factory=dict)  # REML: pose bias scatter deg/h, move angle noise deg
     segment_residuals: list = field(default_factory=list)  # per pose/rotation/move: whitened, natural, chi2
+    accelerometer: dict | None = None  # imu_tk's 9 parameters with σ (inference.triad_accel.accelerometer_json)
 
     def chi2_drivers(self, top: int = 3) -> list:
         """The segments with the largest share of χ² (white-noise model): [(name, share)], largest first."""
@@ -69,22 +70,19 @@ class TriadFit(Estimates):
         return tp.matrices(self.values)
 
     def apply(self, record: Record) -> np.ndarray:
-        """Calibrated body rates (n, 3) deg/h of a triad record: ω = S⁻¹ (ω_ind − b − G a) (the linear model; the
-        Earth rate is part of ω, as a navigator wants it). Refuses rate-nonlinear effects and missing
-        accelerometer columns when G ≠ 0."""
-        nonlin = [
-            t for t in self.model.terms if t in ("sf_asymmetry", "sf_quadratic", "bias_trend", "bias_temperature")
-        ]
-        if nonlin:
-            raise ModelError(f"apply inverts the linear model only; this fit has {nonlin}: refit without them")
-        m = self.matrices()
-        g = gyro_dph(record)
-        a = acc_g(record)
-        if a is None:
-            if np.any(m["G"] != 0):
-                raise ModelError(f"{record.name}: the fit has g-sensitivity but the record has no acc_<c>_g columns")
-            a = np.zeros_like(g)
-        return np.linalg.solve(m["S"], (g - m["b"] - a @ m["G"].T).T).T
+        """Calibrated body rates (n, 3) deg/h of a triad record: the model the fit used solved for ω
+        (:func:`gyrojax.physics.triad.body_rates`: ω = S⁻¹ (ω_ind − b − G a) for the linear model; g²-terms, E_A,
+        E_2, trend (at the record's ``time_s``) and temperature (its ``temperature_C`` column) included). The Earth
+        rate is part of ω, as a navigator wants it. Refuses a record without the accelerometer columns when the
+        model has g-terms, without ``temperature_C`` when it has ``bias_temperature``, and an inversion that does
+        not reproduce the indicated rates (to 1e-9 of their size)."""
+        return calibrated_rates(self.model, self.theta, record, self.accelerometer)
+
+    def specific_force(self, record: Record) -> np.ndarray | None:
+        """Calibrated specific force (n, 3) g of a triad record by the fitted accelerometer model (imu_tk's
+        a_cal = T K (a − b)); the record's own when the fit has no accelerometer model (fewer than 9 poses, whose
+        |a| the fit then checked against g); None without accelerometer columns."""
+        return _specific_force(record, self.accelerometer)
 
     def to_json(self) -> dict:
         """The fit JSON (conventions §7 shape, per-channel names ``D_F[x]``), with the matrix forms."""
@@ -144,6 +142,7 @@ class TriadFit(Estimates):
                 **({"reason": self.convergence_note} if not self.converged else {}),
             },
             "notes": list(self.notes),
+            **({"accelerometer": self.accelerometer} if self.accelerometer else {}),
             "gyrojax_version": __version__,
         }
 
@@ -176,12 +175,58 @@ class TriadFit(Estimates):
         if any(v > 0 for v in self.variance_components.values()):
             lines.append(
                 "sigma include the variance components (REML): "
-                + ", ".join(f"{k} {v:.3g}" for k, v in self.variance_components.items())
+                + ", ".join(f"{k} {v:.3g}" for k, v in self.variance_components.items() if "indicated" not in k)
             )
         if not self.converged:
             lines.append(f"not converged: {self.convergence_note}")
         lines.extend(f"note: {n}" for n in self.notes)
         return "\n".join(lines)
+
+
+G_TERMS = ("D_I", "D_O", "D_S", "D_II", "D_OO", "D_SS", "D_IO", "D_IS", "D_OS")
+INVERSION_RTOL = 1e-9  # relative residual of the indicated rates above which apply's inversion has failed
+
+
+def _specific_force(record: Record, accelerometer: dict | None):
+    from gyrojax.data.segments import imutk_acc_model
+
+    a = acc_g(record)
+    if a is None or not accelerometer:
+        return a
+    return imutk_acc_model(np.asarray(accelerometer["params"], dtype=float), a)
+
+
+def calibrated_rates(model, theta, record: Record, accelerometer: dict | None = None) -> np.ndarray:
+    """Body rates (n, 3) deg/h of a triad ``record`` under the channel ``model`` at ``theta`` (3p,), report units
+    (:meth:`TriadFit.apply`); the g-terms at the specific force as the fit saw it (calibrated by ``accelerometer``
+    when the fit calibrated it before the gyro fit). The inversion is checked against the forward model, never
+    returned unchecked."""
+    g = gyro_dph(record)
+    a = _specific_force(
+        record, accelerometer if accelerometer and accelerometer.get("calibrated_before_gyro_fit") else None
+    )
+    th = np.asarray(theta, dtype=float).reshape(3, model.size)
+    if a is None:
+        uses_g = [n for n, v in zip(model.coefficient_names, th.T) if n in G_TERMS and np.any(v != 0)]
+        if uses_g:
+            raise ModelError(f"{record.name}: the fit has g-sensitivity {uses_g} but no acc_<c>_g columns")
+        a = np.zeros_like(g)
+    t_h = np.asarray(record.time_s, dtype=float) / units.SECONDS_PER_HOUR
+    temp = record.columns.get("temperature_C")
+    if temp is None:
+        if "bias_temperature" in model.terms:
+            raise ModelError(f"{record.name}: the fit has bias_temperature but the record has no temperature_C column")
+        temp = np.full(len(g), 20.0)
+    temp = np.asarray(temp, dtype=float)
+    w = np.asarray(tp.body_rates(model, th, g, a, t_h, temp))
+    back = np.asarray(tp.triad_output(model, th, w, a, t_h, temp))
+    err = float(np.max(np.abs(back - g))) if len(g) else 0.0
+    if not np.isfinite(err) or err > INVERSION_RTOL * max(float(np.max(np.abs(g))), 1.0):
+        raise ModelError(
+            f"{record.name}: the fitted model cannot be inverted for the body rate at every sample (largest "
+            f"indicated-rate mismatch {err:.3g} deg/h): its rate-nonlinear terms are too large for these rates"
+        )
+    return w
 
 
 def _jsonable(d: dict) -> dict:
@@ -247,4 +292,5 @@ def _triad_fit_of(d: dict) -> TriadFit:
         convergence_note=str(d["fit"].get("reason", "")),
         variance_components={k: float(v) for k, v in d.get("variance_components", {}).items()},  # version 2
         segment_residuals=[dict(r) for r in d.get("segment_residuals", [])],
+        accelerometer=d.get("accelerometer"),  # absent in files before the accelerometer was fitted
     )

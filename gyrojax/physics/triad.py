@@ -85,6 +85,37 @@ def triad_output(model: Model, theta, w_body, a_body, t_h, temperature_C):
     return jnp.stack(outs, axis=1)
 
 
+BODY_RATE_ITERATIONS = 6
+"""Chord steps of :func:`body_rates` for a model nonlinear in the rate: each divides the error by about
+1/(2 |E_A| + 4 |E_2| ω) (≥ 10³ for MEMS sizes), so six leave it at the rounding of float64."""
+
+
+def rate_nonlinear(model: Model) -> bool:
+    """True when some effect of ``model`` is not linear in the input rate (E_A, E_2): ω must then be found by
+    iteration, not one solve."""
+    return not all(e.linear_in_rate for e in model.effects)
+
+
+def body_rates(model: Model, theta, w_ind, a_body, t_h, temperature_C, iterations: int = BODY_RATE_ITERATIONS):
+    """The body rates (n, 3) deg/h that make the channels indicate ``w_ind`` (n, 3) deg/h: :func:`triad_output`
+    solved for ω (Hu 2-45 inverted), every effect of ``model`` included (g- and g²-terms, trend, temperature at
+    ``a_body`` g, ``t_h`` h, ``temperature_C`` °C; ``theta`` (3, p) report units).
+
+    The rate enters as ω_ind = B + S ω + N(ω): B every term at ω = 0, S the linear scale-and-misalignment matrix,
+    N the rate-nonlinear terms (E_A |ω_I|, E_2 ω_I²). ω = S⁻¹ (ω_ind − B) is exact without N; with N the chord
+    iteration ω ← ω + S⁻¹ (ω_ind − ω_ind(ω)) follows (``iterations`` steps). Differentiable in θ (jax)."""
+    th = jnp.asarray(theta)
+    n = w_ind.shape[0]
+    bias = triad_output(model, th, jnp.zeros((n, 3)), a_body, t_h, temperature_C)
+    eye, zero, t0, temp0 = jnp.eye(3), jnp.zeros((3, 3)), jnp.zeros(3), jnp.full(3, 20.0)
+    s = (triad_output(model, th, eye, zero, t0, temp0) - triad_output(model, th, zero, zero, t0, temp0)).T
+    w = jnp.linalg.solve(s, (w_ind - bias).T).T
+    if rate_nonlinear(model):
+        for _ in range(iterations):
+            w = w + jnp.linalg.solve(s, (w_ind - triad_output(model, th, w, a_body, t_h, temperature_C)).T).T
+    return w
+
+
 # ---- matrix forms ----------------------------------------------------------------------------------------------
 
 

@@ -141,7 +141,9 @@ def move_fisher(model, up_from, axis, angle, duration, rest_from, rest_to, noise
         mask = jnp.ones(n + 1)
 
         def resid(theta):
-            return move_residual(model, theta, g, a, mask, dt, u, u_to)
+            t_h = jnp.zeros(n + 2)  # a designed move: no trend time, the reference temperature
+            temp = jnp.full(n + 2, 20.0)
+            return move_residual(model, theta, g, a, t_h, temp, mask, dt, u, u_to)
 
         jac = jax.jacfwd(resid)(_theta0(model))
         span_h = (dur + 2.0 / noise.rate_hz) / units.SECONDS_PER_HOUR
