@@ -12,7 +12,7 @@ from scipy import stats
 from gyrojax.cli.app import main
 from gyrojax.data.record import Record
 from gyrojax.data.records import save_record
-from gyrojax.inference.triad_diagnose import diagnose_triad
+from gyrojax.inference.triad_diagnose import add_and_refit_triad, diagnose_triad
 from gyrojax.montecarlo.triad import mems_truth
 from gyrojax.physics import plausibility
 from gyrojax.simulation.triad import simulate_multiposition
@@ -114,17 +114,22 @@ def test_mems_plausible_sizes():
 
 
 def test_cli_diagnose_triad(tmp_path, capsys):
-    """``gyrojax diagnose`` takes imu-triad records: text and --json, exit 0; a planted E_A is on top in both, and
-    is not proposed while `fit` refuses it (a session with moves)."""
+    """``gyrojax diagnose`` takes imu-triad records: text and --json, exit 0; a planted E_A (a session with moves)
+    is on top in both and proposed; adding it (``add_and_refit_triad``) recovers it within 4σ and the excess goes."""
     rec = session(3, {"E_A[x]": 1500.0})
     path = save_record(rec, tmp_path)
     assert main(["diagnose", str(path), "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
     assert d["instrument"] == "imu-triad" and d["verdict"] == "missing-effect"
     assert d["candidates"][0]["name"] == "sf_asymmetry[x]"
-    # fit refuses E_A in a session with moves today: the candidate says so and nothing is proposed
-    assert "moves" in d["candidates"][0]["refused"] and d["proposal"] is None
+    # the moves carry E_A (the whole model is integrated along them): proposed, not refused
+    assert d["candidates"][0]["refused"] is None and d["proposal"] == "sf_asymmetry"
     assert {"noise_processes", "chi2_with_components", "unexplained", "family_size"} <= set(d)
     assert main(["diagnose", str(path)]) == 0
     out = capsys.readouterr().out
     assert "verdict: missing-effect" in out and "sf_asymmetry[x]" in out
+    terms, fit, after, added = add_and_refit_triad(rec)
+    assert added == "sf_asymmetry" and "sf_asymmetry" in terms
+    i = fit.names.index("E_A[x]")
+    assert abs(fit.theta[i] - 1500.0) < 4.0 * fit.std[i], (fit.theta[i], fit.std[i])
+    assert not any(c.name == "sf_asymmetry[x]" and c.p_adjusted < ALPHA for c in after.candidates)

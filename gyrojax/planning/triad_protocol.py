@@ -30,7 +30,7 @@ import optax
 from scipy.spatial.transform import Rotation
 
 from gyrojax.errors import ModelError
-from gyrojax.inference.triad import LINEAR_TERMS
+from gyrojax.inference.triad import DEFAULT_ROTATION_TERMS as LINEAR_TERMS  # bias, g-terms, scale, misalignment
 from gyrojax.physics import effects as fx
 from gyrojax.physics import triad as tp
 from gyrojax.planning.triad_fisher import (
