@@ -144,7 +144,8 @@ _move_dr_dg = jax.jit(
 
 def session_data(records, fit, earth_rate=None) -> dict:
     """The fit's rows rebuilt at its θ: segments and moves, the whitened residual and Jacobian of the current model
-    (with the fit's variance components), and each segment's and move's channel inputs for the regressors."""
+    (with the fit's variance components), and each segment's and move's channel inputs for the regressors (rates
+    in deg/h, specific force in g, time in h); ``earth_rate`` as :func:`gyrojax.inference.triad.fit_triad` takes it."""
     recs = [records] if isinstance(records, Record) else list(records)
     model, theta = fit.model, np.asarray(fit.theta, dtype=float)
     segments, moves, seg_rec, mv_rec, mv_times = [], [], [], [], []
@@ -354,7 +355,8 @@ def _groups(data: dict, extra: list) -> list:
 
 def with_components(data: dict, extra: list) -> dict:
     """``data`` whitened with the variance components re-estimated by REML with the candidates ``extra`` (raw
-    columns) among the fixed effects: a missing effect is then not taken for pose scatter or move angle noise."""
+    columns) among the fixed effects: a missing effect is then not taken for pose scatter (deg/h) or move angle
+    noise (rad)."""
     tau2, _why = estimate_components(_groups(data, extra))
     out = dict(data)
     out["tau2"] = {"pose": tau2.get("pose", 0.0), "move": tau2.get("move", 0.0)}

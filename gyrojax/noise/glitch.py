@@ -42,7 +42,8 @@ MIN_PIECE = 16
 
 
 def spikes(y) -> tuple[np.ndarray, np.ndarray]:
-    """Indices of the spikes of one rate series (module doc) and the running median there (their replacement)."""
+    """Indices of the spikes of one rate series (module doc) and the running median there (their replacement,
+    in the units of the series)."""
     y = np.asarray(y, float)
     if len(y) < 2 * SPIKE_HALF_WINDOW + 2:
         return np.zeros(0, int), np.zeros(0)
@@ -56,7 +57,8 @@ def spikes(y) -> tuple[np.ndarray, np.ndarray]:
 
 
 def stuck_runs(y) -> list[tuple[int, int]]:
-    """(start, end) index ranges (end exclusive) of the stuck stretches of one rate series (module doc)."""
+    """(start, end) index ranges (end exclusive) of the stuck stretches of one rate series (module doc; any
+    units of the series)."""
     y = np.asarray(y, float)
     n = len(y)
     if n < STUCK_MIN_RUN:

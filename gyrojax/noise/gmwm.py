@@ -181,9 +181,10 @@ TAU_MIN_SAMPLES = 3.0
 
 
 def gm_tau_limits(m) -> tuple[float, float]:
-    """(T_min, T_max) of a Gauss–Markov component, in samples, for a fit at half-widths ``m``: from
-    max(:data:`TAU_MIN_SAMPLES`, the shortest scale) to the longest scale. A longer T shows only its rising +½ part
-    inside the record (a rate random walk, which the candidates hold); a shorter one is white at every scale."""
+    """(T_min, T_max) of a Gauss–Markov component, in samples (dimensionless; × dt for s), for a fit at
+    half-widths ``m``: from max(:data:`TAU_MIN_SAMPLES`, the shortest scale) to the longest scale. A longer T
+    shows only its rising +½ part inside the record (a rate random walk, which the candidates hold); a shorter
+    one is white at every scale."""
     m = np.asarray(m, float)
     return max(TAU_MIN_SAMPLES, float(m.min())), max(float(m.max()), 2.0 * TAU_MIN_SAMPLES)
 

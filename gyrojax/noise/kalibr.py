@@ -60,7 +60,8 @@ def densities(out: dict, si_per_unit: float = RAD_PER_S_PER_DEG_PER_H) -> dict:
 
 def kalibr_figures(gyro: dict, accel: dict | None, update_rate_hz: float, rostopic: str) -> dict:
     """The ``kalibr`` object of ``gyrojax noise --json``: per sensor the largest of its channels' densities
-    (``gyro``/``accel``: channel name → :func:`densities`), ``update_rate``, ``rostopic`` and the channels."""
+    (``gyro``/``accel``: channel name → :func:`densities`), ``update_rate`` (Hz), ``rostopic`` and the channels;
+    densities in Kalibr's units, rad/s/√Hz and m/s²/√Hz."""
     out = {"rostopic": rostopic, "update_rate": float(update_rate_hz), "channels": {"gyroscope": gyro}}
     for sensor, chans in (("gyroscope", gyro), ("accelerometer", accel)):
         if not chans:

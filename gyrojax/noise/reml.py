@@ -538,7 +538,8 @@ def values(s: Series, us, reml: bool) -> np.ndarray:
     """−2 log L (without the column-scaling constant) at each row of ``us`` (k, 3), by the compiled likelihood terms
     (forward only: a quarter of the value-and-gradient's time, and the function :func:`neg2_loglik` compiles for the
     same shapes anyway; measured faster than a vmapped batch on 2 CPU cores). Every point is dispatched before the
-    first is read back, so the device never waits for the host between them."""
+    first is read back, so the device never waits for the host between them. ``us`` in the units of
+    :func:`neg2_loglik`'s noise parameters."""
     c = 1.0 if reml else 0.0
     terms = [likelihood_terms_jit(np.exp(np.asarray(u, dtype=float)), *s.arrays, s.readout) for u in us]
     return np.array([float(logs) + float(quad) + c * float(logdet) for logs, quad, logdet in terms])

@@ -92,7 +92,7 @@ BODY_RATE_ITERATIONS = 6
 
 def rate_nonlinear(model: Model) -> bool:
     """True when some effect of ``model`` is not linear in the input rate (E_A, E_2): ω must then be found by
-    iteration, not one solve."""
+    iteration, not one solve (dimensionless answer: the model's form, not its units)."""
     return not all(e.linear_in_rate for e in model.effects)
 
 

@@ -104,6 +104,7 @@ class TriadCriterion:
 
     @classmethod
     def parse(cls, text: str, model) -> "TriadCriterion":
+        """``D``, ``A`` or ``c:COEF=w,...`` (per-channel names, e.g. ``c:E_SF[x]``) for ``model``."""
         names = coefficient_names(model)
         head, _, rest = text.partition(":")
         if head in ("D", "A") and not rest:
@@ -294,6 +295,7 @@ class TriadProtocol:
     history: np.ndarray
 
     def fisher(self) -> np.ndarray:
+        """The protocol's Fisher information (:func:`gyrojax.planning.triad_fisher.steps_fisher`), θ order."""
         return steps_fisher(triad_model(self.terms), self.start_attitude, self.steps, self.noise)
 
     def table(self) -> list[dict]:

@@ -43,7 +43,8 @@ def _rot(axis, angle_rad: float) -> np.ndarray:
 
 
 def body_axis_name(axis) -> str:
-    """``"x"``, ``"-y"``, … for a body axis along ±e_i (a known-angle turn needs one); :class:`ModelError` else."""
+    """``"x"``, ``"-y"``, … for a body axis along ±e_i (a known-angle turn needs one; its angle in deg);
+    :class:`ModelError` else."""
     key = tuple(int(round(float(x))) for x in axis)
     if key not in AXIS_NAMES or np.max(np.abs(np.asarray(axis, dtype=float) - np.asarray(key))) > 1e-9:
         raise ModelError(f"a known-angle turn is about a body axis ±x, ±y or ±z; got {list(axis)}")
@@ -52,7 +53,7 @@ def body_axis_name(axis) -> str:
 
 def check_steps(steps) -> None:
     """Refuse a protocol whose steps cannot be run: unknown types, non-positive times, a first or last step that
-    is not a rest, a move not between two rests; the message names the step."""
+    is not a rest, a move not between two rests; times in s; the message names the step."""
     if not steps or steps[0].get("type") != "rest" or steps[-1].get("type") != "rest":
         raise ModelError("a protocol starts and ends with a rest")
     for i, s in enumerate(steps):
