@@ -149,7 +149,10 @@ def satterthwaite_dof(lin, campaign: Campaign, noises, scales) -> np.ndarray:
 
     Drift slower than a position is seen only in the scatter of the position means: an 8-position test leaves a
     handful of such degrees of freedom, and a plug-in σ̂ then covers ±2σ in ~0.88 of the cases, not 0.954.
-    A τ at its cap is held fixed. Records with an AR or white model add nothing (their ν is large).
+    A τ at its cap is held fixed. Records with an AR or white model add nothing (their ν is large). A servo
+    readout's known noise (``readout_var``) is in the likelihood and the Gram matrix as in the fit: without it the
+    curvature is that of another likelihood, away from its optimum (white-noise polar servo campaigns that kept
+    a short-τ drift got ν ≈ 1 and standard errors 7–8 × too wide, issue 28).
     Returns ν (dimensionless, ≥ 1; ``inf`` where no noise parameter was estimated).
     """
     rw, jw = stack_whitened(lin, noises, scales)
@@ -162,7 +165,7 @@ def satterthwaite_dof(lin, campaign: Campaign, noises, scales) -> np.ndarray:
             continue
         r, j, lab, t = group_series(lin, idx)
         theta = nz.whitening_theta()
-        series = reml.prepare(r, j, lab, t, FIT_TAU_SPAN_FRACTION)
+        series = reml.prepare(r, j, lab, t, FIT_TAU_SPAN_FRACTION, readout_var=nz.readout_var)
         free = [1, 2] if nz.gm_tau >= 0.999 * series.tau_max else [0, 1, 2]
         hess = reml.reml_hessian(series, theta)[np.ix_(free, free)]
         if not np.all(np.isfinite(hess)):
@@ -178,7 +181,8 @@ def satterthwaite_dof(lin, campaign: Campaign, noises, scales) -> np.ndarray:
         w, vec = np.linalg.eigh(0.5 * (hess + hess.T))  # −2 log L_R: information = hess / 2
         w = np.maximum(w, 1e-9 * max(float(w.max()), 1e-300))
         cov_u = 2.0 * (vec / w) @ vec.T
-        _, dgram = reml.whitened_gram(reml.prepare(r, j, lab, t, FIT_TAU_SPAN_FRACTION, select=False), theta)
+        full = reml.prepare(r, j, lab, t, FIT_TAU_SPAN_FRACTION, select=False, readout_var=nz.readout_var)
+        _, dgram = reml.whitened_gram(full, theta)
         grad = -np.einsum("ki,ija,jk->ka", cov, dgram, cov)[:, free]  # ∂V_k/∂u = −(V ∂A/∂u V)_kk
         var_v += np.einsum("ka,ab,kb->k", grad, cov_u, grad)
     with np.errstate(divide="ignore", invalid="ignore"):
