@@ -21,8 +21,15 @@ the report says) where the ±1σ half-width is under 15 %; headline N and B (cur
 Then 40 spikes of 50σ and a 20 s stuck stretch are planted (seeded): the report must name 40 spikes and one stuck
 stretch of 20 s, and N, B must move by less than 10 %.
 
-Measured (2026-12-02, gyro X/Y/Z, ~35 s per fit): see the table this script prints; the numbers are in the
-docs (docs/concepts.md, GMWM section).
+Measured (2026-12-02, 2 cores, 30 s in all; CSV sha256 3fe529fc…): x and z PASS, y FAILS the ADEV check only.
+Models x white+2gm, y white+gm+rw, z white+gm+rw; no bound, duplicate or sub-sample component; fitted from
+τ = 0.16 s (the sensor's filter, named). Misfit max +5.8 % (x, 82 s), +21.4 % (y, 416 s, half-width 14 %), +6.6 %
+(z, 416 s). N curve | model 2.45 | 2.39, 2.58 | 2.53, 2.32 | 2.32 deg/√h; B 38.3 | 40.5, 45.6 | 43.3, 43.9 |
+44.2 deg/h at τ = 82 s. Planted glitches: 40 spikes and 1 stuck stretch of 20.0 s found on every axis; largest
+move 0.3 % (curve), 5.8 % (model B, z). Numbers also in docs/cli.md (noise).
+
+Conversion (outside the repository): ``rdata.parser.parse_file`` + ``rdata.conversion.convert`` give the 10^6 × 6
+matrix (columns "Gyro. X" … "Accel. Z", attributes ``sensor``, ``axis``, ``freq`` = 100); time_s = row/100.
 
 Run: PYTHONPATH=. python benchmarks/study_noise_real.py /path/adis16405_imu1.csv [--axes x,y,z]
 """
