@@ -37,6 +37,23 @@ def test_curve_readoffs_match_the_closed_forms():
     assert r["bias_instability"]["std"] > 0 and r["quantization"]["value"] is None
 
 
+def test_a_wide_dip_at_the_long_end_is_not_the_flat_minimum():
+    """The curve of the test above, its last 3 τ dipping to 0.6 × σ_min with 4 degrees of freedom (±1σ about
+    ±35 %, as a real record's longest τ): B is still σ_min/0.664 at the closed-form τ, not a bound at the dip."""
+    taus = np.geomspace(0.01, 1e6, 200)
+    avar = (60 * N) ** 2 / taus + K**2 * taus / 10800.0
+    sigma_min = math.sqrt(2 * 60 * N * K / math.sqrt(10800.0))
+    avar[-3:] = (0.6 * sigma_min) ** 2
+    edf = np.full(len(taus), 2000.0)
+    edf[-3:] = 4.0
+    res = _exact(taus, avar)
+    low, high = allan.confidence_interval(np.sqrt(avar), edf)
+    res = allan.AllanResult(taus, res.adev, low, high, edf, res.alpha, res.m, res.count, res.lengths)
+    b = headline.curve_readoffs(res)["bias_instability"]
+    assert b["kind"] == "read" and b["value"] == pytest.approx(sigma_min / 0.664, rel=1e-3)
+    assert b["tau_s"] == pytest.approx(60 * N * math.sqrt(10800.0) / K, rel=0.05)
+
+
 def test_quantization_and_ramp_read_where_seen():
     """σ² = 3Q²/τ² (Q arcsec = deg/h·s) at short τ and R²τ²/2 (R deg/h per s) at long τ: both read back."""
     q, r_dphph = 0.5, 36.0
