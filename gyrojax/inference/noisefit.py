@@ -187,7 +187,7 @@ def satterthwaite_dof(lin, campaign: Campaign, noises, scales) -> np.ndarray:
         var_v += np.einsum("ka,ab,kb->k", grad, cov_u, grad)
     with np.errstate(divide="ignore", invalid="ignore"):
         nu = np.where(var_v > 0, 2.0 * v0**2 / var_v, np.inf)
-    return np.maximum(np.nan_to_num(nu, nan=np.inf), 1.0)
+    return np.maximum(np.nan_to_num(nu, nan=np.inf, posinf=np.inf), 1.0)  # ∞ stays ∞ (no noise parameter)
 
 
 def small_sample_factor(nu) -> np.ndarray:
