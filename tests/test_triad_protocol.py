@@ -98,12 +98,11 @@ def test_designed_protocol_beats_ferraris_and_imu_tk(designed):
     assert [r["plan"].split()[0] for r in rows] == ["designed", "imucal", "imu_tk"]
     d = rows[0]["criterion"]
     assert d < rows[1]["criterion"] and d < rows[2]["criterion"], [r["criterion"] for r in rows]
-    # the table a person follows: one row per rest (a turns' rest is split around its turns), motions after each
-    # but the last, the time adds up
+    # the table a person follows: one row per rest, motions after each but the last, the time adds up
     table = designed.table()
     assert designed.turn_pairs in tpr.TURN_PAIRS and set(designed.structure_losses) <= set(tpr.TURN_PAIRS)
     assert designed.loss == min(designed.structure_losses.values())
-    assert len(table) == 7 + (3 if designed.turn_pairs else 0)
+    assert len(table) == 7
     assert "turn_axis" not in table[-1] and all("turn_axis" in r for r in table[:-1])
     total = sum(r["rest_s"] + sum(m["turn_s"] for m in r.get("motions", [])) for r in table)
     assert total == pytest.approx(300.0, rel=1e-9)
@@ -165,7 +164,7 @@ def test_protocol_file_round_trips_and_runs(designed, tmp_path):
     rec = simulate_session(
         doc["session"]["steps"], mems_truth(), start_attitude=doc["session"]["start_attitude"], rate_hz=RATE
     )
-    assert sum(s["type"] == "move" for s in rec.meta["segments"]) == 6
+    assert sum(s["type"] == "move" for s in rec.meta["segments"]) == 6 - (3 if designed.turn_pairs else 0)
     turns = [s for s in rec.meta["segments"] if s["type"] == "rotation"]
     assert len(turns) == 6 * designed.turn_pairs and all(s["angle_deg"] == 360.0 for s in turns)
 

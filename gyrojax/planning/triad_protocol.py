@@ -10,6 +10,13 @@ softmax, each at least a quarter of the equal share. The loss is the criterion o
 :mod:`gyrojax.planning.triad_fisher` (exact JAX derivatives through the fit's own measurement model), minimised by
 Adam (optax) from several random starts (``vmap``); the best start is kept.
 
+**Known-angle turns** (Ferraris'): a few discrete structures are searched, each by the same Adam loop from the
+same starts, the lowest loss kept (:data:`TURN_PAIRS`): m pairs of 360° turns, one each way, about each body axis
+e_j, made on rest j (j = 0, 1, 2) with the box on face +e_j (the turn about the vertical, the table holding the
+tilt; rests 0–2 are those faces), each followed by a reorientation (not fitted, as Ferraris' flips: a move is
+fitted from the rests on either side, and a rest split around the turns would repeat a pose). A turn's angle is
+known to √2 σ_placement about its axis; with σ_placement → 0 the search can hold Ferraris' turns and moves besides.
+
 **Criteria.** ``D`` −log det F; ``A`` Σ Var θ_i (report units: ppm and arcsec weigh more than deg/h);
 ``c:NAME=w,…`` Var(Σ w θ) of per-channel coefficients (``c:E_SF[x]``).
 
@@ -185,17 +192,14 @@ def design_parts(params, total_s, pairs: int = 0):
 
 def design_fisher(model, params, total_s, noise: TriadNoise, pairs: int = 0):
     """F of the designed protocol's parameters (differentiable): rests, moves and, with ``pairs``, the known-angle
-    turns about e_j at rest j (j < 3) on face +e_j, which splits that rest in two halves (a move is fitted from a
-    rest)."""
+    turns about e_j at rest j (j < 3) on face +e_j, followed by a reorientation to the next rest instead of a move
+    (a move is fitted from the rests on either side; a rest split around the turns would repeat a pose)."""
     _, up, rest, axes, ang, dur = design_parts(params, total_s, pairs)
-    f = 0.0
+    f = rest_fisher(model, up, rest, noise)
+    k = 3 if pairs else 0  # after the turns, a reorientation (not fitted) takes the box on
     if pairs:
-        half = jnp.where(jnp.arange(rest.shape[0]) < 3, 0.5, 1.0) * rest
-        f = rest_fisher(model, up[:3], half[:3], noise)
         f = f + turn_pairs_fisher(model, up, pairs, turn_seconds(TURN_DEG), noise)
-        rest = half
-    f = f + rest_fisher(model, up, rest, noise)
-    return f + move_fisher(model, up[:-1], axes, ang, dur, rest[:-1], rest[1:], noise)
+    return f + move_fisher(model, up[k:-1], axes[k:], ang[k:], dur[k:], rest[k:-1], rest[k + 1 :], noise)
 
 
 _rest_jit = jax.jit(rest_fisher, static_argnums=(0, 3))
@@ -453,15 +457,13 @@ def design_protocol(
     # heading is not designed (the fit marginalises it): start at heading 0 with the first rest's Up
     steps_out = []
     for k in range(n_poses):
-        if best_pairs and k < 3:  # rest, the turns about e_k back to the mark, rest again
+        steps_out.append({"type": "rest", "rest_s": float(rest[k])})
+        if best_pairs and k < 3:  # the turns about e_k back to the mark, then a reorientation
             e = np.eye(3)[k]
-            turns = [_motion("turn", sign * e, TURN_DEG) for _ in range(best_pairs) for sign in (1.0, -1.0)]
-            steps_out += [{"type": "rest", "rest_s": float(rest[k]) / 2.0}, *turns]
-            steps_out.append({"type": "rest", "rest_s": float(rest[k]) / 2.0})
-        else:
-            steps_out.append({"type": "rest", "rest_s": float(rest[k])})
+            steps_out += [_motion("turn", sign * e, TURN_DEG) for _ in range(best_pairs) for sign in (1.0, -1.0)]
         if k < n_poses - 1:
-            move = {"type": "move", "axis": axes[k].tolist(), "angle_deg": float(np.degrees(ang[k]))}
+            kind = "reorient" if best_pairs and k < 3 else "move"
+            move = {"type": kind, "axis": axes[k].tolist(), "angle_deg": float(np.degrees(ang[k]))}
             steps_out.append({**move, "duration_s": float(dur[k])})
     return TriadProtocol(
         tuple(model.terms),
