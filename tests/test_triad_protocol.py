@@ -66,6 +66,7 @@ def test_monte_carlo_confirms_the_designed_sigma(designed):
     random heading, noise estimated by the fit) against the predicted σ. With n seeds the sample variance of one
     coefficient has relative sd √(2/(n−1)); the mean of s²/σ² over the 21 coefficients is compared with 1 within
     4 × √(2/(n−1)) / √(21/4) (at most 4 effectively independent coefficient groups per channel would give 21/4)."""
+    assert designed.turn_pairs > 0  # the check covers known-angle turns in a designed protocol
     model = tpr.triad_model(TERMS)
     pred = tpr.sigma(designed.fisher(), model)
     truth = mems_truth()

@@ -30,7 +30,7 @@ def table_text(table: list[dict]) -> str:
             lines.append(f"{lead}{m['kind']:<11} {m['turn_axis']:<22} {m['angle_deg']:6.1f}°  {m['turn_s']:5.1f}")
     lines.append(
         "known-angle: turn by exactly this angle about the body axis, back to a mark; free: turn roughly to the "
-        "next rest (the accelerometer measures where it ends)"
+        "next rest (the accelerometer measures where it ends); not fitted: a reorientation the fit does not use"
     )
     return "\n".join(lines)
 
