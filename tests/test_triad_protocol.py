@@ -209,3 +209,24 @@ def test_figure_draws_every_rest(tmp_path):
         assert np.allclose(row["up_body"], d[2])
     protocol_figure(proto, tmp_path / "p.png")
     assert (tmp_path / "p.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_cli_prints_the_turns_a_person_follows(tmp_path, capsys, monkeypatch):
+    """The CLI's table, each motion with its kind, axis and angle (the search replaced by Ferraris' steps: the
+    printing is under test here, the search above)."""
+    c0, st = tpr.ferraris_steps(300.0)
+
+    def fake(terms, n_poses, minutes, criterion, noise, **kw):
+        crit = tpr.TriadCriterion.parse(criterion, tpr.triad_model(terms))
+        return tpr.TriadProtocol(tuple(terms), crit, noise, 300.0, c0, st, 0.0, np.zeros(1), np.zeros(1), 1, {1: 0.0})
+
+    monkeypatch.setattr(tpr, "design_protocol", fake)
+    argv = ["design", "--instrument", "imu-triad", "--poses", "6", "--minutes", "5", "--out", str(tmp_path / "p.json")]
+    assert main(argv) == 0
+    out = capsys.readouterr().out.splitlines()
+    for face in "xyz":
+        assert sum(f"known-angle +{face}" in line and "360.0°" in line for line in out) == 1
+        assert sum(f"known-angle -{face}" in line for line in out) == 1
+    assert sum("not fitted" in line for line in out) == 6  # five flips and the legend
+    doc = tpr.load_protocol(tmp_path / "p.json")
+    assert [m["kind"] for m in doc["table"][0]["motions"]] == ["known-angle", "known-angle", "not fitted"]
