@@ -127,6 +127,18 @@ def turn_fisher(model, up, axis, angle, duration, noise: TriadNoise):
     return jnp.sum(jax.vmap(one)(up, axis, angle, duration), axis=0)
 
 
+def turn_pairs_fisher(model, up_hosts, pairs: int, duration, noise: TriadNoise):
+    """F of ``pairs`` pairs of known-angle 360° turns (one each way, back to the mark) about body axis e_j at the
+    rest of Up ``up_hosts[j]`` (j = 0, 1, 2: x, y, z), each turn ``duration`` s (differentiable in the Ups)."""
+    if pairs == 0:
+        return jnp.zeros((3 * model.size, 3 * model.size))
+    e = jnp.eye(3)
+    up = jnp.repeat(jnp.concatenate([up_hosts[:3], up_hosts[:3]]), pairs, axis=0)
+    axis = jnp.repeat(jnp.concatenate([e, -e]), pairs, axis=0)
+    k = up.shape[0]
+    return turn_fisher(model, up, axis, jnp.full(k, 2.0 * math.pi), jnp.full(k, duration), noise)
+
+
 def move_fisher(model, up_from, axis, angle, duration, rest_from, rest_to, noise: TriadNoise):
     """F of gravity-to-gravity moves (M of them): start Up ``up_from`` (M, 3), body ``axis`` (M, 3) unit,
     ``angle`` (M,) rad, ``duration`` (M,) s, the rests on either side ``rest_from``/``rest_to`` (M,) s."""

@@ -10,6 +10,13 @@ softmax, each at least a quarter of the equal share. The loss is the criterion o
 :mod:`gyrojax.planning.triad_fisher` (exact JAX derivatives through the fit's own measurement model), minimised by
 Adam (optax) from several random starts (``vmap``); the best start is kept.
 
+**Known-angle turns** (Ferraris'): a few discrete structures are searched, each by the same Adam loop from the
+same starts, the lowest loss kept (:data:`TURN_PAIRS`): m pairs of 360° turns, one each way, about each body axis
+e_j, made on rest j (j = 0, 1, 2) with the box on face +e_j (the turn about the vertical, the table holding the
+tilt; rests 0–2 are those faces), each followed by a reorientation (not fitted, as Ferraris' flips: a move is
+fitted from the rests on either side, and a rest split around the turns would repeat a pose). A turn's angle is
+known to √2 σ_placement about its axis; with σ_placement → 0 the search can hold Ferraris' turns and moves besides.
+
 **Criteria.** ``D`` −log det F; ``A`` Σ Var θ_i (report units: ppm and arcsec weigh more than deg/h);
 ``c:NAME=w,…`` Var(Σ w θ) of per-channel coefficients (``c:E_SF[x]``).
 
@@ -21,7 +28,7 @@ poses (N uniformly random attitudes, the mean of :data:`RANDOM_DRAWS` draws).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import jax
 import jax.numpy as jnp
@@ -42,6 +49,7 @@ from gyrojax.planning.triad_fisher import (
     rot,
     scaled,
     turn_fisher,
+    turn_pairs_fisher,
 )
 from gyrojax.simulation.triad import face_attitude, random_attitude
 
@@ -54,6 +62,11 @@ RANDOM_DRAWS = 8
 PROTOCOL_FORMAT = "gyrojax-triad-protocol"
 PROTOCOL_VERSION = 1
 UP = np.array([0.0, 0.0, 1.0])
+TURN_DEG = 360.0
+"""A designed known-angle turn: once round a body axis, back to a mark (Ferraris' turn)."""
+MOTION_KINDS = {"turn": "known-angle", "move": "free", "reorient": "not fitted"}
+TURN_PAIRS = (0, 1, 2)
+"""The structures searched: this many pairs of known-angle turns (one each way) about each body axis."""
 
 
 def turn_seconds(angle_deg) -> float:
@@ -158,22 +171,36 @@ def _rests(z, total_s, turn_total):
     return jnp.maximum(total_s - turn_total, 1.0) * (m + (1.0 - n * m) * jax.nn.softmax(z))
 
 
-def design_parts(params, total_s):
-    """(attitudes, Ups, rest s, move axes, angles rad, durations s) of the design parameters (module doc)."""
+_FACE_ATT = [face_attitude(i, 1.0, 0.0) for i in range(3)]
+_FACES_X0 = Rotation.from_matrix(_FACE_ATT[0]).as_rotvec()
+_FACES_MOVES = np.array([Rotation.from_matrix(a.T @ b).as_rotvec() for a, b in zip(_FACE_ATT, _FACE_ATT[1:])])
+
+
+def design_parts(params, total_s, pairs: int = 0):
+    """(attitudes, Ups, rest s, move axes, angles rad, durations s) of the design parameters with ``pairs`` pairs of
+    known-angle turns about each body axis (module doc); a host rest's time is the sum of its two halves."""
     x0, v, z = params
+    if pairs:  # the turns' rests on the faces +x, +y, +z (a turn about the vertical, the box on the table)
+        x0, v = jnp.asarray(_FACES_X0), v.at[:2].set(jnp.asarray(_FACES_MOVES))
     att = _chain(x0, v)
     up = jnp.einsum("kji,j->ki", att, jnp.asarray(UP))  # C_kᵀ e_U
     ang = jnp.sqrt(jnp.sum(v * v, axis=1) + 1e-30)
     axes = v / ang[:, None]
     dur = MIN_TURN_S + jnp.degrees(ang) / HAND_RATE_DPS
-    rest = _rests(z, total_s, jnp.sum(dur))
+    rest = _rests(z, total_s, jnp.sum(dur) + 6 * pairs * turn_seconds(TURN_DEG))
     return att, up, rest, axes, ang, dur
 
 
-def design_fisher(model, params, total_s, noise: TriadNoise):
-    """F of the designed protocol's parameters (differentiable)."""
-    _, up, rest, axes, ang, dur = design_parts(params, total_s)
-    return rest_fisher(model, up, rest, noise) + move_fisher(model, up[:-1], axes, ang, dur, rest[:-1], rest[1:], noise)
+def design_fisher(model, params, total_s, noise: TriadNoise, pairs: int = 0):
+    """F of the designed protocol's parameters (differentiable): rests, moves and, with ``pairs``, the known-angle
+    turns about e_j at rest j (j < 3) on face +e_j, followed by a reorientation to the next rest instead of a move
+    (a move is fitted from the rests on either side; a rest split around the turns would repeat a pose)."""
+    _, up, rest, axes, ang, dur = design_parts(params, total_s, pairs)
+    f = rest_fisher(model, up, rest, noise)
+    k = 3 if pairs else 0  # after the turns, a reorientation (not fitted) takes the box on
+    if pairs:
+        f = f + turn_pairs_fisher(model, up, pairs, turn_seconds(TURN_DEG), noise)
+    return f + move_fisher(model, up[k:-1], axes[k:], ang[k:], dur[k:], rest[k:-1], rest[k + 1 :], noise)
 
 
 _rest_jit = jax.jit(rest_fisher, static_argnums=(0, 3))
@@ -293,13 +320,17 @@ class TriadProtocol:
     loss: float
     start_losses: np.ndarray
     history: np.ndarray
+    turn_pairs: int = 0
+    structure_losses: dict = field(default_factory=dict)
 
     def fisher(self) -> np.ndarray:
         """The protocol's Fisher information (:func:`gyrojax.planning.triad_fisher.steps_fisher`), θ order."""
         return steps_fisher(triad_model(self.terms), self.start_attitude, self.steps, self.noise)
 
     def table(self) -> list[dict]:
-        """The protocol a person follows: one row per rest, with the turn that follows it."""
+        """The protocol a person follows: one row per rest, with the motions that follow it (``motions``: kind
+        ``known-angle`` — by exactly this angle, back to a mark —, ``free`` — to the next rest, roughly: the
+        accelerometer measures where it ends — or ``not fitted``); ``turn_axis``/``angle_deg``/``turn_s`` the last."""
         rows, c = [], np.asarray(self.start_attitude, dtype=float)
         for s in self.steps:
             if s["type"] == "rest":
@@ -313,14 +344,14 @@ class TriadProtocol:
                 )
                 continue
             ax = np.asarray(s["axis"], dtype=float)
-            rows[-1].update(
-                {
-                    "turn_axis": axis_text(ax),
-                    "angle_deg": float(s["angle_deg"]),
-                    "turn_s": float(s["duration_s"]),
-                    "peak_rate_dps": math.pi / 2 * float(s["angle_deg"]) / float(s["duration_s"]),
-                }
-            )
+            motion = {
+                "turn_axis": axis_text(ax),
+                "angle_deg": float(s["angle_deg"]),
+                "turn_s": float(s["duration_s"]),
+                "peak_rate_dps": math.pi / 2 * float(s["angle_deg"]) / float(s["duration_s"]),
+            }
+            rows[-1].setdefault("motions", []).append({"kind": MOTION_KINDS[s["type"]], **motion})
+            rows[-1].update(motion)
             c = c @ Rotation.from_rotvec(ax * math.radians(float(s["angle_deg"]))).as_matrix()
         return rows
 
@@ -370,9 +401,11 @@ def design_protocol(
     steps: int = 400,
     learning_rate: float = 0.05,
     seed: int = 0,
+    turn_pairs=TURN_PAIRS,
 ) -> TriadProtocol:
     """Design an ``n_poses`` protocol of ``minutes`` in total (rests and turns) minimising the criterion (module
-    doc); refuses terms the protocol cannot fit, too few poses, or too little time for the turns."""
+    doc): each structure of ``turn_pairs`` (pairs of known-angle turns about each body axis) searched by Adam from
+    the same starts, the best kept; refuses terms the protocol cannot fit, too few poses, or too little time."""
     model = triad_model(terms)
     noise = noise or TriadNoise()
     crit = TriadCriterion.parse(criterion, model)
@@ -382,54 +415,70 @@ def design_protocol(
             f"{n_poses} poses cannot identify {', '.join(model.terms)} on three channels: at least {need} are needed"
         )
     total = minutes * 60.0
-    if total <= (n_poses - 1) * turn_seconds(180.0) + n_poses * 1.0:
+    moves_s = (n_poses - 1) * turn_seconds(180.0)
+    if total <= moves_s + n_poses * 1.0:
         raise ModelError(
             f"{minutes:g} min is too short for {n_poses} poses: the moves alone take about "
-            f"{(n_poses - 1) * turn_seconds(180.0) / 60:.1f} min at a hand's pace; give more --minutes"
+            f"{moves_s / 60:.1f} min at a hand's pace; give more --minutes"
         )
     key = jax.random.PRNGKey(seed)
     k1, k2 = jax.random.split(key)
     x0 = jax.random.normal(k1, (starts, 3)) * 2.0
     v0 = jax.random.normal(k2, (starts, n_poses - 1, 3)) * 1.2
     z0 = jnp.zeros((starts, n_poses))
-
-    def loss(p):
-        return crit.loss(design_fisher(model, p, total, noise))
-
     opt = optax.adam(learning_rate)
-    vg = jax.value_and_grad(loss)
+    found = {}
+    for pairs in turn_pairs:
+        if total <= moves_s + 6 * pairs * turn_seconds(TURN_DEG) + (n_poses + 3) * 1.0:
+            continue  # no time left for the rests
 
-    def run(p0):
-        def step(carry, _):
-            p, s = carry
-            val, g = vg(p)
-            upd, s = opt.update(g, s, p)
-            return (optax.apply_updates(p, upd), s), val
+        def loss(p, pairs=pairs):
+            return crit.loss(design_fisher(model, p, total, noise, pairs))
 
-        (p, _), hist = jax.lax.scan(step, (p0, opt.init(p0)), None, length=steps)
-        return p, hist, loss(p)
+        vg = jax.value_and_grad(loss)
 
-    p, hist, final = jax.jit(jax.vmap(run))((x0, v0, z0))
-    final = np.where(np.isfinite(np.asarray(final)), np.asarray(final), np.inf)
-    b = int(np.argmin(final))
-    best = jax.tree_util.tree_map(lambda a: a[b], p)
-    if not np.isfinite(final[b]):
+        def run(p0, loss=loss, vg=vg):
+            def step(carry, _):
+                p, s = carry
+                val, g = vg(p)
+                upd, s = opt.update(g, s, p)
+                return (optax.apply_updates(p, upd), s), val
+
+            (p, _), hist = jax.lax.scan(step, (p0, opt.init(p0)), None, length=steps)
+            return p, hist, loss(p)
+
+        p, hist, final = jax.jit(jax.vmap(run))((x0, v0, z0))
+        final = np.where(np.isfinite(np.asarray(final)), np.asarray(final), np.inf)
+        b = int(np.argmin(final))
+        found[pairs] = (float(final[b]), final, jax.tree_util.tree_map(lambda a, b=b: a[b], p), np.asarray(hist[b]))
+    best_pairs = min(found, key=lambda k: found[k][0]) if found else None
+    if best_pairs is None or not np.isfinite(found[best_pairs][0]):
         raise ModelError(f"no start of the search found a protocol of {n_poses} poses that identifies the terms")
-    att, up, rest, axes, ang, dur = (np.asarray(x) for x in design_parts(best, total))
+    value, final, best, hist = found[best_pairs]
+    att, up, rest, axes, ang, dur = (np.asarray(x) for x in design_parts(best, total, best_pairs))
     # heading is not designed (the fit marginalises it): start at heading 0 with the first rest's Up
-    steps_out = [{"type": "rest", "rest_s": float(rest[0])}]
-    for k in range(n_poses - 1):
-        steps_out += [
-            {
-                "type": "move",
-                "axis": axes[k].tolist(),
-                "angle_deg": float(np.degrees(ang[k])),
-                "duration_s": float(dur[k]),
-            },
-            {"type": "rest", "rest_s": float(rest[k + 1])},
-        ]
+    steps_out = []
+    for k in range(n_poses):
+        steps_out.append({"type": "rest", "rest_s": float(rest[k])})
+        if best_pairs and k < 3:  # the turns about e_k back to the mark, then a reorientation
+            e = np.eye(3)[k]
+            steps_out += [_motion("turn", sign * e, TURN_DEG) for _ in range(best_pairs) for sign in (1.0, -1.0)]
+        if k < n_poses - 1:
+            kind = "reorient" if best_pairs and k < 3 else "move"
+            move = {"type": kind, "axis": axes[k].tolist(), "angle_deg": float(np.degrees(ang[k]))}
+            steps_out.append({**move, "duration_s": float(dur[k])})
     return TriadProtocol(
-        tuple(model.terms), crit, noise, total, att[0], steps_out, float(final[b]), final, np.asarray(hist[b])
+        tuple(model.terms),
+        crit,
+        noise,
+        total,
+        att[0],
+        steps_out,
+        value,
+        final,
+        hist,
+        best_pairs,
+        {k: v[0] for k, v in found.items()},
     )
 
 
@@ -518,38 +567,5 @@ def load_protocol(path) -> dict:
     return doc
 
 
-def advantage(crit: TriadCriterion, base_loss: float, design_loss: float, p: int) -> float:
-    """How much better the design is than a baseline on the criterion (> 1: better): for D the ratio of the
-    geometric mean σ, exp((loss_base − loss_design) / 2p); for A and c the ratio of the σ's, √(loss_base /
-    loss_design)."""
-    if crit.kind == "D":
-        return math.exp((base_loss - design_loss) / (2.0 * p))
-    return math.sqrt(base_loss / design_loss)
-
-
-def table_text(table: list[dict]) -> str:
-    """The protocol as a table a person follows."""
-    lines = [
-        f"{'step':>4}  {'face up (Up in the body frame)':<32} {'rest s':>7}  {'then turn about':<22} {'angle':>7}"
-        f"  {'in s':>5}"
-    ]
-    for r in table:
-        turn = f"{r['turn_axis']:<22} {r['angle_deg']:6.1f}°  {r['turn_s']:5.1f}" if "turn_axis" in r else "(end)"
-        lines.append(f"{r['step']:>4}  {r['up']:<32} {r['rest_s']:7.1f}  {turn}")
-    return "\n".join(lines)
-
-
-def comparison_text(rows: list[dict], crit: TriadCriterion) -> str:
-    """Predicted σ of every coefficient, the design beside the baselines, and the criterion's ratio."""
-    names = list(rows[0]["sigma"])
-    p = len(names)
-    heads = ["designed", "Ferraris", "imu_tk"][: len(rows)]
-    lines = [f"{'coefficient':<12}" + "".join(f"{h:>12}" for h in heads)]
-    for n in names:
-        lines.append(f"{n:<12}" + "".join(f"{r['sigma'][n]:12.4g}" for r in rows))
-    lines.append(f"{'criterion ' + crit.text:<12}" + "".join(f"{r['criterion']:12.5g}" for r in rows))
-    ratio = [advantage(crit, r["criterion"], rows[0]["criterion"], p) for r in rows]
-    what = "geometric-mean sigma" if crit.kind == "D" else "sigma"
-    lines.append(f"{'ratio':<12}" + "".join(f"{x:12.3f}" for x in ratio) + f"   (baseline / designed {what})")
-    lines.append("units: D_F deg/h; D_I, D_O, D_S deg/h/g; E_SF ppm; M_O, M_S arcsec; imu_tk: mean over draws")
-    return "\n".join(lines)
+# the printed table and comparison (presentation, a module of its own)
+from gyrojax.planning.triad_protocol_text import advantage, comparison_text, table_text  # noqa: E402, F401
