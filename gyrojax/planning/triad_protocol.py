@@ -194,7 +194,8 @@ def design_parts(params, total_s, pairs: int = 0):
 def design_fisher(model, params, total_s, noise: TriadNoise, pairs: int = 0):
     """F of the designed protocol's parameters (differentiable): rests, moves and, with ``pairs``, the known-angle
     turns about e_j at rest j (j < 3) on face +e_j, followed by a reorientation to the next rest instead of a move
-    (a move is fitted from the rests on either side; a rest split around the turns would repeat a pose)."""
+    (a move is fitted from the rests on either side; a rest split around the turns would repeat a pose).
+    ``total_s`` s; the turns are 360° (one each way); F in the units of the fit's coefficients."""
     _, up, rest, axes, ang, dur = design_parts(params, total_s, pairs)
     f = rest_fisher(model, up, rest, noise)
     k = 3 if pairs else 0  # after the turns, a reorientation (not fitted) takes the box on
