@@ -71,3 +71,24 @@ def test_nothing_is_kept_without_flatbuffers(monkeypatch):
     monkeypatch.setattr(kept, "SERIALIZABLE", False)
     assert kept.folder() is None
     assert float(_fresh()(np.ones(2), 1.0)[0]) == 2.0
+
+
+def test_kept_arrays_are_computed_once_and_read_back_exactly(where):
+    calls = []
+    x = np.random.default_rng(1).normal(size=(4, 3))
+
+    def compute():
+        calls.append(1)
+        return [np.array(["a b (c/d)", "e"]), x, np.arange(3)]
+
+    first = kept.kept_arrays("rows", ("sdf", ("D_F",)), compute)
+    again = kept.kept_arrays("rows", ("sdf", ("D_F",)), compute)
+    other = kept.kept_arrays("rows", ("sdf", ("D_F", "D_I")), compute)
+    assert len(calls) == 2 and len(list(where.glob("rows-*.npz"))) == 2
+    for got in (first, again, other):
+        assert got[0].tolist() == ["a b (c/d)", "e"] and np.array_equal(got[1], x) and got[2].tolist() == [0, 1, 2]
+    for path in where.glob("rows-*.npz"):
+        path.write_bytes(b"damaged")
+    with pytest.warns(UserWarning, match="kept arrays unreadable"):
+        assert np.array_equal(kept.kept_arrays("rows", ("sdf", ("D_F",)), compute)[1], x)
+    assert len(calls) == 3

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import hashlib
 import importlib.util
+import io
 import warnings
 from functools import lru_cache
 from pathlib import Path
@@ -100,3 +101,27 @@ class Kept:
             specs = [jax.ShapeDtypeStruct(x.shape, x.dtype) for x in leaves]
             call = self._calls[key] = jax.jit(self._load(where, tree, specs).call)
         return call(*jax.tree_util.tree_unflatten(tree, leaves))
+
+
+def kept_arrays(name: str, parts, compute):
+    """The arrays ``compute()`` returns (a list of numpy arrays), kept on disk beside the compilation cache under
+    ``name`` and the key ``parts`` (with the source digest and versions, as the traces): for results that depend on
+    the library alone (built-in plans and effects), never on the user's data. Exact: saved and read as ``.npy``."""
+    where = folder()
+    if where is None:
+        return compute()
+    path = where / f"{name}-{_key(name, repr(parts), [])}.npz"
+    if path.is_file():
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                return [z[f"a{i}"] for i in range(len(z.files))]
+        except Exception as e:  # a damaged file: say so, compute again and replace it
+            warnings.warn(f"{path}: kept arrays unreadable ({type(e).__name__}: {e}); computed again", stacklevel=2)
+    arrays = [np.asarray(a) for a in compute()]
+    buf = io.BytesIO()
+    np.savez(buf, **{f"a{i}": a for i, a in enumerate(arrays)})
+    try:
+        atomic_write_bytes(path, buf.getvalue())
+    except OSError as e:
+        warnings.warn(f"{path}: kept arrays not saved ({e.strerror or e})", stacklevel=2)
+    return arrays
