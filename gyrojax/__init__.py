@@ -27,10 +27,21 @@ and below them the modules every package may import: ``errors``, ``units``, ``ki
 """
 
 import importlib
+import os
+import sys
 
-import jax
 
-jax.config.update("jax_enable_x64", True)  # the one place: drifts of 1e-4 deg/h beside rates of 1e5 deg/h
+def _enable_x64() -> None:
+    """float64 in JAX, the one place: drifts of 1e-4 deg/h beside rates of 1e5 deg/h. JAX itself is not imported
+    here (``gyrojax --help``, ``gyrojax plans`` and ``gyrojax import`` never need it): before its import, its
+    ``JAX_ENABLE_X64`` variable makes float64 the default; if JAX is already imported, its config is updated."""
+    if "jax" in sys.modules:
+        sys.modules["jax"].config.update("jax_enable_x64", True)
+    else:
+        os.environ["JAX_ENABLE_X64"] = "1"
+
+
+_enable_x64()
 
 from gyrojax.errors import (  # noqa: E402
     GyrojaxError,

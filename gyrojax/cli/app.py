@@ -7,7 +7,10 @@ Start-up imports only argparse: each command imports the part of the library it 
 
 Compiled XLA code is kept across processes in JAX's persistent compilation cache, under the user's cache
 directory (``$XDG_CACHE_HOME/gyrojax/jax`` or ``~/.cache/gyrojax/jax``); ``GYROJAX_NO_CACHE=1`` turns it off and
-``GYROJAX_CACHE_DIR`` moves it.
+``GYROJAX_CACHE_DIR`` moves it. Beside it (``…/jax-exported``) the traced REML functions and the built-in plans'
+regressors are kept (:mod:`gyrojax.noise.kept`), so a fresh process does not trace them again. The settings reach
+JAX through its environment variables when JAX is not yet imported: ``gyrojax --help``, ``plans`` and ``import``
+never import it.
 """
 
 from __future__ import annotations
@@ -220,12 +223,18 @@ def enable_compilation_cache() -> None:
     path = cache_dir()
     if path is None:
         return
-    import jax
-
-    jax.config.update("jax_compilation_cache_dir", path)
     # every compiled function, however small: a diagnosis compiles dozens of them
-    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
-    jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
+    settings = {
+        "jax_compilation_cache_dir": path,
+        "jax_persistent_cache_min_compile_time_secs": 0.0,
+        "jax_persistent_cache_min_entry_size_bytes": 0,
+    }
+    if "jax" in sys.modules:
+        for name, value in settings.items():
+            sys.modules["jax"].config.update(name, value)
+    else:  # JAX reads them when (and if) a command imports it: `gyrojax plans` and `import` never do
+        for name, value in settings.items():
+            os.environ[name.upper()] = str(value)
 
 
 def single_threaded_blas() -> None:
@@ -233,9 +242,14 @@ def single_threaded_blas() -> None:
     is on tall, narrow matrices (samples × regressors), where threads gain little, and on a busy machine the
     threads of OpenBLAS spin against other processes: ``gyrojax diagnose`` of the demo campaign took 9.7–15 s with
     the default threads beside one other busy process, 5.0–5.6 s with one (``benchmarks/bench_mainloop.py``)."""
-    from threadpoolctl import threadpool_limits
+    n = int(os.environ.get("GYROJAX_BLAS_THREADS", "1") or 1)
+    # BLAS libraries loaded later (numpy's, scipy's: the commands import them lazily) read these when they load
+    for var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS"):
+        os.environ[var] = str(n)
+    if "numpy" in sys.modules:  # and the ones already loaded are limited now
+        from threadpoolctl import threadpool_limits
 
-    threadpool_limits(int(os.environ.get("GYROJAX_BLAS_THREADS", "1") or 1), user_api="blas")
+        threadpool_limits(n, user_api="blas")
 
 
 def main(argv=None) -> int:

@@ -16,13 +16,28 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyrojax.data.arrays import record_data
+from gyrojax.noise.kept import kept_arrays
 from gyrojax.physics import effects as fx
+from gyrojax.physics import registry
 from gyrojax.physics.model import Model, jacobian
 
 
 @lru_cache(maxsize=4)
 def _plan_jacobians(kind: str):
-    """Regressors of every named effect in a few short built-in plans (computed once per process)."""
+    """Regressors of every named effect in a few short built-in plans (computed once per process; with built-in
+    effects only, kept on disk across processes: :func:`gyrojax.noise.kept.kept_arrays`)."""
+    model = Model(tuple(n for n in fx.names(kind) if n != "bias_temperature"), kind)
+    if not set(model.terms) <= registry.BUILTIN:
+        return model, _compute_plan_jacobians(model)
+    names, *arrays = kept_arrays("plan_jacobians", (kind, model.terms), lambda: _flat(_compute_plan_jacobians(model)))
+    return model, dict(zip(names.tolist(), arrays))
+
+
+def _flat(jacs: dict) -> list:
+    return [np.array(list(jacs)), *jacs.values()]
+
+
+def _compute_plan_jacobians(model: Model) -> dict:
     from gyrojax.data import plans
     from gyrojax.simulation.simulator import plan_records
 
@@ -33,7 +48,6 @@ def _plan_jacobians(kind: str):
         "rate-ladder": lambda: plans.rate_ladder(seconds=5.0, dt_s=1.0),
         "eight-position": lambda: plans.eight_position(minutes=1.0, dt_s=6.0),
     }
-    model = Model(tuple(n for n in fx.names(kind) if n != "bias_temperature"), kind)
     runs, owner = [], []
     for name, build in options.items():
         for rec in plan_records(build()):
@@ -75,7 +89,7 @@ def _plan_jacobians(kind: str):
     out: dict = {}
     for name, n, j in zip(owner, lengths, np.asarray(jac)):
         out.setdefault(name, []).append(j[:n])
-    return model, {k: np.concatenate(v, axis=0) for k, v in out.items()}
+    return {k: np.concatenate(v, axis=0) for k, v in out.items()}
 
 
 def separating_plans(kind: str, effects: tuple, context=None) -> list:

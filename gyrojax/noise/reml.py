@@ -37,6 +37,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from gyrojax.noise.kept import Kept
+
 RANK_TOL = 1e-7
 """A regressor whose normalised component orthogonal to the previous regressors is below this is not estimated."""
 TAU_FLOOR_STEPS = 0.05
@@ -399,21 +401,24 @@ def objective(u, x, dt, restart, mask, reml, readout=None):
     return logs + quad + reml * logdet
 
 
-value_and_grad = jax.jit(jax.value_and_grad(objective))
-whiten_jit = jax.jit(whiten_scan)
+# compiled, and kept across processes per shape (gyrojax.noise.kept: a fresh process does not trace them again)
+value_and_grad = Kept("value_and_grad", jax.jit(jax.value_and_grad(objective)))
+whiten_jit = Kept("whiten_scan", jax.jit(whiten_scan))
 """The compiled :func:`whiten_scan` (the one Kalman whitening filter, :func:`gyrojax.noise.whiten.kalman_whiten`)."""
-likelihood_terms_jit = jax.jit(likelihood_terms)
+likelihood_terms_jit = Kept("likelihood_terms", jax.jit(likelihood_terms))
 HESSIAN_STEP = 1e-4
 """Step in u of the central differences of the exact gradient (and of X̃ᵀX̃) that give the curvature: the truncation
 error is ~1e-8 relative, and the compiled first-order functions are reused instead of tracing second-order ones
 (about a second per shape in every fresh process)."""
 
 
-@jax.jit
-def gram(u, x, dt, restart, mask, readout=None):
+def _gram(u, x, dt, restart, mask, readout=None):
     """X̃ᵀX̃ (P, P) of the normalised, padded columns of a :class:`Series` (dimensionless), at u = (log τ/s, log σ_g²,
     log σ_w²); ``dt`` the sample steps in s."""
     return gram_scan(jnp.exp(u), x, dt, restart, mask, readout)[0][1:, 1:]
+
+
+gram = Kept("gram", jax.jit(_gram))
 
 
 # ---- the minimiser ------------------------------------------------------------------------------------------------

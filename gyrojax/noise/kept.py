@@ -1,0 +1,127 @@
+"""Traced functions kept across processes (issue 26): the REML search's jitted functions are traced once per shape
+and saved as ``jax.export`` modules beside JAX's persistent compilation cache, so a fresh process neither traces
+nor lowers them again (the cache already spares the compile).
+
+A saved module is keyed by the function's name, the argument tree, shapes and dtypes (the callers pad records to a
+few lengths, :func:`gyrojax.noise.reml.series`), the digest of the whole ``gyrojax`` source, the JAX and jaxlib
+versions and the backend: any edit of the library makes new keys, so a stale trace is never called. Nothing is
+kept when the compilation cache is off (``jax_compilation_cache_dir`` unset, e.g. ``GYROJAX_NO_CACHE=1``), or when
+the arguments are tracers (the function inside another transformation), or without the ``flatbuffers`` package that
+``jax.export`` serialises with: the jitted function itself runs then.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import io
+import warnings
+from functools import lru_cache
+from pathlib import Path
+
+import jax
+import numpy as np
+
+import gyrojax
+from gyrojax.protocol import atomic_write_bytes
+
+SERIALIZABLE = importlib.util.find_spec("flatbuffers") is not None
+"""``jax.export`` serialises with the ``flatbuffers`` package; without it nothing is kept (the answers are the same,
+a fresh process traces again)."""
+SUFFIX = "-exported"
+"""The folder of the kept traces is the compilation cache's folder with this suffix (a sibling, not inside it)."""
+
+
+@lru_cache(maxsize=1)
+def source_digest() -> str:
+    """SHA-256 of every ``.py`` file of the installed ``gyrojax`` package (paths and contents)."""
+    root = Path(gyrojax.__file__).resolve().parent
+    h = hashlib.sha256()
+    for p in sorted(root.rglob("*.py")):
+        h.update(str(p.relative_to(root)).encode())
+        h.update(p.read_bytes())
+    return h.hexdigest()
+
+
+def folder() -> Path | None:
+    """Where kept traces live, or ``None`` when JAX's persistent compilation cache is off."""
+    d = jax.config.jax_compilation_cache_dir
+    if not SERIALIZABLE:
+        return None
+    return Path(str(d).rstrip("/\\") + SUFFIX) if d else None
+
+
+def _key(name: str, tree, specs) -> str:
+    import jaxlib
+
+    parts = (
+        name,
+        str(tree),
+        [(s.shape, str(s.dtype)) for s in specs],
+        source_digest(),
+        gyrojax.__version__,
+        jax.__version__,
+        jaxlib.__version__,
+        jax.default_backend(),
+        bool(jax.config.jax_enable_x64),
+    )
+    return hashlib.sha256(repr(parts).encode()).hexdigest()[:32]
+
+
+class Kept:
+    """A jitted function ``fn`` called through its ``jax.export`` module, saved and reloaded per argument shape."""
+
+    def __init__(self, name: str, fn):
+        self.name, self.fn, self._calls = name, fn, {}
+        self.__doc__ = getattr(fn, "__doc__", None)
+
+    def _load(self, where: Path, tree, specs):
+        path = where / f"{self.name}-{_key(self.name, tree, specs)}.bin"
+        if path.is_file():
+            try:
+                return jax.export.deserialize(bytearray(path.read_bytes()))
+            except Exception as e:  # a damaged file: say so, trace again and replace it
+                warnings.warn(f"{path}: kept trace unreadable ({type(e).__name__}: {e}); traced again", stacklevel=3)
+        exported = jax.export.export(self.fn)(*jax.tree_util.tree_unflatten(tree, specs))
+        try:
+            atomic_write_bytes(path, exported.serialize())
+        except OSError as e:
+            warnings.warn(f"{path}: kept trace not saved ({e.strerror or e}); this process traces it", stacklevel=3)
+        return exported
+
+    def __call__(self, *args):
+        where = folder()
+        leaves, tree = jax.tree_util.tree_flatten(args)
+        if where is None or any(isinstance(x, jax.core.Tracer) for x in leaves):
+            return self.fn(*args)
+        leaves = [x if isinstance(x, jax.Array) else np.asarray(x) for x in leaves]
+        key = (where, tree, tuple((x.shape, str(x.dtype)) for x in leaves))
+        call = self._calls.get(key)
+        if call is None:
+            specs = [jax.ShapeDtypeStruct(x.shape, x.dtype) for x in leaves]
+            call = self._calls[key] = jax.jit(self._load(where, tree, specs).call)
+        return call(*jax.tree_util.tree_unflatten(tree, leaves))
+
+
+def kept_arrays(name: str, parts, compute):
+    """The arrays ``compute()`` returns (a list of numpy arrays), kept on disk beside the compilation cache under
+    ``name`` and the key ``parts`` (with the source digest and versions, as the traces): for results that depend on
+    the library alone (built-in plans and effects), never on the user's data. Exact: saved and read as ``.npy``."""
+    where = folder()
+    if where is None:
+        return compute()
+    path = where / f"{name}-{_key(name, repr(parts), [])}.npz"
+    if path.is_file():
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                return [z[f"a{i}"] for i in range(len(z.files))]
+        except Exception as e:  # a damaged file: say so, compute again and replace it
+            warnings.warn(f"{path}: kept arrays unreadable ({type(e).__name__}: {e}); computed again", stacklevel=2)
+    arrays = [np.asarray(a) for a in compute()]
+    buf = io.BytesIO()
+    np.savez(buf, **{f"a{i}": a for i, a in enumerate(arrays)})
+    try:
+        atomic_write_bytes(path, buf.getvalue())
+    except OSError as e:
+        warnings.warn(f"{path}: kept arrays not saved ({e.strerror or e})", stacklevel=2)
+    return arrays
