@@ -234,3 +234,21 @@ def test_slow_drift_read_as_a_trend_is_marked_indistinguishable_from_drift():
     assert c.separated_by == [DRIFT_SEPARATION]
     js = c.to_json()
     assert js["p_value_drift_refitted"] == c.p_drift_refitted and "std" in js["estimate"]["D_T"]
+
+
+def test_effect_to_add_names_what_the_diagnosis_found_when_nothing_is_proposed():
+    """The add-and-refit step of both loops (turntable and triad) adds the given effect, else the proposal; with
+    neither it refuses, naming the unexplained structure (turntable ``line``, triad ``name``) or the adequacy."""
+    from types import SimpleNamespace as NS
+
+    from gyrojax.errors import ModelError
+    from gyrojax.inference.diagnose import effect_to_add
+
+    assert effect_to_add(NS(proposal="D_SS", unexplained=[])) == "D_SS"
+    assert effect_to_add(NS(proposal=None, unexplained=[]), "D_IS") == "D_IS"
+    with pytest.raises(ModelError, match="no named effect to add: residual structure vs a_I: cubic; rate_cross"):
+        effect_to_add(
+            NS(proposal=None, unexplained=[NS(line="residual structure vs a_I: cubic"), NS(name="rate_cross[z]")])
+        )
+    with pytest.raises(ModelError, match="the model is adequate"):
+        effect_to_add(NS(proposal=None, unexplained=[]))

@@ -507,6 +507,17 @@ def _colour_candidate(noises, lin, alpha, p0: int = 0) -> Candidate | None:
     )
 
 
+def effect_to_add(d: Diagnosis, effect: str | None = None) -> str:
+    """The effect an add-and-refit step adds: ``effect`` when given, else the diagnosis' proposal; with neither,
+    a :class:`ModelError` naming the first unexplained structures (or saying the model is adequate)."""
+    if effect is not None:
+        return effect
+    if d.proposal is None:
+        found = [getattr(s, "line", None) or s.name for s in d.unexplained[:3]]
+        raise ModelError(f"no named effect to add: {'; '.join(found) or 'the model is adequate for these records'}")
+    return d.proposal
+
+
 def add_and_refit(records, terms, effect: str | None = None, *, diagnosis: Diagnosis | None = None, **kw):
     """Add ``effect`` (default: the top deterministic candidate) to ``terms``, refit, and diagnose again.
 
@@ -514,11 +525,7 @@ def add_and_refit(records, terms, effect: str | None = None, *, diagnosis: Diagn
     """
     camp = Campaign.of(records) if not isinstance(records, Campaign) else records
     d = diagnosis or diagnose(camp.records, terms, campaign=camp, **kw)
-    if effect is None:
-        if d.proposal is None:
-            why = "; ".join(s.line for s in d.unexplained[:3]) or "the model is adequate for these records"
-            raise ModelError(f"no named effect to add: {why}")
-        effect = d.proposal
+    effect = effect_to_add(d, effect)
     new_terms = tuple(d.fit.model.terms) + (effect,)
     new_fit = fit(camp.records, new_terms, campaign=camp, allow_aliases=False)
     new_d = diagnose(camp.records, new_terms, campaign=camp, result=new_fit, **kw)

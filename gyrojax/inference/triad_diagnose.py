@@ -39,7 +39,7 @@ from gyrojax.data.triad_segments import triad_segments
 from gyrojax.errors import ModelError
 from gyrojax.inference import adequacy
 from gyrojax.inference import triad as tf
-from gyrojax.inference.diagnose import COLLINEAR, UNSEEN, Candidate, Diagnosis, holm
+from gyrojax.inference.diagnose import COLLINEAR, UNSEEN, Candidate, Diagnosis, effect_to_add, holm
 from gyrojax.inference.triad_candidates import (
     MEMS_CANDIDATES,
     SHAPE_LINES,
@@ -510,11 +510,7 @@ def add_and_refit_triad(records, terms=None, effect: str | None = None, *, diagn
     Returns ``(new_terms, new_fit, new_diagnosis, added)``."""
     recs = [records] if isinstance(records, Record) else list(records)
     d = diagnosis or diagnose_triad(recs, terms, **kw)
-    if effect is None:
-        if d.proposal is None:
-            why = "; ".join(s.name for s in d.unexplained[:3]) or "the model is adequate for these records"
-            raise ModelError(f"no named effect to add: {why}")
-        effect = d.proposal
+    effect = effect_to_add(d, effect)
     new_terms = tuple(d.fit.model.terms) + (effect,)
     new_fit = tf.fit_triad(recs, new_terms, earth_rate=kw.get("earth_rate"))
     return new_terms, new_fit, diagnose_triad(recs, new_terms, result=new_fit, **kw), effect
