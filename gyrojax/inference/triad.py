@@ -333,7 +333,7 @@ def fit_triad(
         )
     s_fit = np.asarray(linear_matrices(model, jnp.asarray(theta))[1])
     if dof > 0 and stats.chi2.sf(chi2, dof) < 0.01:
-        comp = _components_report(tau2, s_fit)
+        comp = components_report(tau2, s_fit)
         if any(v > 0 for v in comp.values()):
             tail = "the standard errors include the variance components estimated by REML: " + ", ".join(
                 f"{k} {v:.3g}" for k, v in comp.items() if "indicated" not in k
@@ -368,7 +368,7 @@ def fit_triad(
         iterations=iterations,
         converged=not why,
         convergence_note=why,
-        variance_components=_components_report(tau2, s_fit),
+        variance_components=components_report(tau2, s_fit),
         segment_residuals=seg_rows,
         accelerometer=accelerometer_json(acc_fit),
     )
@@ -449,7 +449,7 @@ def _check_moves_converged(model, theta, packed, moves) -> None:
         )
 
 
-def _components_report(tau2: dict, s_mat=None) -> dict:
+def components_report(tau2: dict, s_mat=None) -> dict:
     """The REML components as standard deviations in report units (empty when none were estimated). The per-pose
     bias scatter τ_b is estimated in indicated units (τ_b² I₃ on each pose's rows); reported in calibrated deg/h,
     the rms over the body axes of S⁻¹ τ_b² S⁻ᵀ (τ_b √(tr(S⁻¹ S⁻ᵀ)/3) at the fitted S: independent of the nominal

@@ -380,8 +380,11 @@ def _noise_processes(data: dict, alpha: float, extra: list) -> tuple[list, dict]
             continue
         lr = max(reml_objective(groups, {**tau2, kind: 0.0}, col) - best, 0.0)
         p = 0.5 * float(stats.chi2.sf(lr, 1)) if lr > 0 else 1.0
-        v = math.sqrt(tau2[kind])
-        est = {"tau": {"value": v if kind == "pose" else math.degrees(v), "unit": "deg/h" if kind == "pose" else "deg"}}
+        sd = tf.components_report({kind: tau2[kind]}, data["s_mat"])  # the fit's report units (pose: calibrated)
+        if kind == "pose":
+            est = {"tau": {"value": sd["pose_bias_scatter_deg_per_h"], "unit": "deg/h"}}
+        else:
+            est = {"tau": {"value": sd["move_angle_noise_deg"], "unit": "deg"}}
         cand = Candidate(name, lr, 1, p, p, [], math.nan, est, log10_p=math.log10(max(p, 1e-300)))
         if p < alpha:
             out.append(cand)
