@@ -30,6 +30,7 @@ from gyrojax.errors import ConvergenceWarning, ModelError
 from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model
+from gyrojax.planning import search
 from gyrojax.planning.criteria import (
     Criterion,
     criterion_values,
@@ -40,10 +41,8 @@ from gyrojax.planning.criteria import (
 from gyrojax.planning.fisher import DEFAULT_NOISE, Table, check_static, static_fisher
 
 SDF9 = ("D_F", "D_I", "D_O", "D_S", "D_II", "D_SS", "D_IO", "D_IS", "D_OS")
-CONVERGED_WINDOW = 10
-"""Iterations over which a settled search's loss may fall by at most :data:`CONVERGED_RTOL` (relative)."""
-CONVERGED_RTOL = 1e-6
 """The SDF drift model of Hu 2-45 less D_OO (the design tests' model; D_OO is the effect left out)."""
+CONVERGED_WINDOW, CONVERGED_RTOL = search.CONVERGED_WINDOW, search.CONVERGED_RTOL  # the shared rule (search)
 
 
 @dataclass
@@ -69,18 +68,7 @@ class DesignResult:
         """Why the search is not taken as converged ("" when it is): a non-finite loss, or a best start whose loss
         still fell by more than :data:`CONVERGED_RTOL` (relative) over its last :data:`CONVERGED_WINDOW`
         iterations."""
-        h = np.asarray(self.history, dtype=float)
-        if not np.isfinite(self.loss) or h.size == 0 or not np.isfinite(h[-1]):
-            return "the best start's loss is not finite"
-        if h.size <= CONVERGED_WINDOW:
-            return f"only {h.size} iterations (fewer than {CONVERGED_WINDOW + 1} to judge convergence)"
-        fall = h[-CONVERGED_WINDOW - 1] - h[-1]
-        if fall > CONVERGED_RTOL * max(1.0, abs(h[-1])):
-            return (
-                f"the loss still fell by {fall:.3g} over the last {CONVERGED_WINDOW} iterations "
-                f"(more than {CONVERGED_RTOL:g} relative): raise adam_steps / lbfgs_steps"
-            )
-        return ""
+        return search.convergence_note(self.history, self.loss, "raise adam_steps / lbfgs_steps")
 
     @property
     def converged(self) -> bool:
@@ -162,7 +150,6 @@ def _optimiser(model, crit, n_positions, total, m, free_dwell, noise, dt_s, adam
 
         return jnp.mean(jax.vmap(one)(thetas))
 
-    adam = optax.adam(learning_rate)
     lb = optax.lbfgs()
 
     def optimise(params, template, thetas):
@@ -173,14 +160,7 @@ def _optimiser(model, crit, n_positions, total, m, free_dwell, noise, dt_s, adam
         vg_state = optax.value_and_grad_from_state(loss)
 
         def run_adam(p0):
-            def step(carry, _):
-                p, s = carry
-                val, g = vg(p)
-                upd, s = adam.update(g, s, p)
-                return (optax.apply_updates(p, upd), s), val
-
-            (p, _), hist = jax.lax.scan(step, (p0, adam.init(p0)), None, length=adam_steps)
-            return p, hist
+            return search.adam_scan(vg, p0, adam_steps, learning_rate)
 
         def run_lbfgs(p0):
             def step(carry, _):

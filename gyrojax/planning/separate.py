@@ -30,19 +30,20 @@ Gauss–Markov noise of a position mean); the records' information is Jᵀ J / �
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, replace
 
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optax
 
 from gyrojax.data import plans
-from gyrojax.errors import ModelError
+from gyrojax.errors import ConvergenceWarning, ModelError
 from gyrojax.inference.separation import case_turns
 from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model, jacobian
+from gyrojax.planning import search
 from gyrojax.planning.criteria import detect_power, noncentrality
 from gyrojax.planning.fisher import TIME_EFFECTS, Table, _measurement_dt
 from gyrojax.planning.optimal import dwell_from_logits
@@ -233,6 +234,19 @@ class SeparationDesign:
     lambda_a: float
     lambda_b: float
     hours_needed: float | None  # shortest total dwell (h) with both powers ≥ TARGET_POWER; None beyond MAX_HOURS
+    history: np.ndarray | None = None  # the best start's loss per Adam iteration (the ``hours`` design)
+
+    @property
+    def convergence_note(self) -> str:
+        """Why the search is not taken as converged ("" when it is; :mod:`gyrojax.planning.search`)."""
+        if self.history is None:
+            return ""
+        return search.convergence_note(self.history, float(np.asarray(self.history)[-1]), "raise --adam-steps")
+
+    @property
+    def converged(self) -> bool:
+        """Whether the search settled (see :attr:`convergence_note`)."""
+        return not self.convergence_note
 
     @property
     def triad(self) -> np.ndarray:
@@ -271,6 +285,8 @@ class SeparationDesign:
             "alpha": ALPHA,
             "target_power": TARGET_POWER,
             "hours_needed": self.hours_needed,
+            "converged": self.converged,
+            **({"reason": self.convergence_note} if not self.converged else {}),
             "dwell_hours": float(np.sum(self.dwell_s) / 3600.0),
             "mounting": {"ia": self.triad[0].tolist(), "oa": self.triad[1].tolist(), "sa": self.triad[2].tolist()},
             "positions": [
@@ -302,18 +318,11 @@ def _search(setup: Setup, n_positions: int, starts: int, steps: int, seed: int, 
         la, lb = _lambdas(setup, _new_information(setup, triad, ang, dwell_from_logits(z, total, m_frac)))
         return jax.nn.logsumexp(-jnp.log(jnp.maximum(jnp.stack([la, lb]), 1e-300)))
 
-    adam = optax.adam(learning_rate)
     vg = jax.value_and_grad(loss)
 
     def run(p0, triad, total):
-        def step(carry, _):
-            p, st = carry
-            val, g = vg(p, triad, total)
-            upd, st = adam.update(g, st, p)
-            return (optax.apply_updates(p, upd), st), val
-
-        (p, _), _h = jax.lax.scan(step, (p0, adam.init(p0)), None, length=steps)
-        return p, loss(p, triad, total)
+        p, hist = search.adam_scan(vg, p0, steps, learning_rate, triad, total)
+        return p, hist, loss(p, triad, total)
 
     ang0 = jax.random.uniform(jax.random.PRNGKey(seed), (n_m * starts, n_positions, k), maxval=2 * math.pi)
     z0 = jnp.zeros((n_m * starts, n_positions))
@@ -321,13 +330,13 @@ def _search(setup: Setup, n_positions: int, starts: int, steps: int, seed: int, 
     compiled = jax.jit(jax.vmap(run, in_axes=(0, 0, None)))
 
     def optimise(total_s: float):
-        (ang, z), vals = compiled((ang0, z0), tri, jnp.asarray(total_s))
+        (ang, z), hist, vals = compiled((ang0, z0), tri, jnp.asarray(total_s))
         vals = np.where(np.isfinite(np.asarray(vals)), np.asarray(vals), np.inf)
         b = int(np.argmin(vals))
         if not np.isfinite(vals[b]):
             raise ModelError("design --separate: every start of the search ended with a non-finite loss")
         dwell = np.asarray(dwell_from_logits(z[b], total_s, m_frac))
-        return b // starts, np.mod(np.asarray(ang[b]), 2 * math.pi), dwell
+        return b // starts, np.mod(np.asarray(ang[b]), 2 * math.pi), dwell, np.asarray(hist[b])
 
     return optimise
 
@@ -368,16 +377,19 @@ def design_separation(
     scaled again; at most :data:`MAX_HOURS`, else ``hours_needed`` is None)."""
     optimise = _search(setup, n_positions, starts, steps, seed, learning_rate)
     powers = _power_function(setup)
-    mi, ang, dwell = optimise(hours * 3600.0)
+    mi, ang, dwell, hist = optimise(hours * 3600.0)
     tri = setup.triads[mi]
     cap = max(hours, MAX_HOURS)
     need = _shortest(powers, tri, ang, dwell, hours, cap)
     if need is not None:
-        mi2, ang2, dwell2 = optimise(need * 3600.0)  # re-designed at that length: a shorter one may reach it
+        mi2, ang2, dwell2, _ = optimise(need * 3600.0)  # re-designed at that length: a shorter one may reach it
         need2 = _shortest(powers, setup.triads[mi2], ang2, dwell2, need, cap)
         need = need if need2 is None else min(need, need2)
     pa, pb, la, lb = powers(tri, ang, dwell)
-    return SeparationDesign(setup, mi, np.rad2deg(ang), dwell, pa, pb, la, lb, need)
+    res = SeparationDesign(setup, mi, np.rad2deg(ang), dwell, pa, pb, la, lb, need, hist)
+    if not res.converged:
+        warnings.warn(f"design --separate did not converge: {res.convergence_note}", ConvergenceWarning, stacklevel=2)
+    return res
 
 
 def separate(records, a: str, b: str, terms=None, hours: float = 4.0, **kw):

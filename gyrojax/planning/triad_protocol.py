@@ -28,18 +28,19 @@ poses (N uniformly random attitudes, the mean of :data:`RANDOM_DRAWS` draws).
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optax
 from scipy.spatial.transform import Rotation
 
-from gyrojax.errors import ModelError
+from gyrojax.errors import ConvergenceWarning, ModelError
 from gyrojax.inference.triad import DEFAULT_ROTATION_TERMS as LINEAR_TERMS  # bias, g-terms, scale, misalignment
 from gyrojax.physics import effects as fx
 from gyrojax.physics import triad as tp
+from gyrojax.planning import search
 from gyrojax.planning.triad_fisher import (
     TriadNoise,
     coefficient_names,
@@ -324,6 +325,16 @@ class TriadProtocol:
     turn_pairs: int = 0
     structure_losses: dict = field(default_factory=dict)
 
+    @property
+    def convergence_note(self) -> str:
+        """Why the search is not taken as converged ("" when it is; :mod:`gyrojax.planning.search`)."""
+        return search.convergence_note(self.history, self.loss, "raise --adam-steps")
+
+    @property
+    def converged(self) -> bool:
+        """Whether the chosen structure's search settled (see :attr:`convergence_note`)."""
+        return not self.convergence_note
+
     def fisher(self) -> np.ndarray:
         """The protocol's Fisher information (:func:`gyrojax.planning.triad_fisher.steps_fisher`), θ order."""
         return steps_fisher(triad_model(self.terms), self.start_attitude, self.steps, self.noise)
@@ -427,7 +438,6 @@ def design_protocol(
     x0 = jax.random.normal(k1, (starts, 3)) * 2.0
     v0 = jax.random.normal(k2, (starts, n_poses - 1, 3)) * 1.2
     z0 = jnp.zeros((starts, n_poses))
-    opt = optax.adam(learning_rate)
     found = {}
     for pairs in turn_pairs:
         if total <= moves_s + 6 * pairs * turn_seconds(TURN_DEG) + (n_poses + 3) * 1.0:
@@ -439,13 +449,7 @@ def design_protocol(
         vg = jax.value_and_grad(loss)
 
         def run(p0, loss=loss, vg=vg):
-            def step(carry, _):
-                p, s = carry
-                val, g = vg(p)
-                upd, s = opt.update(g, s, p)
-                return (optax.apply_updates(p, upd), s), val
-
-            (p, _), hist = jax.lax.scan(step, (p0, opt.init(p0)), None, length=steps)
+            p, hist = search.adam_scan(vg, p0, steps, learning_rate)
             return p, hist, loss(p)
 
         p, hist, final = jax.jit(jax.vmap(run))((x0, v0, z0))
@@ -468,7 +472,7 @@ def design_protocol(
             kind = "reorient" if best_pairs and k < 3 else "move"
             move = {"type": kind, "axis": axes[k].tolist(), "angle_deg": float(np.degrees(ang[k]))}
             steps_out.append({**move, "duration_s": float(dur[k])})
-    return TriadProtocol(
+    res = TriadProtocol(
         tuple(model.terms),
         crit,
         noise,
@@ -481,6 +485,9 @@ def design_protocol(
         best_pairs,
         {k: v[0] for k, v in found.items()},
     )
+    if not res.converged:
+        warnings.warn(f"the protocol design did not converge: {res.convergence_note}", ConvergenceWarning, stacklevel=2)
+    return res
 
 
 def baselines(model, n_poses: int, total_s: float, noise: TriadNoise) -> dict:
@@ -546,7 +553,13 @@ def protocol_payload(proto: TriadProtocol, rows: list[dict]) -> dict:
         "pace": {"hand_rate_dps": HAND_RATE_DPS, "min_turn_s": MIN_TURN_S},
         "table": proto.table(),
         "session": {"start_attitude": np.asarray(proto.start_attitude).tolist(), "steps": proto.steps},
-        "search": {"loss": proto.loss, "start_losses": proto.start_losses.tolist(), "iterations": len(proto.history)},
+        "search": {
+            "loss": proto.loss,
+            "start_losses": proto.start_losses.tolist(),
+            "iterations": len(proto.history),
+            "converged": proto.converged,
+            **({"reason": proto.convergence_note} if not proto.converged else {}),
+        },
         "comparison": rows,
     }
 
