@@ -113,6 +113,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--gauss-markov", action="store_true", help="add a Gauss-Markov term to the IEEE 952 read-off")
     s.add_argument("--kalibr", metavar="YAML", help="write Kalibr's imu.yaml (noise densities, random walks)")
     s.add_argument("--rostopic", default="/imu0", help="the rostopic written into the Kalibr file (default /imu0)")
+    s.add_argument("--kalibr-accel", metavar="ND,RW", help="Kalibr accelerometer pair of a gyro-only record")
     s.add_argument("--force", action="store_true", help="overwrite the plot / Kalibr file")
     s.set_defaults(func=_command("noise"))
 

@@ -67,24 +67,30 @@ def cmd_noise(args) -> int:
     from gyrojax.noise.spec import UNITS
 
     recs = load_records(args.records)
-    for option in (args.plot, args.kalibr):
+    triad = any(r.meta["instrument"]["kind"] == "imu-triad" for r in recs)
+    if getattr(args, "kalibr_accel", None) and not args.kalibr:
+        raise UsageError("--kalibr-accel: only with --kalibr (it gives the Kalibr file's accelerometer pair)")
+    plots = triad_plot_paths(args.plot, _has_accelerometer(recs)) if triad and args.plot else [args.plot]
+    for option in (*plots, args.kalibr):
         if option and Path(option).exists() and not args.force:
             raise UsageError(f"{option}: exists; pass --force to overwrite")
-    if any(r.meta["instrument"]["kind"] == "imu-triad" for r in recs):
+    if triad:
         return _noise_triad(args, recs)
     notes: list[str] = []
     segs, tau0 = static_rate_segments(recs, notes=notes)
+    accel = _kalibr_accel(args, has_accelerometer=False)
     m_list = parse_taus(args.taus, max(len(s) for s in segs), tau0)
     out, res, ieee, nm = noise_report(
         segs, tau0, m_list, method=args.method, model=args.model, notes=notes, gauss_markov=args.gauss_markov
     )
+    source = ", ".join(r.name for r in recs)
+    kalibr_file = _kalibr_file(args, {"gyro": out}, accel, tau0, source) if args.kalibr else None
     if args.plot:  # matplotlib is imported only when a plot is asked for
         from gyrojax.report.figures import noise_model_figure, save
 
-        save(noise_model_figure(out, title=", ".join(r.name for r in recs)), args.plot)
-    if args.kalibr:
-        _write_kalibr(args, {"gyro": out}, {}, tau0, ", ".join(r.name for r in recs))
-        out["kalibr"] = args.kalibr_figures
+        save(noise_model_figure(out, title=source), args.plot)
+    if kalibr_file:
+        out["kalibr"] = _write(args.kalibr, *kalibr_file)
     if args.json:
         print(json.dumps(out))
         return 0
@@ -119,17 +125,64 @@ def cmd_noise(args) -> int:
     return 0
 
 
-def _write_kalibr(args, gyro: dict, accel: dict, tau0: float, source: str) -> None:
-    """Kalibr's imu.yaml from per-channel noise reports (gyro deg/h, accelerometer m/s²) to ``--kalibr``; the
-    figures are left in ``args.kalibr_figures`` for the JSON."""
+def triad_plot_paths(plot: str, accelerometer: bool) -> list[str]:
+    """The files ``--plot PNG`` writes for imu-triad records: one figure per sensor, ``STEM_gyro.SUFFIX`` and (with
+    accelerometer channels) ``STEM_accel.SUFFIX`` beside ``PNG``."""
+    p = Path(plot)
+    suffix = p.suffix or ".png"
+    names = ["gyro"] + (["accel"] if accelerometer else [])
+    return [str(p.with_name(f"{p.stem}_{n}{suffix}")) for n in names]
+
+
+def _has_accelerometer(recs) -> bool:
+    """Whether the imu-triad records carry accelerometer channels (the three columns of conventions §9.3 in any of
+    them: the channels are then analysed from the rests of those that have them)."""
+    from gyrojax.data.triad import CHANNELS
+
+    return any(all(f"acc_{c}_g" in r.columns for c in CHANNELS) for r in recs)
+
+
+def _kalibr_accel(args, has_accelerometer: bool):
+    """The accelerometer figures of ``--kalibr`` for records without accelerometer channels: the pair the user
+    gives (``--kalibr-accel``), or a refusal, before any work: Kalibr's reader (kalibr_common/ConfigReader.py,
+    ImuParameters, read for every IMU by IccImu) fails on a file without ``accelerometer_*`` and no figure is
+    invented. None when not needed."""
     from gyrojax.noise import kalibr
-    from gyrojax.protocol import atomic_write_text
+
+    given = getattr(args, "kalibr_accel", None)
+    if not args.kalibr:
+        return None
+    if has_accelerometer:
+        if given:
+            raise UsageError("--kalibr-accel: the records have accelerometer channels; their figures are written")
+        return None
+    if not given:
+        raise UsageError(
+            "--kalibr: the records have no accelerometer channels and Kalibr's reader needs "
+            "accelerometer_noise_density and accelerometer_random_walk; give them with --kalibr-accel ND,RW "
+            "(m/s^2/sqrt(Hz), m/s^3/sqrt(Hz))"
+        )
+    return kalibr.given_accelerometer(given)
+
+
+def _kalibr_file(args, gyro: dict, accel, tau0: float, source: str) -> tuple[dict, str]:
+    """Kalibr's figures and imu.yaml text from per-channel noise reports (gyro deg/h, accelerometer m/s² units)
+    and, for a gyro-only record, the user's accelerometer pair (``accel`` from :func:`_kalibr_accel`); made before
+    anything is written, so that a figure Kalibr cannot take stops the command with no file half done."""
+    from gyrojax.noise import kalibr
 
     g = {k: kalibr.densities(v) for k, v in gyro.items()}
-    a = {k: kalibr.densities(v, 1.0) for k, v in accel.items()}
+    a = accel if isinstance(accel.get("from"), str) else {k: kalibr.densities(v) for k, v in accel.items()}
     fig = kalibr.kalibr_figures(g, a, 1.0 / tau0, args.rostopic)
-    atomic_write_text(args.kalibr, kalibr.imu_yaml(fig, source))
-    args.kalibr_figures = fig
+    return fig, kalibr.imu_yaml(fig, source)
+
+
+def _write(path: str, fig: dict, text: str) -> dict:
+    """Write the Kalibr file atomically; its figures for the JSON."""
+    from gyrojax.protocol import atomic_write_text
+
+    atomic_write_text(path, text)
+    return fig
 
 
 def _noise_triad(args, recs) -> int:
@@ -140,12 +193,12 @@ def _noise_triad(args, recs) -> int:
     from gyrojax.data.timebase import uniform_interval
     from gyrojax.data.triad import CHANNELS, acc_g, gyro_dph
     from gyrojax.noise.readoff import noise_report
+    from gyrojax.noise.sensor_units import accelerometer_report
     from gyrojax.units import G0
 
     if not all(r.meta["instrument"]["kind"] == "imu-triad" for r in recs):
         raise UsageError("noise: imu-triad records and SDF records cannot be analysed together")
-    if args.plot:
-        raise UsageError("noise --plot takes SDF records; for imu-triad records use --json per channel")
+    accel_given = _kalibr_accel(args, has_accelerometer=_has_accelerometer(recs))
     series: dict = {}
     tau0 = None
     for r in recs:
@@ -170,15 +223,21 @@ def _noise_triad(args, recs) -> int:
     for name, segs in series.items():
         m_list = parse_taus(args.taus, max(len(s) for s in segs), tau0)
         out, *_ = noise_report(segs, tau0, m_list, method=args.method, model=args.model, gauss_markov=args.gauss_markov)
-        if name.startswith("acc_"):
-            out["notes"].append("accelerometer channel analysed in m/s^2 where the units say deg/h")
-        reports[name] = out
+        reports[name] = accelerometer_report(out) if name.startswith("acc_") else out
     result = {"instrument": "imu-triad", "tau0_s": tau0, "channels": reports}
-    if args.kalibr:
-        gyro = {k: v for k, v in reports.items() if k.startswith("gyro_")}
-        accel = {k: v for k, v in reports.items() if k.startswith("acc_")}
-        _write_kalibr(args, gyro, accel, tau0, ", ".join(r.name for r in recs))
-        result["kalibr"] = args.kalibr_figures
+    source = ", ".join(r.name for r in recs)
+    gyro = {k: v for k, v in reports.items() if k.startswith("gyro_")}
+    accel = {k: v for k, v in reports.items() if k.startswith("acc_")}
+    kalibr_file = _kalibr_file(args, gyro, accel_given or accel, tau0, source) if args.kalibr else None
+    if args.plot:  # one figure per sensor, a panel per channel; matplotlib only when a plot is asked for
+        from gyrojax.report.figures import noise_channels_figure, save
+
+        paths = triad_plot_paths(args.plot, bool(accel))
+        for path, (sensor, chans) in zip(paths, (("gyroscope", gyro), ("accelerometer", accel))):
+            save(noise_channels_figure(chans, title=f"{sensor} of {source}: Allan deviation per channel"), path)
+        result["plots"] = paths
+    if kalibr_file:
+        result["kalibr"] = _write(args.kalibr, *kalibr_file)
     if args.json:
         print(json.dumps(result))
         return 0
@@ -188,6 +247,8 @@ def _noise_triad(args, recs) -> int:
             print(f"  note: {note}")
         _print_headline(out["headline"])
         print(f"  {out['adequacy']['verdict']}")
+    for path in result.get("plots", []):
+        print(f"plot -> {path}")
     if args.kalibr:
         print(f"Kalibr imu.yaml -> {args.kalibr}")
     return 0

@@ -209,33 +209,82 @@ def save(fig, path) -> None:
 # ---- figures of the noise, design and Monte Carlo studies ---------------------------------------------------------
 
 
-def noise_model_figure(out: dict, title: str = "Allan deviation"):
-    """``gyrojax noise --plot``: the empirical ADEV (deg/h against τ in s) with its 95 % band, the model ADEV, its
-    processes drawn separately and the τ where the model leaves the band; ``out`` the dict of
-    :func:`gyrojax.noise.readoff.noise_report`. Returns the figure."""
+READOFF_SLOPES = {"arw": -0.5, "bias_instability": 0.0, "rrw": 0.5, "quantization": -1.0, "rate_ramp": 1.0}
+"""Slope of σ(τ) of each IEEE 952 read-off line (:mod:`gyrojax.noise.headline`)."""
+
+READOFF_SYMBOLS = {"arw": "N", "bias_instability": "B", "rrw": "K", "quantization": "Q", "rate_ramp": "R"}
+
+
+def _adev_key(out: dict) -> tuple[str, str]:
+    """The ADEV arrays' key prefix and unit of a noise report: ``adev_deg_per_h`` (a gyro, deg/h) or ``adev_mps2``
+    (an accelerometer, m/s², :mod:`gyrojax.noise.sensor_units`)."""
+    return ("mps2", "m/s²") if "adev_mps2" in out else ("deg_per_h", "deg/h")
+
+
+def noise_panel(ax, out: dict, title: str = "") -> None:
+    """One channel's noise on ``ax``: the empirical ADEV (the report's unit, deg/h or m/s², against τ in s) with its
+    95 % band, the model ADEV, its processes drawn separately, the τ where the model leaves the band and the IEEE 952
+    read-offs of the curve (:mod:`gyrojax.noise.headline`) as lines of their slope through the point where each was
+    read, labelled with value ± std in the report's units; ``out`` one report of ``gyrojax noise --json``."""
     from gyrojax.noise.spec import NoiseSpec
 
+    key, unit = _adev_key(out)
     taus = np.asarray(out["taus_s"])
-    fig, ax = _figure(figsize=(7, 5))
+    adev = np.asarray(out[f"adev_{key}"])
+    model = np.asarray(out[f"adev_model_{key}"])
     adq = out["adequacy"]
     ax.fill_between(taus, adq["low"], adq["high"], color="0.8", label=f"empirical {100 * adq['ci']:.0f} % band")
-    ax.plot(taus, out["adev_deg_per_h"], "o", ms=3, color="k", label="overlapping ADEV")
-    ax.plot(taus, out["adev_model_deg_per_h"], "-", color="C3", lw=1.6, label=f"model ({out['method']})")
-    if "model" in out:
-        nm = NoiseSpec.from_json(out["model"])
-        tt = np.geomspace(taus.min(), taus.max(), 200)
-        for name, curve in nm.term_adev(tt).items():
+    ax.plot(taus, adev, "o", ms=3, color="k", label="overlapping ADEV")
+    ax.plot(taus, model, "-", color="C3", lw=1.6, label=f"model ({out['method']})")
+    tt = np.geomspace(taus.min(), taus.max(), 200)
+    if "model" in out:  # the model's fields are in the series' unit, so its processes' ADEV is in the panel's
+        for name, curve in NoiseSpec.from_json(out["model"]).term_adev(tt).items():
             ax.plot(tt, curve, "--", lw=0.9, label=name)
     bad = ~np.asarray(adq["inside"])
     if bad.any():
-        ax.plot(taus[bad], np.asarray(out["adev_model_deg_per_h"])[bad], "x", color="C3", label="model outside band")
+        ax.plot(taus[bad], model[bad], "x", color="C3", label="model outside band")
+    for k, (name, h) in enumerate(out["headline"].items()):
+        c = h["curve"]
+        if c.get("value") is None or c.get("tau_s") is None or name not in READOFF_SLOPES:
+            continue
+        i = int(np.argmin(np.abs(taus - c["tau_s"])))
+        bound = c.get("kind") == "upper bound"
+        level = float(out["adev_high"][i]) if bound else float(adev[i])
+        line = level * (tt / taus[i]) ** READOFF_SLOPES[name]
+        rel = "≤" if bound else "="
+        label = f"{READOFF_SYMBOLS[name]} {rel} {c['value']:.3g} ± {c['std']:.2g} {c['unit']} (τ = {c['tau_s']:.3g} s)"
+        ax.plot(tt, line, ":", lw=1.0, color=f"C{4 + k}", label=label)
+        ax.plot([taus[i]], [level], "v" if bound else "s", ms=5, color=f"C{4 + k}")
     ax.set_xscale("log")
     ax.set_yscale("log")
+    ax.set_ylim(0.5 * min(np.min(adq["low"]), np.min(model)), 2.0 * max(np.max(adq["high"]), np.max(model)))
     ax.set_xlabel("τ (s)")
-    ax.set_ylabel("Allan deviation (deg/h)")
-    ax.set_title(title)
+    ax.set_ylabel(f"Allan deviation ({unit})")
+    ax.set_title(title, fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=6)
+
+
+def noise_model_figure(out: dict, title: str = "Allan deviation"):
+    """``gyrojax noise --plot``: the empirical ADEV (deg/h against τ in s) with its 95 % band, the model ADEV, its
+    processes drawn separately, the τ where the model leaves the band and the IEEE 952 read-offs (:func:`noise_panel`);
+    ``out`` the dict of :func:`gyrojax.noise.readoff.noise_report`. Returns the figure."""
+    fig, ax = _figure(figsize=(7, 5))
+    noise_panel(ax, out, title)
+    ax.title.set_fontsize(12)
+    return fig
+
+
+def noise_channels_figure(reports: dict, title: str = "Allan deviation"):
+    """``gyrojax noise --plot`` of one sensor of an imu-triad record: one :func:`noise_panel` per channel
+    (``reports``: channel name → its report, gyro channels in deg/h, accelerometer channels in m/s²; each
+    analysed from its own rests, never pooled), side by side. Returns the figure."""
+    n = len(reports)
+    fig, axes = _figure(1, n, figsize=(5.2 * n, 4.6), squeeze=False)
+    for ax, (name, out) in zip(axes[0], reports.items()):
+        noise_panel(ax, out, name)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
     return fig
 
 
