@@ -133,3 +133,6 @@ def test_bad_input_refused_cleanly(triad, capsys, tmp_path):
     sdf_path = save_record(sdf[0], tmp_path)
     rc, _, err = _run(capsys, ["noise", str(path), str(sdf_path), "--plot", str(tmp_path / "q.png")])
     assert rc == 2 and "cannot be analysed together" in err and not list(tmp_path.glob("q*.png"))
+    for bad in (str(tmp_path), ""):  # a directory or no name: no STEM for the per-sensor files
+        rc, _, err = _run(capsys, ["noise", str(path), "--plot", bad])
+        assert rc == 2 and "--plot" in err and len(err.splitlines()) == 1, err

@@ -70,6 +70,9 @@ def cmd_noise(args) -> int:
     triad = any(r.meta["instrument"]["kind"] == "imu-triad" for r in recs)
     if getattr(args, "kalibr_accel", None) and not args.kalibr:
         raise UsageError("--kalibr-accel: only with --kalibr (it gives the Kalibr file's accelerometer pair)")
+    for name, option in (("--plot", args.plot), ("--kalibr", args.kalibr)):
+        if option is not None and not option.strip():
+            raise UsageError(f"{name}: empty file name")
     plots = triad_plot_paths(args.plot, _has_accelerometer(recs)) if triad and args.plot else [args.plot]
     for option in (*plots, args.kalibr):
         if option and Path(option).exists() and not args.force:
@@ -129,6 +132,8 @@ def triad_plot_paths(plot: str, accelerometer: bool) -> list[str]:
     """The files ``--plot PNG`` writes for imu-triad records: one figure per sensor, ``STEM_gyro.SUFFIX`` and (with
     accelerometer channels) ``STEM_accel.SUFFIX`` beside ``PNG``."""
     p = Path(plot)
+    if not p.name or p.is_dir():
+        raise UsageError(f"--plot {plot!r}: needs a file name (imu-triad figures go to STEM_gyro.png, STEM_accel.png)")
     suffix = p.suffix or ".png"
     names = ["gyro"] + (["accel"] if accelerometer else [])
     return [str(p.with_name(f"{p.stem}_{n}{suffix}")) for n in names]
