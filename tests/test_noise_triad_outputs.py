@@ -17,6 +17,8 @@ from gyrojax.report.figures import noise_channels_figure
 from gyrojax.simulation.simulator import simulate
 from gyrojax.simulation.triad import simulate_multiposition
 
+from .kalibr_reader import kalibr_imu_parameters
+
 BI_FACTOR = math.sqrt(2 * math.log(2) / math.pi)  # IEEE 952 C.1: σ_min = 0.664 B
 
 
@@ -136,3 +138,26 @@ def test_bad_input_refused_cleanly(triad, capsys, tmp_path):
     for bad in (str(tmp_path), ""):  # a directory or no name: no STEM for the per-sensor files
         rc, _, err = _run(capsys, ["noise", str(path), "--plot", bad])
         assert rc == 2 and "--plot" in err and len(err.splitlines()) == 1, err
+
+
+def test_gyro_only_triad(tmp_path, capsys):
+    """A triad record without accelerometer columns: --kalibr refused before any work unless --kalibr-accel gives
+    the pair; with it the file holds the pair as given, and --plot writes the gyro figure only."""
+    rec = simulate_multiposition(mems_truth(4), poses=6, static_s=60.0, gyro_noise_dps=0.05, acc_noise_g=0.001)
+    seg = np.asarray(rec.columns["segment"])
+    acc = np.stack([np.asarray(rec.columns.pop(f"acc_{c}_g")) for c in "xyz"], axis=1)
+    for spec in rec.meta["segments"]:  # without an accelerometer a rest names its Up (conventions §9.3)
+        if spec["type"] == "static":
+            up = acc[seg == spec["label"]].mean(axis=0)
+            spec["up"] = [float(u) for u in up / np.linalg.norm(up)]
+    path = save_record(rec, tmp_path)
+    y = tmp_path / "imu.yaml"
+    rc, _, err = _run(capsys, ["noise", str(path), "--kalibr", str(y)])
+    assert rc == 2 and "--kalibr-accel" in err and not y.exists()
+    rc, out, _ = _run(
+        capsys,
+        ["noise", str(path), "--kalibr", str(y), "--kalibr-accel", "2e-3,3e-4", "--plot", str(tmp_path / "a.png")],
+    )
+    assert rc == 0 and f"plot -> {tmp_path / 'a_gyro.png'}" in out and "a_accel" not in out
+    _, _, acc, _ = kalibr_imu_parameters(y)
+    assert acc[2] == 2e-3 and acc[1] == 3e-4
