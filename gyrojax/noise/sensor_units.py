@@ -95,7 +95,7 @@ def accelerometer_report(out: dict) -> dict:
     out["headline"] = headline.compare(model, curve)
     notes = []
     for n in out["notes"]:
-        if n in old_notes or "where the units say deg/h" in n:
+        if n in old_notes:
             continue
         if n.startswith("terms.bias_instability"):  # B's factor is 1: only its unit changes
             n = n.replace(" deg/h", f" {ACCEL_UNITS['bias_instability'][0]}")
