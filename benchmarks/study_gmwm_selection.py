@@ -16,6 +16,12 @@ white 0.105 0.045 0.025 0.005 0.005; white+gm 0.140 0.055 0.025 0.005 0.005; fli
 0.005; the components found at c = 3 in 1.00, 1.00 and 0.69 of the records. c = 3 meets the stated 5 % (binomial
 standard error 1.5 %); the WIC's c = 2 does not.
 
+With the flicker floor among the candidates and the J-test gate (200 records, 2026-12-02; the rates at c are
+those of the table, "shipped" the actual choice at c = 3): white 0.105 0.045 0.025 0.005 0.005, shipped 0.045;
+white+gm 0.145 0.060 0.025 0.005 0.005, shipped 0.060; flicker 0.090 0.040 0.015 0.005 0.000, shipped 0.045;
+bi (white + an exact 1/f floor B = 3 deg/h) 0.220 0.080 0.025 0.015 0.000, shipped 0.080 (white+flicker chosen
+in 175 of 200; the excess: white+gm+flicker 5, white+quant+flicker 6, white+2gm 4). "found" now counts processes.
+
 Run: PYTHONPATH=. python benchmarks/study_gmwm_selection.py [--draws 200] [--n 131072] [--only white,flicker]
 """
 
