@@ -137,7 +137,7 @@ def test_iteration_limit_is_reported_not_converged():
     nu = gm.pad(est.nu2, jp, 0.0)
     p_mat = np.zeros((jp, jp))
     p_mat[: len(est.m), : len(est.m)] = np.diag(1.0 / est.nu2)
-    lo, hi = np.full(10, -50.0), np.full(10, 50.0)
+    lo, hi = np.full(len(gm.FULL_NAMES), -50.0), np.full(len(gm.FULL_NAMES), 50.0)
     th0 = gm.expand(SPEC, np.zeros(SPEC.n_params))
     _, _, ok, it = gmwm.levenberg_marquardt(th0, mask, nu, m, p_mat, lo, hi, n_iter=1)
     assert not bool(ok) and int(it) == 1

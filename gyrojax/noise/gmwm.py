@@ -1,9 +1,10 @@
 """Latent-process noise models fitted by the generalized method of wavelet moments (GMWM).
 
 A rate series (deg/h, sample interval Δt s) is modelled as a sum of independent latent processes with exact Haar
-wavelet variance (:mod:`gyrojax.noise.wavelet`): white noise, angle quantization, rate random walk, rate ramp and one or
-more first-order Gauss–Markov (AR1) processes — the latter also stand for flicker over a band and for the sensor's
-own output filter. The Allan variance of the model is twice its wavelet variance at the same τ.
+wavelet variance (:mod:`gyrojax.noise.wavelet`): white noise, angle quantization, rate random walk, rate ramp, a
+flicker floor (bias instability B, :mod:`gyrojax.noise.gmwm_model`) and one or more first-order Gauss–Markov (AR1)
+processes — the latter also stand for flicker over a narrow band and for the sensor's own output filter. The
+Allan variance of the model is twice its wavelet variance at the same τ.
 
 **Estimation** (Guerrier, Skaloud, Stebler & Victoria-Feser 2013): θ̂ = argmin (ν̂ − ν(θ))ᵀ Ω⁻¹ (ν̂ − ν(θ)) over
 the empirical Haar wavelet variances ν̂ at the dyadic scales m = 1, 2, 4, … (m ≤ n/8), with Ω the asymptotic
@@ -20,8 +21,9 @@ its p-value is the model's adequacy test at the dyadic scales.
 
 **Model selection** (:mod:`gyrojax.noise.gmwm_select`). Among candidate sums (default
 :data:`DEFAULT_CANDIDATES`) that the record identifies (no parameter at a bound, no duplicate or unidentified
-component), the one of least Q(θ̂) + c·p, every candidate weighed with the Ω of the largest one; c is calibrated
-by Monte Carlo for the stated false-component rate (the WIC's c = 2 of Guerrier et al. is not).
+component, no flicker floor that is nowhere seen), the one of least Q(θ̂) + c·p, every candidate weighed with the
+Ω of the largest one, that passes its own J test; c is calibrated by Monte Carlo for the stated false-component
+rate (the WIC's c = 2 of Guerrier et al. is not).
 
 **AVLR** (Allan-variance linear regression, Guerrier et al. 2016) is the same fit with relative least-squares
 weights diag(1/ν̂²) instead of Ω⁻¹; its covariance is the sandwich with the model's Ω. The IEEE 952 read-off
@@ -37,7 +39,7 @@ table. The latent processes and their compiled wavelet variances are :mod:`gyroj
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache, partial
 
 import jax
@@ -61,6 +63,7 @@ from gyrojax.noise.gmwm_model import (
     padded_length,
     spec_mask,
     to_noise_spec,
+    wv_flicker,
 )
 from gyrojax.noise.spec import NoiseModelError, NoiseSpec
 
@@ -136,6 +139,8 @@ def _basis(spec: ModelSpec, m, rates):
         cols.append(np.asarray(wv.wv_random_walk(m, 1.0)))
     if spec.drift:
         cols.append(np.asarray(wv.wv_drift(m, 1.0)))
+    if spec.flicker:
+        cols.append(np.asarray(wv_flicker(m, 1.0)))
     for a in rates:
         cols.append(_gm_column(tuple(m), float(a)))
     return np.stack(cols, axis=1)
@@ -160,10 +165,10 @@ def _bounds(spec: ModelSpec, m, nu_hat, n_samples):
     """Box for θ: each variance between 1e-10 and 1e4 times the value that explains ν̂ on its own at its most
     constraining scale; AR1 rates a = Δt/T with T inside what the scales can identify (:func:`gm_tau_limits`)."""
     lo, hi = [], []
-    unit = _basis(ModelSpec(white=True, quantization=True, random_walk=True, drift=True, n_gm=0), m, [])
-    lin = ("white", "quantization", "random_walk", "drift")
+    unit = _basis(ModelSpec(True, True, True, True, n_gm=0, flicker=True), m, [])
+    lin = ("white", "quantization", "random_walk", "drift", "flicker")
     full = {k: float(np.min(nu_hat / unit[:, i])) for i, k in enumerate(lin)}
-    for k in ("white", "quantization", "random_walk", "drift"):
+    for k in lin:
         if getattr(spec, k):
             lo.append(math.log(full[k] * 1e-10))
             hi.append(math.log(full[k] * 1e4))
@@ -201,7 +206,7 @@ def starting_values(spec: ModelSpec, m, nu_hat, p_mat, n_samples, memo: dict | N
     data_key = (m.tobytes(), np.asarray(nu_hat, float).tobytes(), np.asarray(p_mat, float).tobytes())
     rates: list[float] = []
     for _ in range(spec.n_gm):
-        key = (data_key, spec.white, spec.quantization, spec.random_walk, spec.drift, tuple(rates))
+        key = (data_key, replace(spec, n_gm=0), tuple(rates))
         if memo is not None and key in memo:
             rates.append(memo[key])
             continue
@@ -209,7 +214,7 @@ def starting_values(spec: ModelSpec, m, nu_hat, p_mat, n_samples, memo: dict | N
         for t in grid:
             if any(abs(math.log(t * r)) < 0.2 for r in rates):
                 continue
-            sub = ModelSpec(spec.white, spec.quantization, spec.random_walk, spec.drift, len(rates) + 1)
+            sub = replace(spec, n_gm=len(rates) + 1)
             c, sse = _nnls(_basis(sub, m, [*rates, 1.0 / t]), nu_hat, p_mat)
             if best is None or sse < best[0]:
                 best = (sse, 1.0 / t)
@@ -379,7 +384,8 @@ def _fit_spec(spec: ModelSpec, est, omega, method, grid, n_steps, memo):
     }
     converged, iters = status
     reason = "" if converged else f"Levenberg-Marquardt stopped at its iteration limit ({iters}) before converging"
-    return to_noise_spec(spec, theta, cov, est.dt, method, info, converged, reason), om
+    band = (float(est.taus_s[0]), float(est.taus_s[-1]))
+    return to_noise_spec(spec, theta, cov, est.dt, method, info, converged, reason, band), om
 
 
 def _weighted_residual(spec: ModelSpec, theta, est: WaveletVariance, p_mat, m_padded) -> np.ndarray:
@@ -435,10 +441,12 @@ def _fit_theta(spec: ModelSpec, est: WaveletVariance, omega, method: str, grid, 
 def select_model(est: WaveletVariance, candidates=DEFAULT_CANDIDATES, method: str = "gmwm") -> NoiseSpec:
     """The identified model selection (module doc, :mod:`gyrojax.noise.gmwm_select`): the sensor filter's short
     scales dropped (:func:`~gyrojax.noise.gmwm_select.short_scale_limit`), every candidate fitted with the weights
-    Ω of the largest, the admissible one of least Q + c·p refitted with its own efficient weights (GMWM) or by
-    AVLR. ``info["selection"]`` lists every candidate's objective, criterion and rejection, ``info["tau_min_s"]``
-    the shortest τ fitted and ``info["short_scales"]`` why shorter ones were dropped. Candidates with more
-    parameters than scales are skipped."""
+    Ω of the largest, the admissible one of least Q + c·p that passes its J test with its own efficient weights
+    (:func:`~gyrojax.noise.gmwm_select.ranked`; refitted by AVLR when asked). ``info["selection"]`` lists every
+    candidate's objective, criterion, rejection and (where tested) own-weight J-test p-value ``j_test_p``,
+    ``info["j_test"]`` says when no identified candidate passes (the least-criterion one is kept),
+    ``info["tau_min_s"]`` the shortest τ fitted and ``info["short_scales"]`` why shorter ones were dropped.
+    Candidates with more parameters than scales are skipped."""
     k, why = sel.short_scale_limit(est)
     if k:
         est = WaveletVariance(est.m[k:], est.nu2[k:], est.counts[k:], est.dt, est.n_samples)
@@ -450,10 +458,22 @@ def select_model(est: WaveletVariance, candidates=DEFAULT_CANDIDATES, method: st
     largest = max(cands, key=lambda c: c.n_params)
     _, ref_omega = _fit_spec(largest, est, None, "gmwm", grid, 2, memo)
     rows = [sel.table_row(c, _fit_spec(c, est, ref_omega, "gmwm", grid, 2, memo)[0]) for c in cands]
-    out = fit_spec(cands[sel.choose(rows)], est, method=method, grid=grid, memo=memo)
+    order = sel.ranked(rows)
+    for i in order:  # the adequacy gate (gmwm_select module doc)
+        out = fit_spec(cands[i], est, grid=grid, memo=memo)
+        rows[i]["j_test_p"] = out.info["p_value"]
+        if sel.passes_j_test(out):
+            break
+    else:
+        i = order[0]
+        out = fit_spec(cands[i], est, grid=grid, memo=memo)
+    gate = "" if sel.passes_j_test(out) else f"no identified candidate passes the J test at {sel.J_TEST_LEVEL:g}"
+    if method != "gmwm":
+        out = fit_spec(cands[i], est, method=method, grid=grid, memo=memo)
     out.info.update(
         selection=rows,
         penalty=sel.PENALTY,
+        j_test=gate or None,
         tau_min_s=float(est.m[0] * est.dt),
         short_scales=why,
         rejected=sel.rejection(out) or None,

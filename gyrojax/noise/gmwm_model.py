@@ -5,8 +5,18 @@ wavelet-variance covariance as compiled functions of the log-parameters θ, and 
 
 Natural units (IEEE 952 / conventions §6): white N deg/√h (per-sample variance (60N)²/Δt), quantization Q arcsec
 (rate = Δe/Δt, 1 arcsec/s = 1 deg/h), random walk K deg/h/√h (per-step variance K²Δt/3600), drift R deg/h/h
-(per-sample increment RΔt/3600), Gauss–Markov σ deg/h and T s. θ are the logarithms of the latent per-sample
-parameters (variances, AR1 rate a = Δt/T), so every parameter stays positive.
+(per-sample increment RΔt/3600), bias instability B deg/h (flicker, below), Gauss–Markov σ deg/h and T s. θ are
+the logarithms of the latent per-sample parameters (variances, AR1 rate a = Δt/T), so every parameter stays positive.
+
+**Bias instability (flicker).** IEEE 952 C.1's flicker floor: a flat Allan variance (2 ln 2/π)·B² = (0.664 B)², so
+the Haar wavelet variance ν²(m) = b² = (ln 2/π)·B² at every scale (:func:`wv_flicker`; one parameter, B). It is the
+continuous-time closed form of a 1/f rate spectrum S(f) = b²/(2 ln 2 |f|) (:func:`spectrum_flicker`, f in cycles per
+sample, the spectrum the covariance Ω uses); the sampled 1/f process exceeds it by 19 % at m = 1, 0.9 % at m = 8 and
+0.03 % at m = 64 (a (1/m)² approach, tests/test_gmwm_flicker.py), where the white term dominates ν² by orders of
+magnitude. It stands for what one Gauss–Markov component cannot follow: a wander whose Allan deviation stays flat
+over a decade or more of τ (a sum of Gauss–Markov processes spread over the scales, as the sensor's flicker is).
+:class:`~gyrojax.noise.spec.NoiseSpec` carries it as ``bias_instability`` with the same flat Allan variance and,
+for simulation, ``flicker_band`` = the τ range fitted.
 """
 
 from __future__ import annotations
@@ -21,7 +31,7 @@ import numpy as np
 
 from gyrojax import protocol
 from gyrojax.noise import wavelet as wv
-from gyrojax.noise.spec import NoiseModelError, NoiseSpec
+from gyrojax.noise.spec import BI_FACTOR, NoiseModelError, NoiseSpec
 from gyrojax.units import SECONDS_PER_HOUR
 
 
@@ -34,19 +44,20 @@ class ModelSpec:
     random_walk: bool = False
     drift: bool = False
     n_gm: int = 1
+    flicker: bool = False
 
     def label(self) -> str:
-        """E.g. ``white+2gm+rw``."""
+        """E.g. ``white+2gm+rw``, ``white+flicker+rw``."""
         parts = [k for k, on in (("white", self.white), ("quant", self.quantization)) if on]
         if self.n_gm:
             parts.append("gm" if self.n_gm == 1 else f"{self.n_gm}gm")
-        parts += [k for k, on in (("rw", self.random_walk), ("drift", self.drift)) if on]
+        parts += [k for k, on in (("flicker", self.flicker), ("rw", self.random_walk), ("drift", self.drift)) if on]
         return "+".join(parts)
 
     @classmethod
     def parse(cls, text: str) -> "ModelSpec":
-        """``white+gm+rw``, ``white+2gm``, ``quant+white+3gm+rw+drift`` (any order)."""
-        kw = {"white": False, "quantization": False, "random_walk": False, "drift": False, "n_gm": 0}
+        """``white+gm+rw``, ``white+2gm``, ``white+flicker+rw``, ``quant+white+3gm+rw+drift`` (any order)."""
+        kw = {"white": False, "quantization": False, "random_walk": False, "drift": False, "n_gm": 0, "flicker": False}
         for tok in (t.strip().lower() for t in text.split("+")):
             if tok == "white":
                 kw["white"] = True
@@ -56,11 +67,14 @@ class ModelSpec:
                 kw["random_walk"] = True
             elif tok in ("drift", "ramp"):
                 kw["drift"] = True
+            elif tok in ("flicker", "bi", "bias_instability"):
+                kw["flicker"] = True
             elif tok.endswith("gm") and (tok[:-2] == "" or tok[:-2].isdigit()):
                 kw["n_gm"] += int(tok[:-2] or 1)
             else:
                 raise NoiseModelError(
-                    f"noise model {text!r}: unknown part {tok!r} (use white, quant, Ngm, rw, drift joined by '+')"
+                    f"noise model {text!r}: unknown part {tok!r} (use white, quant, Ngm, flicker, rw, drift joined by "
+                    "'+')"
                 )
         spec = cls(**kw)
         if spec.n_params == 0:
@@ -72,6 +86,7 @@ class ModelSpec:
         """Names of the log-parameters, in the order of θ."""
         out = [k for k, on in (("white", self.white), ("quantization", self.quantization)) if on]
         out += [k for k, on in (("random_walk", self.random_walk), ("drift", self.drift)) if on]
+        out += ["bias_instability"] if self.flicker else []
         for i in range(self.n_gm):
             out += [f"gm{i + 1}_var", f"gm{i + 1}_rate"]
         return tuple(out)
@@ -83,18 +98,21 @@ class ModelSpec:
 
 
 DEFAULT_CANDIDATES = tuple(
-    ModelSpec(white=True, quantization=q, random_walk=rw, n_gm=k)
+    ModelSpec(white=True, quantization=q, random_walk=rw, n_gm=k, flicker=fl)
     for q in (False, True)
-    for k in (0, 1, 2, 3)
+    for fl in (False, True)
+    for k in ((0, 1, 2, 3) if not fl else (0, 1, 2))
     for rw in (False, True)
 )
-"""Candidate sums tried by :func:`select_model`: white, optional quantization, 0–3 AR1s, optional random walk."""
+"""Candidate sums tried by :func:`select_model`: white, optional quantization, 0–3 AR1s, optional random walk, and
+the same with a flicker floor (bias instability) and 0–2 AR1s (a flicker beside three AR1s has more parameters
+than a record's flat part can tell apart)."""
 
 
 G_MAX = 3
 """Most AR1 processes in one model."""
 
-FULL_NAMES = ("white", "quantization", "random_walk", "drift") + tuple(
+FULL_NAMES = ("white", "quantization", "random_walk", "drift", "bias_instability") + tuple(
     x for i in range(G_MAX) for x in (f"gm{i + 1}_var", f"gm{i + 1}_rate")
 )
 """Layout of the full log-parameter vector used by the compiled solver (inactive entries masked)."""
@@ -118,11 +136,27 @@ def expand(spec: ModelSpec, theta):
     device round trip), JAX under tracing (e.g. inside ``jax.jacfwd``)."""
     mask = spec_mask(spec)
     if isinstance(theta, jax.core.Tracer):
-        e = np.eye(len(FULL_NAMES))[:, mask]  # (10, p) selection matrix
+        e = np.eye(len(FULL_NAMES))[:, mask]  # (11, p) selection matrix
         return jnp.asarray(e) @ jnp.asarray(theta, dtype=jnp.float64)
     out = np.zeros(len(FULL_NAMES))
     out[mask] = np.asarray(theta, dtype=np.float64)
     return out
+
+
+GM0 = 5
+"""Index in :data:`FULL_NAMES` of the first AR1's variance (its rate follows; the next AR1 two places on)."""
+
+
+def wv_flicker(m, b2):
+    """ν² ((deg/h)²) of the flicker floor at half-width ``m`` samples: b² = (ln 2/π)·B² at every scale (module
+    doc; IEEE 952 C.1's flat Allan variance (2 ln 2/π)·B², B in deg/h)."""
+    return b2 * jnp.ones_like(jnp.asarray(m, dtype=jnp.float64))
+
+
+def spectrum_flicker(f, b2):
+    """S(f) = b²/(2 ln 2 |f|) of the 1/f rate process whose Haar wavelet variance tends to ``b2`` ((deg/h)²) at
+    large m, (deg/h)² per cycle/sample, f in cycles/sample (module doc)."""
+    return b2 / (2.0 * math.log(2.0) * jnp.abs(f))
 
 
 @jax.jit
@@ -134,9 +168,10 @@ def _full_components(theta, mask, m):
         wv.wv_quantization(m, e[1]),
         wv.wv_random_walk(m, e[2]),
         wv.wv_drift(m, e[3]),
-    ] + [wv.wv_gauss_markov(m, e[4 + 2 * i], e[5 + 2 * i]) for i in range(G_MAX)]
-    gm_on = [mask[4 + 2 * i] for i in range(G_MAX)]
-    on = [mask[0], mask[1], mask[2], mask[3], *gm_on]
+        wv_flicker(m, e[4]),
+    ] + [wv.wv_gauss_markov(m, e[GM0 + 2 * i], e[GM0 + 1 + 2 * i]) for i in range(G_MAX)]
+    gm_on = [mask[GM0 + 2 * i] for i in range(G_MAX)]
+    on = [mask[0], mask[1], mask[2], mask[3], mask[4], *gm_on]
     return [jnp.where(o, c, 0.0) for o, c in zip(on, comps)]
 
 
@@ -153,12 +188,17 @@ def full_spectrum(theta, mask, f):
         jnp.where(mask[0], wv.spectrum_white(f, e[0]), 0.0),
         jnp.where(mask[1], wv.spectrum_quantization(f, e[1]), 0.0),
         jnp.where(mask[2], wv.spectrum_random_walk(f, e[2]), 0.0),
-    ] + [jnp.where(mask[4 + 2 * i], wv.spectrum_gauss_markov(f, e[4 + 2 * i], e[5 + 2 * i]), 0.0) for i in range(G_MAX)]
+        jnp.where(mask[4], spectrum_flicker(f, e[4]), 0.0),
+    ]
+    parts += [
+        jnp.where(mask[GM0 + 2 * i], wv.spectrum_gauss_markov(f, e[GM0 + 2 * i], e[GM0 + 1 + 2 * i]), 0.0)
+        for i in range(G_MAX)
+    ]
     return sum(parts)
 
 
 full_wv_jacobian = jax.jit(jax.jacfwd(full_wv))
-"""∂ν²/∂θ (J, 10) of :func:`full_wv`, compiled."""
+"""∂ν²/∂θ (J, 11) of :func:`full_wv`, compiled."""
 
 
 def model_wv(spec: ModelSpec, theta, m):
@@ -168,12 +208,13 @@ def model_wv(spec: ModelSpec, theta, m):
 
 def latent_parameters(spec: ModelSpec, theta):
     """Latent per-sample parameters from the compact log-parameters θ: a dict with ``white`` s², ``quantization``
-    q², ``random_walk`` g², ``drift`` w² ((deg/h)², module :mod:`gyrojax.noise.wavelet` table; 1 when the process is
-    absent) and ``gm_var`` ((deg/h)²), ``gm_rate`` (a = Δt/T, dimensionless) arrays of the AR1 processes."""
+    q², ``random_walk`` g², ``drift`` w² ((deg/h)², module :mod:`gyrojax.noise.wavelet` table), ``bias_instability``
+    b² ((deg/h)², :func:`wv_flicker`; each 1 when the process is absent) and ``gm_var`` ((deg/h)²), ``gm_rate``
+    (a = Δt/T, dimensionless) arrays of the AR1 processes."""
     e = jnp.exp(expand(spec, theta))
-    out = {k: e[i] for i, k in enumerate(("white", "quantization", "random_walk", "drift"))}
-    out["gm_var"] = e[4::2][: spec.n_gm]
-    out["gm_rate"] = e[5::2][: spec.n_gm]
+    out = {k: e[i] for i, k in enumerate(("white", "quantization", "random_walk", "drift", "bias_instability"))}
+    out["gm_var"] = e[GM0::2][: spec.n_gm]
+    out["gm_rate"] = e[GM0 + 1 :: 2][: spec.n_gm]
     return out
 
 
@@ -185,9 +226,10 @@ def natural_names(spec: ModelSpec) -> tuple[tuple, tuple]:
         ("quantization", "arcsec"),
         ("random_walk", "deg/h/sqrt(h)"),
         ("drift", "deg/h/h"),
+        ("flicker", "deg/h"),
     ):
         if getattr(spec, k):
-            names.append(k)
+            names.append("bias_instability" if k == "flicker" else k)
             units.append(unit)
     for i in range(spec.n_gm):
         names += [f"gm{i + 1}_sigma", f"gm{i + 1}_tau"]
@@ -196,7 +238,7 @@ def natural_names(spec: ModelSpec) -> tuple[tuple, tuple]:
 
 
 def natural_parameters(spec: ModelSpec, theta, dt):
-    """Natural parameters (module table units: deg/√h, arcsec, deg/h/√h, deg/h/h, deg/h and s) as a flat array,
+    """Natural parameters (module table units: deg/√h, arcsec, deg/h/√h, deg/h/h, B deg/h, deg/h and s) as a flat array,
     with their names and units (:func:`natural_names`); ``dt`` the sample interval in s."""
     p = latent_parameters(spec, theta)
     vals = []
@@ -208,6 +250,8 @@ def natural_parameters(spec: ModelSpec, theta, dt):
         vals.append(jnp.sqrt(p["random_walk"] * SECONDS_PER_HOUR / dt))
     if spec.drift:
         vals.append(jnp.sqrt(p["drift"]) * SECONDS_PER_HOUR / dt)
+    if spec.flicker:
+        vals.append(jnp.sqrt(2.0 * p["bias_instability"]) / BI_FACTOR)
     for i in range(spec.n_gm):
         vals += [jnp.sqrt(p["gm_var"][i]), dt / p["gm_rate"][i]]
     return (jnp.stack(vals), *natural_names(spec))
@@ -231,6 +275,8 @@ def theta_from_natural(spec: ModelSpec, values: dict, dt: float) -> np.ndarray:
         th.append(math.log(values["random_walk"] ** 2 * dt / SECONDS_PER_HOUR))
     if spec.drift:
         th.append(math.log((values["drift"] * dt / SECONDS_PER_HOUR) ** 2))
+    if spec.flicker:
+        th.append(math.log((BI_FACTOR * values["bias_instability"]) ** 2 / 2.0))
     for i in range(spec.n_gm):
         th += [math.log(values[f"gm{i + 1}_sigma"] ** 2), math.log(dt / values[f"gm{i + 1}_tau"])]
     return np.asarray(th)
@@ -259,10 +305,14 @@ NATURAL_TO_SPEC = {"drift": "rate_ramp"}
 """Natural-parameter names of this module that :class:`NoiseSpec` spells otherwise."""
 
 
-def to_noise_spec(spec: ModelSpec, theta, cov, dt: float, method: str, info: dict, converged=True, reason=""):
+def to_noise_spec(
+    spec: ModelSpec, theta, cov, dt: float, method: str, info: dict, converged=True, reason="", flicker_band=None
+):
     """The :class:`NoiseSpec` of log-parameters ``theta`` with covariance ``cov`` (infinite variance: pinned at a
     bound) for series sampled every ``dt`` s; the covariance of the natural parameters by the delta method (each
-    natural parameter is a power of one e^θ_i: the Jacobian is diagonal, so pinned entries stay infinite)."""
+    natural parameter is a power of one e^θ_i: the Jacobian is diagonal, so pinned entries stay infinite).
+    ``flicker_band`` (τ_min, τ_max) s: where the flicker floor of a ``flicker`` model was fitted (kept for
+    simulation; default the scales 1 … 10⁶ samples)."""
     vals, jac = (np.asarray(a) for a in _natural_and_jacobian(spec, np.asarray(theta, float), dt))
     names, _ = natural_names(spec)
     g = np.diag(jac)
@@ -273,9 +323,12 @@ def to_noise_spec(spec: ModelSpec, theta, cov, dt: float, method: str, info: dic
     nat = dict(zip(names, (float(v) for v in vals)))
     kw = {NATURAL_TO_SPEC.get(k, k): v for k, v in nat.items() if not k.startswith("gm")}
     gm = tuple((nat[f"gm{i + 1}_sigma"], nat[f"gm{i + 1}_tau"]) for i in range(spec.n_gm))
+    if spec.flicker and flicker_band is None:
+        flicker_band = (dt, 1e6 * dt)
     return NoiseSpec(
         **kw,
         gauss_markov=gm,
+        flicker_band=tuple(flicker_band) if spec.flicker else None,
         dt_s=dt,
         method=method,
         cov=cov_nat,

@@ -178,6 +178,8 @@ def noise_report(
             f"flat-minimum read-off (headline) is {b_head['value']:.4g} deg/h at tau = {b_head['tau_s']:.3g} s"
         )
     notes += [f"{k}: {v['note']}" for k, v in out["headline"].items() if v["note"]]
+    if nm is not None and nm.info.get("j_test"):  # gmwm_select's adequacy gate found no candidate that passes
+        notes.append(f"model {nm.info['model']}: {nm.info['j_test']}; it is the least-criterion identified one")
     out["notes"] = notes
     return out, res, ieee, nm
 
