@@ -70,13 +70,22 @@ def cmd_noise(args) -> int:
     for option in (args.plot, args.kalibr):
         if option and Path(option).exists() and not args.force:
             raise UsageError(f"{option}: exists; pass --force to overwrite")
+    if args.robust and args.method == "ieee952":
+        raise UsageError("noise --robust: the robust estimate is a GMWM or AVLR fit; not with --method ieee952")
     if any(r.meta["instrument"]["kind"] == "imu-triad" for r in recs):
         return _noise_triad(args, recs)
     notes: list[str] = []
     segs, tau0 = static_rate_segments(recs, notes=notes)
     m_list = parse_taus(args.taus, max(len(s) for s in segs), tau0)
     out, res, ieee, nm = noise_report(
-        segs, tau0, m_list, method=args.method, model=args.model, notes=notes, gauss_markov=args.gauss_markov
+        segs,
+        tau0,
+        m_list,
+        method=args.method,
+        model=args.model,
+        notes=notes,
+        gauss_markov=args.gauss_markov,
+        robust=args.robust,
     )
     if args.plot:  # matplotlib is imported only when a plot is asked for
         from gyrojax.report.figures import noise_model_figure, save
@@ -169,7 +178,9 @@ def _noise_triad(args, recs) -> int:
     reports = {}
     for name, segs in series.items():
         m_list = parse_taus(args.taus, max(len(s) for s in segs), tau0)
-        out, *_ = noise_report(segs, tau0, m_list, method=args.method, model=args.model, gauss_markov=args.gauss_markov)
+        out, *_ = noise_report(
+            segs, tau0, m_list, method=args.method, model=args.model, gauss_markov=args.gauss_markov, robust=args.robust
+        )
         if name.startswith("acc_"):
             out["notes"].append("accelerometer channel analysed in m/s^2 where the units say deg/h")
         reports[name] = out
