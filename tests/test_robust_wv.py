@@ -151,6 +151,9 @@ def test_spikes_unmasked_move_robust_wv_less_than_ten_percent(spiked):
     c0, c1 = gfit.haar_wv([y], ms)[0], gfit.haar_wv([z], ms)[0]
     assert np.all(np.abs(r1 / r0 - 1) < 0.10), r1 / r0 - 1
     assert np.all(c1[:8] / c0[:8] - 1 > 0.5), c1 / c0 - 1  # the classical one: +ε·50² ≈ +75 % at m ≤ 128
+    # the per-scale M-estimate alone: a spike's shift (50/√(2m) σ) falls below c from m ≈ 50 on and passes
+    p1 = rwv.robust_wv([z], ms[:10], finest_outliers=False)[0]
+    assert p1[8] / r0[8] - 1 > 0.3 and np.all(np.abs(p1[:5] / r0[:5] - 1) < 0.10), p1 / r0[:10] - 1
 
 
 def test_spikes_unmasked_robust_gmwm_n_and_b_move_less_than_ten_percent(spiked):

@@ -238,17 +238,19 @@ def gappy_coefficients(y, bad, m: int) -> np.ndarray:
     return (s2[keep] / k2[keep] - s1[keep] / k1[keep]) / 2.0
 
 
-def robust_wv(segments, m_list, eff: float = DEFAULT_EFFICIENCY) -> tuple[np.ndarray, np.ndarray, dict]:
+def robust_wv(
+    segments, m_list, eff: float = DEFAULT_EFFICIENCY, finest_outliers: bool = True
+) -> tuple[np.ndarray, np.ndarray, dict]:
     """Robust Haar wavelet variance ((deg/h)² for rates in deg/h) of one or several rate series at half-widths
     ``m_list``: the coefficients of every segment long enough for m (2m ≤ n_j) pooled into one M-estimate, those
     with the samples of :func:`finest_scale_outliers` treated as missing (:func:`gappy_coefficients`; module doc,
-    "Spikes at coarse scales").
+    "Spikes at coarse scales"; ``finest_outliers=False``: the per-scale M-estimate alone, for comparison).
     Returns (ν̂², M the coefficients used, info: ``not_converged`` half-widths, ``outlier_samples``)."""
     if isinstance(segments, np.ndarray) and segments.ndim == 1:
         segments = [segments]
     segments = [np.asarray(s, float) for s in segments]
     bw = Biweight.of(eff)
-    bad = finest_scale_outliers(segments, bw)
+    bad = finest_scale_outliers(segments, bw) if finest_outliers else [np.zeros(len(s), bool) for s in segments]
     nu2, cnt, failed = [], [], []
     for m in np.asarray(m_list, dtype=np.int64):
         w = [gappy_coefficients(s, b, int(m)) for s, b in zip(segments, bad) if 2 * m <= len(s)]
