@@ -111,6 +111,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--method", default="gmwm", choices=("gmwm", "avlr", "ieee952"), help="noise-model fit")
     s.add_argument("--model", default="auto", help="auto (identified selection) or a sum: white+gm+rw, white+2gm")
     s.add_argument("--gauss-markov", action="store_true", help="add a Gauss-Markov term to the IEEE 952 read-off")
+    s.add_argument("--robust", action="store_true", help="robust GMWM (biweight wavelet variance), glitches unmasked")
     s.add_argument("--kalibr", metavar="YAML", help="write Kalibr's imu.yaml (noise densities, random walks)")
     s.add_argument("--rostopic", default="/imu0", help="the rostopic written into the Kalibr file (default /imu0)")
     s.add_argument("--kalibr-accel", metavar="ND,RW", help="Kalibr accelerometer pair of a gyro-only record")

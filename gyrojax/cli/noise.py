@@ -77,6 +77,8 @@ def cmd_noise(args) -> int:
     for option in (*plots, args.kalibr):
         if option and Path(option).exists() and not args.force:
             raise UsageError(f"{option}: exists; pass --force to overwrite")
+    if args.robust and args.method == "ieee952":
+        raise UsageError("noise --robust: the robust estimate is a GMWM or AVLR fit; not with --method ieee952")
     if triad:
         return _noise_triad(args, recs)
     notes: list[str] = []
@@ -84,7 +86,14 @@ def cmd_noise(args) -> int:
     accel = _kalibr_accel(args, has_accelerometer=False)
     m_list = parse_taus(args.taus, max(len(s) for s in segs), tau0)
     out, res, ieee, nm = noise_report(
-        segs, tau0, m_list, method=args.method, model=args.model, notes=notes, gauss_markov=args.gauss_markov
+        segs,
+        tau0,
+        m_list,
+        method=args.method,
+        model=args.model,
+        notes=notes,
+        gauss_markov=args.gauss_markov,
+        robust=args.robust,
     )
     source = ", ".join(r.name for r in recs)
     kalibr_file = _kalibr_file(args, {"gyro": out}, accel, tau0, source) if args.kalibr else None
@@ -227,6 +236,8 @@ def _noise_triad(args, recs) -> int:
     reports = {}
     for name, segs in series.items():
         m_list = parse_taus(args.taus, max(len(s) for s in segs), tau0)
+        out, *_ = noise_report(
+            segs, tau0, m_list, method=args.method, model=args.model, gauss_markov=args.gauss_markov, robust=args.robust
         out, *_ = noise_report(segs, tau0, m_list, method=args.method, model=args.model, gauss_markov=args.gauss_markov)
         reports[name] = accelerometer_report(out) if name.startswith("acc_") else out
     result = {"instrument": "imu-triad", "tau0_s": tau0, "channels": reports}

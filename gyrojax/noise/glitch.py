@@ -116,8 +116,9 @@ def clean(segments, dt: float) -> tuple[list, dict]:
     return out, report
 
 
-def note(report: dict, masked: bool = True) -> str:
-    """One sentence for ``notes``: what was found and how it was masked, or that it was not ("" when nothing)."""
+def note(report: dict, masked: bool = True, robust: bool = False) -> str:
+    """One sentence for ``notes``: what was found and how it was masked, or that it was not ("" when nothing);
+    ``robust``: not masked, the model estimated by the robust wavelet variance (:mod:`gyrojax.noise.robust_wv`)."""
     sp, st = report["spikes"], report["stuck"]
     if not sp["count"] and not st["count"]:
         return ""
@@ -128,9 +129,15 @@ def note(report: dict, masked: bool = True) -> str:
     if st["count"]:
         where = ", ".join(f"{t:.6g} s for {d:.3g} s" for _, t, d in st["at"][:3]) + (" ..." if st["count"] > 3 else "")
         parts.append(f"{st['count']} stuck stretches, {st['seconds']:.3g} s in all ({where})")
+    if robust:
+        return (
+            "glitches: " + "; ".join(parts) + ": not masked; the model is fitted to the robust wavelet variance, "
+            "the empirical Allan deviation (and the curve read-offs) include them"
+        )
     if not masked:
         return "glitches: " + "; ".join(parts) + ": NOT masked, the estimates include them"
     return (
         "glitches: " + "; ".join(parts) + f": spikes replaced by the running median, stuck stretches cut out "
-        f"({report['samples_dropped']} samples), the {report['pieces']} pieces analysed separately and pooled"
+        f"({report['samples_dropped']} samples), the {report['pieces']} pieces analysed separately and pooled "
+        "(or --robust: the robust wavelet variance, unmasked)"
     )

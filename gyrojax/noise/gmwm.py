@@ -48,6 +48,7 @@ import numpy as np
 from scipy import optimize, stats
 
 from gyrojax.noise import gmwm_select as sel
+from gyrojax.noise import robust_wv as rwv
 from gyrojax.noise import wavelet as wv
 from gyrojax.noise.allan import overlapping_avar
 from gyrojax.noise.gmwm_model import (
@@ -269,19 +270,39 @@ class WaveletVariance:
     counts: np.ndarray
     dt: float
     n_samples: int
+    efficiency: float | None = None
+    """None: the classical estimate; else the Gaussian efficiency of the robust one (:mod:`gyrojax.noise.robust_wv`)."""
 
     @classmethod
-    def of(cls, segments, dt: float, m=None) -> "WaveletVariance":
-        """Estimate at the dyadic scales (default, :func:`wavelet.dyadic_m` of the longest segment) or at ``m``."""
+    def of(cls, segments, dt: float, m=None, robust: bool = False, efficiency: float = rwv.DEFAULT_EFFICIENCY):
+        """Estimate at the dyadic scales (default, :func:`wavelet.dyadic_m` of the longest segment) or at ``m``;
+        ``robust``: the biweight M-estimate of Gaussian efficiency ``efficiency`` (:func:`robust_wv.robust_wv`)."""
         if isinstance(segments, (np.ndarray, jnp.ndarray)) and np.ndim(segments) == 1:
             segments = [segments]
         n = max(len(s) for s in segments)
         if n < 16:
             raise NoiseModelError(f"a GMWM fit needs at least 16 samples, got {n}")
         m = wv.dyadic_m(n) if m is None else np.asarray(m, dtype=np.int64)
-        nu2, cnt = haar_wv(segments, m)
+        if robust:
+            nu2, cnt, info = rwv.robust_wv([np.asarray(s, float) for s in segments], m, efficiency)
+            if info["not_converged"]:
+                bad = info["not_converged"]
+                raise NoiseModelError(f"robust wavelet variance: the M-estimate did not converge at m = {bad}")
+        else:
+            nu2, cnt = haar_wv(segments, m)
         ok = cnt > 0
-        return cls(m[ok], nu2[ok], cnt[ok], float(dt), int(sum(len(s) for s in segments)))
+        n_all = int(sum(len(s) for s in segments))
+        return cls(m[ok], nu2[ok], cnt[ok], float(dt), n_all, float(efficiency) if robust else None)
+
+    def estimator(self) -> dict:
+        """Which wavelet-variance estimator made ``nu2``: for the JSON (``model.info.wavelet_variance``)."""
+        if self.efficiency is None:
+            return {"estimator": "classical", "efficiency": 1.0}
+        return {
+            "estimator": "robust: Tukey biweight M-estimate (Guerrier et al. 2016)",
+            "efficiency": self.efficiency,
+            "tuning_constant": rwv.Biweight.of(self.efficiency).c,
+        }
 
     @classmethod
     def from_allan_table(cls, taus_s, avar, dt: float, n_samples: int) -> "WaveletVariance":
@@ -313,6 +334,20 @@ class _Grid:
         jp = padded_length(len(m))
         self.f, self.w = wv.frequency_grid(np.max(m), n_points=GRID_POINTS)
         self.factors = wv.gain_factors(pad(m, jp, 1.0), self.f)
+
+
+def robust_scaling(theta_full, mask, est: WaveletVariance) -> np.ndarray:
+    """√r per scale of ``est`` (dimensionless): the robust estimate's Var ν̂² over the classical one under the model
+    with full log-parameters ``theta_full`` (:func:`robust_wv.variance_ratios`); ones for the classical estimate."""
+    if est.efficiency is None:
+        return np.ones(len(est.m))
+    e = np.exp(np.asarray(theta_full, float))
+    on = np.asarray(mask, bool)
+    latent = {k: float(e[i]) if on[i] else 0.0 for i, k in enumerate(("white", "quantization", "random_walk"))}
+    gm = range(4, len(FULL_NAMES), 2)
+    latent["gm"] = [(float(e[i]), float(e[i + 1])) for i in gm if on[i]]
+    r = rwv.variance_ratios(est.m, latent, rwv.Biweight.of(est.efficiency), est.n_samples)
+    return np.sqrt(r)
 
 
 def covariance_at(spec: ModelSpec, theta, m, counts) -> np.ndarray:
@@ -381,7 +416,10 @@ def _fit_spec(spec: ModelSpec, est, omega, method, grid, n_steps, memo):
         "p_value": p_value,
         "pinned": [k for k, b in zip(spec.names, at_bound) if b],
         "selection": [],
+        "wavelet_variance": est.estimator(),
     }
+    if est.efficiency is not None and spec.drift:
+        info["notes"] = ["robust wavelet variance with a rate ramp: the M-estimate assumes zero-mean coefficients"]
     converged, iters = status
     reason = "" if converged else f"Levenberg-Marquardt stopped at its iteration limit ({iters}) before converging"
     band = (float(est.taus_s[0]), float(est.taus_s[-1]))
@@ -409,12 +447,14 @@ def _fit_theta(spec: ModelSpec, est: WaveletVariance, omega, method: str, grid, 
         return out
 
     def omega_at(th):
-        return np.asarray(model_covariance(th, mask, m, counts, grid.f, grid.w, grid.factors))[:j, :j]
+        om = np.asarray(model_covariance(th, mask, m, counts, grid.f, grid.w, grid.factors))[:j, :j]
+        d = robust_scaling(th, mask, est)
+        return om * np.outer(d, d)
 
     lo, hi = _bounds(spec, est.m, est.nu2, est.n_samples)
     if spec.n_params > len(est.m):
         raise NoiseModelError(f"model {spec.label()} has {spec.n_params} parameters for {len(est.m)} scales")
-    diag = np.diag(est.nu2**2 * est.m / est.counts)
+    diag = np.diag(est.nu2**2 * est.m / est.counts / (est.efficiency or 1.0))
     if method == "avlr":
         p_mat = np.diag(1.0 / est.nu2)
     elif method == "gmwm":
@@ -449,7 +489,7 @@ def select_model(est: WaveletVariance, candidates=DEFAULT_CANDIDATES, method: st
     Candidates with more parameters than scales are skipped."""
     k, why = sel.short_scale_limit(est)
     if k:
-        est = WaveletVariance(est.m[k:], est.nu2[k:], est.counts[k:], est.dt, est.n_samples)
+        est = replace(est, m=est.m[k:], nu2=est.nu2[k:], counts=est.counts[k:])
     cands = [c for c in candidates if c.n_params < len(est.m)]
     if not cands:
         raise NoiseModelError(f"{len(est.m)} scales are too few for any candidate model")
@@ -481,13 +521,17 @@ def select_model(est: WaveletVariance, candidates=DEFAULT_CANDIDATES, method: st
     return out
 
 
-def fit_gmwm(segments, dt: float, model="auto", method: str = "gmwm") -> NoiseSpec:
+def fit_gmwm(
+    segments, dt: float, model="auto", method: str = "gmwm", robust: bool = False, efficiency=rwv.DEFAULT_EFFICIENCY
+) -> NoiseSpec:
     """GMWM (or AVLR) noise model of rate series (deg/h) sampled every ``dt`` s.
 
     ``model``: ``"auto"`` (identified selection among :data:`DEFAULT_CANDIDATES`), a label such as ``"white+gm+rw"``,
-    a :class:`ModelSpec` or a list of them (selection among those).
+    a :class:`ModelSpec` or a list of them (selection among those). ``robust``: the robust GMWM (Guerrier et al.
+    2016): the biweight M-estimate of the wavelet variance of Gaussian efficiency ``efficiency``
+    (:mod:`gyrojax.noise.robust_wv`), weighted by its own covariance.
     """
-    return fit_wv(WaveletVariance.of(segments, dt), model, method)
+    return fit_wv(WaveletVariance.of(segments, dt, robust=robust, efficiency=efficiency), model, method)
 
 
 def fit_wv(est: WaveletVariance, model="auto", method: str = "gmwm") -> NoiseSpec:

@@ -113,6 +113,7 @@ def noise_report(
     notes=(),
     gauss_markov: bool = False,
     mask_glitches: bool = True,
+    robust: bool = False,
 ):
     """Everything ``gyrojax noise --json`` prints, as a dict, plus the (AllanResult, IEEE 952 NoiseSpec, fitted
     GMWM/AVLR NoiseSpec or None).
@@ -123,23 +124,27 @@ def noise_report(
 
     ``segments`` rate series (deg/h) at ``tau0`` s; ``m_list`` averaging factors (default log-spaced). Spikes and
     stuck stretches are found and (``mask_glitches``) masked first (:mod:`gyrojax.noise.glitch`: ``glitches`` in
-    the output, a sentence in ``notes``).
+    the output, a sentence in ``notes``). ``robust``: nothing masked, the model fitted by the robust GMWM
+    (:mod:`gyrojax.noise.robust_wv`; ``wavelet_variance`` in the output names the estimator and its efficiency).
     """
     from gyrojax.noise import allan as allan_mod
     from gyrojax.noise import glitch
     from gyrojax.noise.gmwm import fit_gmwm
 
     notes = list(notes)
+    if robust and method not in ("gmwm", "avlr"):
+        raise NoiseModelError(f"the robust estimate is a GMWM or AVLR fit, not {method!r}")
+    mask_glitches = mask_glitches and not robust
     cleaned, found = glitch.clean(segments, tau0)
     if glitch.note(found):
-        notes.append(glitch.note(found) if mask_glitches else glitch.note(found, masked=False))
+        notes.append(glitch.note(found, masked=mask_glitches, robust=robust))
         if mask_glitches:
             segments = cleaned
 
     res, ieee = allan_mod.analyze(segments, tau0, m_list, gauss_markov=gauss_markov)
     nm = None
     if method in ("gmwm", "avlr"):
-        nm = fit_gmwm(segments, tau0, model=model, method=method)
+        nm = fit_gmwm(segments, tau0, model=model, method=method, robust=robust)
         model_adev = nm.adev(res.taus_s)
         model_std = adev_std(nm, res.taus_s)
     elif method == "ieee952":
@@ -155,6 +160,7 @@ def noise_report(
     out["adev_model_std"] = [None if not np.isfinite(x) else float(x) for x in model_std]
     out["adequacy"] = {"ci": ADEQUACY_CI, "low": [float(x) for x in low95], "high": [float(x) for x in high95], **adq}
     out["glitches"] = {**found, "masked": bool(mask_glitches)}
+    out["wavelet_variance"] = nm.info["wavelet_variance"] if nm is not None else None
     tau_fit = None if nm is None else nm.info.get("tau_min_s")
     out["adequacy"]["verdict"] = verdict_line(res.taus_s, adq, tau_fit, nm.info.get("short_scales", "") if nm else "")
     if nm is not None:
