@@ -64,14 +64,26 @@ def derived(spec: NoiseSpec, tau_min: float, tau_max: float, slope_tol: float = 
 
 
 def read_at(spec: NoiseSpec, tau: float, factor: float, unit: str) -> dict:
-    """``factor`` × the model's ADEV at ``tau`` s, with its standard error (delta method) and that τ."""
+    """``factor`` × the model's ADEV at ``tau`` s, with its standard error (delta method), its ±2σ-level interval
+    ``ci`` (:func:`log_interval`) and that τ."""
     g = adev_jacobian(spec, np.array([tau]))[0] * factor
-    return {
-        "value": float(spec.adev(np.array([tau]))[0] * factor),
-        "std": float(math.sqrt(max(g @ cov_finite(spec) @ g, 0.0))),
-        "unit": unit,
-        "tau_s": float(tau),
-    }
+    value = float(spec.adev(np.array([tau]))[0] * factor)
+    std = float(math.sqrt(max(g @ cov_finite(spec) @ g, 0.0)))
+    return {"value": value, "std": std, "ci": log_interval(value, std), "unit": unit, "tau_s": float(tau)}
+
+
+def log_interval(value: float, std: float, k: float = 2.0) -> list | None:
+    """value·exp(±k·std/value), in the value's unit: the ±kσ interval of ln(value), whose delta-method standard
+    error is std/value.
+
+    A model read-off is a positive scale figure, √ of a sum of variances; the GMWM parameters are the logarithms
+    of those variances (:mod:`gyrojax.noise.gmwm`), so ln(value) is the nearly linear function of them that the
+    delta method assumes, and value ± kσ is not: with σ ∝ value, a low estimate carries a small σ and value ± 2σ
+    missed K and B on the low side only (benchmarks/study_noise_readoff_coverage.py). None for a value ≤ 0."""
+    if not (value > 0 and math.isfinite(std)):
+        return None
+    r = std / value
+    return [float(value * math.exp(-k * r)), float(value * math.exp(k * r))]
 
 
 # ---- adequacy --------------------------------------------------------------------------------------------------
@@ -201,7 +213,8 @@ def _direct(spec: NoiseSpec) -> dict:
         v = getattr(spec, k)
         if v > 0:
             std = spec.std(k) if k in spec.cov_names else float("nan")
-            out[figure] = {"value": float(v), "std": std if math.isfinite(std) else 0.0, "unit": UNITS[k]}
+            std = std if math.isfinite(std) else 0.0
+            out[figure] = {"value": float(v), "std": std, "ci": log_interval(float(v), std), "unit": UNITS[k]}
             out[figure]["tau_s"] = None
     return out
 
