@@ -1,6 +1,8 @@
 """Traced functions kept across processes (gyrojax.noise.kept, issue 26): a saved trace is reloaded instead of
 traced again, gives the closed-form answer, is keyed by shape, and a damaged file is replaced with a warning."""
 
+import os
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -92,3 +94,29 @@ def test_kept_arrays_are_computed_once_and_read_back_exactly(where):
     with pytest.warns(UserWarning, match="kept arrays unreadable"):
         assert np.array_equal(kept.kept_arrays("rows", ("sdf", ("D_F",)), compute)[1], x)
     assert len(calls) == 3
+
+
+def test_files_of_other_library_sources_are_pruned(where, monkeypatch):
+    """The first use of the folder deletes the kept files of other library sources but the most recent
+    KEEP_OTHER_SOURCES, and files named without the digest (an earlier layout); this source's files stay."""
+    where.mkdir(parents=True)
+    mine = kept.source_digest()[: kept.DIGEST_CHARS]
+    others = [f"{i:x}" * kept.DIGEST_CHARS for i in range(10, 14)]  # four other sources, oldest first
+    key = "0" * 32
+    for age, d in enumerate(reversed(others)):
+        for name in ("energy", "rows"):
+            p = where / f"{name}-{d}-{key}.bin"
+            p.write_bytes(b"x")
+            os.utime(p, (1e9 - 1e5 * age, 1e9 - 1e5 * age))  # others[-1] written last
+    (where / f"energy-{mine}-{key}.bin").write_bytes(b"mine")
+    (where / f"energy-{key}.bin").write_bytes(b"old layout")
+    (where / "notes.txt").write_text("not ours")
+    monkeypatch.setattr(kept, "_PRUNED", set())
+    _fresh()(np.ones(3), 1.0)  # first use in this "process"
+    left = sorted(p.name for p in where.iterdir())
+    kept_digests = {n.split("-")[1] for n in left if n.count("-") == 2}
+    assert kept_digests == {mine, *others[-kept.KEEP_OTHER_SOURCES :]}
+    assert f"energy-{key}.bin" not in left and "notes.txt" in left
+    assert (where / f"energy-{mine}-{key}.bin").read_bytes() == b"mine"
+    assert len([n for n in left if n.startswith(f"energy-{mine}-")]) == 2  # the new trace beside the planted one
+    assert kept.prune(where) == []  # nothing more to delete

@@ -29,19 +29,21 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 from scipy import stats
 
+from gyrojax.inference import subspace
 from gyrojax.inference.drift_rows import rows_of, servo_state
-from gyrojax.noise.whiten import whiten
+from gyrojax.inference.subspace import WhitenedSystem, _perp, basis, compress, perp_basis  # noqa: F401 (re-exported)
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import instrument_inputs
 
 HARMONICS = 6
 """Highest harmonic of a table angle tested (cycles per revolution)."""
 POWERS = {1: "linear", 2: "quadratic", 3: "cubic", 4: "quartic"}
-UNSEEN = 1e-6
+UNSEEN = subspace.UNSEEN
 """|X⊥| / |X| below which the model and the named candidates span a shape: it is not tested."""
 SAME = 0.9
 """Canonical correlation above which two unexplained shapes are the same structure seen through two inputs."""
@@ -115,6 +117,13 @@ def _harmonic(p: dict, axis: str, k: int) -> np.ndarray:
     return np.column_stack([np.cos(k * th), np.sin(k * th)])
 
 
+@jax.jit
+def _inputs_without_setup(d):
+    """:func:`gyrojax.physics.model.instrument_inputs` of a record with no set-up error (one compiled function, not
+    a few hundred dispatched operations per record)."""
+    return instrument_inputs(d, {"delta": jnp.zeros(3), "encoder": jnp.zeros(4)})
+
+
 def shapes(campaign, result=None) -> list[tuple]:
     """Every shape the records can show: ``(versus, shape, expression, unit, blocks)`` with ``blocks[i]`` the
     regressors (measurement rows of record i kept by its labels, q columns) in raw input units.
@@ -126,7 +135,6 @@ def shapes(campaign, result=None) -> list[tuple]:
     kind = campaign.kind
     out_unit = "g" if kind == fx.ACCEL else "deg/h"
     per_rec = []
-    zero = {"delta": jnp.zeros(3), "encoder": jnp.zeros(4)}
     for rec, d, lab in zip(campaign.records, campaign.data, campaign.labels):
         ok = lab >= 0
         n = rec.n
@@ -134,7 +142,7 @@ def shapes(campaign, result=None) -> list[tuple]:
             x, gain, tr = servo_state(d, result)
             rate = {a: tr[:, i] for i, a in enumerate(rec.axis_names)}
         else:
-            x = {k: np.asarray(v) for k, v in instrument_inputs(d, zero).items()}
+            x = {k: np.asarray(v) for k, v in _inputs_without_setup(d).items()}
             gain = None
             rate = {a: rec.rates_dps[:, i] * 3600.0 for i, a in enumerate(rec.axis_names)}
         rows = rows_of(d, ok, gain)
@@ -264,96 +272,6 @@ def shapes(campaign, result=None) -> list[tuple]:
     return out
 
 
-# ---- linear algebra ---------------------------------------------------------------------------------------------
-
-
-def basis(a: np.ndarray, tol: float = 1e-7) -> np.ndarray:
-    """Orthonormal basis (dimensionless) of the column space of ``a`` (columns normalised first; directions whose
-    singular value is below ``tol`` × the largest are dropped, ``tol`` ≥ 1e-7).
-
-    By the eigen-decomposition of the small Gram matrix and a QR re-orthonormalisation (Cholesky-QR2 in spirit):
-    several times cheaper than the SVD of the tall matrix, which the diagnosis would otherwise do dozens of times.
-    """
-    if a.ndim == 1:
-        a = a[:, None]
-    if a.shape[1] == 0:
-        return np.zeros((a.shape[0], 0))
-    norms = np.sqrt((a * a).sum(axis=0))
-    live = norms > 0
-    if not live.any():
-        return np.zeros((a.shape[0], 0))
-    z = a[:, live] / norms[live]
-    ev, vec = np.linalg.eigh(z.T @ z)
-    keep = ev > max(tol, 1e-7) ** 2 * ev[-1]
-    if not keep.any():
-        return np.zeros((a.shape[0], 0))
-    u = z @ (vec[:, keep] / np.sqrt(ev[keep]))
-    # one more Gram pass restores orthonormality to machine precision (CholQR2)
-    return _cholqr(u)
-
-
-def _cholqr(u: np.ndarray) -> np.ndarray:
-    """Q of u = QR by the Cholesky factor of the small Gram matrix: u (Lᵀ)⁻¹ by the inverse of the p×p triangle (a
-    general solve against the tall matrix cost ten times more)."""
-    ch = np.linalg.cholesky(u.T @ u)
-    return u @ np.linalg.inv(ch).T
-
-
-def _perp(u: np.ndarray, x: np.ndarray) -> np.ndarray:
-    return x - u @ (u.T @ x) if u.shape[1] else x
-
-
-def perp_basis(u: np.ndarray, x: np.ndarray, tol: float = UNSEEN) -> np.ndarray:
-    """Orthonormal basis (dimensionless) of the part of span(``x``) orthogonal to the orthonormal ``u``: the
-    directions whose size is at least ``tol`` of ``x``'s own columns.
-
-    Sizes are measured against the columns of ``x`` before the projection: a column that ``u`` spans up to
-    rounding (cos 2θ beside D_OO's a_O²) leaves a residue of 1e-16 of itself, which normalised on its own would be a
-    direction of rounding errors, neither orthogonal to ``u`` nor a shape of the data.
-    """
-    if x.ndim == 1:
-        x = x[:, None]
-    norms = np.sqrt((x * x).sum(axis=0))
-    live = norms > 0
-    if not live.any():
-        return np.zeros((x.shape[0], 0))
-    z = _perp(u, x[:, live] / norms[live])
-    ev, vec = np.linalg.eigh(z.T @ z)
-    keep = ev > tol**2
-    if not keep.any():
-        return np.zeros((x.shape[0], 0))
-    b = _perp(u, z @ (vec[:, keep] / np.sqrt(ev[keep])))  # a second projection: orthogonal to u to rounding
-    return _cholqr(b)
-
-
-@dataclass
-class WhitenedSystem:
-    """Residual, regressors (model p0 columns, then the candidates') and shapes, whitened by one noise model."""
-
-    r: np.ndarray
-    j: np.ndarray
-    x: np.ndarray
-    shape_cols: list
-    p0: int
-
-    @classmethod
-    def build(cls, lin, noises, blocks_per_shape, p0: int) -> "WhitenedSystem":
-        """Whiten each record's residual (output unit: deg/h or g), regressors and shape blocks together with its
-        noise model (dimensionless afterwards) and stack the records."""
-        rows_r, rows_j, rows_x = [], [], []
-        widths = [b[0].shape[1] for b in blocks_per_shape]
-        for i, ((r, j, lab, t), nz) in enumerate(zip(lin, noises)):
-            xs = [b[i] for b in blocks_per_shape]
-            both = np.column_stack([r, j] + xs) if xs else np.column_stack([r, j])
-            w, _ = whiten(both, lab, nz, t)
-            rows_r.append(w[:, 0])
-            rows_j.append(w[:, 1 : 1 + j.shape[1]])
-            rows_x.append(w[:, 1 + j.shape[1] :])
-        edges = np.cumsum([0] + widths)
-        cols = [np.arange(a, b) for a, b in zip(edges[:-1], edges[1:])]
-        return cls(np.concatenate(rows_r), np.concatenate(rows_j, axis=0), np.concatenate(rows_x, axis=0), cols, p0)
-
-
 @dataclass
 class ShapeSystem:
     """The shapes of :func:`shapes` and the system whitened with them, the model's basis and residual beside it: what
@@ -400,7 +318,7 @@ def residual_structure(
     u_named = basis(ws.j[:, cols.astype(int)])
     # σ̃²: after the model, the named candidates and every shape (no deterministic structure can inflate it)
     u_all = basis(np.column_stack([ws.j[:, cols.astype(int)], ws.x]))
-    n = len(ws.r)
+    n = ws.n
     dof = n - u_all.shape[1]
     if dof >= max(10, n // 10):
         e = _perp(u_all, ws.r)
@@ -461,18 +379,20 @@ def holm_log10(log10_p) -> np.ndarray:
 # ---- near-aliases -----------------------------------------------------------------------------------------------
 
 
-def near_aliases(lin, noises, p0: int, slices: dict, names, alpha: float) -> dict:
+def near_aliases(lin, noises, p0: int, slices: dict, names, alpha: float, system=None) -> dict:
     """Candidates each of ``names`` cannot be told from at level ``alpha`` (module doc): name -> [other names].
 
     ``slices``: candidate name -> slice of J's columns; J's first ``p0`` columns are the model's. Two candidates
     are indistinguishable when each one's conditional score statistic given the other, S(c | d) = S(c ∪ d) − S(d),
     is below the χ²(rank added) critical value at ``alpha`` — so both best fits leave likelihoods within that
     critical difference of the joint one. Exact aliases (nothing added either way) are left to ``aliases``.
+    ``system``: the :class:`WhitenedSystem` of ``lin`` whitened by ``noises``, if already built (the diagnosis'
+    score tests build it).
     """
-    ws = WhitenedSystem.build(lin, noises, [], p0)
+    ws = system or WhitenedSystem.build(lin, noises, [], p0)
     u0 = basis(ws.j[:, :p0])
     r0 = _perp(u0, ws.r)
-    sigma2 = float(r0 @ r0) / max(len(r0) - u0.shape[1], 1)
+    sigma2 = float(r0 @ r0) / max(ws.n - u0.shape[1], 1)
     if not sigma2 > 0:
         return {}
     perp = {}
@@ -545,6 +465,7 @@ def vet(
     alpha: float,
     plausible: dict | None = None,
     memo: dict | None = None,
+    system: WhitenedSystem | None = None,
 ) -> str | None:
     """Decide what the diagnosis may propose; returns the name of the effect to add (None: no named effect).
 
@@ -554,7 +475,8 @@ def vet(
     (``rms_after_refit``); and the refitted sizes against :mod:`gyrojax.physics.plausibility` (``implausible``).
     The first candidate that passes is the proposal. Candidates that are not refitted keep their one-step estimates,
     checked for plausibility too. ``memo``: a dict kept across the rounds of one diagnosis (same ``tested``, ``lin``
-    and ``noises``), where each candidate's near-aliases are computed once.
+    and ``noises``), where each candidate's near-aliases are computed once. ``system``: ``lin`` whitened by
+    ``noises`` (:class:`WhitenedSystem`), if already built.
     """
     from gyrojax.errors import ModelError
     from gyrojax.inference.identify import fit
@@ -564,7 +486,7 @@ def vet(
     memo = {} if memo is None else memo
     todo = [c.name for c in significant if c.name in live and c.name not in memo]
     if todo:
-        memo.update(near_aliases(lin, noises, p0, live, todo, alpha))
+        memo.update(near_aliases(lin, noises, p0, live, todo, alpha, system))
     near = memo
     proposal = None
     refits = sum(1 for c in significant if c.rms_after_refit or c.refused)  # one budget across the diagnosis' rounds

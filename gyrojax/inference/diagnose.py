@@ -255,9 +255,15 @@ def _noise_models(lin, cols, starts=None, readouts=None) -> list:
 
 
 def _score(lin, noises, model: Model, full: Model, cand, p0: int, rms_now: float):
-    """Score statistic, p-value, estimate and residual-after of every candidate (module doc)."""
+    """Score statistic, p-value, estimate and residual-after of every candidate (module doc), and the whitened
+    residual and regressors they were computed on.
+
+    On the tall whitened system itself, not on the triangle of its QR (:class:`gyrojax.inference.adequacy.
+    WhitenedSystem`), though the statistics are the same to rounding: exact aliases (D_II and D_SS in a 1 g tumble)
+    have equal statistics, and their ranking, so the proposal, is decided by the last digits."""
     sl = full.slices()
     rw, jw = _stack_whitened(lin, noises)
+    residue = residue_columns(jw)  # floating-point residue (cos 90° = 6e-17): not excited, never estimated
     j0 = jw[:, :p0]
     u0 = _basis(j0)
     r_perp = rw - u0 @ (u0.T @ rw)
@@ -267,7 +273,6 @@ def _score(lin, noises, model: Model, full: Model, cand, p0: int, rms_now: float
     j_raw = np.concatenate([j for _, j, *_ in lin], axis=0)
     n_raw = len(r_raw)
     tested, perps, unexcited = [], {}, []
-    residue = residue_columns(jw)  # floating-point residue (cos 90° = 6e-17): not excited, never estimated
     for c in cand:
         cols = sl[c]
         keep = ~residue[cols]
@@ -301,7 +306,23 @@ def _score(lin, noises, model: Model, full: Model, cand, p0: int, rms_now: float
         }
         tested.append(Candidate(c, stat, df, math.exp(logp), 1.0, [], rms_after, est, log10_p=logp / math.log(10)))
         perps[c] = uc
-    return tested, perps, unexcited
+    return tested, perps, unexcited, (rw, jw)
+
+
+def _spanned(perps: dict, name: str, extra: list) -> bool:
+    """Whether candidate ``name`` is in ``extra``, or its projected regressors lie in the span of those of ``extra``
+    (every canonical correlation above :data:`COLLINEAR`: an exact alias of what was added, D_II after D_SS in a 1 g
+    tumble): adding it would leave the noise fit's column space as it is, so the forward selection stops. Without
+    this, which of two exact aliases ranks first (the last digits of equal statistics, which BLAS threading
+    changes) decided whether one more round of noise fits ran."""
+    if name in extra:
+        return True
+    if name not in perps or not extra or any(e not in perps for e in extra):
+        return False
+    u = perps[name]
+    span = adequacy.basis(np.column_stack([perps[e] for e in extra]))
+    s = np.linalg.svd(u.T @ span, compute_uv=False)
+    return bool(u.shape[1] and s.size >= u.shape[1] and s[u.shape[1] - 1] > COLLINEAR)
 
 
 def _drift_reading(c: Candidate, camp: Campaign, lin, full: Model, p0: int) -> None:
@@ -394,12 +415,12 @@ def diagnose(
     for _round in range(4):
         cols = np.concatenate([np.arange(p0)] + [np.arange(full.size)[sl[c]] for c in extra]).astype(int)
         noises = _noise_models(lin, cols, noises, readouts)
-        tested, perps, unexcited = _score(lin, noises, model, full, cand, p0, res.residual_rms)
+        tested, perps, unexcited, scored = _score(lin, noises, model, full, cand, p0, res.residual_rms)
         live = [c for c in tested if c.df > 0]
         if not live:
             break
         best = min(live, key=lambda c: (c.log10_p, -c.statistic))
-        if best.log10_p + math.log10(len(live)) >= math.log10(alpha) or best.name in extra:
+        if best.log10_p + math.log10(len(live)) >= math.log10(alpha) or _spanned(perps, best.name, extra):
             break
         extra.append(best.name)
 
@@ -425,6 +446,7 @@ def diagnose(
         bar = math.log10(alpha) - math.log10(max(len(live), 1))
         explaining = [c.name for c in live if c.log10_p < bar]
     system = adequacy.ShapeSystem.build(camp, lin, res.noise, p0, res) if model_free else None
+    scored = adequacy.WhitenedSystem.of(*scored, np.zeros((len(scored[0]), 0)), [], p0)  # for the near-aliases
     near: dict = {}  # near-aliases, computed once per candidate across the rounds
     for _round in range(2):
         cols = np.concatenate([np.arange(full.size)[sl[c]] for c in explaining]).astype(int) if explaining else []
@@ -435,7 +457,7 @@ def diagnose(
         sig = {id(c) for c, a in zip(live + shapes, adj) if a < math.log10(alpha)}
         significant = [c for c in tested if id(c) in sig]
         unexplained = [s for s in shapes if id(s) in sig]
-        proposal = adequacy.vet(tested, significant, camp, res, lin, noises, p0, sl, alpha, plausible, near)
+        proposal = adequacy.vet(tested, significant, camp, res, lin, noises, p0, sl, alpha, plausible, near, scored)
         barred = {c.name for c in significant if c.refused or c.implausible}
         if not barred & set(explaining):
             break

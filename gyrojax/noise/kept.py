@@ -4,10 +4,13 @@ nor lowers them again (the cache already spares the compile).
 
 A saved module is keyed by the function's name, the argument tree, shapes and dtypes (the callers pad records to a
 few lengths, :func:`gyrojax.noise.reml.series`), the digest of the whole ``gyrojax`` source, the JAX and jaxlib
-versions and the backend: any edit of the library makes new keys, so a stale trace is never called. Nothing is
-kept when the compilation cache is off (``jax_compilation_cache_dir`` unset, e.g. ``GYROJAX_NO_CACHE=1``), or when
-the arguments are tracers (the function inside another transformation), or without the ``flatbuffers`` package that
-``jax.export`` serialises with: the jitted function itself runs then.
+versions and the backend: any edit of the library makes new keys, so a stale trace is never called. The file name
+carries the first :data:`DIGEST_CHARS` hex digits of the source digest, and the first use of the folder in a process
+deletes the files of other library sources (:func:`prune`) but those of the :data:`KEEP_OTHER_SOURCES` most recently
+written, so that the folder does not grow with every edit of the library (two checkouts sharing one cache keep
+theirs). Nothing is kept when the compilation cache is off (``jax_compilation_cache_dir`` unset, e.g.
+``GYROJAX_NO_CACHE=1``), or when the arguments are tracers (the function inside another transformation), or without
+the ``flatbuffers`` package that ``jax.export`` serialises with: the jitted function itself runs then.
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import io
+import re
 import warnings
 from functools import lru_cache
 from pathlib import Path
@@ -30,6 +34,13 @@ SERIALIZABLE = importlib.util.find_spec("flatbuffers") is not None
 a fresh process traces again)."""
 SUFFIX = "-exported"
 """The folder of the kept traces is the compilation cache's folder with this suffix (a sibling, not inside it)."""
+DIGEST_CHARS = 16
+"""Hex digits of the source digest in a kept file's name (``NAME-DIGEST-KEY.bin`` / ``.npz``)."""
+KEEP_OTHER_SOURCES = 2
+"""Other library sources whose kept files :func:`prune` leaves (the most recently written ones)."""
+_NAMED = re.compile(rf"^.+-(?P<digest>[0-9a-f]{{{DIGEST_CHARS}}})-[0-9a-f]{{32}}\.(bin|npz)$")
+_UNNAMED = re.compile(r"^.+-[0-9a-f]{32}\.(bin|npz)$")  # the names before the digest was in them
+_PRUNED: set = set()
 
 
 @lru_cache(maxsize=1)
@@ -49,6 +60,46 @@ def folder() -> Path | None:
     if not SERIALIZABLE:
         return None
     return Path(str(d).rstrip("/\\") + SUFFIX) if d else None
+
+
+def prune(where: Path) -> list[Path]:
+    """Delete the kept files in ``where`` of library sources other than this one (and those named without the
+    digest, an earlier layout), but the files of the :data:`KEEP_OTHER_SOURCES` other sources written last.
+    Returns the paths deleted; a file that cannot be deleted (another process, permissions) is left."""
+    if not where.is_dir():
+        return []
+    mine = source_digest()[:DIGEST_CHARS]
+    others: dict[str, list] = {}
+    gone = []
+    for p in where.iterdir():
+        m = _NAMED.match(p.name)
+        if m is None:
+            if _UNNAMED.match(p.name):
+                gone.append(p)
+        elif m["digest"] != mine:
+            others.setdefault(m["digest"], []).append(p)
+
+    def newest(paths):
+        return max((q.stat().st_mtime for q in paths if q.exists()), default=0.0)
+
+    for _, paths in sorted(others.items(), key=lambda kv: newest(kv[1]), reverse=True)[KEEP_OTHER_SOURCES:]:
+        gone += paths
+    deleted = []
+    for p in gone:
+        try:
+            p.unlink()
+            deleted.append(p)
+        except OSError:
+            pass
+    return deleted
+
+
+def _path(where: Path, name: str, key: str, suffix: str) -> Path:
+    """The file of a kept trace or array set; the folder is pruned (:func:`prune`) at its first use in a process."""
+    if where not in _PRUNED:
+        _PRUNED.add(where)
+        prune(where)
+    return where / f"{name}-{source_digest()[:DIGEST_CHARS]}-{key}{suffix}"
 
 
 def _key(name: str, tree, specs) -> str:
@@ -76,7 +127,7 @@ class Kept:
         self.__doc__ = getattr(fn, "__doc__", None)
 
     def _load(self, where: Path, tree, specs):
-        path = where / f"{self.name}-{_key(self.name, tree, specs)}.bin"
+        path = _path(where, self.name, _key(self.name, tree, specs), ".bin")
         if path.is_file():
             try:
                 return jax.export.deserialize(bytearray(path.read_bytes()))
@@ -110,7 +161,7 @@ def kept_arrays(name: str, parts, compute):
     where = folder()
     if where is None:
         return compute()
-    path = where / f"{name}-{_key(name, repr(parts), [])}.npz"
+    path = _path(where, name, _key(name, repr(parts), []), ".npz")
     if path.is_file():
         try:
             with np.load(path, allow_pickle=False) as z:
