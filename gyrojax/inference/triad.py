@@ -41,7 +41,6 @@ from __future__ import annotations
 
 import warnings
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 from scipy import stats
@@ -57,6 +56,22 @@ from gyrojax.inference.solver import damped_least_squares, solve
 from gyrojax.inference.triad_accel import accelerometer_json, fit_accelerometer, needs_calibration
 from gyrojax.inference.triad_components import Group, estimate_components
 from gyrojax.inference.triad_result import TriadFit
+from gyrojax.inference.triad_rows import (  # noqa: F401  (the rows' functions, named here as before)
+    _expm_so3,
+    _moves_residual,
+    linear_matrices,
+    linear_matrices_jit,
+    move_residual,
+    move_rows,
+    moves_jacobian_jit,
+    moves_residual_jit,
+    pack_moves,
+    pack_segments,
+    segment_jacobian_jit,
+    segment_means,
+    segment_means_jit,
+    segment_rows,
+)
 from gyrojax.noise.whiten import pooled_autocovariance
 from gyrojax.physics import triad as tp
 
@@ -66,59 +81,6 @@ MAX_NOISE_PASSES = 8  # fits at fixed noise, the noise updated with the fitted S
 NOISE_PASS_TOL = 1e-10  # relative change of S below which the noise is settled (χ² then changes by ≲ 1e-10)
 MOVE_DIVERGED_DEG = 10.0  # median angle left at the moves above which the fit of the moves has diverged
 NW_MAX_LAG = 50  # samples: longest autocovariance lag of the long-run variance (MEMS filters span a few samples)
-
-
-def linear_matrices(model, theta):
-    """b (3,) deg/h, S (3, 3) and G (3, 3) deg/h/g of a linear channel model at θ (3p,), from the channel model
-    itself (unit inputs through :func:`gyrojax.physics.triad.triad_output`), differentiable in θ."""
-    th = theta.reshape(3, model.size)
-    zero = jnp.zeros((3, 3))
-    eye = jnp.eye(3)
-    t, temp = jnp.zeros(3), jnp.full(3, 20.0)
-    b = tp.triad_output(model, th, zero, zero, t, temp)[0]
-    s = (tp.triad_output(model, th, eye, zero, t, temp) - b).T
-    g = (tp.triad_output(model, th, zero, eye, t, temp) - b).T
-    return b, s, g
-
-
-def _expm_so3(v):
-    """exp([v×]) by Rodrigues' formula, safe at v = 0 (v in rad)."""
-    th2 = v @ v
-    th = jnp.sqrt(jnp.where(th2 > 0, th2, 1.0))
-    small = th2 < 1e-16
-    a = jnp.where(small, 1.0 - th2 / 6.0, jnp.sin(th) / th)
-    b = jnp.where(small, 0.5 - th2 / 24.0, (1.0 - jnp.cos(th)) / jnp.where(th2 > 0, th2, 1.0))
-    k = jnp.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-    return jnp.eye(3) + a * k + b * (k @ k)
-
-
-def move_residual(model, theta, g, a, t_h, temp, mask, dt, u_from, u_to):
-    """Residual u_to − Rᵀ u_from of a gravity-to-gravity move: R is the body's rotation over the move, integrated
-    from the calibrated rates ω of the whole channel model (:func:`gyrojax.physics.triad.body_rates`: bias, g-terms,
-    scale factor and misalignment, E_A, E_2, trend and temperature at each sample; sample by sample, exact
-    exponential of each step's mean rate); Up stays fixed in space, so the predicted Up at the end is Rᵀ u_from
-    (imu_tk, Tedaldi et al. §IV-C). ``g`` (n, 3) deg/h, ``a`` (n, 3) g, ``t_h`` (n,) h, ``temp`` (n,) °C, ``dt`` s,
-    unit vectors ``u_from``/``u_to``; the residual is dimensionless. ``mask`` (n−1,) is 1 for the steps of the move
-    and 0 for padding (moves are padded to one length, one compile)."""
-    w = tp.body_rates(model, theta.reshape(3, model.size), g, a, t_h, temp) * units.DEG_PER_H  # rad/s
-    steps = 0.5 * (w[1:] + w[:-1]) * dt * mask[:, None]
-
-    def step(r, v):
-        return r @ _expm_so3(v), None
-
-    r, _ = jax.lax.scan(step, jnp.eye(3), steps)
-    return u_to - r.T @ u_from
-
-
-def _moves_residual(model, theta, g, a, t_h, temp, mask, dt, u_from, u_to):
-    """:func:`move_residual` of every move at once (arrays of :func:`pack_moves`: gyro deg/h, specific force g,
-    time h, temperature °C, dt s, Up directions unit vectors); (M, 3), dimensionless."""
-    axes = (None, None) + (0,) * 8
-    return jax.vmap(move_residual, in_axes=axes)(model, theta, g, a, t_h, temp, mask, dt, u_from, u_to)
-
-
-moves_residual_jit = jax.jit(_moves_residual, static_argnums=0)
-moves_jacobian_jit = jax.jit(jax.jacfwd(_moves_residual, argnums=1), static_argnums=0)
 
 
 def long_run_variance(resid: list[np.ndarray], max_lag: int = NW_MAX_LAG) -> np.ndarray:
@@ -157,33 +119,6 @@ def is_triad_input(records) -> bool:
     except TypeError:
         return False
     return bool(recs) and all(isinstance(r, Record) and r.kind == TRIAD_KIND for r in recs)
-
-
-def segment_means(model, theta, arrays):
-    """Model of the stacked segment means (3 per segment, deg/h) for θ (3p,).
-
-    ``arrays`` = (w (N, 3) deg/h, a (N, 3) g, t_h (N,), temperature (N,) °C, segment index (N,), counts (m,)): the
-    samples of every segment concatenated, so that one evaluation of the channel model serves them all (one small
-    compiled graph, reused while the shapes stay)."""
-    w, a, t, temp, idx, counts = arrays
-    y = tp.triad_output(model, theta.reshape(3, model.size), w, a, t, temp)
-    sums = jax.ops.segment_sum(y, idx, num_segments=counts.shape[0])
-    return (sums / counts[:, None]).reshape(-1)
-
-
-def pack_segments(segments) -> tuple:
-    """The ``arrays`` of :func:`segment_means` from :class:`~gyrojax.data.triad_segments.TriadSegment` s."""
-    w = np.concatenate([s.w for s in segments])
-    a = np.concatenate([s.a for s in segments])
-    t = np.concatenate([s.t_h for s in segments])
-    temp = np.concatenate([s.temp for s in segments])
-    idx = np.concatenate([np.full(len(s.t_h), i) for i, s in enumerate(segments)])
-    counts = np.array([len(s.t_h) for s in segments], dtype=float)
-    return tuple(jnp.asarray(x) for x in (w, a, t, temp, idx, counts))
-
-
-segment_means_jit = jax.jit(segment_means, static_argnums=0)
-segment_jacobian_jit = jax.jit(jax.jacfwd(segment_means, argnums=1), static_argnums=0)
 
 
 def fit_triad(
@@ -239,12 +174,10 @@ def fit_triad(
     names = [tp.channel_name(c, ch) for ch in tp.CHANNELS for c in model.coefficient_names]
     q = long_run_variance(resid) if noise_q is None else _channel_variances(noise_q)
 
-    arrays = pack_segments(segments)
-    theta0 = jnp.zeros(3 * model.size)
-    base = np.asarray(segment_means_jit(model, theta0, arrays))
-    jac = np.asarray(segment_jacobian_jit(model, theta0, arrays))
+    # one compiled call each for the segment means and the moves (triad_rows), at shapes bucketed across sessions
+    base, jac = segment_rows(model, np.zeros(3 * model.size), pack_segments(segments, bucketed=True), len(segments))
     y = np.concatenate([s.y for s in segments])
-    packed = pack_moves(moves) if moves else None
+    packed = pack_moves(moves, bucketed=True) if moves else None
     # the noise of every row in indicated units at the fitted S (whiten_segments, _move_whitening): the model is
     # linear in S, so a record whose nominal scale is off by k gives the same fit with S, b, G times k, the same χ²
     theta = np.zeros(3 * model.size)
@@ -260,7 +193,7 @@ def fit_triad(
     # S is seen by rotations or moves only; without them the body-rate covariances stay at the nominal scale
     passes = MAX_NOISE_PASSES if moves or any(s.kind == "rotation" for s in segments) else 1
     for _pass in range(passes):  # fixed noise per pass; the passes update it with the fitted S
-        s_mat = np.asarray(linear_matrices(model, jnp.asarray(theta))[1]) if passes > 1 else np.eye(3)
+        s_mat = _scale_matrix(model, theta) if passes > 1 else np.eye(3)
         if s_prev is not None and np.max(np.abs(s_mat - s_prev)) <= NOISE_PASS_TOL * np.max(np.abs(s_prev)):
             break
         _check_scale_matrix(s_mat)
@@ -331,7 +264,7 @@ def fit_triad(
             "also M_O, M_S times it in D_O, D_S); the horizontal Earth rate (unknown heading) is marginalised with "
             "its mean square over the sites of the sphere, (2/3) (15.04 deg/h)^2"
         )
-    s_fit = np.asarray(linear_matrices(model, jnp.asarray(theta))[1])
+    s_fit = _scale_matrix(model, theta)
     if dof > 0 and stats.chi2.sf(chi2, dof) < 0.01:
         comp = components_report(tau2, s_fit)
         if any(v > 0 for v in comp.values()):
@@ -409,13 +342,18 @@ def whiten_segments(segments, resid, jac, q, s_mat, pose_var: float = 0.0):
     covariance diag(q / n) + S E Sᵀ: q the channels' long-run noise (indicated units, (deg/h)²), E the segment's
     covariance of body rates (heading, angle error; deg²/h²) seen through the scale-and-misalignment matrix S;
     ``pose_var`` the per-pose bias scatter τ_b² I₃ added to every static pose ((deg/h)²)."""
-    rw, jw = np.empty_like(resid), np.empty_like(jac)
-    for i, seg in enumerate(segments):
-        low = np.linalg.cholesky(_segment_cov(seg, q, s_mat) + (pose_var if seg.kind == "static" else 0.0) * np.eye(3))
-        sl = slice(3 * i, 3 * i + 3)
-        rw[sl] = np.linalg.solve(low, resid[sl])
-        jw[sl] = np.linalg.solve(low, jac[sl])
-    return rw, jw
+    m = len(segments)
+    cov = _segment_covs(segments, q, s_mat)
+    cov += pose_var * np.array([seg.kind == "static" for seg in segments], dtype=float)[:, None, None] * np.eye(3)
+    low = np.linalg.cholesky(cov)
+    both = np.concatenate([resid.reshape(m, 3, 1), jac.reshape(m, 3, -1)], axis=2)
+    out = np.linalg.solve(low, both)
+    return out[:, :, 0].reshape(-1), out[:, :, 1:].reshape(3 * m, -1)
+
+
+def _scale_matrix(model, theta) -> np.ndarray:
+    """S (3, 3) of the channel model at θ (:func:`~gyrojax.inference.triad_rows.linear_matrices`, compiled)."""
+    return np.asarray(linear_matrices_jit(model, jnp.asarray(theta))[1])
 
 
 def _check_scale_matrix(s_mat) -> None:
@@ -430,16 +368,22 @@ def _check_scale_matrix(s_mat) -> None:
         )
 
 
-def move_angles_deg(model, theta, packed) -> np.ndarray:
-    """Angle (deg) between each move's measured final Up and the Up carried by the calibrated rates at θ."""
-    r = np.asarray(moves_residual_jit(model, jnp.asarray(theta), *packed))
+def move_angles_deg(model, theta, packed, n_moves: int | None = None) -> np.ndarray:
+    """Angle (deg) between each move's measured final Up and the Up carried by the calibrated rates at θ; the first
+    ``n_moves`` of ``packed`` (all without it; bucketed packings carry padded moves after the real ones)."""
+    r = np.asarray(moves_residual_jit(model, jnp.asarray(theta), *packed))[:n_moves]
+    return _angles_deg(r)
+
+
+def _angles_deg(r) -> np.ndarray:
+    """Angles (deg) of the moves' Up residuals ``r`` (M, 3) (chord length 2 sin(angle/2))."""
     return np.degrees(2.0 * np.arcsin(np.clip(np.linalg.norm(r, axis=1) / 2.0, 0.0, 1.0)))
 
 
 def _check_moves_converged(model, theta, packed, moves) -> None:
     """Refuse a fit of the moves that leaves them far off (median > :data:`MOVE_DIVERGED_DEG`): diverged."""
-    _check_scale_matrix(np.asarray(linear_matrices(model, jnp.asarray(theta))[1]))
-    ang = move_angles_deg(model, theta, packed)
+    _check_scale_matrix(_scale_matrix(model, theta))
+    ang = move_angles_deg(model, theta, packed, len(moves))
     if np.median(ang) > MOVE_DIVERGED_DEG:
         worst = int(np.argmax(ang))
         raise ModelError(
@@ -483,8 +427,8 @@ def _segment_residuals(segments, e, raw_res, moves, model, theta, packed, move_w
             }
         )
     if moves:
-        r = np.asarray(moves_residual_jit(model, jnp.asarray(theta), *packed))
-        ang = move_angles_deg(model, theta, packed)
+        r = np.asarray(moves_residual_jit(model, jnp.asarray(theta), *packed))[: len(moves)]
+        ang = _angles_deg(r)
         off = 3 * len(segments)
         for k, (m, (p, _sd)) in enumerate(zip(moves, move_w)):
             w = e[off + 2 * k : off + 2 * k + 2]
@@ -507,20 +451,25 @@ def _segment_cov(seg, q, s_mat) -> np.ndarray:
     return np.diag(q / seg.n) + s_mat @ seg.extra @ s_mat.T
 
 
+def _segment_covs(segments, q, s_mat) -> np.ndarray:
+    """:func:`_segment_cov` of every segment, (m, 3, 3)."""
+    n = np.array([seg.n for seg in segments], dtype=float)
+    extra = np.stack([seg.extra for seg in segments])
+    return (q / n[:, None])[:, :, None] * np.eye(3) + s_mat @ extra @ s_mat.T
+
+
 def _component_groups(model, segments, resid, jac, q, s_mat, theta, packed, move_w) -> list:
     """The rows of the fit at θ as :class:`~gyrojax.inference.triad_components.Group` s, natural units: each
     segment's 3 rows (static poses carry the bias-scatter component), each move's 2 direction rows (the angle
     noise component)."""
     groups = []
+    covs, e = _segment_covs(segments, q, s_mat), resid - jac @ theta
     for i, seg in enumerate(segments):
         sl = slice(3 * i, 3 * i + 3)
-        kind = "pose" if seg.kind == "static" else ""
-        groups.append(Group(_segment_cov(seg, q, s_mat), resid[sl] - jac[sl] @ theta, jac[sl], kind))
-    th = jnp.asarray(theta)
-    r = np.asarray(moves_residual_jit(model, th, *packed))
-    j = -np.asarray(moves_jacobian_jit(model, th, *packed))
-    for k, (p, sd) in enumerate(move_w):
-        groups.append(Group(sd**2 * np.eye(2), p.T @ r[k], p.T @ j[k], "move"))
+        groups.append(Group(covs[i], e[sl], jac[sl], "pose" if seg.kind == "static" else ""))
+    _, rows, jrows = move_rows(model, theta, packed, move_w)  # whitened by σ_k: natural units are σ_k times them
+    for k, (_p, sd) in enumerate(move_w):
+        groups.append(Group(sd**2 * np.eye(2), sd * rows[2 * k : 2 * k + 2], sd * jrows[2 * k : 2 * k + 2], "move"))
     return groups
 
 
@@ -530,51 +479,21 @@ def _move_whitening(moves, q, s_mat, angle_var_extra: float = 0.0) -> list:
     (the body turns during the move) × n dt² — the noise of the two Up directions, and the Earth turning Up
     unseen during the move (:attr:`Move.earth_var`, heading unknown); ``angle_var_extra`` the per-move angle noise
     τ_m² (rad², :mod:`gyrojax.inference.triad_components`)."""
-    out = []
     s_inv = np.linalg.inv(s_mat)
     q_cal = float(np.trace(s_inv @ np.diag(q) @ s_inv.T)) / 3.0
-    for m in moves:
-        n = len(m.g)
-        angle_var = q_cal * n * m.dt**2 * units.DEG_PER_H**2
-        var = angle_var + m.earth_var + m.var_dir + angle_var_extra
-        u = m.u_to
-        a = np.eye(3)[int(np.argmin(np.abs(u)))]
-        e1 = np.cross(u, a)
-        e1 /= np.linalg.norm(e1)
-        e2 = np.cross(u, e1)
-        out.append((np.column_stack([e1, e2]), float(np.sqrt(var))))
-    return out
-
-
-def pack_moves(moves) -> tuple:
-    """The moves padded to one length: (g (M, L, 3), a (M, L, 3), t_h (M, L), temp (M, L), mask (M, L−1), dt (M,),
-    u_from (M, 3), u_to); a move without times or temperatures gets 0 h and 20 °C."""
-    length = max(len(m.g) for m in moves)
-    g = np.zeros((len(moves), length, 3))
-    a = np.zeros((len(moves), length, 3))
-    t_h = np.zeros((len(moves), length))
-    temp = np.full((len(moves), length), 20.0)
-    mask = np.zeros((len(moves), length - 1))
-    for i, m in enumerate(moves):
-        n = len(m.g)
-        g[i, :n], a[i, :n] = m.g, m.a
-        g[i, n:], a[i, n:] = m.g[-1], m.a[-1]
-        if m.t_h is not None:
-            t_h[i, :n], t_h[i, n:] = m.t_h, m.t_h[-1]
-        if m.temp is not None:
-            temp[i, :n], temp[i, n:] = m.temp, m.temp[-1]
-        mask[i, : n - 1] = 1.0
+    n = np.array([len(m.g) for m in moves], dtype=float)
     dt = np.array([m.dt for m in moves])
-    u0 = np.array([m.u_from for m in moves])
-    u1 = np.array([m.u_to for m in moves])
-    return tuple(jnp.asarray(x) for x in (g, a, t_h, temp, mask, dt, u0, u1))
+    angle_var = q_cal * n * dt**2 * units.DEG_PER_H**2
+    var = angle_var + np.array([m.earth_var for m in moves]) + np.array([m.var_dir for m in moves]) + angle_var_extra
+    u = np.array([m.u_to for m in moves])
+    e1 = np.cross(u, np.eye(3)[np.argmin(np.abs(u), axis=1)])
+    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+    e2 = np.cross(u, e1)
+    return [(np.column_stack([a, b]), float(np.sqrt(v))) for a, b, v in zip(e1, e2, var)]
 
 
 def _move_rows(model, theta, packed, whitening):
-    """Whitened residual rows (2 per move) and their Jacobian (2 per move, 3p columns) at θ."""
-    th = jnp.asarray(theta)
-    r = np.asarray(moves_residual_jit(model, th, *packed))
-    j = -np.asarray(moves_jacobian_jit(model, th, *packed))  # rows of "y − f": the Jacobian of f is −∂r/∂θ
-    rows = [p.T @ r[i] / sd for i, (p, sd) in enumerate(whitening)]
-    jacs = [p.T @ j[i] / sd for i, (p, sd) in enumerate(whitening)]
-    return np.concatenate(rows), np.concatenate(jacs)
+    """Whitened residual rows (2 per move) and their Jacobian (2 per move, 3p columns) at θ
+    (:func:`gyrojax.inference.triad_rows.move_rows`)."""
+    _, rows, jac = move_rows(model, theta, packed, whitening)
+    return rows, jac

@@ -55,6 +55,20 @@ def _residual(p, means, g_loc):
     return np.linalg.norm(imutk_acc_model(p, means), axis=1) - g_loc
 
 
+def residual_jacobian(params, means) -> np.ndarray:
+    """Exact ∂|T K (a − b)|/∂p (k, 9) at the pose means ``means`` (k, 3) g, in g per parameter unit (rad, -, g):
+    with z = a − b, k = K z, c = T k and u = c/|c|, ∂|c|/∂p = uᵀ ∂c/∂p, where ∂c/∂α_yz = −k_y e_x,
+    ∂c/∂α_zy = k_z e_x, ∂c/∂α_zx = −k_z e_y, ∂c/∂s_j = T e_j z_j and ∂c/∂b_j = −T e_j s_j (Tedaldi et al. eq. 6)."""
+    p = np.asarray(params, dtype=float)
+    t = np.array([[1.0, -p[0], p[1]], [0.0, 1.0, -p[2]], [0.0, 0.0, 1.0]])
+    z = np.asarray(means, dtype=float) - p[6:9]
+    k = z * p[3:6]
+    c = k @ t.T
+    u = c / np.linalg.norm(c, axis=1, keepdims=True)
+    ut = u @ t  # uᵀ T e_j for each pose
+    return np.column_stack([-u[:, 0] * k[:, 1], u[:, 0] * k[:, 2], -u[:, 1] * k[:, 2], ut * z, -ut * p[3:6]])
+
+
 def fit_accelerometer(records) -> dict | None:
     """imu_tk's 9 accelerometer parameters with their covariance from the rests of ``records`` (module doc), or
     None when they have no accelerometer or fewer than :data:`MIN_POSES` poses. Returns ``params`` (9,), ``cov``
@@ -72,12 +86,7 @@ def fit_accelerometer(records) -> dict | None:
         params = optimize.least_squares(_residual, params, args=(means, g_loc), method="lm").x
     sd = np.sqrt(np.maximum(var, 1e-30))
     r = _residual(params, means, g_loc) / sd
-    jac = np.empty((len(means), 9))
-    for j in range(9):  # central differences: the model is smooth, steps far above rounding
-        h = 1e-6 * max(1.0, abs(params[j]))
-        dp = np.zeros(9)
-        dp[j] = h
-        jac[:, j] = (_residual(params + dp, means, g_loc) - _residual(params - dp, means, g_loc)) / (2 * h) / sd
+    jac = residual_jacobian(params, means) / sd[:, None]
     dof = len(means) - 9
     chi2 = float(r @ r)
     cov = np.linalg.pinv(jac.T @ jac)
@@ -97,10 +106,13 @@ def fit_accelerometer(records) -> dict | None:
 def needs_calibration(acc_fit: dict | None, records) -> bool:
     """True when the records' rests are off g by more than the tolerance (module doc); refuses a session that
     cannot calibrate its accelerometer then."""
-    means, _, g_loc = rest_means(records)
-    if not len(means):
-        return False
-    worst = float(np.max(np.abs(np.linalg.norm(means, axis=1) / g_loc - 1.0)))
+    if acc_fit is not None:  # the same worst |a| error, measured by the fit on the same rests
+        worst = float(acc_fit["max_rest_magnitude_error"])
+    else:
+        means, _, g_loc = rest_means(records)
+        if not len(means):
+            return False
+        worst = float(np.max(np.abs(np.linalg.norm(means, axis=1) / g_loc - 1.0)))
     if worst <= ACC_CALIBRATED_TOL:
         return False
     if acc_fit is None:

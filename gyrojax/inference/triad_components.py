@@ -39,23 +39,73 @@ class Group:
 
 def whiten(groups, tau2: dict):
     """(whitened residual, whitened Jacobian, log|V|) of the groups with the components ``tau2`` added."""
-    rs, js, logdet = [], [], 0.0
-    for g in groups:
-        v = g.cov + tau2.get(g.kind, 0.0) * np.eye(len(g.r))
-        low = np.linalg.cholesky(v)
-        rs.append(np.linalg.solve(low, g.r))
-        js.append(np.linalg.solve(low, g.jac))
-        logdet += 2.0 * float(np.log(np.diag(low)).sum())
-    return np.concatenate(rs), np.concatenate(js), logdet
+    st = _Stacked(groups)
+    e, x, logdet, _ = st.whiten(tau2)
+    return e, x, logdet
+
+
+class _Stacked:
+    """The groups stacked by row count (one batched Cholesky per size; rows in the groups' order)."""
+
+    def __init__(self, groups):
+        self.n = len(groups)
+        sizes = np.array([len(g.r) for g in groups])
+        self.offsets = np.concatenate([[0], np.cumsum(sizes)])
+        self.blocks = []
+        for d in sorted(set(sizes.tolist())):
+            idx = np.flatnonzero(sizes == d)
+            rows = (self.offsets[idx][:, None] + np.arange(d)).reshape(-1)
+            self.blocks.append(
+                {
+                    "rows": rows,
+                    "cov": np.stack([groups[i].cov for i in idx]),
+                    "rj": np.stack([np.column_stack([groups[i].r, groups[i].jac]) for i in idx]),
+                    "kinds": np.array([groups[i].kind for i in idx]),
+                    "d": d,
+                }
+            )
+        self.n_rows = int(self.offsets[-1])
+
+    def whiten(self, tau2: dict):
+        """(e, x, log|V|, the Cholesky factors of each block) with ``tau2`` added (:func:`whiten`)."""
+        out = np.empty((self.n_rows, self.blocks[0]["rj"].shape[2] if self.blocks else 1))
+        logdet, lows = 0.0, []
+        for b in self.blocks:
+            add = np.array([tau2.get(k, 0.0) for k in b["kinds"]])
+            low = np.linalg.cholesky(b["cov"] + add[:, None, None] * np.eye(b["d"]))
+            out[b["rows"]] = np.linalg.solve(low, b["rj"]).reshape(-1, out.shape[1])
+            logdet += 2.0 * float(np.log(np.diagonal(low, axis1=1, axis2=2)).sum())
+            lows.append(low)
+        return out[:, 0], out[:, 1:], logdet, lows
+
+
+def _objective_and_gradient(st: _Stacked, tau2: dict, col_scale, kinds=(), rank_tol: float = 1e-10):
+    """−2 ℓ_R at ``tau2`` (:func:`reml_objective`) and its exact derivative by each τ_k² of ``kinds``: with
+    P = V⁻¹ − V⁻¹X(XᵀV⁻¹X)⁺XᵀV⁻¹ (on X's seen subspace) and Z_k the rows of component k,
+    ∂(−2ℓ_R)/∂τ_k² = tr(P Z_k) − rᵀ P Z_k P r (Harville 1977, eq. 4.8), summed over the groups of kind k."""
+    e, x, logdet, lows = st.whiten(tau2)
+    u, s, _ = np.linalg.svd(x / col_scale, full_matrices=False)
+    keep = s > rank_tol * s[0]
+    uk = u[:, keep]
+    proj = uk.T @ e
+    e_perp = e - uk @ proj
+    value = logdet + 2.0 * float(np.log(s[keep]).sum()) + float(e @ e - proj @ proj)
+    grad = dict.fromkeys(kinds, 0.0)
+    for b, low in zip(st.blocks, lows):
+        inv_t = np.swapaxes(np.linalg.inv(low), 1, 2)  # L⁻ᵀ of each group
+        m, d = low.shape[0], b["d"]
+        a = inv_t @ e_perp[b["rows"]].reshape(m, d, 1)  # L⁻ᵀ (I − UUᵀ) e = P r
+        lu = inv_t @ uk[b["rows"]].reshape(m, d, -1)  # L⁻ᵀ U
+        per_group = (inv_t**2).sum(axis=(1, 2)) - (lu**2).sum(axis=(1, 2)) - (a**2).sum(axis=(1, 2))
+        for k in kinds:
+            grad[k] += float(per_group[b["kinds"] == k].sum())
+    return value, grad
 
 
 def reml_objective(groups, tau2: dict, col_scale: np.ndarray, rank_tol: float = 1e-10) -> float:
     """−2 ℓ_R (module doc, up to a constant) at ``tau2``; rank-deficient X is taken on its seen subspace."""
-    e, x, logdet = whiten(groups, tau2)
-    u, s, _ = np.linalg.svd(x / col_scale, full_matrices=False)
-    keep = s > rank_tol * s[0]
-    proj = u[:, keep].T @ e
-    return logdet + 2.0 * float(np.log(s[keep]).sum()) + float(e @ e - proj @ proj)
+    st = groups if isinstance(groups, _Stacked) else _Stacked(groups)
+    return _objective_and_gradient(st, tau2, col_scale, (), rank_tol)[0]
 
 
 def estimate_components(groups, kinds=("pose", "move")) -> tuple[dict, str]:
@@ -66,17 +116,21 @@ def estimate_components(groups, kinds=("pose", "move")) -> tuple[dict, str]:
     if not kinds:
         return {}, ""
     scale = {k: float(np.mean([np.trace(g.cov) / len(g.r) for g in groups if g.kind == k])) for k in kinds}
-    col_scale = np.linalg.norm(whiten(groups, {})[1], axis=0)
+    st = _Stacked(groups)
+    col_scale = np.linalg.norm(st.whiten({})[1], axis=0)
     col_scale[col_scale == 0] = 1.0
 
-    def f(u):
-        return reml_objective(groups, {k: scale[k] * np.exp(ui) for k, ui in zip(kinds, u)}, col_scale)
+    def f(u):  # −2ℓ_R and its exact gradient in u = log(τ²/scale): ∂/∂u_k = τ_k² ∂/∂τ_k²
+        tau2 = {k: scale[k] * np.exp(ui) for k, ui in zip(kinds, u)}
+        value, grad = _objective_and_gradient(st, tau2, col_scale, kinds)
+        return value, np.array([tau2[k] * grad[k] for k in kinds])
 
     best = None
     for start in (-LOG_RANGE, 0.0, 4.0):  # from zero, the noise's size and above: −2ℓ_R may have a boundary minimum
         sol = optimize.minimize(
             f,
             np.full(len(kinds), start),
+            jac=True,
             method="L-BFGS-B",
             bounds=[(-LOG_RANGE, 20.0)] * len(kinds),
             options={"ftol": 1e-15, "gtol": 1e-9, "maxiter": 500},
@@ -85,10 +139,10 @@ def estimate_components(groups, kinds=("pose", "move")) -> tuple[dict, str]:
             best = sol
     out = {k: float(scale[k] * np.exp(ui)) for k, ui in zip(kinds, best.x)}
     for k in kinds:  # a component that lowers −2ℓ_R by less than NEGLIGIBLE is zero (the σ then do not wander)
-        if reml_objective(groups, {**out, k: 0.0}, col_scale) - best.fun < NEGLIGIBLE:
+        if reml_objective(st, {**out, k: 0.0}, col_scale) - best.fun < NEGLIGIBLE:
             out[k] = 0.0
     # L-BFGS-B's status 1 is its iteration/evaluation limit: stopped short. Status 2 (ABNORMAL_TERMINATION_IN_LNSRCH)
-    # is a line search that could not lower −2ℓ_R any further at the precision of its finite-difference gradient,
-    # which here happens at the minimum: it counts as converged.
+    # is a line search that could not lower −2ℓ_R any further at the rounding of −2ℓ_R (ftol 1e-15), which here
+    # happens at the minimum: it counts as converged.
     why = f"the variance components' REML search stopped: {best.message}" if best.status == 1 else ""
     return out, why
