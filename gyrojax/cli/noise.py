@@ -238,7 +238,7 @@ def _noise_triad(args, recs) -> int:
         m_list = parse_taus(args.taus, max(len(s) for s in segs), tau0)
         out, *_ = noise_report(
             segs, tau0, m_list, method=args.method, model=args.model, gauss_markov=args.gauss_markov, robust=args.robust
-        out, *_ = noise_report(segs, tau0, m_list, method=args.method, model=args.model, gauss_markov=args.gauss_markov)
+        )
         reports[name] = accelerometer_report(out) if name.startswith("acc_") else out
     result = {"instrument": "imu-triad", "tau0_s": tau0, "channels": reports}
     source = ", ".join(r.name for r in recs)
