@@ -338,13 +338,17 @@ class _Grid:
 
 def robust_scaling(theta_full, mask, est: WaveletVariance) -> np.ndarray:
     """√r per scale of ``est`` (dimensionless): the robust estimate's Var ν̂² over the classical one under the model
-    with full log-parameters ``theta_full`` (:func:`robust_wv.variance_ratios`); ones for the classical estimate."""
+    with full log-parameters ``theta_full`` (:func:`robust_wv.variance_ratios`); ones for the classical estimate.
+    A flicker floor has no coefficient autocovariance in :mod:`robust_wv`: with one on, r takes its upper bound
+    1/efficiency at every scale (the conservative end of [1, 1/eff])."""
     if est.efficiency is None:
         return np.ones(len(est.m))
     e = np.exp(np.asarray(theta_full, float))
     on = np.asarray(mask, bool)
+    if on[FULL_NAMES.index("bias_instability")]:
+        return np.full(len(est.m), math.sqrt(1.0 / est.efficiency))
     latent = {k: float(e[i]) if on[i] else 0.0 for i, k in enumerate(("white", "quantization", "random_walk"))}
-    gm = range(4, len(FULL_NAMES), 2)
+    gm = range(FULL_NAMES.index("gm1_var"), len(FULL_NAMES), 2)
     latent["gm"] = [(float(e[i]), float(e[i + 1])) for i in gm if on[i]]
     r = rwv.variance_ratios(est.m, latent, rwv.Biweight.of(est.efficiency), est.n_samples)
     return np.sqrt(r)
