@@ -102,29 +102,25 @@ def test_flicker_and_random_walk_identified():
     assert abs(ns.random_walk - 60.0) < 3.0 * ns.std("random_walk")
 
 
+def _white_and_floor(b: float) -> NoiseSpec:
+    """A fitted white (1 deg/√h) + flicker floor (B = ``b`` deg/h) model over τ up to 100 s."""
+    return NoiseSpec(
+        white=1.0,
+        bias_instability=b,
+        dt_s=DT,
+        flicker_band=(DT, 100.0),
+        cov=(np.eye(2) * 1e-6).ravel(),
+        cov_names=("white", "bias_instability"),
+        info={"pinned": []},
+    )
+
+
 def test_a_hidden_floor_is_not_seen():
     """A floor 0.1 of the white term's ADEV at the longest fitted τ carries half the variance nowhere: rejected."""
-    cov = np.eye(2) * 1e-6
-    hidden = NoiseSpec(
-        white=1.0,
-        bias_instability=1.0,
-        dt_s=DT,
-        flicker_band=(DT, 100.0),
-        cov=cov.ravel(),
-        cov_names=("white", "bias_instability"),
-        info={"pinned": []},
-    )  # white ADEV at 100 s: 60/10 = 6 deg/h, floor 0.66 deg/h
+    hidden = _white_and_floor(1.0)  # white ADEV at 100 s: 60/10 = 6 deg/h, floor 0.66 deg/h
     assert gmwm_select.flicker_span(hidden) == 1.0
     assert "not seen" in gmwm_select.rejection(hidden)
-    seen = NoiseSpec(
-        white=1.0,
-        bias_instability=20.0,
-        dt_s=DT,
-        flicker_band=(DT, 100.0),
-        cov=cov.ravel(),
-        cov_names=("white", "bias_instability"),
-        info={"pinned": []},
-    )  # equal at τ = (60/13.3)² = 20 s: half or more from 20 to 100 s
+    seen = _white_and_floor(20.0)  # equal at τ = (60/13.3)² = 20 s: half or more from 20 to 100 s
     assert gmwm_select.flicker_span(seen) == pytest.approx(100.0 / 20.4, rel=0.05)
     assert gmwm_select.rejection(seen) == ""
 
@@ -148,3 +144,16 @@ def test_j_test_gate_moves_past_an_inadequate_candidate(monkeypatch):
     assert ns.info["selection"][0]["j_test_p"] < gmwm_select.J_TEST_LEVEL
     alone = gmwm.select_model(est, cands[:1])
     assert alone.info["model"] == "white" and "J test" in alone.info["j_test"]
+
+
+def test_report_says_which_b_is_which():
+    """The headline model B (σ_min/0.664 of the whole model's ADEV, IEEE 952) is at least the flicker floor's own B
+    (the other terms only add variance); where they differ by more than 10 % a note names both."""
+    from gyrojax.noise.readoff import noise_report
+
+    out, *_ = noise_report([_record(3, 2**18, k=60.0)], DT)
+    floor = out["model"]["parameters"]["bias_instability"]["value"]
+    head = out["headline"]["bias_instability"]["model"]["value"]
+    assert head >= floor * (1 - 1e-9)
+    said = [n for n in out["notes"] if n.startswith("model.bias_instability")]
+    assert bool(said) == (head - floor > 0.1 * head), (floor, head, out["notes"])

@@ -111,6 +111,11 @@ def test_accelerometer_json_in_accelerometer_units(report):
             i = acc["taus_s"].index(v["tau_s"])
             sigma = acc["adev_high"][i] if v["kind"] == "upper bound" else acc["adev_mps2"][i]
             assert v["value"] == pytest.approx(f(sigma, v["tau_s"]), rel=1e-9), (c, name)
+        for name, fig in acc["headline"].items():  # every interval in the same unit as its value: it brackets it
+            for side in ("curve", "model"):
+                v = fig[side]
+                if v.get("value") is not None and v.get("ci") is not None and v.get("kind") != "upper bound":
+                    assert v["ci"][0] <= v["value"] <= v["ci"][1], (c, name, side, v)
         # 1 mg white at 100 Hz: σ_a = 9.80665e-3·√0.01 m/s²/√Hz, VRW = 60 σ_a m/s/√h
         assert acc["headline"]["arw"]["model"]["value"] == pytest.approx(60 * 9.80665e-4, rel=0.05)
 

@@ -195,6 +195,14 @@ def noise_report(
             f"terms.bias_instability {b_terms:.4g} deg/h is the IEEE 952 least-squares term fit; the curve's "
             f"flat-minimum read-off (headline) is {b_head['value']:.4g} deg/h at tau = {b_head['tau_s']:.3g} s"
         )
+    b_floor = nm.bias_instability if nm is not None else 0.0
+    b_model = out["headline"]["bias_instability"]["model"]
+    if b_floor > 0 and b_model["value"] is not None and abs(b_floor - b_model["value"]) > 0.1 * b_model["value"]:
+        notes.append(
+            f"model.bias_instability {b_floor:.4g} deg/h is the model's flicker floor alone; the headline model B "
+            f"{b_model['value']:.4g} deg/h is IEEE 952's read-off sigma_min/0.664 of the whole model's ADEV (white "
+            "and random walk included)"
+        )
     notes += [f"{k}: {v['note']}" for k, v in out["headline"].items() if v["note"]]
     if nm is not None and nm.info.get("j_test"):  # gmwm_select's adequacy gate found no candidate that passes
         notes.append(f"model {nm.info['model']}: {nm.info['j_test']}; it is the least-criterion identified one")

@@ -56,6 +56,8 @@ def _scaled(fig: dict, name: str) -> dict:
     for k in ("value", "std"):
         if out.get(k) is not None:
             out[k] = out[k] * f
+    if out.get("ci") is not None:
+        out["ci"] = [None if c is None else c * f for c in out["ci"]]
     if "unit" in out or out.get("value") is not None:
         out["unit"] = unit
     return out
