@@ -50,8 +50,8 @@ lock: test-latest
 	mv $(LOCK).tmp $(LOCK)
 
 lint: $(STAMP)
-	$(VENV)/bin/ruff check gyrojax tests benchmarks
-	$(VENV)/bin/ruff format --check gyrojax tests benchmarks
+	$(VENV)/bin/ruff check gyrojax tests benchmarks notebooks
+	$(VENV)/bin/ruff format --check gyrojax tests benchmarks notebooks
 
 docs: $(STAMP)
 	$(PY) -m pip install --quiet -c $(LOCK) -e ".[docs]"

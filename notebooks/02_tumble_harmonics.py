@@ -23,8 +23,8 @@ import numpy as np
 from IPython.display import Image
 
 import gyrojax as gj
-from gyrojax.seeds import classical
 from gyrojax.inference.identify import fit
+from gyrojax.seeds import classical
 
 truth = {
     "coefficients": {

@@ -21,11 +21,11 @@
 from IPython.display import Image
 
 import gyrojax as gj
-from gyrojax.report import demo
 from gyrojax import report
-from gyrojax.inference.diagnose import diagnose
 from gyrojax.inference.campaign import Campaign
+from gyrojax.inference.diagnose import diagnose
 from gyrojax.inference.identify import fit
+from gyrojax.report import demo
 
 print("hidden truth:", demo.TRUTH["coefficients"])
 plan = gj.plans.tumble(revolutions=1, dt_s=10)

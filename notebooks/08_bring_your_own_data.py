@@ -28,8 +28,8 @@ from IPython.display import Image
 
 import gyrojax as gj
 from gyrojax import report
-from gyrojax.physics.effects import Effect, register
 from gyrojax.inference.identify import fit
+from gyrojax.physics.effects import Effect, register
 
 # %% [markdown]
 # ## The metadata

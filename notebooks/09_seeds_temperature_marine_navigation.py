@@ -16,7 +16,7 @@
 # 1. `gyrojax.seeds.drift_processing` — Hu ch. 4 (moving-average rate, gain 4-11) and ch. 6 (Kalman running mean);
 # 2. `gyrojax.seeds.thermal` — seed 001: the two-slope temperature model hinged at 20 °C and what it buys in navigation;
 # 3. `gyrojax.seeds.marine` — seed 003: the ψ-angle closed form and why three position fixes cannot reset the INS;
-# 4. `gyrojax.seeds.system` — Titterton ch. 12: what a residual gyro drift, and a fitted coefficient's uncertainty, cost.
+# 4. `gyrojax.seeds.system` — Titterton ch. 12, what a residual gyro drift and a coefficient's uncertainty cost.
 
 # %%
 import matplotlib.pyplot as plt
@@ -25,10 +25,10 @@ from IPython.display import Image
 from scipy.integrate import solve_ivp
 
 import gyrojax as gj
-from gyrojax.seeds import drift_processing as dp
-from gyrojax.seeds import marine, system, thermal
 from gyrojax import units
 from gyrojax.inference.identify import fit
+from gyrojax.seeds import drift_processing as dp
+from gyrojax.seeds import marine, system, thermal
 
 rng = np.random.default_rng(9)
 
