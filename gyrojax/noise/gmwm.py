@@ -21,9 +21,11 @@ its p-value is the model's adequacy test at the dyadic scales.
 
 **Model selection** (:mod:`gyrojax.noise.gmwm_select`). Among candidate sums (default
 :data:`DEFAULT_CANDIDATES`) that the record identifies (no parameter at a bound, no duplicate or unidentified
-component, no flicker floor that is nowhere seen), the one of least Q(θ̂) + c·p, every candidate weighed with the
-Ω of the largest one, that passes its own J test; c is calibrated by Monte Carlo for the stated false-component
-rate (the WIC's c = 2 of Guerrier et al. is not).
+component, no flicker floor that is nowhere seen), the one of least Q(θ̂) + Σ cost, every candidate weighed with the
+Ω of the largest one, that passes its own J test; each process beside the white one costs the critical value of a
+test at one level (a boundary χ² for one variance, Davies' bound for a Gauss–Markov component whose T is not
+identified without it), the level calibrated by Monte Carlo for the stated false-component rate (the WIC's 2 per
+parameter of Guerrier et al. is not).
 
 **AVLR** (Allan-variance linear regression, Guerrier et al. 2016) is the same fit with relative least-squares
 weights diag(1/ν̂²) instead of Ω⁻¹; its covariance is the sandwich with the model's Ω. The IEEE 952 read-off
@@ -482,11 +484,21 @@ def _fit_theta(spec: ModelSpec, est: WaveletVariance, omega, method: str, grid, 
     return np.asarray(theta)[idx], p_mat, om, m, lo, hi, (bool(ok), int(it))
 
 
+def gm_sweep(m, omega) -> float:
+    """V of the Davies cost of a Gauss–Markov component (:func:`~gyrojax.noise.gmwm_select.gm_sweep`) at the
+    half-widths ``m`` (samples) with the reference weights ``omega`` (Ω_ref, (deg/h)⁴): beside the white,
+    quantization, random-walk and flicker-floor columns, T over :func:`gm_tau_limits`; V in radians."""
+    lin = ModelSpec(white=True, quantization=True, random_walk=True, n_gm=0, flicker=True)
+    return sel.gm_sweep(m, whitening_matrix(omega), _basis(lin, m, []), gm_tau_limits(m))
+
+
 def select_model(est: WaveletVariance, candidates=DEFAULT_CANDIDATES, method: str = "gmwm") -> NoiseSpec:
     """The identified model selection (module doc, :mod:`gyrojax.noise.gmwm_select`): the sensor filter's short
     scales dropped (:func:`~gyrojax.noise.gmwm_select.short_scale_limit`), every candidate fitted with the weights
-    Ω of the largest, the admissible one of least Q + c·p that passes its J test with its own efficient weights
-    (:func:`~gyrojax.noise.gmwm_select.ranked`; refitted by AVLR when asked). ``info["selection"]`` lists every
+    Ω of the largest, the admissible one of least Q + Σ cost (:func:`~gyrojax.noise.gmwm_select.cost_of`) that
+    passes its J test with its own efficient weights (:func:`~gyrojax.noise.gmwm_select.ranked`; refitted by AVLR
+    when asked). ``info["penalty"]`` holds the costs (:func:`~gyrojax.noise.gmwm_select.costs`),
+    ``info["selection"]`` lists every
     candidate's objective, criterion, rejection and (where tested) own-weight J-test p-value ``j_test_p``,
     ``info["j_test"]`` says when no identified candidate passes (the least-criterion one is kept),
     ``info["tau_min_s"]`` the shortest τ fitted and ``info["short_scales"]`` why shorter ones were dropped.
@@ -501,7 +513,8 @@ def select_model(est: WaveletVariance, candidates=DEFAULT_CANDIDATES, method: st
     memo: dict = {}
     largest = max(cands, key=lambda c: c.n_params)
     _, ref_omega = _fit_spec(largest, est, None, "gmwm", grid, 2, memo)
-    rows = [sel.table_row(c, _fit_spec(c, est, ref_omega, "gmwm", grid, 2, memo)[0]) for c in cands]
+    cost = sel.costs(gm_sweep(est.m, ref_omega))
+    rows = [sel.table_row(c, _fit_spec(c, est, ref_omega, "gmwm", grid, 2, memo)[0], cost) for c in cands]
     order = sel.ranked(rows)
     for i in order:  # the adequacy gate (gmwm_select module doc)
         out = fit_spec(cands[i], est, grid=grid, memo=memo)
@@ -516,7 +529,7 @@ def select_model(est: WaveletVariance, candidates=DEFAULT_CANDIDATES, method: st
         out = fit_spec(cands[i], est, method=method, grid=grid, memo=memo)
     out.info.update(
         selection=rows,
-        penalty=sel.PENALTY,
+        penalty=cost,
         j_test=gate or None,
         tau_min_s=float(est.m[0] * est.dt),
         short_scales=why,
