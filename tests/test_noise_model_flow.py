@@ -40,10 +40,21 @@ def test_design_takes_a_two_gauss_markov_model(tmp_path, capsys):
     model = tmp_path / "noise.json"
     model.write_text(json.dumps({"model": TWO_GM.to_json()}))
     out = tmp_path / "plan.json"
-    args = ["design", "--out", str(out), "--positions", "8", "--hours", "1", "--noise-model", str(model)]
+    args = ["design", "--out", str(out), "--positions", "10", "--hours", "1", "--noise-model", str(model)]
     rc = main(args + ["--starts", "1", "--adam-steps", "20", "--lbfgs-steps", "5", "--json"])
     assert rc == 0 and out.exists()
     rw = tmp_path / "rw.json"
     rw.write_text(json.dumps({"model": NoiseSpec(white=0.003, random_walk=0.1, dt_s=0.5).to_json()}))
     rc = main(["design", "--out", str(tmp_path / "p2.json"), "--noise-model", str(rw)])
     assert rc == 2 and "random_walk" in capsys.readouterr().err
+
+
+def test_design_refuses_fewer_positions_than_coefficients(tmp_path, capsys):
+    """8 positions of a one-output gyro give 8 means for the 9 SDF coefficients: F is singular for every plan (its
+    log-determinant is round-off, which one CPU climbs to NaN and another to a meaningless plan), so no plan is
+    written and the message names the count."""
+    out = tmp_path / "plan.json"
+    rc = main(["design", "--out", str(out), "--positions", "8", "--hours", "1", "--starts", "1", "--adam-steps", "2"])
+    err = capsys.readouterr().err
+    assert rc == 2 and not out.exists()
+    assert "8 independent means for the 9 coefficients" in err and "at least 9 positions" in err

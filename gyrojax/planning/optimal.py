@@ -38,7 +38,7 @@ from gyrojax.planning.criteria import (
     detect_power,
     noncentrality,
 )
-from gyrojax.planning.fisher import DEFAULT_NOISE, Table, check_static, static_fisher
+from gyrojax.planning.fisher import DEFAULT_NOISE, Table, check_static, position_rows, static_fisher
 
 SDF9 = ("D_F", "D_I", "D_O", "D_S", "D_II", "D_SS", "D_IO", "D_IS", "D_OS")
 """The SDF drift model of Hu 2-45 less D_OO (the design tests' model; D_OO is the effect left out)."""
@@ -226,6 +226,15 @@ def design(
 
     key = jax.random.PRNGKey(seed)
     ang0 = jax.random.uniform(key, (starts, n_positions, k), minval=0.0, maxval=2 * math.pi)
+    channels = position_rows(full, table, ang0[0]).shape[0]
+    if n_positions * channels < full.size:
+        # F = Σ jᵀj/Var has rank ≤ positions × channels: its log-determinant would be round-off, and the search
+        # would climb it to NaN on one CPU and to a meaningless plan on another
+        raise ModelError(
+            f"{n_positions} static positions give at most {n_positions * channels} independent means for the "
+            f"{full.size} coefficients of {', '.join(full.terms)}: the Fisher information is singular for every "
+            f"plan; use at least {-(-full.size // channels)} positions or fewer terms"
+        )
     if crit.kind == "detect":
         _check_detectable(model, crit, table, ang0[0], total / n_positions, noise, dt_s)
     z0 = jnp.zeros((starts, n_positions))
@@ -239,6 +248,11 @@ def design(
     (ang, z), hist, vals, gn = jax.block_until_ready(_COMPILED[ckey](*args))
     timing = {"compile_s": t1 - t0, "run_s": time.perf_counter() - t1}
     vals = np.where(np.isfinite(np.asarray(vals)), np.asarray(vals), np.inf)
+    if not np.isfinite(vals).any():
+        raise ModelError(
+            f"design: every one of the {starts} starts ended at a non-finite loss (a singular Fisher information or a "
+            "search that diverged); no plan is written. Try more starts, a smaller learning rate or fewer terms"
+        )
     b = int(np.argmin(vals))
     dwell = np.asarray(dwell_from_logits(z[b], total, m)) if free_dwell else np.full(n_positions, total / n_positions)
     angles_deg = np.mod(np.rad2deg(np.asarray(ang[b])), 360.0)
