@@ -75,6 +75,20 @@ def earth_terms(record, earth_rate: bool | None = None):
     return omega * math.sin(phi), omega * math.cos(phi), f"latitude {float(lat):g} deg"
 
 
+def label_rows(seg: np.ndarray):
+    """A function giving the sample indices (ascending) of a segment label, from one stable sort of the labels
+    instead of a scan of the record per segment; an absent label gives no index."""
+    seg = np.asarray(seg).astype(int)
+    order = np.argsort(seg, kind="stable")
+    ordered = seg[order]
+
+    def rows(label) -> np.ndarray:
+        lo, hi = np.searchsorted(ordered, [label, label + 1])
+        return order[lo:hi]
+
+    return rows
+
+
 def triad_segments(record, earth_rate: bool | None = None):
     """The static and rotation segments of one triad record as :class:`TriadSegment` s, the per-segment static residual
     series (deg/h, (n, 3), for the noise estimate), the Earth-rate mode (module doc) and the :class:`Move` s."""
@@ -87,10 +101,11 @@ def triad_segments(record, earth_rate: bool | None = None):
     vertical, horizontal, mode = earth_terms(record, earth_rate)
     g_site = float(record.meta["site"]["gravity_mps2"]) / units.G0
     out, resid, moves = [], [], []
+    rows = label_rows(seg)
     for spec in record.meta["segments"]:
-        sel = np.flatnonzero(seg == spec["label"])
+        sel = rows(spec["label"])
         if spec["type"] == "move":
-            mv = _move(record, spec, gyro, acc, t, seg, temp)
+            mv = _move(record, spec, gyro, acc, t, rows, temp)
             # Up is fixed to the Earth, the gyro integrates the inertial rate: over the move the Earth turns Up by
             # Ω_h T about a horizontal axis of unknown heading, variance (Ω_h T)²/2 per component
             mv.earth_var = (horizontal * len(mv.g) * mv.dt * units.DEG_PER_H) ** 2 / 2.0
@@ -171,17 +186,18 @@ def triad_segments(record, earth_rate: bool | None = None):
     return out, resid, mode, moves
 
 
-def _move(record, spec: dict, gyro, acc, t, seg, temp) -> Move:
-    """The :class:`Move` of a ``move`` segment (module doc of :mod:`gyrojax.data.triad`)."""
+def _move(record, spec: dict, gyro, acc, t, rows, temp) -> Move:
+    """The :class:`Move` of a ``move`` segment (module doc of :mod:`gyrojax.data.triad`); ``rows`` of
+    :func:`label_rows`."""
     if acc is None:
         raise ModelError(f"{record.name}: move segment {spec['label']} needs the accelerometer (acc_<c>_g columns)")
 
     def pose(label):
-        a = acc[seg == label]
+        a = acc[rows(label)]
         m = a.mean(axis=0)
         return m / np.linalg.norm(m), float(a.var(axis=0).mean()) / len(a) / float(m @ m)
 
-    sel = np.flatnonzero(seg == spec["label"])
+    sel = rows(spec["label"])
     if len(sel) < 2:
         raise ModelError(f"{record.name}: move segment {spec['label']} has {len(sel)} sample(s)")
     u0, v0 = pose(spec["from"])

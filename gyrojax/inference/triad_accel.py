@@ -20,8 +20,9 @@ from scipy import stats
 
 from gyrojax import units
 from gyrojax.data.accelcheck import ACC_CALIBRATED_TOL
-from gyrojax.data.segments import ellipsoid_accelerometer, imutk_acc_model
+from gyrojax.data.segments import ellipsoid_accelerometer, imutk_acc_jacobian, imutk_acc_model
 from gyrojax.data.triad import acc_g
+from gyrojax.data.triad_segments import label_rows
 from gyrojax.errors import ModelError
 
 PARAMS = ("alpha_yz", "alpha_zy", "alpha_zx", "s_x", "s_y", "s_z", "b_x", "b_y", "b_z")
@@ -37,12 +38,12 @@ def rest_means(records) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         a = acc_g(r)
         if a is None:
             continue
-        seg = np.asarray(r.columns["segment"]).astype(int)
+        rows = label_rows(r.columns["segment"])
         g_site = float(r.meta["site"]["gravity_mps2"]) / units.G0
         for spec in r.meta["segments"]:
             if spec["type"] != "static":
                 continue
-            sel = a[seg == spec["label"]]
+            sel = a[rows(spec["label"])]
             if len(sel) < 2:
                 continue
             means.append(sel.mean(axis=0))
@@ -56,17 +57,9 @@ def _residual(p, means, g_loc):
 
 
 def residual_jacobian(params, means) -> np.ndarray:
-    """Exact ∂|T K (a − b)|/∂p (k, 9) at the pose means ``means`` (k, 3) g, in g per parameter unit (rad, -, g):
-    with z = a − b, k = K z, c = T k and u = c/|c|, ∂|c|/∂p = uᵀ ∂c/∂p, where ∂c/∂α_yz = −k_y e_x,
-    ∂c/∂α_zy = k_z e_x, ∂c/∂α_zx = −k_z e_y, ∂c/∂s_j = T e_j z_j and ∂c/∂b_j = −T e_j s_j (Tedaldi et al. eq. 6)."""
-    p = np.asarray(params, dtype=float)
-    t = np.array([[1.0, -p[0], p[1]], [0.0, 1.0, -p[2]], [0.0, 0.0, 1.0]])
-    z = np.asarray(means, dtype=float) - p[6:9]
-    k = z * p[3:6]
-    c = k @ t.T
-    u = c / np.linalg.norm(c, axis=1, keepdims=True)
-    ut = u @ t  # uᵀ T e_j for each pose
-    return np.column_stack([-u[:, 0] * k[:, 1], u[:, 0] * k[:, 2], -u[:, 1] * k[:, 2], ut * z, -ut * p[3:6]])
+    """Exact ∂|T K (a − b)|/∂p (k, 9) at the pose means ``means`` (k, 3) g, in g per parameter unit (rad, -, g)
+    (:func:`gyrojax.data.segments.imutk_acc_jacobian`, Tedaldi et al. eq. 6)."""
+    return imutk_acc_jacobian(params, means)
 
 
 def fit_accelerometer(records) -> dict | None:
@@ -83,7 +76,9 @@ def fit_accelerometer(records) -> dict | None:
     if not np.allclose(g_loc, g_mean):  # records of different sites: refine at each pose's own g
         from scipy import optimize
 
-        params = optimize.least_squares(_residual, params, args=(means, g_loc), method="lm").x
+        params = optimize.least_squares(
+            _residual, params, jac=lambda p, m, _g: residual_jacobian(p, m), args=(means, g_loc), method="lm"
+        ).x
     sd = np.sqrt(np.maximum(var, 1e-30))
     r = _residual(params, means, g_loc) / sd
     jac = residual_jacobian(params, means) / sd[:, None]

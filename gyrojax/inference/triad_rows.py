@@ -129,28 +129,61 @@ def _hat(v):
     return jnp.stack(rows, -2)
 
 
-def _expm_so3(v):
-    """exp([v×]) by Rodrigues' formula, safe at v = 0 (v in rad)."""
-    th2 = v @ v
-    th = jnp.sqrt(jnp.where(th2 > 0, th2, 1.0))
-    small = th2 < 1e-16
+def _mat3(a, b):
+    """a @ b of stacks of 3×3 matrices (..., 3, 3), as broadcast products (XLA's CPU batched dot of thousands of
+    3×3 pairs costs ~100× the arithmetic)."""
+    return (a[..., :, :, None] * b[..., None, :, :]).sum(axis=-2)
+
+
+def _so3_terms(v, small_at: float, series):
+    """c₀ I + c₁ [v×] + c₂ v vᵀ for vectors ``v`` (..., 3) with (c₀, c₁, c₂) = ``series(θ², θ, small)``, using
+    [v×]² = v vᵀ − θ² I (θ = |v|; ``small`` where θ² ≤ ``small_at``, for the series forms)."""
+    th2 = (v * v).sum(axis=-1)
+    small = th2 <= small_at
+    th = jnp.sqrt(jnp.where(small, 1.0, th2))
+    c0, c1, c2 = series(th2, th, small)
+    eye = jnp.eye(3)
+    return (
+        c0[..., None, None] * eye
+        + c1[..., None, None] * _hat(v)
+        + c2[..., None, None] * (v[..., :, None] * v[..., None, :])
+    )
+
+
+def _expm_series(th2, th, small):
+    safe = jnp.where(small, 1.0, th2)
     a = jnp.where(small, 1.0 - th2 / 6.0, jnp.sin(th) / th)
-    b = jnp.where(small, 0.5 - th2 / 24.0, (1.0 - jnp.cos(th)) / jnp.where(th2 > 0, th2, 1.0))
-    k = jnp.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-    return jnp.eye(3) + a * k + b * (k @ k)
+    b = jnp.where(small, 0.5 - th2 / 24.0, (1.0 - jnp.cos(th)) / safe)
+    return 1.0 - b * th2, a, b
+
+
+def _expm_so3(v):
+    """exp([v×]) = I + sin θ/θ [v×] + (1 − cos θ)/θ² [v×]² by Rodrigues' formula, for vectors ``v`` (..., 3) rad
+    (→ (..., 3, 3)); series below θ = 10⁻⁸, safe at v = 0."""
+    return _so3_terms(v, 1e-16, _expm_series)
+
+
+def _right_jacobian_series(th2, th, small):
+    safe = jnp.where(small, 1.0, th2)
+    c1 = jnp.where(small, 0.5 - th2 / 24.0, (1.0 - jnp.cos(th)) / safe)
+    c2 = jnp.where(small, 1.0 / 6.0 - th2 / 120.0, (th - jnp.sin(th)) / (safe * th))
+    return 1.0 - c2 * th2, -c1, c2
 
 
 def _right_jacobian_so3(v):
-    """J_r(v) = I − (1 − cos θ)/θ² [v×] + (θ − sin θ)/θ³ [v×]² (v in rad): exp([(v + δ)×]) = exp([v×]) exp([J_r δ×])
-    to first order in δ; series below θ = 10⁻⁴ (both forms agree there to rounding)."""
-    th2 = v @ v
-    safe = jnp.where(th2 > 1e-8, th2, 1.0)
-    th = jnp.sqrt(safe)
-    small = th2 <= 1e-8
-    c1 = jnp.where(small, 0.5 - th2 / 24.0, (1.0 - jnp.cos(th)) / safe)
-    c2 = jnp.where(small, 1.0 / 6.0 - th2 / 120.0, (th - jnp.sin(th)) / (safe * th))
-    k = _hat(v)
-    return jnp.eye(3) - c1 * k + c2 * (k @ k)
+    """J_r(v) = I − (1 − cos θ)/θ² [v×] + (θ − sin θ)/θ³ [v×]² (v (..., 3) in rad): exp([(v + δ)×]) = exp([v×])
+    exp([J_r δ×]) to first order in δ; series below θ = 10⁻⁴ (both forms agree there to rounding)."""
+    return _so3_terms(v, 1e-8, _right_jacobian_series)
+
+
+def _inv3(m):
+    """Inverses of 3×3 matrices (..., 3, 3) by the adjugate (cofactors over the determinant): a triad's S, or
+    ∂f/∂ω per sample, is near the identity, so the closed form is as accurate as an LU and one fused pass."""
+    c0 = jnp.cross(m[..., 1, :], m[..., 2, :])
+    c1 = jnp.cross(m[..., 2, :], m[..., 0, :])
+    c2 = jnp.cross(m[..., 0, :], m[..., 1, :])
+    det = (m[..., 0, :] * c0).sum(axis=-1)
+    return jnp.stack([c0, c1, c2], axis=-1) / det[..., None, None]
 
 
 def move_residual(model, theta, g, a, t_h, temp, mask, dt, u_from, u_to):
@@ -204,14 +237,14 @@ def _body_rates_jacobian(model, theta, g, a, t_h, temp):
             return tp.triad_output(model, th, ww, a, t_h, temp)
 
         cols = [jax.jvp(out, (w,), (jnp.zeros_like(w).at[:, j].set(1.0),))[1] for j in range(3)]
-        return w, df, jnp.linalg.inv(jnp.stack(cols, axis=-1))  # ∂f/∂ω: (N, 3 outputs, 3 body axes)
-    return w, df, jnp.linalg.inv(linear_matrices(model, theta)[1])
+        return w, df, _inv3(jnp.stack(cols, axis=-1))  # ∂f/∂ω: (N, 3 outputs, 3 body axes)
+    return w, df, _inv3(linear_matrices(model, theta)[1])
 
 
 def _move_rows(model, theta, g, a, t_h, temp, mask, dt, u_from, u_to, basis, inv_sd):
     """(r (M, 3), whitened rows (M, 2), their Jacobian (M, 2, 3p)) of every move (module doc). The sum over the
-    steps is taken per sample: v_k = c_k (ω_k + ω_k+1), so Σ_k P_k J_r(v_k) ∂v_k/∂θ = −Σ_n C_n K_n ∂f_n/∂θ with
-    C_n = c_n−1 P_n−1 J_r(v_n−1) + c_n P_n J_r(v_n)."""
+    steps: v_k = c_k (ω_k + ω_k+1) and ∂ω_n/∂θ = −K_n ∂f_n/∂θ, so Σ_k P_k J_r(v_k) ∂v_k/∂θ = −Σ_k A_k (X_k + X_k+1)
+    with A_k = c_k P_k J_r(v_k) and X_n = K_n ∂f_n/∂θ; one contraction over the steps and body axes per move."""
     m, length = g.shape[:2]
     p = model.size
     w, df, k_inv = _body_rates_jacobian(
@@ -220,21 +253,20 @@ def _move_rows(model, theta, g, a, t_h, temp, mask, dt, u_from, u_to, basis, inv
     scale = (0.5 * units.DEG_PER_H * dt)[:, None] * mask  # deg/h → rad over one step, 0 on padding
     w = w.reshape(m, length, 3)
     v = scale[:, :, None] * (w[:, 1:] + w[:, :-1])
-    e = jax.vmap(jax.vmap(_expm_so3))(v)
 
     def step(r, ek):
-        r = r @ ek
+        r = _mat3(r, ek)
         return r, r
 
-    rot, prefix = jax.lax.scan(step, jnp.broadcast_to(jnp.eye(3), (m, 3, 3)), jnp.swapaxes(e, 0, 1))
-    a_k = jnp.swapaxes(prefix, 0, 1) @ jax.vmap(jax.vmap(_right_jacobian_so3))(v) * scale[:, :, None, None]
-    zero = jnp.zeros((m, 1, 3, 3))
-    c_n = jnp.concatenate([a_k, zero], axis=1) + jnp.concatenate([zero, a_k], axis=1)  # (M, L, 3, 3)
-    d_n = c_n @ (k_inv if k_inv.ndim == 2 else k_inv.reshape(m, length, 3, 3))
-    gsum = jnp.einsum("mnic,mncp->micp", d_n, df.reshape(m, length, 3, p)).reshape(m, 3, 3 * p)
+    rot, prefix = jax.lax.scan(step, jnp.broadcast_to(jnp.eye(3), (m, 3, 3)), jnp.swapaxes(_expm_so3(v), 0, 1))
+    a_k = _mat3(jnp.swapaxes(prefix, 0, 1), _right_jacobian_so3(v)) * scale[:, :, None, None]  # (M, L−1, 3, 3)
+    k_n = k_inv if k_inv.ndim == 2 else k_inv.reshape(m, length, 3, 3)
+    # X_n is block-diagonal in the channels (channel c sees its own p coefficients): X[n, j, c, q] = K[j, c] ∂f_c/∂θ_cq
+    x = (k_n[..., :, :, None] * df.reshape(m, length, 1, 3, p)).reshape(m, length, 3, 3 * p)
+    gsum = jnp.einsum("mkij,mkjq->miq", a_k, x[:, 1:] + x[:, :-1])  # (M, 3, 3p)
     y = jnp.einsum("mji,mj->mi", rot, u_from)
     r = u_to - y
-    jf = -_hat(y) @ jnp.swapaxes(rot, 1, 2) @ gsum  # −∂r/∂θ: the Jacobian of "y − f"
+    jf = -jnp.einsum("mij,mkj,mkq->miq", _hat(y), rot, gsum)  # −[y×] Rᵀ Σ: −∂r/∂θ, the Jacobian of "y − f"
     rows = jnp.einsum("mia,mi->ma", basis, r) * inv_sd[:, None]
     jac = jnp.einsum("mia,mip->map", basis, jf) * inv_sd[:, None, None]
     return r, rows, jac
@@ -251,9 +283,10 @@ def move_rows(model, theta, packed, whitening):
     m, m_pad = len(whitening), packed[0].shape[0]
     basis = np.zeros((m_pad, 3, 2))
     inv_sd = np.zeros(m_pad)
-    for i, (p, sd) in enumerate(whitening):
-        basis[i], inv_sd[i] = p, 1.0 / sd
-    r, rows, jac = _move_rows_jit(model, jnp.asarray(theta), *packed, jnp.asarray(basis), jnp.asarray(inv_sd))
+    basis[:m] = [p for p, _ in whitening]
+    inv_sd[:m] = [1.0 / sd for _, sd in whitening]
+    # numpy arguments go to the compiled call as they are (jnp.asarray would dispatch a conversion op each)
+    r, rows, jac = _move_rows_jit(model, np.asarray(theta, dtype=float), *packed, basis, inv_sd)
     return np.asarray(r)[:m], np.asarray(rows)[:m].reshape(-1), np.asarray(jac)[:m].reshape(2 * m, -1)
 
 
