@@ -8,7 +8,10 @@ versions and the backend: any edit of the library makes new keys, so a stale tra
 carries the first :data:`DIGEST_CHARS` hex digits of the source digest, and the first use of the folder in a process
 deletes the files of other library sources (:func:`prune`) but those of the :data:`KEEP_OTHER_SOURCES` most recently
 written, so that the folder does not grow with every edit of the library (two checkouts sharing one cache keep
-theirs). Nothing is kept when the compilation cache is off (``jax_compilation_cache_dir`` unset, e.g.
+theirs). A module is exported over the arguments' flat leaves (the tree, in the key, may hold types ``jax.export``
+cannot serialise, e.g. :class:`~gyrojax.physics.model.RecordData`); a file that cannot be read, or whose module's
+inputs are not the call's, is traced again with a warning and replaced, never called. Nothing is kept when the
+compilation cache is off (``jax_compilation_cache_dir`` unset, e.g.
 ``GYROJAX_NO_CACHE=1``), or when the arguments are tracers (the function inside another transformation), or without
 the ``flatbuffers`` package that ``jax.export`` serialises with: the jitted function itself runs then.
 """
