@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import partial
 
 import jax
 import jax.numpy as jnp
@@ -37,6 +38,7 @@ from scipy import stats
 from gyrojax.inference import subspace
 from gyrojax.inference.drift_rows import rows_of, servo_state
 from gyrojax.inference.subspace import WhitenedSystem, _perp, basis, compress, perp_basis  # noqa: F401 (re-exported)
+from gyrojax.noise.kept import Kept
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import instrument_inputs
 
@@ -117,6 +119,7 @@ def _harmonic(p: dict, axis: str, k: int) -> np.ndarray:
     return np.column_stack([np.cos(k * th), np.sin(k * th)])
 
 
+@partial(Kept, "inputs_without_setup")  # kept across processes (gyrojax.noise.kept)
 @jax.jit
 def _inputs_without_setup(d):
     """:func:`gyrojax.physics.model.instrument_inputs` of a record with no set-up error (one compiled function, not

@@ -14,8 +14,9 @@ from gyrojax.data.arrays import record_data
 from gyrojax.data.record import Record
 from gyrojax.data.triad import TRIAD_KIND
 from gyrojax.errors import ModelError, RecordError
+from gyrojax.inference.kept_model import kept_jacobian, kept_predict
 from gyrojax.physics import effects as fx
-from gyrojax.physics.model import Model, RecordData, check_servo, jacobian_jit, predict_jit
+from gyrojax.physics.model import Model, RecordData, check_servo
 
 
 def measurement_labels(record: Record, data: RecordData) -> np.ndarray:
@@ -155,8 +156,9 @@ def linearize(model: Model, theta, campaign: Campaign):
     th = jnp.asarray(theta, dtype=jnp.float64)
     for d, lab, t in zip(campaign.data, campaign.labels, campaign.times):
         ok = lab >= 0
-        r = (np.asarray(d.y) - np.asarray(predict_jit(model, th, d)))[ok]
-        jac = np.asarray(jacobian_jit(model, th, d))[ok] if model.size else np.zeros((int(ok.sum()), 0))
+        # traces kept across processes (built-in models: gyrojax.inference.kept_model)
+        r = (np.asarray(d.y) - np.asarray(kept_predict(model, th, d)))[ok]
+        jac = np.asarray(kept_jacobian(model, th, d))[ok] if model.size else np.zeros((int(ok.sum()), 0))
         out.append((r, jac, lab[ok], t[ok]))
     return out
 

@@ -9,14 +9,15 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
-from functools import lru_cache
+from functools import lru_cache, partial
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from gyrojax.data.arrays import record_data
-from gyrojax.noise.kept import kept_arrays
+from gyrojax.inference.kept_model import keepable, model_name
+from gyrojax.noise.kept import Kept, kept_arrays
 from gyrojax.physics import effects as fx
 from gyrojax.physics import registry
 from gyrojax.physics.model import Model, jacobian
@@ -163,9 +164,15 @@ def static_rows(model: Model, data, triad, angles_rad):
     return jacobian(model, jnp.zeros(model.size), d).reshape(n, model.size)
 
 
+def _vmapped_rows(model: Model, d, t, a):
+    return jax.vmap(lambda tt: static_rows(model, d, tt, a))(t)
+
+
 @lru_cache(maxsize=8)
 def _rows_jit(model: Model):
-    return jax.jit(jax.vmap(lambda d, t, a: static_rows(model, d, t, a), in_axes=(None, 0, None)))
+    # kept across processes for built-in models (gyrojax.noise.kept): the first diagnosis of a process skips the trace
+    fn = jax.jit(partial(_vmapped_rows, model))
+    return Kept(model_name("static_rows", model), fn) if keepable(model) else fn
 
 
 def schur_noncentrality(f: np.ndarray, test: np.ndarray, rest: np.ndarray, delta: np.ndarray) -> float:

@@ -8,7 +8,10 @@ versions and the backend: any edit of the library makes new keys, so a stale tra
 carries the first :data:`DIGEST_CHARS` hex digits of the source digest, and the first use of the folder in a process
 deletes the files of other library sources (:func:`prune`) but those of the :data:`KEEP_OTHER_SOURCES` most recently
 written, so that the folder does not grow with every edit of the library (two checkouts sharing one cache keep
-theirs). Nothing is kept when the compilation cache is off (``jax_compilation_cache_dir`` unset, e.g.
+theirs). A module is exported over the arguments' flat leaves (the tree, in the key, may hold types ``jax.export``
+cannot serialise, e.g. :class:`~gyrojax.physics.model.RecordData`); a file that cannot be read, or whose module's
+inputs are not the call's, is traced again with a warning and replaced, never called. Nothing is kept when the
+compilation cache is off (``jax_compilation_cache_dir`` unset, e.g.
 ``GYROJAX_NO_CACHE=1``), or when the arguments are tracers (the function inside another transformation), or without
 the ``flatbuffers`` package that ``jax.export`` serialises with: the jitted function itself runs then.
 """
@@ -127,13 +130,22 @@ class Kept:
         self.__doc__ = getattr(fn, "__doc__", None)
 
     def _load(self, where: Path, tree, specs):
+        """The exported module of ``fn`` at the argument tree ``tree`` and flat ``specs``: read from its file when
+        that holds a module of this function at these shapes, else traced (and the file written or replaced)."""
         path = _path(where, self.name, _key(self.name, tree, specs), ".bin")
         if path.is_file():
             try:
-                return jax.export.deserialize(bytearray(path.read_bytes()))
-            except Exception as e:  # a damaged file: say so, trace again and replace it
+                exported = jax.export.deserialize(bytearray(path.read_bytes()))
+                _check(exported, specs)
+                return exported
+            except Exception as e:  # a damaged or foreign file: say so, trace again and replace it
                 warnings.warn(f"{path}: kept trace unreadable ({type(e).__name__}: {e}); traced again", stacklevel=3)
-        exported = jax.export.export(self.fn)(*jax.tree_util.tree_unflatten(tree, specs))
+
+        def flat(*leaves):  # exported over the leaves: the argument tree (in the key) may hold unregistered types
+            return self.fn(*jax.tree_util.tree_unflatten(tree, leaves))
+
+        flat.__name__ = self.name
+        exported = jax.export.export(jax.jit(flat))(*specs)
         try:
             atomic_write_bytes(path, exported.serialize())
         except OSError as e:
@@ -151,7 +163,16 @@ class Kept:
         if call is None:
             specs = [jax.ShapeDtypeStruct(x.shape, x.dtype) for x in leaves]
             call = self._calls[key] = jax.jit(self._load(where, tree, specs).call)
-        return call(*jax.tree_util.tree_unflatten(tree, leaves))
+        return call(*leaves)
+
+
+def _check(exported, specs) -> None:
+    """Refuse (ValueError) an exported module whose inputs are not ``specs`` (a file of another function or layout
+    under this name: never called with arguments it was not traced for)."""
+    want = [(tuple(s.shape), np.dtype(s.dtype)) for s in specs]
+    got = [(tuple(a.shape), np.dtype(a.dtype)) for a in exported.in_avals]
+    if exported.in_tree.num_leaves != len(specs) or got != want:
+        raise ValueError(f"its inputs {got} are not the call's {want}")
 
 
 def kept_arrays(name: str, parts, compute):

@@ -1,0 +1,56 @@
+"""The measurement model's traces kept across processes (issue 26): ``predict`` and ``jacobian`` of a
+:class:`~gyrojax.physics.model.Model` (a static argument: one trace per model and record shape) called through
+their ``jax.export`` modules (:class:`gyrojax.noise.kept.Kept`), so that the first diagnosis of a fresh process does
+not trace the model again (tracing ``jacobian`` of the demo's saturated model is about a second per shape; the
+persistent compilation cache spares only the compile).
+
+A model is kept only when every term is a built-in effect (:data:`gyrojax.physics.registry.BUILTIN`): the trace
+of a built-in effect depends on the library source alone, which the key carries (with the model's kind and terms,
+the record's static fields and shapes, and the JAX version); an effect the user registered (``--effect``, an
+expression) is traced in each process, so that an edited expression can never meet an old trace. The arguments'
+tree carries the record's static fields (mode, servo and encoder axes), so records of other modes get other keys.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from functools import lru_cache, partial
+
+import jax
+
+from gyrojax.noise.kept import Kept
+from gyrojax.physics import registry
+from gyrojax.physics.model import Model, jacobian, jacobian_jit, predict, predict_jit
+
+
+def keepable(model: Model) -> bool:
+    """Whether traces of ``model`` may be kept on disk: all of its terms are built-in effects."""
+    return set(model.terms) <= registry.BUILTIN
+
+
+def model_name(stem: str, model: Model) -> str:
+    """A file-name-safe name of ``stem`` for ``model``: its kind and a digest of its ordered terms."""
+    digest = hashlib.sha256(repr((model.kind, tuple(model.terms))).encode()).hexdigest()[:12]
+    return f"{stem}_{model.kind.replace('-', '')}_{digest}"
+
+
+@lru_cache(maxsize=64)
+def _kept(stem: str, model: Model) -> Kept:
+    fn = {"predict": predict, "jacobian": jacobian}[stem]
+    return Kept(model_name(stem, model), jax.jit(partial(fn, model)))
+
+
+def kept_predict(model: Model, theta, data):
+    """:func:`gyrojax.physics.model.predict` of ``model`` (``predict_jit``), through a kept trace when
+    :func:`keepable`."""
+    if not keepable(model):
+        return predict_jit(model, theta, data)
+    return _kept("predict", model)(theta, data)
+
+
+def kept_jacobian(model: Model, theta, data):
+    """:func:`gyrojax.physics.model.jacobian` of ``model`` (``jacobian_jit``), through a kept trace when
+    :func:`keepable`."""
+    if not keepable(model):
+        return jacobian_jit(model, theta, data)
+    return _kept("jacobian", model)(theta, data)

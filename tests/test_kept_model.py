@@ -1,0 +1,76 @@
+"""The measurement model's traces kept across processes (gyrojax.inference.kept_model, issue 26): a built-in
+model's predict and Jacobian through the kept trace equal the jitted functions bit for bit, a reload does not
+trace, a file of another function under the key's name is traced again (never called), and a model with an effect
+the user registered is never kept."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from gyrojax.data import plans
+from gyrojax.inference import kept_model
+from gyrojax.inference.campaign import Campaign
+from gyrojax.noise import kept
+from gyrojax.physics import expression as ex
+from gyrojax.physics.model import Model, jacobian_jit, predict_jit
+from gyrojax.report.demo import TRUTH
+from gyrojax.simulation.simulator import simulate
+
+
+@pytest.fixture(scope="module")
+def data():
+    recs = simulate(plans.tumble(revolutions=1.0, dt_s=60.0), TRUTH, seed=1)
+    return Campaign.of(recs[:1]).data[0]
+
+
+@pytest.fixture
+def where(tmp_path, monkeypatch):
+    pytest.importorskip("flatbuffers")
+    monkeypatch.setattr(kept, "folder", lambda: tmp_path / "k")
+    kept_model._kept.cache_clear()
+    yield tmp_path / "k"
+    kept_model._kept.cache_clear()
+
+
+MODEL = Model(("D_F", "D_I", "D_S", "D_SS"))
+
+
+def _file(stem: str) -> str:
+    return kept_model.model_name(stem, MODEL) + "-*.bin"
+
+
+def test_kept_model_functions_equal_the_jitted_ones_and_reload_without_tracing(data, where, monkeypatch):
+    theta = jnp.linspace(0.1, 0.4, MODEL.size)
+    j, y = kept_model.kept_jacobian(MODEL, theta, data), kept_model.kept_predict(MODEL, theta, data)
+    assert len(list(where.glob(_file("jacobian")))) == 1 and len(list(where.glob(_file("predict")))) == 1
+    np.testing.assert_array_equal(np.asarray(j), np.asarray(jacobian_jit(MODEL, theta, data)))
+    np.testing.assert_array_equal(np.asarray(y), np.asarray(predict_jit(MODEL, theta, data)))
+    kept_model._kept.cache_clear()  # as in a fresh process
+
+    def no_export(*a, **k):
+        raise AssertionError("traced again")
+
+    monkeypatch.setattr(jax.export, "export", no_export)
+    np.testing.assert_array_equal(np.asarray(kept_model.kept_jacobian(MODEL, 2 * theta, data)), np.asarray(j))
+
+
+def test_a_foreign_file_under_the_key_is_traced_again(data, where):
+    theta = jnp.zeros(MODEL.size)
+    kept_model.kept_jacobian(MODEL, theta, data)
+    (path,) = where.glob(_file("jacobian"))
+    other = jax.export.export(jax.jit(lambda x: 2.0 * x))(jax.ShapeDtypeStruct((3,), np.float64))
+    path.write_bytes(other.serialize())  # a valid module of another function and shape
+    kept_model._kept.cache_clear()
+    with pytest.warns(UserWarning, match="kept trace unreadable"):
+        j = kept_model.kept_jacobian(MODEL, theta, data)
+    np.testing.assert_array_equal(np.asarray(j), np.asarray(jacobian_jit(MODEL, theta, data)))
+
+
+def test_a_model_with_a_user_effect_is_not_kept(data, where):
+    with ex.defined("U_kept=a_I**3") as (name,):
+        model = Model(("D_F", name))
+        assert not kept_model.keepable(model) and kept_model.keepable(MODEL)
+        j = kept_model.kept_jacobian(model, jnp.zeros(2), data)
+        np.testing.assert_array_equal(np.asarray(j), np.asarray(jacobian_jit(model, jnp.zeros(2), data)))
+    assert not where.exists()
