@@ -232,7 +232,8 @@ def cmd_design(args) -> int:
         if args.gm:
             raise UsageError("--noise-model and --gm both give the noise; pass one")
         nm = load_noise_model(args.noise_model)
-        nm.mean_variance(1.0)  # white, quantization, any Gauss-Markov terms; a NoiseModelError naming the rest
+        # white, quantization, Gauss-Markov, random walk, flicker: a NoiseModelError naming the file and the rest
+        nm.mean_terms(args.noise_model)
         noise = nm
     res = design(
         terms,
@@ -306,6 +307,7 @@ def cmd_mc(args) -> int:
 
             # the simulated terms of the model (any noise --model choice); its fit details stay behind
             noise = NoiseSpec.simulation_terms(load_noise_model(args.noise_model))
+            noise.mean_terms(args.noise_model)  # the fit's covariance exists (no ramp, AR), or an error naming both
             study = replace(study, noise=noise)
         if args.start < 0:
             raise StudyError(f"--start must be >= 0, got {args.start}")

@@ -21,9 +21,14 @@ then evaluates the models once per run and the noise, still drawn sample by samp
 prediction — the same numbers as the sample-level fit, to rounding, at the cost of drawing the noise
 (:func:`constant_runs`).
 
-The white-noise standard error is exact for white noise; under coloured drift it is not, and
-:func:`draw_records` writes a draw as records so the GLS fit of :func:`gyrojax.inference.identify.fit` can be
-checked on it.
+The white-noise standard error is exact for white noise; under coloured drift it is not. A static plan under
+coloured noise (quantization, Gauss–Markov terms, random walk, flicker) is therefore fitted by GLS of the run means
+with their known covariance Σ (:func:`means_whitening`, from :meth:`~gyrojax.noise.spec.NoiseSpec.mean_covariance`
+of the simulator's point samples): θ̂ = (HᵀΣ⁻¹H)⁻¹HᵀΣ⁻¹r̄, σ̂ = √diag (HᵀΣ⁻¹H)⁻¹ — the design's Cramér–Rao bound;
+the flicker floor is then simulated as the Gauss–Markov poles of that Σ
+(:meth:`~gyrojax.noise.spec.NoiseSpec.mean_terms`), not the simulator's own six. Plans with motion keep the
+white-noise σ̂ and say so (:attr:`Pipeline.fit_method`); :func:`draw_records` writes a draw as records so the GLS
+fit of :func:`gyrojax.inference.identify.fit` can be checked on it.
 
 Servo records are simulated conditionally on the nominal (noise-free) trajectory: the regressors see the same
 read angles the measurements were generated at, which is exact for models linear in θ given the read angles.
@@ -95,6 +100,7 @@ class Pipeline:
     seed: int = 0
     trig: tuple = ()  # per record, per axis (cos, sin) of the nominal angles
     runs: tuple | None = None  # static plans: per record (run index of every sample, first sample of every run)
+    whiten: np.ndarray | None = None  # static plans, coloured noise: L⁻¹ of the run means' covariance (block diagonal)
     _sim_jit: object = field(default=None, repr=False)
     _compiled: dict = field(default_factory=dict, repr=False)  # (devices, chunk) → compiled chunk function
 
@@ -107,6 +113,16 @@ class Pipeline:
         """Position of every fitted coefficient in the truth model's θ (integer indices)."""
         names = self.truth_model.coefficient_names
         return np.array([names.index(c) for c in self.fit_model.coefficient_names])
+
+    @property
+    def fit_method(self) -> str:
+        """How each draw is fitted: ``"ols"`` (white noise: least squares, σ̂ from the residuals, exact),
+        ``"gls-position-means"`` (static plan under coloured noise: GLS of the position means with their known
+        covariance, :func:`means_whitening`; σ̂ = √diag (HᵀΣ⁻¹H)⁻¹, the design's Cramér–Rao bound), or
+        ``"ols-white-se"`` (a plan with motion under coloured noise: the white-noise σ̂, which is then not valid)."""
+        if self.whiten is not None:
+            return "gls-position-means"
+        return "ols" if _white_only(self.noise) else "ols-white-se"
 
     def draw_truth(self, key):
         """A truth θ drawn from the priors (report units): uniform on [a, b] or normal with mean a, std b."""
@@ -224,16 +240,22 @@ class Pipeline:
         sig, nw, s1, s2 = (jnp.concatenate(v) for v in zip(*parts))
         pred = self._fit_prediction(reads)
 
+        wh = None if self.whiten is None else jnp.asarray(self.whiten)
         theta = jnp.zeros(p)
         for _ in range(steps):
             d = sig - pred(theta)
             jt = jax.vmap(lambda v, th=theta: jax.jvp(pred, (th,), (v,))[1])(jnp.eye(p))
-            step, ninv = lstsq_normal((jt * nw) @ jt.T, jt @ (nw * d + s1), "cholesky")
+            if wh is None:
+                step, ninv = lstsq_normal((jt * nw) @ jt.T, jt @ (nw * d + s1), "cholesky")
+            else:  # GLS of the run means d + Σe/n with their covariance Σ = L Lᵀ
+                jw, rw = jt @ wh.T, wh @ (d + s1 / nw)
+                step, ninv = lstsq_normal(jw @ jw.T, jw @ rw, "cholesky")
             theta = theta + step
         dres = d - step @ jt
         rss = jnp.sum(nw * dres * dres + 2.0 * dres * s1 + s2)
         m = jnp.sum(nw)
-        std = jnp.sqrt(rss / (m - p) * jnp.diag(ninv))
+        scale = rss / (m - p) if wh is None else 1.0  # known Σ: no residual scale
+        std = jnp.sqrt(scale * jnp.diag(ninv))
         return theta, std, jnp.sqrt(rss / m)
 
     def draw(self, index):
@@ -314,9 +336,35 @@ def build_pipeline(study: Study, plan=None, records=None) -> Pipeline:
     dtw = tuple(float(np.median(np.diff(np.asarray(r.time_s)))) if r.n > 1 else 1.0 for r in recs)
     trig = tuple(tuple(angle_trig(jnp.asarray(d.angles))) for d in data)
     runs = constant_runs(data, (fit_model, truth_model))
+    noise, whiten = study.noise, None
+    if runs is not None and not _white_only(noise):
+        noise = noise.mean_terms("study: key 'noise'")  # the flicker floor as the poles the fit's Σ has
+        whiten = means_whitening(recs, runs, noise, dtw)
     return Pipeline(
-        recs, data, fit_model, truth_model, uni, a, b, study.noise, dtw, study.solver, study.seed, trig, runs
+        recs, data, fit_model, truth_model, uni, a, b, noise, dtw, study.solver, study.seed, trig, runs, whiten
     )
+
+
+def _white_only(noise: NoiseSpec) -> bool:
+    """Whether ``noise`` has no random term but white noise (least squares is then the efficient fit)."""
+    slow = ("quantization", "bias_instability", "random_walk", "rate_ramp")
+    return not (any(getattr(noise, k) for k in slow) or any(s for s, _ in noise.gauss_markov) or noise.ar or noise.ma)
+
+
+def means_whitening(records, runs, noise: NoiseSpec, dt_white) -> np.ndarray:
+    """L⁻¹ (block diagonal over the records, which draw their own noise) of the covariance Σ = L Lᵀ of the run
+    means of a static plan: :meth:`~gyrojax.noise.spec.NoiseSpec.mean_covariance` of the point samples every
+    ``dt_white`` s of each run, time from the record's first sample, consecutive runs sharing a quantisation angle
+    (the simulator's series)."""
+    import scipy.linalg as sla
+
+    blocks = []
+    for rec, (idx, first), dt in zip(records, runs, dt_white):
+        t = np.asarray(rec.time_s, float)
+        counts = np.bincount(np.asarray(idx), minlength=len(first)).astype(float)
+        cov = np.asarray(noise.mean_covariance(t[np.asarray(first)] - t[0], counts * dt, sample_s=dt))
+        blocks.append(sla.solve_triangular(np.linalg.cholesky(cov), np.eye(len(first)), lower=True))
+    return sla.block_diag(*blocks)
 
 
 def identifiable_terms(records, candidates, kind: str = fx.SDF):

@@ -30,6 +30,8 @@ class StudyResult:
     rms: np.ndarray
     compile_s: float = 0.0
     run_s: float = 0.0
+    fit: str = ""
+    """How the draws were fitted and their σ̂ obtained (:attr:`gyrojax.montecarlo.pipeline.Pipeline.fit_method`)."""
 
     def truth_of_fit(self) -> np.ndarray:
         """Truth of the fitted coefficients only, (n, p_fit), report units, aligned with ``estimate``."""
@@ -51,7 +53,8 @@ class StudyResult:
 
 
 def summarize(res: StudyResult):
-    """Per fitted coefficient: bias, RMS error, mean σ̂, mean and std of (θ̂−θ)/σ̂, coverage of ±1σ̂ and ±2σ̂."""
+    """Per fitted coefficient: bias, RMS error, mean σ̂, mean and std of (θ̂−θ)/σ̂, coverage of ±1σ̂ and ±2σ̂, and
+    (``fit``) how the draws were fitted when the result says."""
     import pandas as pd
 
     err = res.estimate - res.truth_of_fit()
@@ -68,6 +71,7 @@ def summarize(res: StudyResult):
                 "std_z": z[:, j].std(ddof=1),
                 "cover_1sigma": np.mean(np.abs(z[:, j]) <= 1.0),
                 "cover_2sigma": np.mean(np.abs(z[:, j]) <= 2.0),
+                **({"fit": res.fit} if res.fit else {}),
             }
         )
     return pd.DataFrame(rows)
@@ -118,6 +122,7 @@ def save_result(res: StudyResult, out_dir, force: bool = False) -> dict:
         "draws_file": names["draws"].name,
         "compile_s": res.compile_s,
         "run_s": res.run_s,
+        "fit": res.fit,
     }
     protocol.save(names["result"], manifest, RESULT_FORMAT, RESULT_VERSION, force=True)  # clashes checked above
     return {k: str(v) for k, v in names.items()}
@@ -171,6 +176,7 @@ def load_result(out_dir) -> StudyResult:
         df[[f"{c}_std" for c in fit]].to_numpy(dtype=float),
         df["rms"].to_numpy(dtype=float),
         *timing,
+        str(manifest.get("fit") or "") if manifest else "",
     )
 
 
@@ -216,4 +222,5 @@ def merge_results(results, where=None) -> StudyResult:
         cat("rms"),
         sum(r.compile_s for r in results),
         sum(r.run_s for r in results),
+        ref.fit,
     )

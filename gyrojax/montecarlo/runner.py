@@ -103,6 +103,7 @@ def run_study(
         local["rms"],
         compile_s,
         run_s,
+        pipe.fit_method,
     )
 
 

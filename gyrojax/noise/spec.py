@@ -31,12 +31,21 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, fields, replace
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
 from gyrojax import protocol
 from gyrojax.errors import GyrojaxError, TruthError
 from gyrojax.noise import wavelet as wv
+from gyrojax.noise.meancov import (  # noqa: F401  (gm_mean_factor: re-exported, its old home)
+    flicker_poles,
+    flicker_spectrum,
+    gm_mean_covariance,
+    gm_mean_factor,
+    quantization_mean_covariance,
+    rw_mean_covariance,
+)
 from gyrojax.units import SECONDS_PER_HOUR
 
 FORMAT = "gyrojax-noise-model"
@@ -93,15 +102,6 @@ def term_basis(name: str, tau) -> np.ndarray:
     if name == "rate_ramp":
         return tau**2 / (2.0 * SECONDS_PER_HOUR**2)
     raise NoiseModelError(f"unknown noise term {name!r}; valid: {', '.join(LINEAR)}, gauss_markov")
-
-
-def gm_mean_factor(x):
-    """f(x) = 2(x − 1 + e^{−x})/x²: Var(mean of a GM process over T)/σ², x = T/τ (→ 1 as x → 0, → 2/x)."""
-    x = jnp.asarray(x, dtype=jnp.float64)
-    small = x < 1e-4
-    xs = jnp.where(small, 1.0, x)
-    big = 2.0 * (xs - 1.0 + jnp.exp(-xs)) / (xs * xs)
-    return jnp.where(small, 1.0 - x / 3.0, big)
 
 
 def _number(v, where: str, error=NoiseModelError) -> float:
@@ -353,6 +353,48 @@ class NoiseSpec:
         for s, t in self.gauss_markov:
             var = var + s * s * gm_mean_factor(span_s / t)
         return var
+
+    def mean_terms(self, where: str = "noise model") -> "NoiseSpec":
+        """The spec as the processes :meth:`mean_covariance` and the Monte Carlo simulate: the flicker floor
+        (``bias_instability`` over ``flicker_band``) replaced by its Gauss–Markov poles (:func:`flicker_poles`).
+        Refuses, naming ``where`` and the term, what has no covariance of means: a rate ramp (a deterministic drift
+        R·t, not a random term: model it as ``bias_trend``), an AR/ARMA colour, a flicker floor without its band."""
+        if self.rate_ramp:
+            raise NoiseModelError(
+                f"{where}: rate_ramp (R = {self.rate_ramp:g} deg/h/h) is a deterministic drift R·t, not a covariance "
+                "of position means; refit without drift, or fit it as the effect bias_trend"
+            )
+        if self.ar or self.ma:
+            raise NoiseModelError(f"{where}: the covariance of means of an AR/ARMA colour is not implemented")
+        gms = tuple(self.gauss_markov)
+        if self.bias_instability:
+            if self.flicker_band is None:
+                raise NoiseModelError(
+                    f"{where}: bias_instability needs its flicker_band (tau_min, tau_max s) for a covariance of means"
+                )
+            gms += flicker_poles(self.bias_instability, self.flicker_band)
+        return replace(self, bias_instability=0.0, flicker_band=None, gauss_markov=gms)
+
+    def mean_covariance(self, start_s, span_s, sample_s=None, contiguous: bool = True, where: str = "noise model"):
+        """(n, n) covariance ((deg/h)²) of the mean rates over the intervals [start_k, start_k + span_k) (s, time
+        order, t = 0 the series' first sample): the full matrix over a plan's time line, differentiable in the
+        starts and spans. White 3600N²/T on the diagonal; quantization :func:`quantization_mean_covariance`; each
+        Gauss–Markov term :func:`gm_mean_covariance`; random walk :func:`rw_mean_covariance`; the flicker floor
+        as its Gauss–Markov poles (:meth:`mean_terms`, which also names what is refused). ``sample_s``: the means
+        of point samples every ``sample_s`` s (the simulator's series) instead of continuous averages; white and
+        quantization are the same either way. The diagonal of the continuous form is :meth:`mean_variance`."""
+        spec = self.mean_terms(where)
+        span = jnp.asarray(span_s, jnp.float64)
+        cov = jnp.diag((60.0 * spec.white) ** 2 / span)
+        if spec.quantization:
+            cov = cov + quantization_mean_covariance(span, spec.quantization, contiguous)
+        if spec.gauss_markov:  # every term (the flicker's poles too) in one vectorised sum
+            s, t = (jnp.asarray(v, jnp.float64) for v in zip(*spec.gauss_markov))
+            each = jax.vmap(lambda a, b: gm_mean_covariance(start_s, span, a, b, sample_s))(s, t)
+            cov = cov + jnp.sum(each, axis=0)
+        if spec.random_walk:
+            cov = cov + rw_mean_covariance(start_s, span, spec.random_walk, sample_s)
+        return cov
 
     # -- whitening
     def whitening_theta(self, dt_s: float | None = None) -> tuple:

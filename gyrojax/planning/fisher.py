@@ -6,27 +6,26 @@ F = Jᵀ Σ⁻¹ J with J = ∂h/∂θ from :func:`gyrojax.physics.model.jacobia
 the Cramér–Rao bound is cov(θ̂) ⪰ F⁻¹.
 
 *Static positions (the fast path).* At a static position every sample has the same regressor row j_k (it depends on
-the orientation only), so a position held for T_k seconds and sampled every Δt contributes
-j_kᵀ j_k / Var(ȳ_k), where ȳ_k is the position mean. The position mean is sufficient under white noise, and
-
-    Var(ȳ_k) = σ_w² / n_k + σ_g² · f(T_k / τ),     f(x) = 2 (x − 1 + e^{−x}) / x²,
-
-with n_k = T_k/Δt, σ_w = N·60/√Δt deg/h for angle random walk N (deg/√h) (IEEE 952 annex C; ``noise.white``),
-and f the variance ratio of the mean of a first-order Gauss–Markov process (σ_g, τ) over a window T (from
-∫∫ e^{−|t−s|/τ} ds dt / T²). For white noise alone σ_w²/n_k = (60 N)²/T_k, so F = Σ_k T_k j_kᵀ j_k / (60 N)²:
-it depends on the dwell time, not on Δt. Positions are treated as independent (the Gauss–Markov correlation
-between positions, e^{−gap/τ}, is neglected; this is exact for τ ≪ gap). This is the information of the
-position-mean estimator (Hu ch. 4 processing); the GLS bound 1ᵀΣ⁻¹1 of a fit that whitens the drift exactly is
-larger, so under coloured noise the criteria are conservative. The rows j_k
-come from one :class:`~gyrojax.physics.model.RecordData` whose "samples" are the N positions, so J is differentiable in
-the gimbal angles (and, through T_k, in the dwell fractions).
+the orientation only), so the plan's information is that of the N position means ȳ: F = Σ_channels Hᵀ Σ⁻¹ H with H
+the rows j_k and Σ the full covariance of the position means over the plan's time line (positions held T_k s in
+sequence, :data:`DEFAULT_GAP_S` apart; :meth:`~gyrojax.noise.spec.NoiseSpec.mean_covariance`): white 3600N²/T_k on
+the diagonal, quantization 2Q²/T_k² with −Q²/(T_k T_{k+1}) between neighbours, each Gauss–Markov term the double
+integral of σ²e^{−|t−s|/τ} over two dwell intervals (diagonal σ² f(T_k/τ), f(x) = 2(x − 1 + e^{−x})/x²), random walk
+K²min(t, s)/3600 integrated likewise, the flicker floor as Gauss–Markov poles over its band. For white noise alone F
+= Σ_k T_k j_kᵀ j_k / (60 N)²: it depends on the dwell time, not on Δt; with τ ≪ dwell and gap the Gauss–Markov
+correlation between positions vanishes and Σ is the diagonal of independent positions. This is the information of
+the position-mean estimator (Hu ch. 4 processing); the GLS bound of a fit that whitens every sample is larger, so
+under coloured noise the criteria are conservative. The rows j_k come from one
+:class:`~gyrojax.physics.model.RecordData` whose "samples" are the N positions, so F is differentiable in the gimbal
+angles and, through T_k (Σ and the start times), in the dwell fractions.
 
 *Any plan (baselines).* For plans with motion (tumble, servo) or several mountings (Hu's eight-position fixture),
 F = Σ_records Jᵀ J / σ_w² from the records of a noise-free simulation, with σ_w² = (60 N)²/Δt per sample
 (white noise only).
 
-The noise is a :class:`~gyrojax.noise.spec.NoiseSpec` of white + Gauss–Markov terms (the ones with a variance of a
-static mean, :meth:`~gyrojax.noise.spec.NoiseSpec.mean_variance`); :data:`DEFAULT_NOISE` when none is given.
+The noise is a :class:`~gyrojax.noise.spec.NoiseSpec` (white, quantization, Gauss–Markov, random walk, flicker; a
+rate ramp or AR colour is refused by :meth:`~gyrojax.noise.spec.NoiseSpec.mean_terms`); :data:`DEFAULT_NOISE` when
+none is given.
 """
 
 from __future__ import annotations
@@ -128,12 +127,37 @@ def position_rows(model: Model, table: Table, angles_rad, theta=None):
     return j.reshape(-1, n, model.size)
 
 
-def static_fisher(model: Model, table: Table, angles_rad, dwell_s, noise: NoiseSpec, dt_s: float = 1.0, theta=None):
-    """F = Σ_k j_kᵀ j_k / Var(ȳ_k) for static positions (module doc); ``dwell_s`` (n,) seconds (``dt_s``, the sample
-    interval, does not enter the variance of a mean)."""
+DEFAULT_GAP_S = 30.0
+"""Seconds between consecutive designed positions (``plans.Run.gap_s``'s default, :func:`design_plan`'s)."""
+
+
+def position_times(dwell_s, gap_s: float = DEFAULT_GAP_S):
+    """Start times (s) of positions held ``dwell_s`` (n,) s in sequence, ``gap_s`` s apart, the first at t = 0."""
+    dwell = jnp.asarray(dwell_s, dtype=jnp.float64)
+    return jnp.concatenate([jnp.zeros(1), jnp.cumsum(dwell[:-1] + gap_s)])
+
+
+def static_fisher(
+    model: Model,
+    table: Table,
+    angles_rad,
+    dwell_s,
+    noise: NoiseSpec,
+    dt_s: float = 1.0,
+    theta=None,
+    gap_s: float = DEFAULT_GAP_S,
+):
+    """F = Σ_c H_cᵀ Σ⁻¹ H_c for static positions held ``dwell_s`` (n,) s in sequence ``gap_s`` s apart: H_c the
+    regressor rows of channel c (both channels of a TDF gyro draw their own noise), Σ the covariance of the position
+    means over the plan's time line (:meth:`~gyrojax.noise.spec.NoiseSpec.mean_covariance`: white, quantization,
+    Gauss–Markov, random walk, flicker; continuous means, so ``dt_s`` does not enter). Diagonal Σ for white
+    noise: Σ_k j_kᵀ j_k T_k/(60N)², the module doc's."""
     rows = position_rows(model, table, angles_rad, theta)
-    w = 1.0 / noise.mean_variance(jnp.asarray(dwell_s))
-    return jnp.einsum("cnp,n,cnq->pq", rows, w, rows)
+    dwell = jnp.asarray(dwell_s, dtype=jnp.float64)
+    cov = noise.mean_covariance(position_times(dwell, gap_s), dwell)
+    chol = jnp.linalg.cholesky(cov)
+    w = jax.vmap(lambda h: jax.scipy.linalg.solve_triangular(chol, h, lower=True))(rows)  # L⁻¹ H per channel
+    return jnp.einsum("cnp,cnq->pq", w, w)
 
 
 # ---- any plan, from its records -------------------------------------------------------------------------------
