@@ -43,10 +43,11 @@ def test_design_takes_a_two_gauss_markov_model(tmp_path, capsys):
     args = ["design", "--out", str(out), "--positions", "10", "--hours", "1", "--noise-model", str(model)]
     rc = main(args + ["--starts", "1", "--adam-steps", "20", "--lbfgs-steps", "5", "--json"])
     assert rc == 0 and out.exists()
-    rw = tmp_path / "rw.json"
-    rw.write_text(json.dumps({"model": NoiseSpec(white=0.003, random_walk=0.1, dt_s=0.5).to_json()}))
-    rc = main(["design", "--out", str(tmp_path / "p2.json"), "--noise-model", str(rw)])
-    assert rc == 2 and "random_walk" in capsys.readouterr().err
+    # a rate ramp is a deterministic drift, not noise a plan's means average: refused by name, nothing written
+    ramp = tmp_path / "ramp.json"
+    ramp.write_text(json.dumps({"model": NoiseSpec(white=0.003, rate_ramp=0.1, dt_s=0.5).to_json()}))
+    rc = main(["design", "--out", str(tmp_path / "p2.json"), "--noise-model", str(ramp)])
+    assert rc == 2 and "rate_ramp" in capsys.readouterr().err and not (tmp_path / "p2.json").exists()
 
 
 def test_design_refuses_fewer_positions_than_coefficients(tmp_path, capsys):
