@@ -34,6 +34,7 @@ exact-ADEV read-off (the GM's share at the read τ). flk's curve N (0.813) is re
 term adds to σ; the model, which fits it, covers 0.950.
 
 Run: PYTHONPATH=. nice -n 10 python benchmarks/study_noise_readoff_coverage.py [--draws 300] [--truth wgr wr flk]
+[--model-ci-given-model] (the chosen model's own interval, as before the selection was in it)
 
 """
 
@@ -78,7 +79,7 @@ def exact_readoff(spec: NoiseSpec, name: str, tau: float) -> float:
     return ad * (math.sqrt(tau) / 60.0 if name == "arw" else math.sqrt(3.0 * 3600.0 / tau))
 
 
-def run(name: str, draws: int, n: int, seed0: int) -> dict:
+def run(name: str, draws: int, n: int, seed0: int, selection_ci: bool = True) -> dict:
     """Per figure and side: counts of read / upper bound / not read, the ``ci`` cover and z of the read ones, the
     bounds' cover; K also against the exact-ADEV read-off at the τ it was read (``rrw@tau``)."""
     spec = TRUTHS[name]
@@ -88,7 +89,7 @@ def run(name: str, draws: int, n: int, seed0: int) -> dict:
     acc = {(f, s): {"z": [], "ci": [], "bound_ok": [], "none": 0} for f in figs for s in ("curve", "model")}
     models: dict = {}
     for d in range(draws):
-        out, res, _, _ = noise_report([np.asarray(sim(jax.random.PRNGKey(seed0 + d)))], DT)
+        out, res, _, _ = noise_report([np.asarray(sim(jax.random.PRNGKey(seed0 + d)))], DT, selection_ci=selection_ci)
         label = out["model"]["info"]["model"]
         models[label] = models.get(label, 0) + 1
         truth = {"arw": spec.white, "rrw": spec.random_walk, "bias_instability": true_b(spec, res)}
@@ -135,10 +136,11 @@ def main():
     ap.add_argument("--n", type=int, default=2**18)
     ap.add_argument("--truth", nargs="+", default=list(TRUTHS), choices=list(TRUTHS))
     ap.add_argument("--seed", type=int, default=7000)
+    ap.add_argument("--model-ci-given-model", action="store_true", help="the chosen model's own ci (no selection)")
     args = ap.parse_args()
     for k, name in enumerate(args.truth):
         t0 = time.process_time()
-        r = run(name, args.draws, args.n, args.seed + 100000 * k)
+        r = run(name, args.draws, args.n, args.seed + 100000 * k, not args.model_ci_given_model)
         print(table(name, args.draws, r))
         print(f"CPU {time.process_time() - t0:.0f} s\n", flush=True)
 
