@@ -180,8 +180,9 @@ def with_selection(figs: dict, cands: list, tau_min: float, tau_max: float, curv
 
     The shortfall this mends: with the selection in the loop the ±2σ coverage of the model's figures was 0.914–
     0.937 on white + GM + RW and white + RW records (a spurious quantization term, a dropped random walk), with
-    the model fixed 0.95. With this interval: N 0.933 / 0.960, B 0.938 / 0.942, K 0.962 / 0.938 (300 draws each,
-    binomial sd 0.011–0.014; benchmarks/study_noise_readoff_coverage.py). The MATA interval over Buckland's
+    the model fixed 0.95. On the same 300 draws each (benchmarks/study_noise_readoff_coverage.py, binomial sd
+    0.011–0.016), the chosen model's own interval → this one: white+GM+RW N 0.920 → 0.933, B 0.921 → 0.938, K
+    0.936 → 0.962; white+RW N 0.933 → 0.960, B 0.936 → 0.942, K 0.938 → 0.938. The MATA interval over Buckland's
     unconditional variance: on the same draws (180–280 each) Buckland's ln-scale interval gave B 0.981 on white +
     RW (over), MATA 0.967. It costs a refit of each candidate: a 2^18-sample report 0.4 → 1.0 s CPU."""
     if len(cands) < 2:
