@@ -7,10 +7,11 @@ import math
 import jax
 import numpy as np
 import pytest
+from scipy import stats
 
 from gyrojax.noise import allan, headline, readoff
 from gyrojax.noise.processes import simulate
-from gyrojax.noise.spec import NoiseSpec
+from gyrojax.noise.spec import BI_FACTOR, NoiseSpec
 
 N, K = 0.1, 2.0  # deg/√h, deg/h/√h
 
@@ -65,19 +66,25 @@ def test_quantization_and_ramp_read_where_seen():
 
 
 def test_no_rrw_seen_gives_an_upper_bound_and_no_floor_a_bound_on_b():
-    """White only: K is an upper bound at the longest τ (σ_high·√(3·3600/τ)), B too (the curve still falls)."""
+    """White only: K is an upper bound at the longest τ, B too (the curve still falls): σ̂·√(ν/χ²_q(ν)) at the
+    Bonferroni tail q = (1 − BOUND_LEVEL)/looks (scipy.stats.chi2), one-sided, no ``ci``; both hold the exact
+    curve's figures (K = 0 ≤ bound, and the bound of B above σ_min/0.664 at the longest τ)."""
     taus = np.geomspace(0.01, 100.0, 50)
     res = _exact(taus, (60 * N) ** 2 / taus, edf=50)
     r = headline.curve_readoffs(res)
-    assert r["rrw"]["kind"] == "upper bound"
-    assert r["rrw"]["value"] == pytest.approx(res.high[-1] * math.sqrt(3 * 3600 / 100.0))
-    assert r["bias_instability"]["kind"] == "upper bound"
-    assert r["bias_instability"]["value"] == pytest.approx(res.high[-1] / 0.664, rel=1e-3)
+    for name, factor in (("rrw", math.sqrt(3 * 3600 / 100.0)), ("bias_instability", 1 / BI_FACTOR)):
+        v = r[name]
+        assert v["kind"] == "upper bound" and "ci" not in v and v["bound_level"] == headline.BOUND_LEVEL
+        q = (1 - headline.BOUND_LEVEL) / v["looks"]
+        assert v["looks"] >= 2 and v["tau_s"] == pytest.approx(100.0)
+        assert v["value"] == pytest.approx(res.adev[-1] * math.sqrt(50 / stats.chi2.ppf(q, 50)) * factor, rel=1e-9)
+        assert v["value"] > res.high[-1] * factor  # beyond the ±1σ end, which held 0.44-0.64 of issued bounds
 
 
 def test_report_puts_model_and_curve_side_by_side():
     """A simulated white + RW record (N = 0.1, K = 2): the headline N and K of the curve and of the model within
-    3σ (or 10 %) of the truth, the two agree, and the model's B read where the curve's minimum is."""
+    3σ (or 10 %) of the truth, or, where the curve gives an upper bound (its K here: no +½ slope seen), the bound
+    above the truth; the two agree, and the model's B read where the curve's minimum is."""
     spec = NoiseSpec(white=N, random_walk=K)
     dt = 0.05
     y = np.asarray(simulate(spec, jax.random.PRNGKey(4), np.arange(2**18) * dt, dt_white=dt))
@@ -86,7 +93,11 @@ def test_report_puts_model_and_curve_side_by_side():
     for k, truth in (("arw", N), ("rrw", K)):
         for side in ("curve", "model"):
             v = h[k][side]
-            assert abs(v["value"] - truth) < max(3 * v["std"], 0.1 * truth), (k, side, v)
+            if v.get("kind") == "upper bound":  # no +1/2 slope seen (this record's curve K): a bound, not an estimate
+                assert v["value"] >= truth and "ci" not in v, (k, side, v)
+            else:
+                assert abs(v["value"] - truth) < max(3 * v["std"], 0.1 * truth), (k, side, v)
+                assert v["ci"][0] <= v["value"] <= v["ci"][1] and v["ci_level"] == headline.TWO_SIGMA
         assert h[k]["agree"] is True, h[k]
     b = h["bias_instability"]
     assert b["curve"]["value"] is not None and b["model"]["value"] is not None and b["agree"] is True
