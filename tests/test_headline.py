@@ -79,6 +79,7 @@ def test_no_rrw_seen_gives_an_upper_bound_and_no_floor_a_bound_on_b():
         assert v["looks"] >= 2 and v["tau_s"] == pytest.approx(100.0)
         assert v["value"] == pytest.approx(res.adev[-1] * math.sqrt(50 / stats.chi2.ppf(q, 50)) * factor, rel=1e-9)
         assert v["value"] > res.high[-1] * factor  # beyond the ±1σ end, which held 0.44-0.64 of issued bounds
+        assert v["bound_ratio"] * res.adev[-1] * factor == pytest.approx(v["value"], rel=1e-12)  # where it is drawn
 
 
 def test_report_puts_model_and_curve_side_by_side():

@@ -277,8 +277,9 @@ def _print_headline(head: dict) -> None:
         if v["value"] is None:
             return "not read"
         where = f" at tau = {v['tau_s']:.3g} s" if v.get("tau_s") else ""
-        bound = "<= " if v.get("kind") == "upper bound" else ""
-        return f"{bound}{v['value']:.4g} ± {v['std']:.2g}{where}"
+        if v.get("kind") == "upper bound":  # one-sided: a ± beside it would read as an estimate
+            return f"<= {v['value']:.4g} (one-sided {100 * v.get('bound_level', 0.97725):.4g} %){where}"
+        return f"{v['value']:.4g} ± {v['std']:.2g}{where}"
 
     print("headline (IEEE 952 read-offs): curve | model")
     for k, v in head.items():

@@ -22,7 +22,8 @@ The standard error of a curve read-off is that of σ at its τ (half the width o
 uncertainty: σ̂ is a scale estimate (χ² with few EDF at long τ), and ±2σ misses on the low side
 (benchmarks/study_noise_readoff_coverage.py).
 
-**Upper bounds** (``kind`` "upper bound", ``value`` the bound, ``bound_level`` its one-sided level, no ``ci``)
+**Upper bounds** (``kind`` "upper bound", ``value`` the bound, ``bound_level`` its one-sided level, ``bound_ratio``
+the bound of σ over σ̂ at ``tau_s``, no ``ci``)
 are one-sided at :data:`BOUND_LEVEL` = (1 + 0.9545)/2, the level of the ±2σ interval's upper end, *given that
 the bound is issued*. A bound is issued because the curve ran low where it is taken (K: no +½ slope was seen
 near τ_max; B: the curve still falls at its smallest σ, the minimum of the noisy σ̂ over the τ it was chosen
@@ -160,9 +161,11 @@ def curve_readoffs(res) -> dict:
 
     def bound(name, i, unit, looks):
         f = _factor(name, float(taus[i]))
-        v = upper_bound(float(ad[i]), float(res.edf[i]), looks) * f
+        hi = upper_bound(float(ad[i]), float(res.edf[i]), looks)
+        v = hi * f
         out[name] = {"value": v, "std": float(sd[i] * f), "unit": unit, "tau_s": float(taus[i]), "kind": "upper bound"}
-        out[name].update(bound_level=BOUND_LEVEL, looks=int(looks))
+        # bound_ratio: the bound of σ over σ̂ at tau_s (unit-free: where the plot draws the bound on the curve)
+        out[name].update(bound_level=BOUND_LEVEL, looks=int(looks), bound_ratio=float(hi / ad[i]))
 
     for name, s, unit in FIGURES:
         near = np.flatnonzero(np.abs(slope - s) <= SLOPE_TOL)

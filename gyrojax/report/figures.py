@@ -249,10 +249,11 @@ def noise_panel(ax, out: dict, title: str = "") -> None:
             continue
         i = int(np.argmin(np.abs(taus - c["tau_s"])))
         bound = c.get("kind") == "upper bound"
-        level = float(out["adev_high"][i]) if bound else float(adev[i])
+        # a bound is drawn where it lies on the curve: σ̂ times the bound's ratio (older files: the ±1σ high end)
+        level = float(adev[i]) * float(c.get("bound_ratio", out["adev_high"][i] / adev[i])) if bound else float(adev[i])
         line = level * (tt / taus[i]) ** READOFF_SLOPES[name]
-        rel = "≤" if bound else "="
-        label = f"{READOFF_SYMBOLS[name]} {rel} {c['value']:.3g} ± {c['std']:.2g} {c['unit']} (τ = {c['tau_s']:.3g} s)"
+        figure = f"≤ {c['value']:.3g}" if bound else f"= {c['value']:.3g} ± {c['std']:.2g}"
+        label = f"{READOFF_SYMBOLS[name]} {figure} {c['unit']} (τ = {c['tau_s']:.3g} s)"
         ax.plot(tt, line, ":", lw=1.0, color=f"C{4 + k}", label=label)
         ax.plot([taus[i]], [level], "v" if bound else "s", ms=5, color=f"C{4 + k}")
     ax.set_xscale("log")
