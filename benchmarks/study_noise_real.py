@@ -53,24 +53,35 @@ import math
 import time
 
 import numpy as np
-from scipy import signal
+from scipy import signal, stats
 
 from benchmarks.study_gmwm_selection import one_over_f
 from gyrojax.noise import allan as allan_mod
 from gyrojax.noise.readoff import noise_report
+from gyrojax.units import G0
 
 DT = 0.01
 N_RANGE = (2.0 / 1.5, 3.0)
 B_RANGE = (25.2 / 1.5 / 0.664, 25.2 * 1.5 / 0.664)
 MAX_HALF_WIDTH, MAX_MISFIT, MAX_MOVE = 0.15, 0.10, 0.10
 N_SPIKES, SPIKE_SIGMA, STUCK_S = 40, 50.0, 20.0
+CALIBRATED_LEVEL = 0.05
+"""Family-wise level of the calibrated misfit rule: a correct model fails it in 5 % of records."""
+MG = G0 * 1e-3
+"""1 mg in m/s²."""
+ACC_N_RANGE = (0.2 / 1.5 / 3600.0, 0.2 * 1.5 / 3600.0)
+"""Accelerometer VRW 0.2 m/s/√h (datasheet, typical) within a factor 1.5, in the unit the deg/h formulas read off
+an m/s² series (VRW/3600, :mod:`gyrojax.noise.sensor_units`)."""
+ACC_B_RANGE = (0.2 * MG / 1.5 / 0.664, 0.2 * MG * 1.5 / 0.664)
+"""In-run bias stability 0.2 mg (datasheet, typical, an ADEV minimum) within a factor 1.5, as B = σ_min/0.664, m/s²."""
 
 
-def load(path: str) -> dict:
-    """Gyro axes (deg/h) of the converted CSV; refuses a file that is not 100 Hz or lacks a column."""
+def load(path: str, sensor: str = "gyro") -> dict:
+    """Gyro axes (deg/h) or accelerometer axes (m/s², ``sensor`` "acc") of the converted CSV; refuses a file that
+    is not 100 Hz or lacks a column."""
     with open(path) as f:
         head = f.readline().strip().split(",")
-    want = ["time_s", "gyro_x_dps", "gyro_y_dps", "gyro_z_dps"]
+    want = ["time_s"] + [f"gyro_{a}_dps" if sensor == "gyro" else f"acc_{a}_g" for a in "xyz"]
     missing = [c for c in want if c not in head]
     if missing:
         raise SystemExit(f"{path}: header lacks {missing} (has {head})")
@@ -79,7 +90,8 @@ def load(path: str) -> dict:
     dt = np.diff(x[:, 0])
     if np.max(np.abs(dt - DT)) > 1e-3 * DT:
         raise SystemExit(f"{path}: time_s steps {dt.min():g}..{dt.max():g} s, expected {DT} s")
-    return {a: x[:, 1 + j] * 3600.0 for j, a in enumerate("xyz")}
+    scale = 3600.0 if sensor == "gyro" else G0
+    return {a: x[:, 1 + j] * scale for j, a in enumerate("xyz")}
 
 
 def checks(out, res, nm) -> dict:
@@ -96,6 +108,7 @@ def checks(out, res, nm) -> dict:
     sel = (hw < MAX_HALF_WIDTH) & (taus >= tau_min * (1 - 1e-9))
     worst = int(np.flatnonzero(sel)[np.argmax(np.abs(rel[sel]))])
     below = (hw < MAX_HALF_WIDTH) & ~sel
+    u = band_units(res, out["adev_model_deg_per_h"])
     h = out["headline"]
     return {
         "model": nm.info["model"],
@@ -106,6 +119,9 @@ def checks(out, res, nm) -> dict:
         "misfit": float(rel[worst]),
         "misfit_tau": float(taus[worst]),
         "misfit_below": float(np.max(np.abs(rel[below]))) if below.any() else 0.0,
+        "T": float(np.max(np.abs(u[sel]))),
+        "T_tau": float(taus[np.flatnonzero(sel)[np.argmax(np.abs(u[sel]))]]),
+        "J": int(sel.sum()),
         "N": {s: h["arw"][s]["value"] for s in ("curve", "model")},
         "B": {s: h["bias_instability"][s]["value"] for s in ("curve", "model")},
         "B_tau": h["bias_instability"]["curve"].get("tau_s"),
@@ -113,6 +129,19 @@ def checks(out, res, nm) -> dict:
         "glitches": out["glitches"],
         "nm": nm,
     }
+
+
+def band_units(res, model) -> np.ndarray:
+    """The misfit in units of the curve's own ±1σ interval on the model's side: (model − σ̂)/(high − σ̂) above σ̂,
+    (model − σ̂)/(σ̂ − low) below (signed; about a standard normal where the model is right and the EDF holds)."""
+    ad, model = np.asarray(res.adev), np.asarray(model, float)
+    return np.where(model >= ad, (model - ad) / (np.asarray(res.high) - ad), (model - ad) / (ad - np.asarray(res.low)))
+
+
+def bonferroni(j: int, level: float = CALIBRATED_LEVEL) -> float:
+    """Two-sided Bonferroni threshold of J band units at family-wise ``level``: Φ⁻¹(1 − level/(2J)) (exact when
+    each unit is standard normal; conservative for the curve's positively correlated τ)."""
+    return float(stats.norm.isf(level / (2 * j)))
 
 
 def plant(y, seed: int = 25):
@@ -153,9 +182,11 @@ NULL_HALF_WIDTHS = (MAX_HALF_WIDTH, 0.05)
 
 
 def null_misfit(nm, n: int, draws: int, refit: bool) -> np.ndarray:
-    """(draws, 2): the largest |model/empirical − 1| of the 10 % rule (τ ≥ the fit's shortest τ, ±1σ half-width
-    under each of :data:`NULL_HALF_WIDTHS`) on ``draws`` records simulated from ``nm`` itself: the true model's own
-    (``refit`` False) or that of the model the selection fits to each record (True)."""
+    """(draws, 3): the largest |model/empirical − 1| of the 10 % rule (τ ≥ the fit's shortest τ, ±1σ half-width
+    under each of :data:`NULL_HALF_WIDTHS`) and the largest |band unit| (:func:`band_units`) over the first of
+    those τ sets, on ``draws`` records simulated from ``nm`` itself: the true model's own (``refit`` False) or
+    that of the model the selection fits to each record (True). The last column's 95 % quantile is the
+    calibrated (max-statistic) threshold: it carries the correlation of the curve's τ."""
     tau_min = nm.info.get("tau_min_s") or 0.0
     out = []
     for d in range(draws):
@@ -170,8 +201,16 @@ def null_misfit(nm, n: int, draws: int, refit: bool) -> np.ndarray:
         taus = np.asarray(res.taus_s)
         hw = (np.asarray(res.high) - np.asarray(res.low)) / 2 / np.asarray(res.adev)
         dev = np.abs(model / np.asarray(res.adev) - 1)
-        out.append([float(np.max(dev[(hw < h) & (taus >= tau_min * (1 - 1e-9))])) for h in NULL_HALF_WIDTHS])
+        sets = [(hw < h) & (taus >= tau_min * (1 - 1e-9)) for h in NULL_HALF_WIDTHS]
+        u = np.abs(band_units(res, model))
+        out.append([float(np.max(dev[s])) for s in sets] + [float(np.max(u[sets[0]]))])
     return np.asarray(out)
+
+
+def _se(k: int, n: int) -> float:
+    """Binomial standard error of k/n (k taken as 1 when 0)."""
+    k = max(k, 1)
+    return math.sqrt(k * (n - k) / n) / n
 
 
 def in_range(v, r) -> bool:
@@ -185,10 +224,14 @@ def main():
     ap.add_argument("--null", type=int, default=0, help="records simulated from each fitted model (10 %% rule)")
     ap.add_argument("--null-refit", type=int, default=0, help="the same, each record refitted by the selection")
     ap.add_argument("--robust", action="store_true", help="classical vs robust GMWM, unmasked (module doc)")
+    ap.add_argument("--sensor", choices=("gyro", "acc"), default="gyro", help="gyro (deg/h) or accelerometer (m/s^2)")
     args = ap.parse_args()
-    data = load(args.csv)
+    data = load(args.csv, args.sensor)
     if args.robust:
         return robust_study(data, args.axes.split(","))
+    acc = args.sensor == "acc"
+    n_range, b_range = (ACC_N_RANGE, ACC_B_RANGE) if acc else (N_RANGE, B_RANGE)
+    n_unit, n_f, b_unit, b_f = ("m/s/sqrt(h)", 3600.0, "mg", 1 / MG) if acc else ("deg/sqrt(h)", 1.0, "deg/h", 1.0)
     ok_all = True
     for a in args.axes.split(","):
         t0 = time.time()
@@ -199,10 +242,10 @@ def main():
         if c["at_bound"] or c["sub_sample"] or c["duplicate"]:
             fails.append("identification")
         if abs(c["misfit"]) > MAX_MISFIT:
-            fails.append("misfit")
-        if not all(in_range(v, N_RANGE) for v in c["N"].values()):
+            fails.append("misfit (literal 10 % rule)")
+        if not all(in_range(v, n_range) for v in c["N"].values()):
             fails.append("N range")
-        if not all(in_range(v, B_RANGE) for v in c["B"].values()):
+        if not all(in_range(v, b_range) for v in c["B"].values()):
             fails.append("B range")
         gl = g["glitches"]
         if gl["spikes"]["count"] != N_SPIKES or gl["stuck"]["count"] != 1:
@@ -215,16 +258,28 @@ def main():
         if not all(abs(m) < MAX_MOVE for m in move.values()):
             fails.append("N/B moved")
         ok_all &= not fails
-        print(f"gyro {a}: {time.time() - t0:.0f} s  {'PASS' if not fails else 'FAIL: ' + ', '.join(fails)}")
+        verdict = "PASS (literal rules)" if not fails else "FAIL: " + ", ".join(fails)
+        print(f"{args.sensor} {a}: {time.time() - t0:.0f} s  {verdict}")
         print(f"  model {c['model']}, at bound {c['at_bound']}, sub-sample {c['sub_sample']}, dup {c['duplicate']}")
         print(
-            f"  ADEV misfit (hw<15 %, tau >= {c['tau_min_s']:.3g} s) max {100 * c['misfit']:+.1f} % at "
-            f"{c['misfit_tau']:.3g} s; below the fitted range up to {100 * c['misfit_below']:.0f} %"
+            f"  literal 10 % rule (hw<15 %, tau >= {c['tau_min_s']:.3g} s, {c['J']} taus): misfit max "
+            f"{100 * c['misfit']:+.1f} % at {c['misfit_tau']:.3g} s -> "
+            f"{'pass' if abs(c['misfit']) <= MAX_MISFIT else 'FAIL'}; "
+            f"below the fitted range up to {100 * c['misfit_below']:.0f} %"
         )
-        print(f"  N curve {c['N']['curve']:.3f} model {c['N']['model']:.3f} deg/sqrt(h) (range {N_RANGE[0]:.2f}-3.0)")
+        z_b = bonferroni(c["J"])
         print(
-            f"  B curve {c['B']['curve']:.1f} model {c['B']['model']:.1f} deg/h at {c['B_tau']} s ({c['B_kind']}; "
-            f"range {B_RANGE[0]:.1f}-{B_RANGE[1]:.1f})"
+            f"  calibrated rule (same taus): max |misfit| {c['T']:.2f} of the curve's own 1-sigma half-width (at "
+            f"{c['T_tau']:.3g} s); Bonferroni {100 * CALIBRATED_LEVEL:.0f} % threshold over {c['J']} taus {z_b:.2f} -> "
+            f"{'pass' if c['T'] <= z_b else 'FAIL'}"
+        )
+        print(
+            f"  N curve {n_f * c['N']['curve']:.4g} model {n_f * c['N']['model']:.4g} {n_unit} "
+            f"(range {n_f * n_range[0]:.3g}-{n_f * n_range[1]:.3g})"
+        )
+        print(
+            f"  B curve {b_f * c['B']['curve']:.4g} model {b_f * c['B']['model']:.4g} {b_unit} at {c['B_tau']:.4g} s "
+            f"({c['B_kind']}; range {b_f * b_range[0]:.3g}-{b_f * b_range[1]:.3g})"
         )
         print(
             f"  planted 40 spikes, 20 s stuck at {start * DT:.0f} s: found {gl['spikes']['count']} spikes, "
@@ -241,12 +296,20 @@ def main():
                 )
                 for j, h in enumerate(NULL_HALF_WIDTHS):
                     k = int(np.sum(worst[:, j] > MAX_MISFIT))
-                    se = math.sqrt(max(k, 1) * (draws - max(k, 1)) / draws) / draws
                     print(
-                        f"    where the half-width < {100 * h:.0f} %: in {k}/{draws} = {k / draws:.3f} (se {se:.3f}); "
-                        f"largest misfit median {100 * np.median(worst[:, j]):.1f} %, "
+                        f"    where the half-width < {100 * h:.0f} %: in {k}/{draws} = {k / draws:.3f} "
+                        f"(se {_se(k, draws):.3f}); largest misfit median {100 * np.median(worst[:, j]):.1f} %, "
                         f"90th percentile {100 * np.quantile(worst[:, j], 0.9):.1f} %"
                     )
+                t_max = worst[:, -1]
+                q95 = float(np.quantile(t_max, 1 - CALIBRATED_LEVEL))
+                k_b = int(np.sum(t_max > z_b))
+                print(
+                    f"    max |band unit| (hw<15 %): median {np.median(t_max):.2f}, 95th percentile {q95:.2f} (the "
+                    f"max-statistic threshold); Bonferroni {z_b:.2f} exceeded in {k_b}/{draws} = {k_b / draws:.3f} "
+                    f"(se {_se(k_b, draws):.3f}); this record's {c['T']:.2f} -> "
+                    f"{'pass' if c['T'] <= q95 else 'FAIL'} at the simulated threshold"
+                )
     raise SystemExit(0 if ok_all else 1)
 
 

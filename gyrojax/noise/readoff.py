@@ -222,8 +222,10 @@ def with_selection(figs: dict, cands: list, tau_min: float, tau_max: float, curv
 def adequacy(taus_s, adev, low, high, model_adev, min_tau_s: float = 0.0, max_half_width: float = 0.15) -> dict:
     """Per-τ check of a model's ADEV against the empirical confidence interval [low, high] (deg/h).
 
-    Returns ``inside`` (per τ), ``ratio`` model/empirical, the τ outside, and the largest |ratio − 1| over the τ
-    ≥ ``min_tau_s`` whose interval half-width (relative) is under ``max_half_width`` (the well-measured τ).
+    Returns ``inside`` (per τ), ``ratio`` model/empirical, the τ outside, the largest |ratio − 1| over the τ
+    ≥ ``min_tau_s`` whose interval half-width (relative) is under ``max_half_width`` (the well-measured τ), and
+    ``band_units``: the misfit in units of the band on the model's side, (model − σ̂)/(high − σ̂) above σ̂ and
+    (σ̂ − model)/(σ̂ − low) below, signed (|u| ≤ 1 inside the band), with its largest |u| over the well-measured τ.
     """
     taus_s, adev, low, high, model_adev = (np.asarray(a, float) for a in (taus_s, adev, low, high, model_adev))
     inside = (model_adev >= low) & (model_adev <= high)
@@ -231,7 +233,11 @@ def adequacy(taus_s, adev, low, high, model_adev, min_tau_s: float = 0.0, max_ha
     half = (high - low) / (2.0 * adev)
     good = (taus_s >= min_tau_s) & (half < max_half_width)
     worst = float(np.max(np.abs(ratio[good] - 1.0))) if good.any() else float("nan")
+    with np.errstate(divide="ignore", invalid="ignore"):
+        units = np.where(model_adev >= adev, (model_adev - adev) / (high - adev), -(adev - model_adev) / (adev - low))
     return {
+        "band_units": [float(x) for x in units],
+        "max_band_units_well_measured": float(np.max(np.abs(units[good]))) if good.any() else float("nan"),
         "inside": [bool(x) for x in inside],
         "ratio": [float(x) for x in ratio],
         "n_outside": int((~inside).sum()),
@@ -273,7 +279,7 @@ def noise_report(
     ``derived`` keeps the chosen model's own).
     """
     from gyrojax.noise import allan as allan_mod
-    from gyrojax.noise import glitch
+    from gyrojax.noise import glitch, robust_wv
     from gyrojax.noise.gmwm import fit_gmwm
 
     notes = list(notes)
@@ -297,10 +303,24 @@ def noise_report(
         model_std = np.full(len(res.taus_s), np.nan)
     else:
         raise NoiseModelError(f"method must be gmwm, avlr or ieee952, got {method!r}")
+    if robust:  # the curve too is the robust one (σ²_A = 2ν̂²_R with its own interval): table, band, read-offs
+        classical = res
+        res, info = robust_wv.robust_allan(segments, tau0, res.m, nm)
+        ieee = allan_mod.fit_noise_model(res.taus_s, res.avar, res.edf, gauss_markov=gauss_markov)
+        model_adev = nm.adev(res.taus_s)
+        model_std = adev_std(nm, res.taus_s)
+        notes.append(
+            "robust: the Allan deviation, its band and the curve read-offs are the robust wavelet variance's "
+            f"(sqrt(2 nu2_R), Tukey biweight, {info['outlier_samples']} outlier samples treated as missing); the "
+            "classical curve is in classical_adev_deg_per_h"
+        )
     low95, high95 = allan_mod.confidence_interval(res.adev, res.edf, ADEQUACY_CI)
     adq = adequacy(res.taus_s, res.adev, low95, high95, model_adev)
     out = allan_mod.noise_json(res, ieee)
     out["method"] = method
+    if robust:
+        out["curve_estimator"] = "robust wavelet variance (sqrt(2 nu2_R))"
+        out["classical_adev_deg_per_h"] = [float(x) for x in np.interp(res.taus_s, classical.taus_s, classical.adev)]
     out["adev_model_deg_per_h"] = [float(x) for x in model_adev]
     out["adev_model_std"] = [None if not np.isfinite(x) else float(x) for x in model_std]
     out["adequacy"] = {"ci": ADEQUACY_CI, "low": [float(x) for x in low95], "high": [float(x) for x in high95], **adq}
@@ -369,12 +389,15 @@ def _direct(spec: NoiseSpec) -> dict:
 
 def verdict_line(taus_s, adq: dict, tau_fit_s: float | None = None, cause: str = "") -> str:
     """One line: the model inside the empirical band at every τ, or where it is not, by how much (the largest
-    |model/empirical − 1| among those τ) and, when they all lie below the shortest τ the fit used
+    |model/empirical − 1| among those τ, and that misfit in half-widths of the band on the model's side,
+    ``band_units`` of :func:`adequacy`) and, when they all lie below the shortest τ the fit used
     (``tau_fit_s``), the cause named there (``cause``: e.g. the sensor's own filter)."""
     n = len(taus_s)
     k = adq["n_outside"]
     if k == 0:
-        return f"model inside the empirical {100 * ADEQUACY_CI:.0f} % band at all {n} taus"
+        units = adq.get("band_units")
+        size = f" (largest misfit {np.max(np.abs(units)):.2g} of the band's half-width)" if units else ""
+        return f"model inside the empirical {100 * ADEQUACY_CI:.0f} % band at all {n} taus{size}"
     taus = np.asarray(taus_s, float)
     out_mask = ~np.asarray(adq["inside"], bool)
     dev = np.abs(np.asarray(adq["ratio"], float)[out_mask] - 1.0)
@@ -382,10 +405,12 @@ def verdict_line(taus_s, adq: dict, tau_fit_s: float | None = None, cause: str =
     t_out = taus[out_mask]
     expected = (1 - ADEQUACY_CI) * n
     tag = "POOR FIT" if k > max(1.0, 2.0 * expected) else "fit"
+    units = adq.get("band_units")
+    size = f", {abs(np.asarray(units)[out_mask][worst]):.3g}x the band's half-width there" if units else ""
     line = (
         f"{tag}: model outside the empirical {100 * ADEQUACY_CI:.0f} % band at {k} of {n} taus "
         f"(tau {t_out.min():.3g} to {t_out.max():.3g} s), by up to {100 * dev[worst]:.2g} % "
-        f"(at tau = {t_out[worst]:.3g} s)"
+        f"(at tau = {t_out[worst]:.3g} s{size})"
     )
     if tau_fit_s and cause and np.all(t_out < tau_fit_s * (1 + 1e-9)):
         line += f"; all at or below the fitted range: {cause}"
