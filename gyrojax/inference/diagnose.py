@@ -69,12 +69,6 @@ DRIFT_SEPARATION = (
 """What tells a slow candidate from long-memory drift when one campaign cannot."""
 COLLINEAR = 0.999  # canonical correlation above which two candidates are aliases in this plan
 UNSEEN = 1e-6  # |X⊥| / |X| below which a candidate is indistinguishable from the model
-TIE_RTOL = 1e-9
-"""Relative difference of two candidates' score statistics (same df) below which their evidence is equal and the
-conventions' effect order ranks them (:func:`rank`). Exact aliases (D_II and D_SS in a 1 g tumble) span one X⊥, so
-their statistics agree to rounding: 8e-16 relative measured on the demo campaign, at most ~n·ε·κ ≈ 1e-10 for a
-whitened system of n = 10⁵ rows and condition number κ = 10³ (ε = 2.2e-16); a difference the data carry is of the
-order of the statistic's own sampling spread, √(2k) in absolute terms, far above 1e-9 relative."""
 
 
 @dataclass
@@ -198,36 +192,6 @@ def holm(p: np.ndarray) -> np.ndarray:
     return adj
 
 
-def _evidence(c: Candidate) -> tuple:
-    """Sort key of a candidate, strongest first: log₁₀ p (0 when not tested; it never underflows), then the statistic
-    (the p-values of huge statistics are −∞ alike)."""
-    return (c.log10_p if c.df > 0 else 0.0, -c.statistic)
-
-
-def _tied(a: Candidate, b: Candidate) -> bool:
-    """Whether two candidates' evidence is equal to rounding (:data:`TIE_RTOL`): same df, statistics within it."""
-    scale = max(abs(a.statistic), abs(b.statistic))
-    return a.df == b.df and abs(a.statistic - b.statistic) <= TIE_RTOL * scale
-
-
-def rank(cands) -> list:
-    """The candidates ordered by evidence (:func:`_evidence`), strongest first, independently of rounding: runs of
-    candidates whose evidence is tied (:func:`_tied`, each to the next) are ordered by the conventions' effect order
-    (:func:`gyrojax.physics.effects.names`, §6; an unnamed one last). Without this, which of two exact aliases
-    ranked first (so the proposal, and whether the forward selection ran one more round) was decided by the last
-    digits of equal statistics, which the number of BLAS threads changes."""
-    order = {n: i for i, n in enumerate(fx.names())}  # registration order: the conventions' (§6), then users'
-    pos = {id(c): i for i, c in enumerate(cands)}
-    srt = sorted(cands, key=_evidence)
-    out, run = [], []
-    for c in srt:
-        if run and not _tied(run[-1], c):
-            out += sorted(run, key=lambda d: (order.get(d.name, len(order)), pos[id(d)]))
-            run = []
-        run.append(c)
-    return out + sorted(run, key=lambda d: (order.get(d.name, len(order)), pos[id(d)]))
-
-
 def _basis(a: np.ndarray, tol: float = 1e-9) -> np.ndarray:
     """Orthonormal basis of the column space of ``a`` (rank-tolerant)."""
     if a.shape[1] == 0:
@@ -296,7 +260,7 @@ def _score(lin, noises, model: Model, full: Model, cand, p0: int, rms_now: float
 
     On the tall whitened system itself, not on the triangle of its QR (:class:`gyrojax.inference.adequacy.
     WhitenedSystem`), though the statistics are the same to rounding: exact aliases (D_II and D_SS in a 1 g tumble)
-    have equal statistics to rounding, and :func:`rank` orders them by the conventions, not by the last digits."""
+    have equal statistics, and their ranking, so the proposal, is decided by the last digits."""
     sl = full.slices()
     rw, jw = _stack_whitened(lin, noises)
     residue = residue_columns(jw)  # floating-point residue (cos 90° = 6e-17): not excited, never estimated
@@ -455,7 +419,7 @@ def diagnose(
         live = [c for c in tested if c.df > 0]
         if not live:
             break
-        best = rank(live)[0]
+        best = min(live, key=lambda c: (c.log10_p, -c.statistic))
         if best.log10_p + math.log10(len(live)) >= math.log10(alpha) or _spanned(perps, best.name, extra):
             break
         extra.append(best.name)
@@ -473,7 +437,7 @@ def diagnose(
 
     # ---- model-free adequacy, joint Holm, vetting of what is proposed (gyrojax.inference.adequacy) -------
     live = [c for c in tested if c.df > 0]
-    tested[:] = rank(tested)  # by evidence, ties in the conventions' effect order
+    tested.sort(key=lambda c: (c.log10_p if c.df > 0 else 0.0, -c.statistic))  # by evidence (log p never underflows)
     explaining = [c.name for c in live]  # named effects that may explain a shape: not refused, plausible
     if any(d.mode == "servo" for d in camp.data):
         # servo records: a candidate's column is its drift seen through the servo, and those built on ω_I (the nulled
