@@ -45,7 +45,8 @@ from gyrojax.noise.gmwm import fit_gmwm
 from gyrojax.noise.gmwm_model import ModelSpec
 from gyrojax.noise.gmwm_select import COMPONENT_LEVEL, FALSE_COMPONENT_LEVEL, cost_of, costs
 from gyrojax.noise.processes import simulate
-from gyrojax.noise.spec import BI_FACTOR, NoiseSpec
+from gyrojax.noise.spec import NoiseSpec
+from tests import synth
 
 DT = 0.01
 SCENARIOS = {
@@ -64,17 +65,9 @@ POWER_LEVEL = 0.8
 
 
 def one_over_f(seed: int, n: int, b: float) -> np.ndarray:
-    """A circular 1/f rate series (deg/h) of per-sample spectrum b²/(2 ln 2 |f|), b² = (ln 2/π)B²: the spectrum
-    whose Haar wavelet variance is the flicker floor of :func:`gyrojax.noise.gmwm_model.wv_flicker` (FFT synthesis,
-    X_k = √(n S(f_k)) Z_k, DC removed)."""
-    rng = np.random.default_rng(seed)
-    b2 = (BI_FACTOR * b) ** 2 / 2.0
-    f = np.fft.rfftfreq(n)
-    s = np.zeros_like(f)
-    s[1:] = b2 / (2.0 * math.log(2.0) * f[1:])
-    z = (rng.normal(size=f.size) + 1j * rng.normal(size=f.size)) / math.sqrt(2.0)
-    z[-1] = rng.normal()
-    return np.fft.irfft(np.sqrt(n * s) * z, n)
+    """A circular 1/f rate series (deg/h) of bias instability B = ``b``: :func:`tests.synth.one_over_f` at the floor
+    b² = (ln 2/π)B², seeded by ``seed``."""
+    return synth.one_over_f(np.random.default_rng(seed), n, synth.floor_b2(b))
 
 
 LEVELS = (0.01, 0.02, 0.03, 0.05, 0.1)

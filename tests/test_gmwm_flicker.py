@@ -14,6 +14,8 @@ from gyrojax.noise import gmwm, gmwm_select
 from gyrojax.noise import gmwm_model as gm
 from gyrojax.noise.spec import BI_FACTOR, NoiseSpec
 
+from .synth import floor_b2, one_over_f
+
 DT = 0.01
 
 
@@ -26,16 +28,6 @@ def _haar_integral(m: int, b2: float) -> float:
 
     pts = np.arange(1, m) / (2.0 * m) if m > 1 else None
     return 2.0 * integrate.quad(g, 0.0, 0.5, points=pts, limit=4 * m + 200)[0]
-
-
-def _one_over_f(rng, n: int, b2: float) -> np.ndarray:
-    """A circular series (deg/h) of per-sample spectrum b²/(2 ln 2 |f|) (DC removed): X_k = √(n S(f_k)) Z_k."""
-    f = np.fft.rfftfreq(n)
-    s = np.zeros_like(f)
-    s[1:] = b2 / (2.0 * math.log(2.0) * f[1:])
-    z = (rng.normal(size=f.size) + 1j * rng.normal(size=f.size)) / math.sqrt(2.0)
-    z[-1] = rng.normal()  # Nyquist term is real
-    return np.fft.irfft(np.sqrt(n * s) * z, n)
 
 
 def test_flat_floor_is_the_haar_integral_of_a_one_over_f_spectrum():
@@ -63,7 +55,7 @@ def test_flat_floor_against_synthesised_one_over_f_series():
     b2, n, ms = 4.0, 2**18, np.array([8, 32, 128, 512])
     est = []
     for _ in range(8):
-        y = _one_over_f(rng, n, b2)
+        y = one_over_f(rng, n, b2)
         _, ad, _, _ = allantools.oadev(y, rate=1.0, data_type="freq", taus=ms.astype(float))
         est.append(ad**2 / 2.0)
     est = np.array(est)
@@ -75,8 +67,8 @@ def test_flat_floor_against_synthesised_one_over_f_series():
 
 def _record(seed, n, white=0.1, b=6.0, k=0.0):
     rng = np.random.default_rng(seed)
-    b2 = (BI_FACTOR * b) ** 2 / 2.0
-    y = rng.normal(0.0, 60.0 * white / math.sqrt(DT), n) + _one_over_f(rng, n, b2)
+    b2 = floor_b2(b)
+    y = rng.normal(0.0, 60.0 * white / math.sqrt(DT), n) + one_over_f(rng, n, b2)
     if k:
         y = y + np.cumsum(rng.normal(0.0, k * math.sqrt(DT / 3600.0), n))
     return y

@@ -12,25 +12,15 @@ from scipy import stats
 from gyrojax.noise import gmwm, gmwm_select
 from gyrojax.noise import gmwm_model as gm
 from gyrojax.noise import wavelet as wv
-from gyrojax.noise.spec import BI_FACTOR
+
+from .synth import floor_b2, one_over_f
 
 DT = 0.01
 
 
-def _one_over_f(rng, n: int, b: float) -> np.ndarray:
-    """Circular 1/f series (deg/h) whose Haar wavelet variance is the flicker floor of B = ``b`` deg/h."""
-    b2 = (BI_FACTOR * b) ** 2 / 2.0
-    f = np.fft.rfftfreq(n)
-    s = np.zeros_like(f)
-    s[1:] = b2 / (2.0 * math.log(2.0) * f[1:])
-    z = (rng.normal(size=f.size) + 1j * rng.normal(size=f.size)) / math.sqrt(2.0)
-    z[-1] = rng.normal()
-    return np.fft.irfft(np.sqrt(n * s) * z, n)
-
-
 def _record(seed, n, b, k=0.0, white=0.1):
     rng = np.random.default_rng(seed)
-    y = rng.normal(0.0, 60.0 * white / math.sqrt(DT), n) + _one_over_f(rng, n, b)
+    y = rng.normal(0.0, 60.0 * white / math.sqrt(DT), n) + one_over_f(rng, n, floor_b2(b))
     if k:
         y = y + np.cumsum(rng.normal(0.0, k * math.sqrt(DT / 3600.0), n))
     return y

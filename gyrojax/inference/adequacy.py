@@ -38,6 +38,7 @@ from scipy import stats
 from gyrojax.inference import subspace
 from gyrojax.inference.drift_rows import rows_of, servo_state
 from gyrojax.inference.subspace import WhitenedSystem, _perp, basis, compress, perp_basis  # noqa: F401 (re-exported)
+from gyrojax.inference.tails import chi2_logsf
 from gyrojax.noise.kept import Kept
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import instrument_inputs
@@ -342,7 +343,7 @@ def residual_structure(
         proj = uc.T @ r0
         stat = float(proj @ proj) / sigma2
         df = uc.shape[1]
-        logp = float(stats.chi2.logsf(stat, df))
+        logp = float(chi2_logsf(stat, df))
         s = Structure(versus, shape, stat, df, math.exp(logp), logp / math.log(10), expression=expr)
         if expr is not None and x.shape[1] == 1:
             x0 = _perp(u0, x[:, 0])

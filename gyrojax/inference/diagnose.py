@@ -44,6 +44,7 @@ from gyrojax.inference.noisefit import (
 from gyrojax.inference.result import FitResult
 from gyrojax.inference.separation import separating_plans
 from gyrojax.inference.solver import solve, stack_whitened
+from gyrojax.inference.tails import chi2_logsf, f_logsf
 from gyrojax.noise import reml
 from gyrojax.noise.readout import white_beside_readout
 from gyrojax.noise.spec import NoiseSpec
@@ -192,6 +193,36 @@ def holm(p: np.ndarray) -> np.ndarray:
     return adj
 
 
+TIE_RTOL = 1e-9
+"""Relative difference of log10 p below which two candidates tie: exact aliases (D_II and D_SS in a 1 g tumble) have
+equal statistics whose last digits depend on the BLAS threads and on whether the records were read from CSV."""
+
+
+def by_evidence(cands: list, kind: str) -> list:
+    """Candidates by evidence, strongest first: log10 p (never underflows; 0 for the untested), then the statistic;
+    ties within :data:`TIE_RTOL` (exact aliases) in the order of :func:`gyrojax.physics.effects.names`, so that the
+    proposal between aliases is the same on every machine and every reading of the same data."""
+    names = fx.names(kind)
+    order = {n: i for i, n in enumerate(names)}
+    key = lambda c: c.log10_p if c.df > 0 else 0.0
+    ranked = sorted(cands, key=lambda c: (key(c), -c.statistic))
+    out, i = [], 0
+    while i < len(ranked):
+        j = i + 1
+        while j < len(ranked) and _tie(key(ranked[i]), key(ranked[j])):
+            j += 1
+        out += sorted(ranked[i:j], key=lambda c: order.get(c.name, len(order)))
+        i = j
+    return out
+
+
+def _tie(a: float, b: float) -> bool:
+    """Whether two log10 p tie (:data:`TIE_RTOL`); an underflowed −inf ties only with −inf."""
+    if not (math.isfinite(a) and math.isfinite(b)):
+        return a == b
+    return abs(b - a) <= TIE_RTOL * max(abs(a), 1.0)
+
+
 def _basis(a: np.ndarray, tol: float = 1e-9) -> np.ndarray:
     """Orthonormal basis of the column space of ``a`` (rank-tolerant)."""
     if a.shape[1] == 0:
@@ -295,7 +326,7 @@ def _score(lin, noises, model: Model, full: Model, cand, p0: int, rms_now: float
         proj = uc.T @ r_perp
         stat = float(proj @ proj) / sigma2
         df = uc.shape[1]
-        logp = float(stats.f.logsf(stat / df, df, dof))  # σ̃² estimated with dof degrees of freedom (module doc)
+        logp = float(f_logsf(stat / df, df, dof))  # σ̃² estimated with dof degrees of freedom (module doc)
         # the candidate's coefficients if it were added (whitened LS), and the raw residual it would leave
         beta, *_ = np.linalg.lstsq(xp, r_perp, rcond=None)
         b_model = np.linalg.lstsq(j0, x, rcond=None)[0] if p0 else np.zeros((0, x.shape[1]))
@@ -419,7 +450,7 @@ def diagnose(
         live = [c for c in tested if c.df > 0]
         if not live:
             break
-        best = min(live, key=lambda c: (c.log10_p, -c.statistic))
+        best = by_evidence(live, model.kind)[0]
         if best.log10_p + math.log10(len(live)) >= math.log10(alpha) or _spanned(perps, best.name, extra):
             break
         extra.append(best.name)
@@ -437,7 +468,7 @@ def diagnose(
 
     # ---- model-free adequacy, joint Holm, vetting of what is proposed (gyrojax.inference.adequacy) -------
     live = [c for c in tested if c.df > 0]
-    tested.sort(key=lambda c: (c.log10_p if c.df > 0 else 0.0, -c.statistic))  # by evidence (log p never underflows)
+    tested = by_evidence(tested, model.kind)
     explaining = [c.name for c in live]  # named effects that may explain a shape: not refused, plausible
     if any(d.mode == "servo" for d in camp.data):
         # servo records: a candidate's column is its drift seen through the servo, and those built on ω_I (the nulled
@@ -512,7 +543,7 @@ def _colour_candidate(noises, lin, alpha, p0: int = 0) -> Candidate | None:
         n_acc += n
     if df == 0:
         return None
-    logp = float(stats.chi2.logsf(stat, df))
+    logp = float(chi2_logsf(stat, df))
     p = math.exp(logp)
     if p >= alpha:
         return None

@@ -40,6 +40,7 @@ from gyrojax.errors import ModelError
 from gyrojax.inference import adequacy
 from gyrojax.inference import triad as tf
 from gyrojax.inference.diagnose import COLLINEAR, UNSEEN, Candidate, Diagnosis, effect_to_add, holm
+from gyrojax.inference.tails import f_logsf
 from gyrojax.inference.triad_candidates import (
     MEMS_CANDIDATES,
     SHAPE_LINES,
@@ -317,7 +318,7 @@ def _score_all(r, j0, xs, regs, model_names, raw=None):
         proj = uc.T @ r_perp
         stat = float(proj @ proj) / sigma2
         df = uc.shape[1]
-        logp = float(stats.f.logsf(stat / df, df, dof))
+        logp = float(f_logsf(stat / df, df, dof))
         beta, *_ = np.linalg.lstsq(xp, r_perp, rcond=None)
         rms = math.nan
         if raw is not None:
@@ -464,7 +465,7 @@ def diagnose_triad(
                 continue
             proj = uc.T @ r_perp
             stat = float(proj @ proj) / s2
-            logp = float(stats.f.logsf(stat / uc.shape[1], uc.shape[1], dof_all))
+            logp = float(f_logsf(stat / uc.shape[1], uc.shape[1], dof_all))
             shape_list.append(Shape(reg.name, reg.effect, stat, uc.shape[1], math.exp(logp), logp / math.log(10)))
     adj = holm(np.array([10.0**c.log10_p for c in live] + [10.0**s.log10_p for s in shape_list]))
     for c, a in zip(live + shape_list, adj):
