@@ -36,7 +36,9 @@ grouped-data MAD of :mod:`gyrojax.noise.glitch`). The records' own spikes: none 
 acc y 7 (imu1) and 18 (imu2), acc z 9 (imu1: ringing bursts at 3.3 s and 6.8 s) and 3 (imu2); the check counts
 the planted spikes on top of those. N, B moves with the glitches planted: gyro at most 1.0 % (curve) and 5.8 %
 (model B, imu1 z), accelerometer at most 0.3 %. The accelerometer axes fail the 10 % rule by +20.7 … +37.3 % at
-τ = 1.62 s, and their model N is 0.19–0.28 m/s/√h against 0.28–0.46 read off the curve (defect 3, open).
+τ = 1.62 s, and their model N is 0.19–0.28 m/s/√h against 0.28–0.46 read off the curve: a spectral line at
+0.565 Hz on every accelerometer axis (0.5–0.95 mg amplitude; Welch PSD 46–110 times its median over 0.05–5 Hz),
+whose ADEV peaks near 0.66 s and vanishes at 1.77 s; the model family has no sinusoid (docs/cli.md).
 
 ``--null K``: K records simulated from each fitted model, same length; the 10 % rule applied to the true model
 against each record's own curve. On x (200 records) it fails in 126/200 = 0.63 where the half-width is under 15 %
