@@ -314,6 +314,16 @@ def noise_report(
             f"(sqrt(2 nu2_R), Tukey biweight, {info['outlier_samples']} outlier samples treated as missing); the "
             "classical curve is in classical_adev_deg_per_h"
         )
+        eff = nm.info["wavelet_variance"]["efficiency"]
+        differ = robust_wv.disagreement_note(
+            res.taus_s,
+            np.interp(res.taus_s, classical.taus_s, classical.avar),
+            np.interp(res.taus_s, classical.taus_s, classical.edf),
+            res.avar,
+            eff,
+        )
+        if differ:
+            notes.append(differ)
     low95, high95 = allan_mod.confidence_interval(res.adev, res.edf, ADEQUACY_CI)
     adq = adequacy(res.taus_s, res.adev, low95, high95, model_adev)
     out = allan_mod.noise_json(res, ieee)
