@@ -22,3 +22,14 @@ def floor_b2(b: float) -> float:
     """The floor b² of a flicker of bias instability B = ``b`` deg/h: b² = (ln 2/π)·B² (IEEE 952's Allan floor
     (0.664 B)² halved), the ``b2`` of :func:`one_over_f`."""
     return (BI_FACTOR * b) ** 2 / 2.0
+
+
+def plant_spikes(y: np.ndarray, k: int, seed: int = 1, size: float = 50.0, margin: int = 1000) -> np.ndarray:
+    """``y`` with ``k`` spikes of ±``size``σ planted (random signs and places, none within ``margin``
+    samples of the ends), σ the white noise per sample read off the first differences, std(Δy)/√2."""
+    rng = np.random.default_rng(seed)
+    n = len(y)
+    sigma = np.std(np.diff(y)) / math.sqrt(2)
+    z = np.array(y, dtype=float)
+    z[rng.choice(np.arange(margin, n - margin), k, replace=False)] += size * sigma * rng.choice([-1.0, 1.0], k)
+    return z

@@ -14,6 +14,8 @@ from gyrojax.noise import robust_wv as rwv
 from gyrojax.noise.processes import simulate
 from gyrojax.noise.spec import NoiseSpec
 
+from .synth import plant_spikes
+
 DT = 0.05
 SPEC = NoiseSpec(white=0.1, random_walk=20.0)
 """White + rate random walk: a flat minimum of σ near τ = 31 s, known to ±6 % in 3277 s of record."""
@@ -23,11 +25,7 @@ SPEC = NoiseSpec(white=0.1, random_walk=20.0)
 def records():
     n = 2**16
     y = np.asarray(simulate(SPEC, jax.random.PRNGKey(9), np.arange(n) * DT, dt_white=DT))
-    rng = np.random.default_rng(1)
-    sigma = np.std(np.diff(y)) / math.sqrt(2)
-    k = 20  # 3 per 10^4 samples
-    z = y.copy()
-    z[rng.choice(np.arange(1000, n - 1000), k, replace=False)] += 50 * sigma * rng.choice([-1.0, 1.0], k)
+    z = plant_spikes(y, 20)  # 3 per 10^4 samples
     return y, z
 
 

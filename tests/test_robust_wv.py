@@ -20,6 +20,8 @@ from gyrojax.noise.gmwm_model import ModelSpec
 from gyrojax.noise.processes import simulate
 from gyrojax.noise.spec import NoiseModelError, NoiseSpec
 
+from .synth import plant_spikes
+
 DT = 0.01
 
 
@@ -137,11 +139,7 @@ def spiked():
     n = 2**18
     spec = NoiseSpec(white=0.2, gauss_markov=((3.0, 30.0),))
     y = np.asarray(simulate(spec, jax.random.PRNGKey(9), np.arange(n) * DT, dt_white=DT))
-    rng = np.random.default_rng(1)
-    sigma = np.std(np.diff(y)) / math.sqrt(2)
-    k = 80  # 3 per 10^4 samples
-    z = y.copy()
-    z[rng.choice(np.arange(1000, n - 1000), k, replace=False)] += 50 * sigma * rng.choice([-1.0, 1.0], k)
+    z = plant_spikes(y, 80)  # 3 per 10^4 samples
     return y, z
 
 
