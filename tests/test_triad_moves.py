@@ -23,8 +23,8 @@ TRUTH = mems_truth(7)
 # 1e-12: the weights are then right to ~1e-10, χ² (stationary at the optimum) and σ (∝ weights) to the same order;
 # 1e-7 leaves three orders for the rank-cut SVD's rounding
 RTOL = 1e-7
-# with the REML components the σ also carry τ̂, found by L-BFGS-B with finite-difference gradients (log τ² to
-# ~1e-5 where −2ℓ_R is flat): σ to ~1e-6; measured 2e-7
+# with the REML components the σ also carry τ̂, found by L-BFGS-B on the exact gradient of −2ℓ_R
+# (gyrojax.inference.triad_components; log τ² to ~1e-5 where −2ℓ_R is flat): σ to ~1e-6; measured 2e-7
 RTOL_COMPONENTS = 1e-5
 
 
