@@ -40,6 +40,9 @@ the curve beyond it bends (the read σ on an upward fluctuation, the white or GM
 | wr | 300 | 0.953 ± 0.015 | 0.981 ± 0.009 | 0.986 |
 | wgr | 1000 | 0.955 ± 0.008 | 0.970 ± 0.006 | 0.984 |
 | wr | 1000 | 0.931 ± 0.010 | 0.951 ± 0.008 | 0.970 |
+| flk | 300 | 0.578 | 0.615 ± 0.047 | 0.972 |
+
+(flk: its 3000 s Gauss–Markov term still rises at the read τ, outside the bound's premise.)
 
 (705 and 700 reads of the 1000). B curve on wr, 0.978 ± 0.009 at 300 draws, is 0.966 ± 0.006 at 1000 (the flat-
 minimum fit's own conservatism, :func:`gyrojax.noise.headline._flat_minimum`: 0.966 there too); left as is.
