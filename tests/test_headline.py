@@ -55,6 +55,23 @@ def test_a_wide_dip_at_the_long_end_is_not_the_flat_minimum():
     assert b["tau_s"] == pytest.approx(60 * N * math.sqrt(10800.0) / K, rel=0.05)
 
 
+def test_k_interval_carries_the_other_terms_share_where_it_is_read():
+    """σ² = (60N)²/τ + C + K²τ/10800 (white, flat, random walk) ending where the random walk carries ~80 % of σ²:
+    the +½ read-off σ(τ)·√(10800/τ) is above K by 1/√(share) (every term adds), beyond the narrow χ² interval
+    of 2000 degrees of freedom (the interval of σ alone misses K), and the ``ci``'s lower end, times √μ (μ the
+    local slope of σ², ≤ the random walk's share when the other terms do not rise), holds K."""
+    c = 0.5**2
+    taus = np.geomspace(0.01, 4000.0, 150)
+    avar = (60 * N) ** 2 / taus + c + K**2 * taus / 10800.0
+    k = headline.curve_readoffs(_exact(taus, avar))["rrw"]
+    share = (K**2 * k["tau_s"] / 10800.0) / np.interp(k["tau_s"], taus, avar)
+    assert k["kind"] == "read" and share < 0.9
+    assert k["value"] == pytest.approx(K / math.sqrt(share), rel=1e-9)
+    low2, high2 = allan.confidence_interval(np.array([k["value"]]), np.array([2000.0]), headline.TWO_SIGMA)
+    assert low2[0] > K  # the χ² interval of σ alone (the old rule) does not hold K
+    assert k["ci"][0] <= K <= k["ci"][1] and k["ci"][1] == pytest.approx(high2[0], rel=1e-9)
+
+
 def test_quantization_and_ramp_read_where_seen():
     """σ² = 3Q²/τ² (Q arcsec = deg/h·s) at short τ and R²τ²/2 (R deg/h per s) at long τ: both read back."""
     q, r_dphph = 0.5, 36.0
