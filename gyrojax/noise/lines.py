@@ -300,7 +300,8 @@ def find_lines(segments, tau0: float, level: float = LEVEL, nperseg: int | None 
         offs = np.concatenate([np.arange(-GUARD - m, -GUARD), np.arange(GUARD + 1, GUARD + m + 1)])
         nu_l[ks] = level_edf(nu, offs, rbin)
         s_hat[ks] = np.median(pw[ks[:, None] + offs[None, :]], axis=1) / c_nu
-    stat = pw / s_hat
+    with np.errstate(divide="ignore", invalid="ignore"):  # a level of 0 (a constant stretch) tests nothing
+        stat = np.where(s_hat > 0, pw / s_hat, 0.0)
     pval = np.ones(nb)
     pval[tested] = f_dist.sf(stat[tested], nu, nu_l[tested])  # F(ν, ν_L): a light-tailed screen
     mu = piece_weights(lengths, nper, window)
