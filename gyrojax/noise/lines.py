@@ -29,12 +29,12 @@ saddlepoint tail of the difference (:func:`ratio_sf`).
 1/f) per 1000; at α = 0.05 on 46, 46, 43, 50 per 1000.
 
 **Amplitude.** A sinusoid A·sin(2πf₀t + φ) puts its power A²/2 into the Hann lobe (Σ_k P_k·Δf = A²/2, Parseval
-with the density scaling); over the five bins k* − 2 … k* + 2 around the peak the excess per piece is
-E_s = Σ_j (p_s(f_j) − Ŝ_{k*})·Δf, and A = √(2·Ē/γ), γ the lobe's share of a tone at the estimated offset from k*
-(≥ 0.99 for Hann). Its standard error: var(Ē) from the pieces' own scatter with their lag-one covariance (pieces
-that overlap by half), plus (5·Δf·Ŝ)²·2/ν_L for the level; se(A) = se(Ē)/(γA) (the study: ±2·se covered A in
-0.94 of white and 0.91 of white + random-walk records, se being itself estimated from ~31 pieces). The frequency
-is the excess power's centroid over those bins (within one bin of f₀ in 600/600 of the study's draws).
+with the density scaling); over the five bins k* − 2 … k* + 2 around the peak the excess is
+Ē = Σ_j (P_j − Ŝ_{k*})·Δf, and A = √(2·Ē/γ), γ the lobe's share of a tone at the estimated offset from k* (≥ 0.99
+for Hann). Its standard error: var(Ē) of the tone of that A and f₀ in white noise of density Ŝ, exact for the
+Gaussian quadratic form (:func:`lobe_sum_variance`: the pieces' DFTs at those bins, their covariance within a piece
+and between pieces that overlap by half, and the tone's cross term), plus (5·Δf·Ŝ)²·2/ν_L for the level;
+se(A) = se(Ē)/(γA). The frequency is the excess power's centroid over those bins.
 
 **Allan variance of a line** (IEEE Std 952-1997 and NIST SP 1065 §5.2: a sinusoidal rate of amplitude A averaged
 over τ): σ²(τ) = A² sin⁴(πf₀τ)/(πf₀τ)², largest at τ = 0.371/f₀ (tan x = 2x, x = πf₀τ = 1.1656) where σ = 0.725·A,
@@ -319,7 +319,7 @@ def find_lines(segments, tau0: float, level: float = LEVEL, nperseg: int | None 
     lines = []
     for g in groups:
         k = g[int(np.argmax(stat[g]))]
-        lines.append(_line(p, freqs, k, s_hat[k], df, nu_l[k], window, stat[k], pval[k], n_test))
+        lines.append(_line(p, freqs, k, s_hat[k], df, nu_l[k], window, stat[k], pval[k], n_test, lengths, tau0))
     lines.sort(key=lambda ln: -ln["power_ratio"])
     return {
         **base,
@@ -335,22 +335,53 @@ def find_lines(segments, tau0: float, level: float = LEVEL, nperseg: int | None 
     }
 
 
-def _line(p, freqs, k, s_hat, df, nu_l, window, ratio, pval, n_test) -> dict:
-    """One line at peak bin ``k`` (module doc: centroid frequency, amplitude from the lobe's excess per piece)."""
+def lobe_sum_variance(window, lengths, nperseg, bins, f0_hz, amplitude, level, tau0) -> float:
+    """Variance of Σ_s Σ_j p_s(f_j) over the pieces s of segments of ``lengths`` samples and the ``bins`` j (indices
+    into the one-sided grid) for a tone ``amplitude``·sin(2π·``f0_hz``·t) in white noise of one-sided density
+    ``level`` (series unit²/Hz), sampled at ``tau0`` s; in series unit⁴/Hz².
+
+    With Y_s = √(2τ0/Σw²)·DFT(w·x_s) at those bins, p_s = |Y_s|² and Y = y + Z (y the tone's, Z circular Gaussian
+    of covariance C: S·G0 within a piece, S·G1 between pieces half overlapping, 0 otherwise), Var(Σ|Y|²) =
+    tr(C²) + 2·yᴴCy (the quadratic and the linear part of |y + Z|² are uncorrelated)."""
+    w = np.asarray(window, float)
+    n = len(w)
+    step = nperseg // 2
+    t = np.arange(n)
+    e2 = float(w @ w)
+    basis = np.exp(-2j * math.pi * np.outer(bins, t) / n)  # bins × t
+    g0 = (basis * w**2) @ basis.conj().T / e2
+    g1 = (basis[:, step:] * (w[step:] * w[: n - step])) @ basis[:, : n - step].conj().T / e2
+    beta = 2.0 * math.pi * f0_hz * tau0
+    scale = math.sqrt(2.0 * tau0 / e2)
+    u = (basis * (w * np.exp(1j * beta * t))) @ np.ones(n)
+    v = (basis * (w * np.exp(-1j * beta * t))) @ np.ones(n)
+    quad = lin = 0.0
+    for length in lengths:
+        if length < nperseg:
+            continue
+        k = (length - nperseg) // step + 1
+        alpha = beta * step * np.arange(k)
+        y = amplitude * scale * (np.exp(1j * alpha)[:, None] * u - np.exp(-1j * alpha)[:, None] * v) / 2j  # k × bins
+        quad += k * float(np.sum(np.abs(g0) ** 2)) + 2 * (k - 1) * float(np.sum(np.abs(g1) ** 2))
+        lin += float(np.real(np.einsum("sa,ab,sb->", y.conj(), g0, y)))
+        if k > 1:
+            lin += 2.0 * float(np.real(np.einsum("sa,ab,sb->", y[:-1].conj(), g1, y[1:])))
+    return level**2 * quad + 2.0 * level * lin
+
+
+def _line(p, freqs, k, s_hat, df, nu_l, window, ratio, pval, n_test, lengths, tau0) -> dict:
+    """One line at peak bin ``k`` (module doc: centroid frequency, amplitude from the lobe's excess)."""
     j = np.arange(k - LOBE, k + LOBE + 1)
     j = j[(j >= 0) & (j < len(freqs))]
-    e_s = (p[j, :] - s_hat).sum(axis=0) * df  # excess power per piece, series unit²
     excess = np.maximum(p[j, :].mean(axis=1) - s_hat, 0.0)
     f0 = float(excess @ freqs[j] / excess.sum()) if excess.sum() > 0 else float(freqs[k])
     offset = float(np.clip((f0 - freqs[k]) / df, -0.5, 0.5))
     share = lobe_share(window, offset)
-    e_bar = float(e_s.mean())
-    kk = len(e_s)
-    d = e_s - e_bar
-    g0 = float(d @ d) / kk
-    g1 = float(d[1:] @ d[:-1]) / kk if kk > 1 else 0.0
-    var_e = max(g0 + 2.0 * g1 * (1.0 - 1.0 / kk), g0 / 2.0) / kk + (len(j) * df * s_hat) ** 2 * 2.0 / nu_l
+    kk = p.shape[1]
+    e_bar = float((p[j, :].mean(axis=1) - s_hat).sum()) * df  # the lobe's excess power, series unit²
     amp = math.sqrt(2.0 * max(e_bar, 0.0) / share)
+    var_sum = lobe_sum_variance(window, lengths, len(window), j, f0, amp, s_hat, tau0)
+    var_e = var_sum * df**2 / kk**2 + (len(j) * df * s_hat) ** 2 * 2.0 / nu_l
     amp_std = math.sqrt(var_e) / (share * amp) if amp > 0 else float("nan")  # A² = 2Ē/γ: dA = dĒ/(γA)
     return {
         "frequency_hz": f0,
