@@ -170,3 +170,12 @@ def test_fit_design_mc_take_the_noise_model(static, capsys, tmp_path):
         capsys, ["design", "--positions", "6", "--out", str(tmp_path / "q.json"), "--noise-model", str(rw), *quick]
     )
     assert rc == 0 and (tmp_path / "q.json").exists(), err
+
+
+def test_json_carries_the_spectral_line_search(static, capsys):
+    path, _ = static
+    rc, out, _ = _run(capsys, ["noise", str(path), "--json", "--model", "white+gm"])
+    o = json.loads(out)
+    assert rc == 0 and o["spectral_lines"] == []  # a simulated record of white + Gauss–Markov noise has none
+    s = o["spectral_line_search"]
+    assert s["searched"] and s["level"] == 0.01 and s["bins_tested"] > 50 and s["band_hz"][1] < 1.0 / (2 * 0.5)

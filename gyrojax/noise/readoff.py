@@ -276,10 +276,14 @@ def noise_report(
     the output, a sentence in ``notes``). ``robust``: nothing masked, the model fitted by the robust GMWM
     (:mod:`gyrojax.noise.robust_wv`; ``wavelet_variance`` in the output names the estimator and its efficiency).
     ``selection_ci``: the headline model figures' intervals carry the model selection (:func:`with_selection`;
-    ``derived`` keeps the chosen model's own).
+    ``derived`` keeps the chosen model's own). Spectral lines (sinusoids, which no model term is) are searched in
+    the analysed series (:mod:`gyrojax.noise.lines`): ``spectral_lines`` (per line frequency in Hz, amplitude in
+    deg/h, the τ range in s of the ADEV it reaches), ``spectral_line_search`` (the Welch settings, band and level),
+    a sentence in ``notes``, and the verdict names a line whose τ range holds the misfit.
     """
     from gyrojax.noise import allan as allan_mod
     from gyrojax.noise import glitch, robust_wv
+    from gyrojax.noise import lines as lines_mod
     from gyrojax.noise.gmwm import fit_gmwm
 
     notes = list(notes)
@@ -324,6 +328,10 @@ def noise_report(
         )
         if differ:
             notes.append(differ)
+    search = lines_mod.find_lines(segments, tau0)
+    spectral = lines_mod.with_reach(search, res.taus_s, res.avar, res.edf, "deg/h")
+    if lines_mod.note(spectral, search):
+        notes.append(lines_mod.note(spectral, search))
     low95, high95 = allan_mod.confidence_interval(res.adev, res.edf, ADEQUACY_CI)
     adq = adequacy(res.taus_s, res.adev, low95, high95, model_adev)
     out = allan_mod.noise_json(res, ieee)
@@ -336,8 +344,11 @@ def noise_report(
     out["adequacy"] = {"ci": ADEQUACY_CI, "low": [float(x) for x in low95], "high": [float(x) for x in high95], **adq}
     out["glitches"] = {**found, "masked": bool(mask_glitches)}
     out["wavelet_variance"] = nm.info["wavelet_variance"] if nm is not None else None
+    out["spectral_lines"] = spectral
+    out["spectral_line_search"] = {k: v for k, v in search.items() if k != "lines"}
     tau_fit = None if nm is None else nm.info.get("tau_min_s")
-    out["adequacy"]["verdict"] = verdict_line(res.taus_s, adq, tau_fit, nm.info.get("short_scales", "") if nm else "")
+    short = nm.info.get("short_scales", "") if nm else ""
+    out["adequacy"]["verdict"] = verdict_line(res.taus_s, adq, tau_fit, short, spectral)
     if nm is not None:
         out["derived"] = derived(nm, float(res.taus_s.min()), float(res.taus_s.max()))
         out["model"] = {**nm.to_json(), "parameters": nm.parameters()}
@@ -397,11 +408,15 @@ def _direct(spec: NoiseSpec) -> dict:
     return out
 
 
-def verdict_line(taus_s, adq: dict, tau_fit_s: float | None = None, cause: str = "") -> str:
+def verdict_line(taus_s, adq: dict, tau_fit_s: float | None = None, cause: str = "", lines=()) -> str:
     """One line: the model inside the empirical band at every τ, or where it is not, by how much (the largest
     |model/empirical − 1| among those τ, and that misfit in half-widths of the band on the model's side,
     ``band_units`` of :func:`adequacy`) and, when they all lie below the shortest τ the fit used
-    (``tau_fit_s``), the cause named there (``cause``: e.g. the sensor's own filter)."""
+    (``tau_fit_s``), the cause named there (``cause``: e.g. the sensor's own filter); a spectral line of ``lines``
+    (:func:`gyrojax.noise.lines.with_reach`) whose τ range holds those τ (s) is named too
+    (:func:`gyrojax.noise.lines.cause`)."""
+    from gyrojax.noise import lines as lines_mod
+
     n = len(taus_s)
     k = adq["n_outside"]
     if k == 0:
@@ -426,4 +441,7 @@ def verdict_line(taus_s, adq: dict, tau_fit_s: float | None = None, cause: str =
         line += f"; all at or below the fitted range: {cause}"
     elif tau_fit_s and cause and np.any(t_out < tau_fit_s):
         line += f"; partly below the fitted range ({cause})"
+    by_line = lines_mod.cause(list(lines), t_out)
+    if by_line:
+        line += f"; {by_line}"
     return line

@@ -7,9 +7,10 @@ m/s²/√h, Q in m/s and R in m/s²/h as they stand (each is σ in the series' u
 for Q), but N in (m/s²)·√h: the velocity random walk σ(τ)·√τ in m/s/√s is 60 × that in m/s/√h, so
 VRW (m/s/√h) = 3600 × the formula's N. :data:`ACCEL_UNITS` holds that factor and the unit label of each figure;
 :func:`accelerometer_report` applies it to every figure of a report (``terms``, ``derived``, ``model.parameters``,
-``headline`` and the notes made of them) and renames the ADEV arrays' keys (``adev_deg_per_h`` → ``adev_mps2``),
-so that no accelerometer number carries a deg/h label. Conventions §1–§8 fix no accelerometer noise unit; this is
-an extension in SI (§1's internal unit for acceleration), the unit Kalibr's accelerometer figures use.
+``headline``, ``spectral_lines`` and the notes made of them) and renames the ADEV arrays' keys
+(``adev_deg_per_h`` → ``adev_mps2``), so that no accelerometer number carries a deg/h label. Conventions §1–§8 fix
+no accelerometer noise unit; this is an extension in SI (§1's internal unit for acceleration), the unit Kalibr's
+accelerometer figures use.
 
 The noise model itself (``model``, :class:`~gyrojax.noise.spec.NoiseSpec` fields and ``cov``) stays in the
 analysis unit, IEEE 952's fields with m/s² in place of deg/h (``model.rate_unit``), so that its ADEV is that of the
@@ -21,6 +22,7 @@ from __future__ import annotations
 import copy
 
 from gyrojax.noise import headline
+from gyrojax.noise import lines as lines_mod
 
 RATE_UNIT = "m/s^2"
 """The unit of an accelerometer channel's series, ADEV and model ADEV."""
@@ -91,6 +93,7 @@ def accelerometer_report(out: dict) -> dict:
                     p[key] = p[key] * f
             if p.get("ci95") is not None:
                 p["ci95"] = [None if c is None else c * f for c in p["ci95"]]
+    _relabel_lines(out)
     old_notes = {f"{k}: {v['note']}" for k, v in out["headline"].items() if v["note"]}
     model = {k: _scaled(v["model"], k) for k, v in out["headline"].items()}
     curve = {k: _scaled(v["curve"], k) for k, v in out["headline"].items()}
@@ -104,3 +107,21 @@ def accelerometer_report(out: dict) -> dict:
         notes.append(n)
     out["notes"] = notes + [f"{k}: {v['note']}" for k, v in out["headline"].items() if v["note"]]
     return out
+
+
+def _relabel_lines(out: dict) -> None:
+    """The spectral lines of a report (``spectral_lines``, their note and the verdict's words) in m/s²: the
+    amplitude and the Allan deviation peak are in the series unit already (factor 1), only the label changes."""
+    old = out.get("spectral_lines") or []
+    if not old:
+        return
+    new = [{**ln, "unit": RATE_UNIT} for ln in old]
+    search = out.get("spectral_line_search", {})
+    old_note, new_note = lines_mod.note(old, search), lines_mod.note(new, search)
+    out["notes"] = [new_note if n == old_note else n for n in out["notes"]]
+    verdict = out.get("adequacy", {}).get("verdict")
+    if verdict:
+        for a, b in zip(old, new):
+            verdict = verdict.replace(lines_mod.describe(a), lines_mod.describe(b))
+        out["adequacy"]["verdict"] = verdict
+    out["spectral_lines"] = new
