@@ -254,6 +254,34 @@ def test_satterthwaite_dof_from_the_exact_hessian_matches_finite_differences():
     assert np.all(res.dof_eff < 1e4)
 
 
+def test_satterthwaite_reuses_the_noise_fits_curvature():
+    """ν from the curvature campaign_noise stored in the noise model (with_reml_covariance, before the GLS pass
+    moved the residual along the regressors) equals ν from the REML Hessian evaluated again at the final residual:
+    the REML likelihood is invariant to that move, so the two agree to the Hessian's own numerical error (central
+    differences of the gradient at the same step, rounding over ~1e4 rows: far below HESSIAN_STEP² ≈ 1e-8)."""
+    from dataclasses import replace
+
+    from gyrojax.inference.noisefit import noise_scale, satterthwaite_dof
+    from gyrojax.noise.whiten import reml_u_covariance
+
+    truth = {
+        "coefficients": {"D_F": 0.3, "D_I": 0.5, "D_O": -0.2, "D_S": 0.1},
+        "noise": {"white": 0.001, "gauss_markov": [0.05, 300.0]},
+    }
+    records = simulate(plans.eight_position(minutes=5, dt_s=2), truth, seed=3)
+    res = identify.fit(records, list(truth["coefficients"]))
+    assert reml_u_covariance(res.noise[0]) is not None and res.dof_eff is not None
+    camp = Campaign.of(records)
+    lin = linearize(res.model, res.theta, camp)
+    scales = [noise_scale(r, lab) for r, _, lab, _ in lin]
+    bare = [replace(nz, cov=(), cov_names=()) for nz in res.noise]  # no stored curvature: evaluated again
+    assert reml_u_covariance(bare[0]) is None
+    again = satterthwaite_dof(lin, camp, bare, scales)
+    reused = satterthwaite_dof(lin, camp, res.noise, scales)
+    assert np.all(np.isfinite(again)) and np.all(again < 1e4)
+    np.testing.assert_allclose(reused, again, rtol=reml.HESSIAN_STEP**2)
+
+
 def test_gradient_is_finite_across_a_clock_restart_at_short_correlation_time():
     """Stacked records restart their clocks (a step of −span): at τ of about one step, exp(+span/τ) overflows in the
     unselected branch of the filter's φ, which once made the reverse-mode gradient NaN (and stopped the search)."""

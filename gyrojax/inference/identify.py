@@ -203,13 +203,14 @@ def fit_campaign(
             "estimate the noise, so no standard error can be stated; add samples or drop effects"
         )
     _, cov = solve(jw, rw)
+    gls_cov = cov  # unscaled (J̃ᵀJ̃)⁻¹, for the Satterthwaite degrees of freedom
     dof = max(len(rw) - report["rank"], 1)
     chi2 = float(rw @ rw)
     if not known:
         cov = cov * chi2 / dof  # the noise levels were estimated: scale by the pooled reduced χ² of the whitened fit
     dof_eff = None
     if noise == "ar" and any(nz.gauss_markov for nz in noises):
-        dof_eff = satterthwaite_dof(lin, camp, noises, scales)
+        dof_eff = satterthwaite_dof(lin, camp, noises, scales, gls_cov)
         g = small_sample_factor(dof_eff)
         cov = cov * np.outer(g, g)  # Student-t widening: θ̂ ± 2σ keeps its coverage when ν is small
     noise_models = [

@@ -21,6 +21,7 @@ from gyrojax.noise.whiten import (
     fit_noise,
     gls_residual,
     gm_reml,
+    reml_u_covariance,
     with_reml_covariance,
 )
 
@@ -139,13 +140,16 @@ INTERVAL_LEVEL = 0.97725
 """P(Z ≤ 2): standard errors are widened so that θ̂ ± 2σ keeps this one-sided level under Student's t."""
 
 
-def satterthwaite_dof(lin, campaign: Campaign, noises, scales) -> np.ndarray:
+def satterthwaite_dof(lin, campaign: Campaign, noises, scales, gls_cov=None) -> np.ndarray:
     """Effective degrees of freedom ν_k of each coefficient's GLS variance V_k when the Gauss–Markov noise
     parameters are estimated (Satterthwaite 1946, as Giesbrecht & Burns 1985 apply it to REML fits):
     ν_k = 2 V_k² / Var(V̂_k), Var(V̂_k) ≈ ∇V_kᵀ I⁻¹ ∇V_k, with I the REML information of each group's
     u = (log τ, log σ_g², log σ_w²) — half the Hessian of −2 log L_R, by central differences of its exact gradient
-    (:func:`gyrojax.noise.reml.reml_hessian`) — and ∇V_k = −diag(V ∂(J̃ᵀJ̃)/∂u V), the derivative by central
-    differences of the compiled whitened Gram matrix (:func:`gyrojax.noise.reml.whitened_gram`).
+    (:func:`gyrojax.noise.reml.reml_hessian`; the one :func:`campaign_noise` stored in the noise model's ``cov`` is
+    reused, :func:`gyrojax.noise.whiten.reml_u_covariance`: the REML likelihood does not change when the residual
+    moves along the regressors, as it does between the noise fit and the GLS pass) — and
+    ∇V_k = −diag(V ∂(J̃ᵀJ̃)/∂u V), the derivative by central differences of the compiled whitened Gram matrix
+    (:func:`gyrojax.noise.reml.whitened_gram`).
 
     Drift slower than a position is seen only in the scatter of the position means: an 8-position test leaves a
     handful of such degrees of freedom, and a plug-in σ̂ then covers ±2σ in ~0.88 of the cases, not 0.954.
@@ -153,10 +157,14 @@ def satterthwaite_dof(lin, campaign: Campaign, noises, scales) -> np.ndarray:
     readout's known noise (``readout_var``) is in the likelihood and the Gram matrix as in the fit: without it the
     curvature is that of another likelihood, away from its optimum (white-noise polar servo campaigns that kept
     a short-τ drift got ν ≈ 1 and standard errors 7–8 × too wide, issue 28).
+    ``gls_cov``: (J̃ᵀJ̃)⁻¹ of ``lin`` whitened by ``noises`` (:func:`gyrojax.inference.solver.solve`, unscaled), when
+    the caller has it (the fit does), else computed here.
     Returns ν (dimensionless, ≥ 1; ``inf`` where no noise parameter was estimated).
     """
-    rw, jw = stack_whitened(lin, noises, scales)
-    cov = solve(jw, rw)[1]
+    if gls_cov is None:
+        rw, jw = stack_whitened(lin, noises, scales)
+        gls_cov = solve(jw, rw)[1]
+    cov = np.asarray(gls_cov)
     v0 = np.diag(cov)
     var_v = np.zeros_like(v0)
     for idx in noise_groups(campaign):
@@ -167,8 +175,12 @@ def satterthwaite_dof(lin, campaign: Campaign, noises, scales) -> np.ndarray:
         theta = nz.whitening_theta()
         series = reml.prepare(r, j, lab, t, FIT_TAU_SPAN_FRACTION, readout_var=nz.readout_var)
         free = [1, 2] if nz.gm_tau >= 0.999 * series.tau_max else [0, 1, 2]
-        hess = reml.reml_hessian(series, theta)[np.ix_(free, free)]
-        if not np.all(np.isfinite(hess)):
+        kept = reml_u_covariance(nz)  # the curvature campaign_noise computed (with_reml_covariance), if at hand
+        if kept is not None and np.all(np.isfinite(kept[np.ix_(free, free)])):
+            cov_u = kept[np.ix_(free, free)]
+        else:
+            cov_u = _curvature_covariance(series, theta, free)
+        if cov_u is None:
             names = ", ".join(campaign.records[i].name for i in idx)
             warnings.warn(
                 f"the REML curvature of the noise of records {names} is not finite at its estimate"
@@ -178,9 +190,6 @@ def satterthwaite_dof(lin, campaign: Campaign, noises, scales) -> np.ndarray:
                 stacklevel=3,
             )
             continue
-        w, vec = np.linalg.eigh(0.5 * (hess + hess.T))  # −2 log L_R: information = hess / 2
-        w = np.maximum(w, 1e-9 * max(float(w.max()), 1e-300))
-        cov_u = 2.0 * (vec / w) @ vec.T
         full = reml.prepare(r, j, lab, t, FIT_TAU_SPAN_FRACTION, select=False, readout_var=nz.readout_var)
         _, dgram = reml.whitened_gram(full, theta)
         grad = -np.einsum("ki,ija,jk->ka", cov, dgram, cov)[:, free]  # ∂V_k/∂u = −(V ∂A/∂u V)_kk
@@ -188,6 +197,18 @@ def satterthwaite_dof(lin, campaign: Campaign, noises, scales) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         nu = np.where(var_v > 0, 2.0 * v0**2 / var_v, np.inf)
     return np.maximum(np.nan_to_num(nu, nan=np.inf, posinf=np.inf), 1.0)  # ∞ stays ∞ (no noise parameter)
+
+
+def _curvature_covariance(series, theta, free) -> np.ndarray | None:
+    """2H⁻¹ over the ``free`` parameters of u = log(τ, σ_g², σ_w²), H the Hessian of −2 log L_R
+    (:func:`gyrojax.noise.reml.reml_hessian`; information = H / 2), eigenvalues floored as in
+    :func:`gyrojax.noise.whiten.with_reml_covariance`; None when the curvature is not finite."""
+    hess = reml.reml_hessian(series, theta)[np.ix_(free, free)]
+    if not np.all(np.isfinite(hess)):
+        return None
+    w, vec = np.linalg.eigh(0.5 * (hess + hess.T))
+    w = np.maximum(w, 1e-9 * max(float(w.max()), 1e-300))
+    return 2.0 * (vec / w) @ vec.T
 
 
 def small_sample_factor(nu) -> np.ndarray:

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import jax
 import jax.numpy as jnp
@@ -96,10 +97,12 @@ class Series:
     norms: np.ndarray
     readout: object = None  # (σ_q², Δ s) of a servo record's angle readout (:func:`readout_scan`), or None
 
-    @property
+    @cached_property
     def arrays(self):
-        """The array arguments of the jitted functions."""
-        return self.x, self.dt, self.restart, self.mask
+        """The array arguments of the jitted functions, placed on the device once: a search evaluates the
+        likelihood dozens of times on the same arrays, and numpy arguments would be copied to the device at every
+        call (the values are the same)."""
+        return tuple(jax.device_put((self.x, self.dt, self.restart, self.mask)))
 
 
 def series_restarts(times: np.ndarray) -> np.ndarray:

@@ -344,7 +344,28 @@ def with_reml_covariance(nz: NoiseSpec, r, design, labels, times, tau_span_fract
     with np.errstate(invalid="ignore"):
         cov = np.where(np.isfinite(cu), cu * np.outer(g, g), np.inf)
     cov[~np.isfinite(cu) & ~np.eye(3, dtype=bool)] = 0.0
-    return replace(nz, cov=cov, cov_names=("white", "gm1_sigma", "gm1_tau"))
+    return replace(nz, cov=cov, cov_names=REML_COV_NAMES)
+
+
+REML_COV_NAMES = ("white", "gm1_sigma", "gm1_tau")
+"""The natural parameters (N, σ, T) of :func:`with_reml_covariance`'s covariance, in its order."""
+
+
+def reml_u_covariance(nz: NoiseSpec) -> np.ndarray | None:
+    """The covariance 2H⁻¹ (3, 3) in u = log(τ, σ_g², σ_w²) that :func:`with_reml_covariance` computed and stored in
+    natural units, recovered by undoing its delta method (rounding only; a pinned or unknown entry stays infinite),
+    so that its users (the Satterthwaite degrees of freedom, :func:`gyrojax.inference.noisefit.satterthwaite_dof`)
+    need not evaluate the REML curvature again. None when ``nz`` carries no such covariance."""
+    if tuple(nz.cov_names) != REML_COV_NAMES or not nz.gauss_markov:
+        return None
+    (sigma, tau), n = nz.gauss_markov[0], nz.white
+    g = np.array([n / 2.0, sigma / 2.0, tau])
+    if not np.all(np.isfinite(g) & (g > 0)):
+        return None
+    c = np.asarray(nz.cov, dtype=float)
+    order = [2, 1, 0]
+    with np.errstate(invalid="ignore"):
+        return (c / np.outer(g, g))[np.ix_(order, order)]
 
 
 def fit_noise(
