@@ -271,14 +271,14 @@ def _process_cpu(cmd, env=None) -> tuple[float, float, str]:
 def _loop(records, camp):
     """The demo's loop without the report: fit, diagnose, add the picked effect, until adequate. Returns
     (seconds per step, terms per step, verdicts)."""
-    from gyrojax.inference.diagnose import diagnose
+    from gyrojax.inference.diagnose import diagnose, fit_with
     from gyrojax.inference.identify import fit
     from gyrojax.report.demo import START_TERMS, _pick
 
-    terms, times, steps, verdicts = START_TERMS, [], [], []
+    terms, times, steps, verdicts, d = START_TERMS, [], [], [], None
     for _ in range(8):
         t0 = time.perf_counter()
-        res = fit(records, terms, campaign=camp)
+        res = fit(records, terms, campaign=camp) if d is None else fit_with(d, records, terms[-1], campaign=camp)
         d = diagnose(records, terms, result=res, campaign=camp)
         times.append(time.perf_counter() - t0)
         steps.append(terms)

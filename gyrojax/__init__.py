@@ -88,6 +88,7 @@ _FLAT = {
     "Diagnosis": "gyrojax.inference.diagnose:Diagnosis",
     "diagnose": "gyrojax.inference.diagnose:diagnose",
     "add_and_refit": "gyrojax.inference.diagnose:add_and_refit",
+    "fit_with": "gyrojax.inference.diagnose:fit_with",
     "fit_chunked": "gyrojax.inference.bigfit:fit_chunked",
     # noise
     "allan": "gyrojax.noise.allan:allan",
@@ -125,6 +126,7 @@ __all__ = [
     "effects",
     "fit",
     "fit_chunked",
+    "fit_with",
     "frames",
     "kinematics",
     "load_plan",

@@ -12,12 +12,15 @@ time). A failure of the verdict is then a failure of the code, not a draw that w
 The refit's 'adequate' verdict is a null test at family-wise level α = 0.01; the top candidate being the hidden
 effect (or an alias it names) is checked at the one seed."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from gyrojax import load_record, load_records, simulate
 from gyrojax.data import plans
-from gyrojax.inference.diagnose import TIE_RTOL, add_and_refit, diagnose, holm
+from gyrojax.inference.diagnose import add_and_refit, diagnose, holm
+from gyrojax.inference.ranking import TIE_RTOL
 
 from . import independent_writer as iw
 from . import power as pw
@@ -195,7 +198,8 @@ def test_exact_aliases_rank_in_the_conventions_order():
     """Two candidates whose statistics differ only in the last digits (exact aliases: what BLAS threading or a CSV
     round trip changes) rank in the order of effects.names, whichever is a hair stronger; clearly different evidence
     is never reordered."""
-    from gyrojax.inference.diagnose import Candidate, by_evidence
+    from gyrojax.inference.diagnose import Candidate
+    from gyrojax.inference.ranking import by_evidence
     from gyrojax.physics import effects as fx
 
     names = fx.names("sdf-gyro")
@@ -275,3 +279,27 @@ def test_effect_to_add_names_what_the_diagnosis_found_when_nothing_is_proposed()
         )
     with pytest.raises(ModelError, match="the model is adequate"):
         effect_to_add(NS(proposal=None, unexplained=[]))
+
+
+def test_fit_with_reuses_the_vetting_refit_and_equals_a_new_fit():
+    """The next step's fit is the one the diagnosis computed when it vetted the proposal, on the same records: the
+    same object, with the coefficients and standard errors a new ``fit`` gives to the last digit; on other records
+    (a copy) it is fitted anew."""
+    from gyrojax.inference.campaign import Campaign
+    from gyrojax.inference.diagnose import fit_with
+    from gyrojax.inference.identify import fit
+
+    truth = {"coefficients": {**BASE, "D_IS": 0.05}, "noise": {"white": 0.0005}}
+    recs = simulate(plans.tumble(revolutions=1, dt_s=10), truth, seed=11)
+    camp = Campaign.of(recs)
+    d = diagnose(recs, DRIFT4, campaign=camp)
+    assert d.proposal == "D_IS"
+    vetted = next(c for c in d.candidates if c.name == "D_IS").refit[1]
+    reused = fit_with(d, recs, campaign=camp)
+    assert reused is vetted
+    fresh = fit(recs, DRIFT4 + ["D_IS"], campaign=camp)
+    np.testing.assert_array_equal(reused.theta, fresh.theta)
+    np.testing.assert_array_equal(reused.std, fresh.std)
+    other = fit_with(d, [dataclasses.replace(r) for r in recs])
+    assert other is not vetted and other.model.terms == fresh.model.terms
+    np.testing.assert_allclose(other.theta, fresh.theta, rtol=1e-9, atol=1e-12)

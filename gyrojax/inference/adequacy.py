@@ -504,6 +504,7 @@ def vet(
                 c.refused = f"fit refuses it on these records: {e}"
             else:
                 c.rms_after, c.rms_after_refit = f.residual_rms, True
+                c.refit = (tuple(campaign.records), f)  # the next step's fit when this is added (diagnose.fit_with)
                 units = f.units()
                 c.estimate = {
                     k: {"value": f.values[k], "std": f.stds[k], "unit": units[k]} for k in fx.get(c.name).coefficients

@@ -41,6 +41,7 @@ from gyrojax.inference.noisefit import (
     satterthwaite_dof,
     small_sample_factor,
 )
+from gyrojax.inference.ranking import by_evidence
 from gyrojax.inference.result import FitResult
 from gyrojax.inference.separation import separating_plans
 from gyrojax.inference.solver import solve, stack_whitened
@@ -92,6 +93,7 @@ class Candidate:
     implausible: str | None = None  # sizes beyond what real instruments have (gyrojax.physics.plausibility)
     rms_after_refit: bool = False  # rms_after is fit's own after adding the candidate (else the one-step value)
     p_drift_refitted: float | None = None  # slow candidates: p of the Wald test with the drift re-fitted beside them
+    refit: tuple | None = field(default=None, repr=False, compare=False)  # (records, FitResult) of the vetting refit
 
     def to_json(self) -> dict:
         """One entry of ``candidates`` in the diagnosis JSON (conventions §7); ``rms_after_deg_per_h`` is in the
@@ -193,36 +195,6 @@ def holm(p: np.ndarray) -> np.ndarray:
     return adj
 
 
-TIE_RTOL = 1e-9
-"""Relative difference of log10 p below which two candidates tie: exact aliases (D_II and D_SS in a 1 g tumble) have
-equal statistics whose last digits depend on the BLAS threads and on whether the records were read from CSV."""
-
-
-def by_evidence(cands: list, kind: str) -> list:
-    """Candidates by evidence, strongest first: log10 p (never underflows; 0 for the untested), then the statistic;
-    ties within :data:`TIE_RTOL` (exact aliases) in the order of :func:`gyrojax.physics.effects.names`, so that the
-    proposal between aliases is the same on every machine and every reading of the same data."""
-    names = fx.names(kind)
-    order = {n: i for i, n in enumerate(names)}
-    key = lambda c: c.log10_p if c.df > 0 else 0.0
-    ranked = sorted(cands, key=lambda c: (key(c), -c.statistic))
-    out, i = [], 0
-    while i < len(ranked):
-        j = i + 1
-        while j < len(ranked) and _tie(key(ranked[i]), key(ranked[j])):
-            j += 1
-        out += sorted(ranked[i:j], key=lambda c: order.get(c.name, len(order)))
-        i = j
-    return out
-
-
-def _tie(a: float, b: float) -> bool:
-    """Whether two log10 p tie (:data:`TIE_RTOL`); an underflowed −inf ties only with −inf."""
-    if not (math.isfinite(a) and math.isfinite(b)):
-        return a == b
-    return abs(b - a) <= TIE_RTOL * max(abs(a), 1.0)
-
-
 def _basis(a: np.ndarray, tol: float = 1e-9) -> np.ndarray:
     """Orthonormal basis of the column space of ``a`` (rank-tolerant)."""
     if a.shape[1] == 0:
@@ -291,7 +263,8 @@ def _score(lin, noises, model: Model, full: Model, cand, p0: int, rms_now: float
 
     On the tall whitened system itself, not on the triangle of its QR (:class:`gyrojax.inference.adequacy.
     WhitenedSystem`), though the statistics are the same to rounding: exact aliases (D_II and D_SS in a 1 g tumble)
-    have equal statistics, and their ranking, so the proposal, is decided by the last digits."""
+    have equal statistics to the last digits, which :func:`gyrojax.inference.ranking.by_evidence` then ranks in the
+    conventions' order."""
     sl = full.slices()
     rw, jw = _stack_whitened(lin, noises)
     residue = residue_columns(jw)  # floating-point residue (cos 90° = 6e-17): not excited, never estimated
@@ -571,6 +544,21 @@ def effect_to_add(d: Diagnosis, effect: str | None = None) -> str:
     return d.proposal
 
 
+def fit_with(d: Diagnosis, records, effect: str | None = None, campaign: Campaign | None = None) -> FitResult:
+    """The fit of the diagnosed model with ``effect`` added (default: the proposal, :func:`effect_to_add`), exactly
+    ``fit(records, terms + (effect,), allow_aliases=False)``: the one the diagnosis already computed when it vetted
+    that candidate on the same records (:func:`gyrojax.inference.adequacy.vet`, the same call), else a new fit. The
+    main loop's next step then costs one fit less."""
+    effect = effect_to_add(d, effect)
+    camp = campaign if campaign is not None else Campaign.of(records)
+    for c in d.candidates:
+        if c.name == effect and c.refit is not None:
+            done_on, res = c.refit
+            if len(done_on) == len(camp.records) and all(a is b for a, b in zip(done_on, camp.records)):
+                return res
+    return fit(camp.records, tuple(d.fit.model.terms) + (effect,), campaign=camp, allow_aliases=False)
+
+
 def add_and_refit(records, terms, effect: str | None = None, *, diagnosis: Diagnosis | None = None, **kw):
     """Add ``effect`` (default: the top deterministic candidate) to ``terms``, refit, and diagnose again.
 
@@ -580,6 +568,6 @@ def add_and_refit(records, terms, effect: str | None = None, *, diagnosis: Diagn
     d = diagnosis or diagnose(camp.records, terms, campaign=camp, **kw)
     effect = effect_to_add(d, effect)
     new_terms = tuple(d.fit.model.terms) + (effect,)
-    new_fit = fit(camp.records, new_terms, campaign=camp, allow_aliases=False)
+    new_fit = fit_with(d, camp.records, effect, campaign=camp)
     new_d = diagnose(camp.records, new_terms, campaign=camp, result=new_fit, **kw)
     return new_terms, new_fit, new_d, effect

@@ -30,7 +30,7 @@ from gyrojax.data import plans
 from gyrojax.data.records import save_record
 from gyrojax.errors import GyrojaxError
 from gyrojax.inference.campaign import Campaign
-from gyrojax.inference.diagnose import diagnose
+from gyrojax.inference.diagnose import diagnose, fit_with
 from gyrojax.inference.identify import fit
 from gyrojax.protocol import atomic_write_text
 from gyrojax.simulation.simulator import simulate
@@ -106,10 +106,11 @@ def run_demo(
         for r in records:
             save_record(r, tmp / "records")
         steps, figures, sections = [], [], []
-        terms = START_TERMS
+        terms, d = START_TERMS, None
         for k in range(8):
             t_step = time.time()
-            res = fit(records, terms, campaign=camp)
+            # the next fit: the one the diagnosis vetted, when it is the effect added (fit_with), else a new one
+            res = fit(records, terms, campaign=camp) if d is None else fit_with(d, records, terms[-1], campaign=camp)
             d = diagnose(records, terms, result=res, campaign=camp)
             t_step = time.time() - t_step  # the loop's own cost: fit + diagnose, without the figures
             label = "model " + str(k) + ": " + ", ".join(terms)
