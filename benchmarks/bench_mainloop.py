@@ -40,13 +40,14 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
+
+from benchmarks.timing import run_process
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -254,18 +255,8 @@ def _process(cmd, env=None) -> tuple[float, str]:
 
 
 def _process_cpu(cmd, env=None) -> tuple[float, float, str]:
-    """(wall seconds, CPU seconds of the child: user + sys, stdout) of one run of ``cmd``; the CPU reading is the
-    one a loaded machine disturbs least."""
-    import resource
-
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t0 = time.perf_counter()
-    out = subprocess.run(cmd, capture_output=True, text=True, env=env)
-    dt = time.perf_counter() - t0
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if out.returncode not in (0, 1):
-        raise RuntimeError(f"{cmd[:4]} failed: {out.stderr[-2000:]}")
-    return dt, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), out.stdout
+    """:func:`benchmarks.timing.run_process`; exit 1 (a diagnosis that finds a missing effect) is an answer."""
+    return run_process(cmd, env, ok=(0, 1))
 
 
 def _loop(records, camp):

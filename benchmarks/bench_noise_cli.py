@@ -32,13 +32,14 @@ import contextlib
 import io
 import json
 import os
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
+
+from benchmarks.timing import run_process
 
 ALLANTOOLS_PROCESS = r"""
 import json, math, sys
@@ -70,12 +71,8 @@ def _stats(ts) -> str:
 
 
 def _process(cmd, env=None) -> float:
-    t = time.perf_counter()
-    out = subprocess.run(cmd, capture_output=True, text=True, env=env)
-    dt = time.perf_counter() - t
-    if out.returncode != 0:
-        raise SystemExit(f"{' '.join(map(str, cmd[:4]))} …: exit {out.returncode}: {out.stderr.strip()[-400:]}")
-    return dt
+    """Wall seconds of ``cmd`` as a fresh process (:func:`benchmarks.timing.run_process`)."""
+    return run_process(cmd, env)[0]
 
 
 def main(argv=None):

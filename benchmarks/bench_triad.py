@@ -27,7 +27,6 @@ from __future__ import annotations
 import argparse
 import math
 import os
-import subprocess
 import sys
 import tempfile
 import time
@@ -35,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.timing import run_process
 from gyrojax.data.importers import import_imucal
 from gyrojax.inference.triad import fit_triad
 from gyrojax.montecarlo.triad import EARTH_MODES, ferraris_coverage, multiposition_coverage
@@ -82,11 +82,8 @@ def _timed(f) -> tuple[float, float]:
 
 
 def _process(cmd, env=None) -> float:
-    t0 = time.perf_counter()
-    out = subprocess.run(cmd, capture_output=True, text=True, env=env)
-    if out.returncode != 0:
-        raise RuntimeError(f"{cmd[:4]} failed: {out.stderr[-2000:]}")
-    return time.perf_counter() - t0
+    """Wall seconds of ``cmd`` as a fresh process (:func:`benchmarks.timing.run_process`)."""
+    return run_process(cmd, env)[0]
 
 
 def hand_session_speed(repeat: int) -> None:

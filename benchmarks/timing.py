@@ -1,0 +1,20 @@
+"""Timing a command as a fresh process, shared by the benchmarks: wall seconds and the child's CPU seconds."""
+
+from __future__ import annotations
+
+import resource
+import subprocess
+import time
+
+
+def run_process(cmd, env=None, ok=(0,)) -> tuple[float, float, str]:
+    """(wall seconds, CPU seconds of the child: user + sys, stdout) of one run of ``cmd``; the CPU reading is the
+    one a loaded machine disturbs least. An exit code not in ``ok`` raises, with the end of its stderr."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    out = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    dt = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if out.returncode not in ok:
+        raise RuntimeError(f"{' '.join(map(str, cmd[:4]))} …: exit {out.returncode}: {out.stderr[-2000:]}")
+    return dt, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), out.stdout
