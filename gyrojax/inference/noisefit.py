@@ -21,6 +21,7 @@ from gyrojax.noise.whiten import (
     fit_noise,
     gls_residual,
     gm_reml,
+    reml_curvature_covariance,
     reml_u_covariance,
     with_reml_covariance,
 )
@@ -179,7 +180,7 @@ def satterthwaite_dof(lin, campaign: Campaign, noises, scales, gls_cov=None) -> 
         if kept is not None and np.all(np.isfinite(kept[np.ix_(free, free)])):
             cov_u = kept[np.ix_(free, free)]
         else:
-            cov_u = _curvature_covariance(series, theta, free)
+            cov_u = reml_curvature_covariance(series, theta, free)
         if cov_u is None:
             names = ", ".join(campaign.records[i].name for i in idx)
             warnings.warn(
@@ -197,18 +198,6 @@ def satterthwaite_dof(lin, campaign: Campaign, noises, scales, gls_cov=None) -> 
     with np.errstate(divide="ignore", invalid="ignore"):
         nu = np.where(var_v > 0, 2.0 * v0**2 / var_v, np.inf)
     return np.maximum(np.nan_to_num(nu, nan=np.inf, posinf=np.inf), 1.0)  # ∞ stays ∞ (no noise parameter)
-
-
-def _curvature_covariance(series, theta, free) -> np.ndarray | None:
-    """2H⁻¹ over the ``free`` parameters of u = log(τ, σ_g², σ_w²), H the Hessian of −2 log L_R
-    (:func:`gyrojax.noise.reml.reml_hessian`; information = H / 2), eigenvalues floored as in
-    :func:`gyrojax.noise.whiten.with_reml_covariance`; None when the curvature is not finite."""
-    hess = reml.reml_hessian(series, theta)[np.ix_(free, free)]
-    if not np.all(np.isfinite(hess)):
-        return None
-    w, vec = np.linalg.eigh(0.5 * (hess + hess.T))
-    w = np.maximum(w, 1e-9 * max(float(w.max()), 1e-300))
-    return 2.0 * (vec / w) @ vec.T
 
 
 def small_sample_factor(nu) -> np.ndarray:

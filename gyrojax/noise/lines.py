@@ -90,9 +90,10 @@ def line_avar_envelope(f0_hz: float, amplitude: float, taus_s) -> np.ndarray:
     move with f₀) count as reached."""
     taus = np.asarray(taus_s, float)
     x = math.pi * f0_hz * taus
-    rising = amplitude**2 * np.sin(np.minimum(x, X_PEAK)) ** 4 / np.minimum(x, X_PEAK) ** 2
+    tau_peak = X_PEAK / (math.pi * f0_hz)
+    rising = line_avar(f0_hz, amplitude, np.minimum(taus, tau_peak))
     # beyond the peak the local maxima of sin⁴x/x² lie at x ≈ (k + 1/2)π; bound by A²/x², capped at the peak value
-    falling = np.minimum(amplitude**2 / np.maximum(x, 1e-300) ** 2, amplitude**2 * math.sin(X_PEAK) ** 4 / X_PEAK**2)
+    falling = np.minimum(amplitude**2 / np.maximum(x, 1e-300) ** 2, line_avar(f0_hz, amplitude, tau_peak))
     return np.where(x <= X_PEAK, rising, falling)
 
 
@@ -102,11 +103,11 @@ def tau_reach(f0_hz: float, amplitude: float, taus_s, avar, edf) -> list | None:
     (series unit squared, ``edf`` its equivalent degrees of freedom); None where it exceeds it at no τ."""
     taus = np.asarray(taus_s, float)
     se = np.asarray(avar, float) * np.sqrt(2.0 / np.asarray(edf, float))
-    above = line_avar_envelope(f0_hz, amplitude, taus) > se
+    env = line_avar_envelope(f0_hz, amplitude, taus)
+    above = env > se
     if not above.any():
         return None
-    ratio = line_avar_envelope(f0_hz, amplitude, taus) / se
-    i = int(np.argmax(ratio))
+    i = int(np.argmax(env / se))
     lo = i
     while lo > 0 and above[lo - 1]:
         lo -= 1
@@ -219,13 +220,13 @@ def ratio_sf(r: float, mu: np.ndarray, nu_l: float) -> float:
     def k2(s):
         return float(np.sum((mu / (1.0 - mu * s)) ** 2)) + r**2 / b / (1.0 + r * s / b) ** 2
 
-    lo, hi = -b / r * (1 - 1e-12), (1.0 / mu.max()) * (1 - 1e-12)
+    hi = (1.0 / mu.max()) * (1 - 1e-12)  # K is finite for −b/r < s < 1/max μ; the root is in (0, hi)
     if k1(0.0) >= 0.0:  # the mean of Y ≥ 0: not in the upper tail
         return 1.0
     s = brentq(k1, 1e-300, hi, xtol=1e-14, maxiter=500)
     w = math.sqrt(max(2.0 * (0.0 - k0(s)), 0.0))
     u = s * math.sqrt(k2(s))
-    if w < 1e-6 or lo >= 0:
+    if w < 1e-6:  # the saddlepoint at the mean: the formula's limit is ½
         return 0.5
     return float(min(1.0, max(norm.sf(w) + norm.pdf(w) * (1.0 / u - 1.0 / w), 0.0)))
 

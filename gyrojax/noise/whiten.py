@@ -332,15 +332,11 @@ def with_reml_covariance(nz: NoiseSpec, r, design, labels, times, tau_span_fract
     free = [1, 2] if theta[0] >= 0.999 * series.tau_max else [0, 1, 2]
     cov_u = np.full((3, 3), 0.0)
     np.fill_diagonal(cov_u, np.inf)
-    hess = reml.reml_hessian(series, theta)[np.ix_(free, free)]
-    if np.all(np.isfinite(hess)):
-        w, vec = np.linalg.eigh(0.5 * (hess + hess.T))
-        w = np.maximum(w, 1e-9 * max(float(w.max()), 1e-300))
-        cov_u[np.ix_(free, free)] = 2.0 * (vec / w) @ vec.T
-    (sigma, tau), n = nz.gauss_markov[0], nz.white
-    g = np.array([n / 2.0, sigma / 2.0, tau])  # natural (white, gm1_sigma, gm1_tau) per u (w, g, τ)
-    order = [2, 1, 0]
-    cu = cov_u[np.ix_(order, order)]
+    cu_free = reml_curvature_covariance(series, theta, free)
+    if cu_free is not None:
+        cov_u[np.ix_(free, free)] = cu_free
+    g = _delta_factors(nz)
+    cu = cov_u[np.ix_(_U_ORDER, _U_ORDER)]
     with np.errstate(invalid="ignore"):
         cov = np.where(np.isfinite(cu), cu * np.outer(g, g), np.inf)
     cov[~np.isfinite(cu) & ~np.eye(3, dtype=bool)] = 0.0
@@ -350,6 +346,27 @@ def with_reml_covariance(nz: NoiseSpec, r, design, labels, times, tau_span_fract
 REML_COV_NAMES = ("white", "gm1_sigma", "gm1_tau")
 """The natural parameters (N, σ, T) of :func:`with_reml_covariance`'s covariance, in its order."""
 
+_U_ORDER = [2, 1, 0]
+"""u = (log τ, log σ_g², log σ_w²) reordered as the natural (white, gm1_sigma, gm1_tau), and back."""
+
+
+def _delta_factors(nz: NoiseSpec) -> np.ndarray:
+    """∂(N, σ, T)/∂(u_w, u_g, u_τ) on the diagonal: (N/2, σ/2, T), the delta method of :func:`with_reml_covariance`."""
+    (sigma, tau), n = nz.gauss_markov[0], nz.white
+    return np.array([n / 2.0, sigma / 2.0, tau])
+
+
+def reml_curvature_covariance(series, theta, free) -> np.ndarray | None:
+    """2H⁻¹ over the ``free`` entries of u = log(τ, σ_g², σ_w²), H the Hessian of −2 log L_R at ``theta``
+    (:func:`gyrojax.noise.reml.reml_hessian`; information = H / 2), its eigenvalues floored at 1e-9 of the largest;
+    None when the curvature is not finite."""
+    hess = reml.reml_hessian(series, theta)[np.ix_(free, free)]
+    if not np.all(np.isfinite(hess)):
+        return None
+    w, vec = np.linalg.eigh(0.5 * (hess + hess.T))
+    w = np.maximum(w, 1e-9 * max(float(w.max()), 1e-300))
+    return 2.0 * (vec / w) @ vec.T
+
 
 def reml_u_covariance(nz: NoiseSpec) -> np.ndarray | None:
     """The covariance 2H⁻¹ (3, 3) in u = log(τ, σ_g², σ_w²) that :func:`with_reml_covariance` computed and stored in
@@ -358,14 +375,12 @@ def reml_u_covariance(nz: NoiseSpec) -> np.ndarray | None:
     need not evaluate the REML curvature again. None when ``nz`` carries no such covariance."""
     if tuple(nz.cov_names) != REML_COV_NAMES or not nz.gauss_markov:
         return None
-    (sigma, tau), n = nz.gauss_markov[0], nz.white
-    g = np.array([n / 2.0, sigma / 2.0, tau])
+    g = _delta_factors(nz)
     if not np.all(np.isfinite(g) & (g > 0)):
         return None
     c = np.asarray(nz.cov, dtype=float)
-    order = [2, 1, 0]
     with np.errstate(invalid="ignore"):
-        return (c / np.outer(g, g))[np.ix_(order, order)]
+        return (c / np.outer(g, g))[np.ix_(_U_ORDER, _U_ORDER)]
 
 
 def fit_noise(
