@@ -175,9 +175,8 @@ import collections, json, sys, time
 sys.path.insert(0, sys.argv[1])
 t0 = time.perf_counter()
 import gyrojax
-from gyrojax.cli.app import enable_compilation_cache, single_threaded_blas
+from gyrojax.cli.app import enable_compilation_cache
 enable_compilation_cache()
-single_threaded_blas()
 from jax._src import monitoring
 from benchmarks.bench_mainloop import _campaign
 from gyrojax.inference.diagnose import diagnose

@@ -5,7 +5,8 @@ from pathlib import Path
 import pytest
 
 import gyrojax  # noqa: F401  (x64 is switched on by the package, once)
-from gyrojax.cli.app import enable_compilation_cache, single_threaded_blas
+from gyrojax.cli.app import enable_compilation_cache
+from gyrojax.threads import single_threaded_blas
 
 single_threaded_blas()  # two test workers on two cores: BLAS threads would only spin against each other
 # JAX's persistent compilation cache for the whole session, kept in the repository's pytest cache (not the user's):

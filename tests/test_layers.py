@@ -3,8 +3,8 @@
 The layers, bottom first (a unit may import only from tiers below its own; units of one tier are independent)::
 
     errors                                  the exception types
-    units, kinds, protocol, (package root)  unit conversions; instrument-kind names; files and the result protocol;
-                                            the root's own constants (``__version__``)
+    units, kinds, protocol, threads,        unit conversions; instrument-kind names; files and the result protocol;
+    (package root)                          BLAS threads; the root's own constants (``__version__``)
     physics, noise                          the measurement model; noise descriptions, estimators and processes
     data                                    records, truth files, plans (data reads physics names and noise specs)
     dynamics, seeds                         ZOH and the loops; the source books' closed forms
@@ -38,7 +38,7 @@ PACKAGE = "gyrojax"
 
 LAYERS = (
     ("errors",),
-    ("units", "kinds", "protocol", ""),  # "" is the package root (gyrojax/__init__.py)
+    ("units", "kinds", "protocol", "threads", ""),  # "" is the package root (gyrojax/__init__.py)
     ("physics", "noise"),
     ("data",),
     ("dynamics", "seeds"),

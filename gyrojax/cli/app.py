@@ -22,6 +22,7 @@ import sys
 
 from gyrojax.cli.args import UsageError
 from gyrojax.errors import GyrojaxError
+from gyrojax.threads import single_threaded_blas
 
 
 class _Parser(argparse.ArgumentParser):
@@ -238,21 +239,6 @@ def enable_compilation_cache() -> None:
     else:  # JAX reads them when (and if) a command imports it: `gyrojax plans` and `import` never do
         for name, value in settings.items():
             os.environ[name.upper()] = str(value)
-
-
-def single_threaded_blas() -> None:
-    """One BLAS thread for this process (unless ``GYROJAX_BLAS_THREADS`` says otherwise). The linear algebra here
-    is on tall, narrow matrices (samples × regressors), where threads gain little, and on a busy machine the
-    threads of OpenBLAS spin against other processes: ``gyrojax diagnose`` of the demo campaign took 9.7–15 s with
-    the default threads beside one other busy process, 5.0–5.6 s with one (``benchmarks/bench_mainloop.py``)."""
-    n = int(os.environ.get("GYROJAX_BLAS_THREADS", "1") or 1)
-    # BLAS libraries loaded later (numpy's, scipy's: the commands import them lazily) read these when they load
-    for var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS"):
-        os.environ[var] = str(n)
-    if "numpy" in sys.modules:  # and the ones already loaded are limited now
-        from threadpoolctl import threadpool_limits
-
-        threadpool_limits(n, user_api="blas")
 
 
 def main(argv=None) -> int:

@@ -52,6 +52,7 @@ from gyrojax.noise.spec import NoiseSpec
 from gyrojax.noise.whiten import fit_noise, gm_reml, whiten
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model
+from gyrojax.threads import narrow_blas
 
 SLOW = ("bias_trend", "bias_temperature")
 """Candidates that vary slowly in time and so compete with long-memory drift for the same residual structure. They
@@ -367,6 +368,7 @@ def wald_beside_drift(camp: Campaign, lin, cols: np.ndarray, p0: int):
     return float(stats.f.sf(stat / k, k, float(np.min(nus[ok])))), beta, sd * small_sample_factor(nus)
 
 
+@narrow_blas
 def diagnose(
     records,
     terms=None,
@@ -559,6 +561,7 @@ def fit_with(d: Diagnosis, records, effect: str | None = None, campaign: Campaig
     return fit(camp.records, tuple(d.fit.model.terms) + (effect,), campaign=camp, allow_aliases=False)
 
 
+@narrow_blas
 def add_and_refit(records, terms, effect: str | None = None, *, diagnosis: Diagnosis | None = None, **kw):
     """Add ``effect`` (default: the top deterministic candidate) to ``terms``, refit, and diagnose again.
 

@@ -56,6 +56,7 @@ from gyrojax.noise import reml
 from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model
+from gyrojax.threads import narrow_blas
 
 DEFAULT_TERMS = {
     fx.SDF: ("D_F", "D_I", "D_O", "D_S"),
@@ -71,6 +72,7 @@ def _is_triad(records) -> bool:
     return isinstance(recs, (list, tuple)) and any(isinstance(r, Record) and r.kind == TRIAD_KIND for r in recs)
 
 
+@narrow_blas
 def fit(
     records,
     terms=None,

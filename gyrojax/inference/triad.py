@@ -74,6 +74,7 @@ from gyrojax.inference.triad_rows import (  # noqa: F401  (the rows' functions, 
 )
 from gyrojax.noise.whiten import pooled_autocovariance
 from gyrojax.physics import triad as tp
+from gyrojax.threads import narrow_blas
 
 DEFAULT_STATIC_TERMS = ("D_F", "D_I", "D_O", "D_S")
 DEFAULT_ROTATION_TERMS = DEFAULT_STATIC_TERMS + ("sf_error", "ia_misalignment")
@@ -121,6 +122,7 @@ def is_triad_input(records) -> bool:
     return bool(recs) and all(isinstance(r, Record) and r.kind == TRIAD_KIND for r in recs)
 
 
+@narrow_blas
 def fit_triad(
     records,
     terms=None,

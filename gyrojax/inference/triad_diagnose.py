@@ -51,6 +51,7 @@ from gyrojax.inference.triad_candidates import (
 from gyrojax.inference.triad_components import Group, estimate_components, reml_objective
 from gyrojax.physics import plausibility
 from gyrojax.physics import triad as tp
+from gyrojax.threads import narrow_blas
 
 NOISE_PROCESSES = ("pose_bias_scatter", "move_angle_noise")
 """Variance components between segments (:mod:`gyrojax.inference.triad_components`), tested as noise."""
@@ -397,6 +398,7 @@ def _implausible(c: Candidate, overrides) -> str | None:
     return plausibility.implausible(est, overrides, kind="imu-triad")
 
 
+@narrow_blas
 def diagnose_triad(
     records,
     terms=None,
