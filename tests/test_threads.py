@@ -69,3 +69,67 @@ def test_entry_points_are_wrapped():
     for f in (identify.fit, diagnose.diagnose, diagnose.add_and_refit):
         assert f.__wrapped__.__name__ == f.__name__  # functools.wraps: docstring and signature are the function's
         assert f.__doc__ == f.__wrapped__.__doc__
+
+
+def test_parallel_map_keeps_order_and_raises(monkeypatch):
+    monkeypatch.setenv(threads.WORKERS_ENV, "2")
+    assert threads.parallel_map(lambda x: x * x, range(7)) == [x * x for x in range(7)]
+
+    def fails(x):
+        if x == 3:
+            raise KeyError(x)
+        return x
+
+    with pytest.raises(KeyError):
+        threads.parallel_map(fails, range(6))
+    assert threads.parallel_map(fails, []) == []
+
+
+def test_nested_calls_run_in_the_worker(monkeypatch):
+    """A parallel_map inside a worker runs there, one item after the other: two workers each waiting for an inner
+    item that no free worker could take would wait for ever."""
+    monkeypatch.setenv(threads.WORKERS_ENV, "2")
+    import threading
+
+    def outer(i):
+        me = threading.current_thread()
+        inner = threads.parallel_map(lambda k: (threading.current_thread() is me, i * 10 + k), range(3))
+        return inner
+
+    out = threads.parallel_map(outer, range(4))
+    assert [[v for _, v in row] for row in out] == [[i * 10 + k for k in range(3)] for i in range(4)]
+    assert all(same for row in out for same, _ in row)
+
+
+def test_workers_from_the_environment(monkeypatch):
+    monkeypatch.setenv(threads.WORKERS_ENV, "3")
+    assert threads.workers() == 3
+    monkeypatch.delenv(threads.WORKERS_ENV)
+    assert 1 <= threads.workers() <= threads.MAX_WORKERS
+    monkeypatch.setenv(threads.WORKERS_ENV, "none")
+    with pytest.raises(ValueError, match="GYROJAX_WORKERS"):
+        threads.workers()
+
+
+def test_noise_fits_on_workers_are_the_serial_ones(monkeypatch):
+    """The REML fits of separate series, side by side on two workers, are bit for bit the fits one after the other
+    (each is the same computation; only when it runs changes)."""
+    from gyrojax.noise import reml
+
+    rng = np.random.default_rng(5)
+    series = []
+    for k in range(3):
+        n = 600 + 50 * k
+        t = np.arange(n) * 1.0
+        g = np.zeros(n)
+        for i in range(1, n):
+            g[i] = 0.97 * g[i - 1] + 0.3 * rng.normal()
+        r = g + rng.normal(size=n)
+        series.append(reml.prepare(r, np.ones((n, 1)), np.zeros(n, int), t, 4.0))
+    start = (20.0, 1.0, 1.0)
+    monkeypatch.setenv(threads.WORKERS_ENV, "1")
+    serial = [reml.fit(s, start) for s in series]
+    monkeypatch.setenv(threads.WORKERS_ENV, "2")
+    side = threads.parallel_map(lambda s: reml.fit(s, start), series)
+    for a, b in zip(serial, side):
+        assert np.array_equal(a[0], b[0]) and a[1] == b[1] and a[2] == b[2] and a[3] == b[3]

@@ -52,7 +52,7 @@ from gyrojax.noise.spec import NoiseSpec
 from gyrojax.noise.whiten import fit_noise, gm_reml, whiten
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model
-from gyrojax.threads import narrow_blas
+from gyrojax.threads import narrow_blas, parallel_map
 
 SLOW = ("bias_trend", "bias_temperature")
 """Candidates that vary slowly in time and so compete with long-memory drift for the same residual structure. They
@@ -247,15 +247,17 @@ def _noise_models(lin, cols, starts=None, readouts=None) -> list:
     r_all = np.concatenate([r / s for (r, *_), s in zip(lin, scales)])
     ub = _basis(np.concatenate(blocks, axis=0))
     res = r_all - ub @ (ub.T @ r_all)
-    out, i0 = [], 0
-    for (r, j, lab, t), s, st, q in zip(lin, scales, starts, readouts):
-        n = len(r)
+    bounds = np.cumsum([0] + [len(r) for r, *_ in lin])
+
+    def one(i):  # the records' fits are independent: they run side by side (gyrojax.threads.parallel_map)
+        r, j, lab, t = lin[i]
+        s, st = scales[i], starts[i]
         design = np.column_stack([j[:, cols], _nuisance(t)])
         start = st if st is not None and st.gauss_markov else None
-        nz = fit_noise(res[i0 : i0 + n] * s, lab, t, design=design, start=start, readout_var=q)
-        out.append(nz if nz.innovation_std > 0 else NoiseSpec.from_sample_variances(s * s, reml.sample_interval(t)))
-        i0 += n
-    return out
+        nz = fit_noise(res[bounds[i] : bounds[i + 1]] * s, lab, t, design=design, start=start, readout_var=readouts[i])
+        return nz if nz.innovation_std > 0 else NoiseSpec.from_sample_variances(s * s, reml.sample_interval(t))
+
+    return parallel_map(one, range(n_rec))
 
 
 def _score(lin, noises, model: Model, full: Model, cand, p0: int, rms_now: float):

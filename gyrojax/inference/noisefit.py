@@ -25,6 +25,7 @@ from gyrojax.noise.whiten import (
     reml_u_covariance,
     with_reml_covariance,
 )
+from gyrojax.threads import parallel_map
 
 
 def noise_groups(campaign: Campaign) -> list[list[int]]:
@@ -70,8 +71,8 @@ def campaign_noise(lin, campaign: Campaign) -> list:
     :class:`~gyrojax.noise.spec.NoiseSpec` per record, white + Gauss–Markov (with the REML covariance of N, σ, T) or
     AR (per-sample variances in the output unit squared, τ in s); records of one group share the same object.
     """
-    noises = [None] * len(lin)
-    for idx in noise_groups(campaign):
+
+    def one(idx):  # the groups' fits are independent: they run side by side (gyrojax.threads.parallel_map)
         r, j, lab, t = group_series(lin, idx)
         q = group_readout_variance(campaign, idx)
         kw = {"tau_span_fraction": FIT_TAU_SPAN_FRACTION, "neutral_start": True, "prefer_gm": True, "readout_var": q}
@@ -80,6 +81,11 @@ def campaign_noise(lin, campaign: Campaign) -> list:
             nz = _white_unless_drift(r, j, lab, t, nz)
         if nz.gauss_markov:
             nz = with_reml_covariance(nz, r, j, lab, t, FIT_TAU_SPAN_FRACTION)
+        return nz
+
+    groups = noise_groups(campaign)
+    noises = [None] * len(lin)
+    for idx, nz in zip(groups, parallel_map(one, groups)):
         for i in idx:
             noises[i] = nz
     return noises

@@ -22,6 +22,7 @@ import hashlib
 import importlib.util
 import io
 import re
+import threading
 import warnings
 from functools import lru_cache
 from pathlib import Path
@@ -44,6 +45,7 @@ KEEP_OTHER_SOURCES = 2
 _NAMED = re.compile(rf"^.+-(?P<digest>[0-9a-f]{{{DIGEST_CHARS}}})-[0-9a-f]{{32}}\.(bin|npz)$")
 _UNNAMED = re.compile(r"^.+-[0-9a-f]{32}\.(bin|npz)$")  # the names before the digest was in them
 _PRUNED: set = set()
+_LOCK = threading.RLock()  # a trace loaded (and the folder pruned) by one thread at a time
 
 
 @lru_cache(maxsize=1)
@@ -99,9 +101,10 @@ def prune(where: Path) -> list[Path]:
 
 def _path(where: Path, name: str, key: str, suffix: str) -> Path:
     """The file of a kept trace or array set; the folder is pruned (:func:`prune`) at its first use in a process."""
-    if where not in _PRUNED:
-        _PRUNED.add(where)
-        prune(where)
+    with _LOCK:
+        if where not in _PRUNED:
+            _PRUNED.add(where)
+            prune(where)
     return where / f"{name}-{source_digest()[:DIGEST_CHARS]}-{key}{suffix}"
 
 
@@ -161,8 +164,11 @@ class Kept:
         key = (where, tree, tuple((x.shape, str(x.dtype)) for x in leaves))
         call = self._calls.get(key)
         if call is None:
-            specs = [jax.ShapeDtypeStruct(x.shape, x.dtype) for x in leaves]
-            call = self._calls[key] = jax.jit(self._load(where, tree, specs).call)
+            with _LOCK:  # worker threads (gyrojax.threads.parallel_map) at a new shape: one loads, the others wait
+                call = self._calls.get(key)
+                if call is None:
+                    specs = [jax.ShapeDtypeStruct(x.shape, x.dtype) for x in leaves]
+                    call = self._calls[key] = jax.jit(self._load(where, tree, specs).call)
         return call(*leaves)
 
 

@@ -39,6 +39,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyrojax.noise.kept import Kept
+from gyrojax.threads import parallel_map
 
 RANK_TOL = 1e-7
 """A regressor whose normalised component orthogonal to the previous regressors is below this is not estimated."""
@@ -465,11 +466,11 @@ def minimise(s: Series, u0, reml: bool, max_iter: int = 80, ftol: float = 1e-10)
     f, g = float(f), np.asarray(g)
     # initial curvature: differences of the exact gradient (3 evaluations; the Hessian's own compiled function is
     # kept for where the curvature itself is the result), eigenvalues made positive
-    h0 = np.zeros((3, 3))
-    for k in range(3):
-        e = np.zeros(3)
-        e[k] = 1e-3 if u[k] + 1e-3 <= hi[k] else -1e-3
-        h0[:, k] = (np.asarray(value_and_grad(u + e, *arrays, c, s.readout)[1]) - g) / e[k]
+    steps = np.where(u + 1e-3 <= hi, 1e-3, -1e-3)
+    grads = parallel_map(
+        lambda k: np.asarray(value_and_grad(u + steps[k] * np.eye(3)[k], *arrays, c, s.readout)[1]), range(3)
+    )
+    h0 = np.column_stack([(gk - g) / steps[k] for k, gk in enumerate(grads)])
     if not np.all(np.isfinite(h0)):  # a difference reached a non-finite value: start from a scaled identity
         h0 = np.eye(3) * max(float(np.abs(np.nan_to_num(g)).max()), 1.0)
     ev, vec = np.linalg.eigh(0.5 * (h0 + h0.T))
@@ -549,8 +550,13 @@ def values(s: Series, us, reml: bool) -> np.ndarray:
     first is read back, so the device never waits for the host between them. ``us`` in the units of
     :func:`neg2_loglik`'s noise parameters."""
     c = 1.0 if reml else 0.0
-    terms = [likelihood_terms_jit(np.exp(np.asarray(u, dtype=float)), *s.arrays, s.readout) for u in us]
-    return np.array([float(logs) + float(quad) + c * float(logdet) for logs, quad, logdet in terms])
+    arrays = s.arrays
+
+    def one(u):
+        logs, quad, logdet = likelihood_terms_jit(np.exp(np.asarray(u, dtype=float)), *arrays, s.readout)
+        return float(logs) + float(quad) + c * float(logdet)
+
+    return np.array(parallel_map(one, us))
 
 
 def fit(s: Series, start, reml: bool = True, coarse: bool = False):
@@ -570,12 +576,9 @@ def reml_hessian(s: Series, theta, step: float = HESSIAN_STEP) -> np.ndarray:
     """Hessian (3, 3) of −2 log L_R in u = log(τ, σ_g², σ_w²) at ``theta`` = (τ s, σ_g², σ_w²): central differences
     of the exact gradient (:data:`HESSIAN_STEP`), symmetrised."""
     u = np.log(np.asarray(theta, dtype=float))
-    cols = []
-    for e in np.eye(3) * step:
-        gp = np.asarray(value_and_grad(u + e, *s.arrays, 1.0, s.readout)[1])
-        gm = np.asarray(value_and_grad(u - e, *s.arrays, 1.0, s.readout)[1])
-        cols.append((gp - gm) / (2.0 * step))
-    h = np.column_stack(cols)
+    points = [u + sign * e for e in np.eye(3) * step for sign in (1.0, -1.0)]
+    g = parallel_map(lambda v: np.asarray(value_and_grad(v, *s.arrays, 1.0, s.readout)[1]), points)
+    h = np.column_stack([(g[2 * k] - g[2 * k + 1]) / (2.0 * step) for k in range(3)])
     return 0.5 * (h + h.T)
 
 
@@ -586,13 +589,8 @@ def whitened_gram(s: Series, theta, step: float = HESSIAN_STEP):
     u = np.log(np.asarray(theta, dtype=float))
     p, d = s.rank, s.norms
     scale = np.outer(d, d)
-    a = np.asarray(gram(u, *s.arrays, s.readout))[:p, :p] * scale
-    da = np.stack(
-        [
-            (np.asarray(gram(u + e, *s.arrays, s.readout)) - np.asarray(gram(u - e, *s.arrays, s.readout)))[:p, :p]
-            / (2.0 * step)
-            for e in np.eye(3) * step
-        ],
-        axis=-1,
-    )
+    points = [u] + [u + sign * e for e in np.eye(3) * step for sign in (1.0, -1.0)]
+    g = parallel_map(lambda v: np.asarray(gram(v, *s.arrays, s.readout))[:p, :p], points)
+    a = g[0] * scale
+    da = np.stack([(g[1 + 2 * k] - g[2 + 2 * k]) / (2.0 * step) for k in range(3)], axis=-1)
     return a, da * scale[:, :, None]
