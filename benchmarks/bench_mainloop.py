@@ -411,18 +411,30 @@ def main(argv=None):
 
 
 def _profile(call, top: int = 12) -> None:
-    """cProfile of one call: the gyrojax functions with the largest cumulative time, and the device waits."""
+    """cProfile of one call: the gyrojax functions with the largest cumulative time, and the device waits. The call
+    runs on one worker thread (``GYROJAX_WORKERS=1``): cProfile sees only the thread it runs in, and the noise fits
+    would otherwise run on the workers (:func:`gyrojax.threads.parallel_map`)."""
     import cProfile
     import pstats
 
+    from gyrojax.threads import WORKERS_ENV
+
+    before = os.environ.get(WORKERS_ENV)
+    os.environ[WORKERS_ENV] = "1"
     pr = cProfile.Profile()
-    pr.enable()
-    call()
-    pr.disable()
+    try:
+        pr.enable()
+        call()
+        pr.disable()
+    finally:
+        if before is None:
+            del os.environ[WORKERS_ENV]
+        else:
+            os.environ[WORKERS_ENV] = before
     st = pstats.Stats(pr)
     total = st.total_tt
-    rows = [(v[3], v[0], k) for k, v in st.stats.items() if "/gyrojax/" in k[0] and k[2] != "<listcomp>"]
-    print(f"  profile of one warm diagnose ({total:.2f} s under cProfile), cumulative:")
+    rows = [(v[3], v[0], k) for k, v in st.stats.items() if "/gyrojax/" in k[0] and k[2] not in ("<listcomp>", "one")]
+    print(f"  profile of one warm diagnose on one worker thread ({total:.2f} s under cProfile), cumulative:")
     for cum, calls, (path, line, name) in sorted(rows, reverse=True)[1 : top + 1]:
         print(f"    {cum:6.2f} s  {calls:5d}×  {path.split('/gyrojax/')[-1]}:{line} {name}")
     waits = sum(v[2] for k, v in st.stats.items() if k[2] == "_value" and "jax" in k[0])
