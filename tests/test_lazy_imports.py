@@ -65,3 +65,18 @@ def test_flat_api_loads_lazily_in_float64(jax_first):
         + "import jax.numpy as jnp\nprint(before, callable(gj.fit), callable(gj.diagnose), jnp.ones(1).dtype)"
     )
     assert _run(code) == f"{jax_first} True True float64"
+
+
+def test_a_triad_fit_process_loads_neither_scipy_stats_nor_scipy_signal(tmp_path):
+    # issue 26: `gyrojax fit` of a hand session stays near the import floor: scipy.stats (0.2-0.4 s; scipy.signal
+    # loads it too) is not on its path (χ² tails by scipy.special, the same bits); the command did fit (rc 0)
+    from gyrojax.data.records import save_record
+    from gyrojax.montecarlo.triad import mems_truth
+    from gyrojax.simulation.triad import simulate_multiposition
+
+    save_record(simulate_multiposition(mems_truth(), poses=12, static_s=2.0, move_s=1.0, seed=1), tmp_path)
+    (csv,) = tmp_path.glob("*.csv")
+    code = PROBE.replace(
+        '"jax": "jax" in sys.modules', '"stats": "scipy.stats" in sys.modules, "signal": "scipy.signal" in sys.modules'
+    )
+    assert json.loads(_run(code, "fit", str(csv), "--json")) == {"rc": 0, "stats": False, "signal": False}

@@ -20,7 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import optimize, stats
+from scipy import optimize, special
 
 from gyrojax.errors import RecordError
 
@@ -59,7 +59,7 @@ def default_threshold(dof: float) -> float:
     """The default rest threshold, in multiples of the rest noise variance, for windows whose variance has ``dof``
     degrees of freedom: the ratio that one window of rest noise, χ²_dof/dof, exceeds with probability
     :data:`FALSE_ALARM` (3.27 for the 20 of a 0.2 s window of white noise at 100 Hz)."""
-    return float(stats.chi2.isf(FALSE_ALARM, dof) / dof)
+    return float(special.chdtri(dof, FALSE_ALARM) / dof)  # scipy.stats.chi2.isf, without scipy.stats
 
 
 def window_dof(ratio: np.ndarray, m: int) -> float:
@@ -144,7 +144,7 @@ def _noise_variance(v: np.ndarray, m: int, rest: np.ndarray | None, floor: np.nd
     of χ²_{m−1}/(m−1); at least ``floor`` (the quantisation noise, LSB²/12: a sensor quieter than its LSB)."""
     q = 0.5 if rest is not None and rest.sum() >= m else 0.1
     sel = v[rest] if q == 0.5 else v
-    level = np.quantile(sel, q, axis=0) * (m - 1) / stats.chi2.ppf(q, m - 1)
+    level = np.quantile(sel, q, axis=0) * (m - 1) / (2.0 * special.gammaincinv((m - 1) / 2, q))  # χ² quantile
     return np.maximum(level, np.maximum(floor, 1e-300))
 
 

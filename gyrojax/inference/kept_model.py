@@ -9,6 +9,9 @@ of a built-in effect depends on the library source alone, which the key carries 
 the record's static fields and shapes, and the JAX version); an effect the user registered (``--effect``, an
 expression) is traced in each process, so that an edited expression can never meet an old trace. The arguments'
 tree carries the record's static fields (mode, servo and encoder axes), so records of other modes get other keys.
+
+The triad fit's compiled passes (:mod:`gyrojax.inference.triad_rows`: segment means and their Jacobian, the moves'
+rows, S of the channel model) are kept the same way, through :func:`kept_call`.
 """
 
 from __future__ import annotations
@@ -35,22 +38,26 @@ def model_name(stem: str, model: Model) -> str:
 
 
 @lru_cache(maxsize=64)
-def _kept(stem: str, model: Model) -> Kept:
-    fn = {"predict": predict, "jacobian": jacobian}[stem]
+def _kept(stem: str, model: Model, fn) -> Kept:
+    """The kept trace of ``fn(model, ...)`` under the name ``stem`` (one name per function: it keys the files)."""
     return Kept(model_name(stem, model), jax.jit(partial(fn, model)))
+
+
+def kept_call(stem: str, fn, jitted, model: Model, *args):
+    """``fn(model, *args)`` compiled: through the kept trace named ``stem`` when :func:`keepable`, else by ``jitted``
+    (``fn`` jitted with ``model`` static), which a user effect is traced by in each process."""
+    if not keepable(model):
+        return jitted(model, *args)
+    return _kept(stem, model, fn)(*args)
 
 
 def kept_predict(model: Model, theta, data):
     """:func:`gyrojax.physics.model.predict` of ``model`` (``predict_jit``), through a kept trace when
     :func:`keepable`."""
-    if not keepable(model):
-        return predict_jit(model, theta, data)
-    return _kept("predict", model)(theta, data)
+    return kept_call("predict", predict, predict_jit, model, theta, data)
 
 
 def kept_jacobian(model: Model, theta, data):
     """:func:`gyrojax.physics.model.jacobian` of ``model`` (``jacobian_jit``), through a kept trace when
     :func:`keepable`."""
-    if not keepable(model):
-        return jacobian_jit(model, theta, data)
-    return _kept("jacobian", model)(theta, data)
+    return kept_call("jacobian", jacobian, jacobian_jit, model, theta, data)

@@ -9,7 +9,6 @@ from pathlib import Path
 
 import jax.numpy as jnp
 import numpy as np
-from scipy import stats
 
 from gyrojax import protocol
 from gyrojax.data.arrays import record_data
@@ -99,6 +98,8 @@ class FitResult(Estimates):
         else:
             nu = np.full(t.shape, float(self.dof) if self.dof > 0 else np.inf)
         finite = np.isfinite(nu)
+        from scipy import stats  # only here: a triad fit's process never loads scipy.stats
+
         with np.errstate(invalid="ignore"):
             return np.where(finite, 2 * stats.t.sf(t, np.where(finite, nu, 1.0)), 2 * stats.norm.sf(t))
 

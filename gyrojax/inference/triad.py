@@ -41,9 +41,8 @@ from __future__ import annotations
 
 import warnings
 
-import jax.numpy as jnp
 import numpy as np
-from scipy import stats
+from scipy import special
 
 from gyrojax import units
 from gyrojax.data.record import Record
@@ -67,6 +66,7 @@ from gyrojax.inference.triad_rows import (  # noqa: F401  (the rows' functions, 
     moves_residual_jit,
     pack_moves,
     pack_segments,
+    scale_matrix,
     segment_jacobian_jit,
     segment_means,
     segment_means_jit,
@@ -246,17 +246,19 @@ def fit_triad(
     step, cov = solve(jw, rw)  # rank-cut SVD in normalised columns; unseen coefficients get NaN rows and columns
     theta = theta + step
     bad = ~np.isfinite(np.diag(cov))
-    if moves:
-        _check_moves_converged(model, theta, packed, moves)
+    s_fit = _scale_matrix(model, theta)
+    if moves:  # one evaluation of the moves at the fitted θ: their Up residuals and rows of the white-noise model
         lr0, lj0, mw0 = base_w
-        mr, _ = _move_rows(model, theta, packed, mw0)
+        r_moves, mr, _ = move_rows(model, theta, packed, mw0)
+        _check_moves_converged(s_fit, r_moves, moves)
         e = np.concatenate([lr0 - lj0 @ theta, mr])
     else:
+        r_moves, mw0 = None, None
         e = rw - np.where(residue_columns(jw), 0.0, jw) @ theta
     dof = int(len(e) - report["rank"])
     chi2 = float(e @ e)
     raw_res = y - base - jac @ np.where(bad, 0.0, theta)
-    seg_rows = _segment_residuals(segments, e, raw_res, moves, model, theta, packed, mw0 if moves else None)
+    seg_rows = _segment_residuals(segments, e, raw_res, moves, r_moves, mw0)
     mode = " / ".join(sorted(modes))
     notes = []
     if "latitude unknown" in modes and any(t == "D_I" for t in model.terms):
@@ -266,8 +268,7 @@ def fit_triad(
             "also M_O, M_S times it in D_O, D_S); the horizontal Earth rate (unknown heading) is marginalised with "
             "its mean square over the sites of the sphere, (2/3) (15.04 deg/h)^2"
         )
-    s_fit = _scale_matrix(model, theta)
-    if dof > 0 and stats.chi2.sf(chi2, dof) < 0.01:
+    if dof > 0 and special.chdtrc(dof, chi2) < 0.01:  # the χ² tail (scipy.stats.chi2.sf), without scipy.stats
         comp = components_report(tau2, s_fit)
         if any(v > 0 for v in comp.values()):
             tail = "the standard errors include the variance components estimated by REML: " + ", ".join(
@@ -278,7 +279,7 @@ def fit_triad(
         drivers = ", ".join(f"{r['name']} ({r['chi2']:.3g})" for r in sorted(seg_rows, key=lambda r: -r["chi2"])[:3])
         notes.append(
             f"the segment means scatter more than the sample noise explains (chi2 {chi2:.3g} on {dof} dof, "
-            f"p {stats.chi2.sf(chi2, dof):.2g}; largest shares: {drivers}): bias shifts between poses, hand-move "
+            f"p {special.chdtrc(dof, chi2):.2g}; largest shares: {drivers}): bias shifts between poses, hand-move "
             f"errors or a missing effect; {tail}"
         )
     if why:
@@ -354,8 +355,8 @@ def whiten_segments(segments, resid, jac, q, s_mat, pose_var: float = 0.0):
 
 
 def _scale_matrix(model, theta) -> np.ndarray:
-    """S (3, 3) of the channel model at θ (:func:`~gyrojax.inference.triad_rows.linear_matrices`, compiled)."""
-    return np.asarray(linear_matrices_jit(model, jnp.asarray(theta))[1])
+    """S (3, 3) of the channel model at θ (:func:`~gyrojax.inference.triad_rows.scale_matrix`, compiled and kept)."""
+    return scale_matrix(model, theta)
 
 
 def _check_scale_matrix(s_mat) -> None:
@@ -370,22 +371,16 @@ def _check_scale_matrix(s_mat) -> None:
         )
 
 
-def move_angles_deg(model, theta, packed, n_moves: int | None = None) -> np.ndarray:
-    """Angle (deg) between each move's measured final Up and the Up carried by the calibrated rates at θ; the first
-    ``n_moves`` of ``packed`` (all without it; bucketed packings carry padded moves after the real ones)."""
-    r = np.asarray(moves_residual_jit(model, jnp.asarray(theta), *packed))[:n_moves]
-    return _angles_deg(r)
-
-
 def _angles_deg(r) -> np.ndarray:
     """Angles (deg) of the moves' Up residuals ``r`` (M, 3) (chord length 2 sin(angle/2))."""
     return np.degrees(2.0 * np.arcsin(np.clip(np.linalg.norm(r, axis=1) / 2.0, 0.0, 1.0)))
 
 
-def _check_moves_converged(model, theta, packed, moves) -> None:
-    """Refuse a fit of the moves that leaves them far off (median > :data:`MOVE_DIVERGED_DEG`): diverged."""
-    _check_scale_matrix(_scale_matrix(model, theta))
-    ang = move_angles_deg(model, theta, packed, len(moves))
+def _check_moves_converged(s_mat, r_moves, moves) -> None:
+    """Refuse a fit of the moves that leaves them far off (median > :data:`MOVE_DIVERGED_DEG`) or a fitted S
+    (``s_mat``) that no triad has: diverged. ``r_moves`` (M, 3): the moves' Up residuals at the fit."""
+    _check_scale_matrix(s_mat)
+    ang = _angles_deg(r_moves)
     if np.median(ang) > MOVE_DIVERGED_DEG:
         worst = int(np.argmax(ang))
         raise ModelError(
@@ -411,10 +406,11 @@ def components_report(tau2: dict, s_mat=None) -> dict:
     return out
 
 
-def _segment_residuals(segments, e, raw_res, moves, model, theta, packed, move_w) -> list:
+def _segment_residuals(segments, e, raw_res, moves, r_moves, move_w) -> list:
     """Per segment (poses, rotations, then moves): the residual whitened by the white-noise model (its rows of
     χ², dimensionless), in natural units (deg/h for poses and rotations; deg for a move: its two direction
-    components and the angle between measured and carried Up) and its share of χ²."""
+    components and the angle between measured and carried Up, from its Up residual, a row of ``r_moves``) and its
+    share of χ²."""
     rows = []
     for i, seg in enumerate(segments):
         w = e[3 * i : 3 * i + 3]
@@ -429,7 +425,7 @@ def _segment_residuals(segments, e, raw_res, moves, model, theta, packed, move_w
             }
         )
     if moves:
-        r = np.asarray(moves_residual_jit(model, jnp.asarray(theta), *packed))[: len(moves)]
+        r = r_moves
         ang = _angles_deg(r)
         off = 3 * len(segments)
         for k, (m, (p, _sd)) in enumerate(zip(moves, move_w)):

@@ -16,7 +16,7 @@ poses is refused.
 from __future__ import annotations
 
 import numpy as np
-from scipy import stats
+from scipy import special
 
 from gyrojax import units
 from gyrojax.data.accelcheck import ACC_CALIBRATED_TOL
@@ -91,7 +91,7 @@ def fit_accelerometer(records) -> dict | None:
         "cov": cov * birge,
         "chi2": chi2,
         "dof": dof,
-        "p_value": float(stats.chi2.sf(chi2, dof)) if dof > 0 else float("nan"),
+        "p_value": float(special.chdtrc(dof, chi2)) if dof > 0 else float("nan"),
         "birge": birge,
         "max_rest_magnitude_error": before,
         "n_poses": len(means),

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy import stats
+from scipy import special
 
 from gyrojax import protocol, units
 from gyrojax.data.records import Record
@@ -96,7 +96,7 @@ class TriadFit(Estimates):
         k = self.counts_per_dps or 1.0
         ic = tp.imucal_form(m, k, rotation_sign=-1.0)
         kal = tp.kalibr_form(m)
-        p = float(stats.chi2.sf(self.chi2, self.dof)) if self.dof > 0 else float("nan")
+        p = float(special.chdtrc(self.dof, self.chi2)) if self.dof > 0 else float("nan")
         return {
             "terms": list(self.model.terms),
             "instrument": TRIAD_KIND,
@@ -170,7 +170,7 @@ class TriadFit(Estimates):
         for n, v, s in zip(self.names, self.theta, self.std):
             lines.append(f"{n:14s} {v:14.6g} {s:12.4g}  {u[n]}")
         lines.append(f"earth rate: {self.earth_mode}; chi2 {self.chi2:.3g} on {self.dof} dof")
-        if self.segment_residuals and self.dof > 0 and stats.chi2.sf(self.chi2, self.dof) < 0.01:
+        if self.segment_residuals and self.dof > 0 and special.chdtrc(self.dof, self.chi2) < 0.01:
             lines.append("chi2 driven by: " + ", ".join(f"{n} ({100 * f:.0f} %)" for n, f in self.chi2_drivers()))
         if any(v > 0 for v in self.variance_components.values()):
             lines.append(

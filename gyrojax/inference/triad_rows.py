@@ -17,7 +17,8 @@ many times over:
   the channel model inverted (:func:`gyrojax.physics.triad.body_rates`): ∂ω/∂θ = −(∂f/∂ω)⁻¹ ∂f/∂θ at the solved ω.
 
 Shapes are bucketed (:func:`bucket`: four lengths per octave; padded samples masked, padded moves and segments
-dropped) so that sessions of similar size share one compiled function.
+dropped) so that sessions of similar size share one compiled function. Each pass of a built-in model is kept
+across processes (:func:`gyrojax.inference.kept_model.kept_call`): a fresh process neither traces nor lowers it.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyrojax import units
+from gyrojax.inference.kept_model import kept_call
 from gyrojax.physics import effects as fx
 from gyrojax.physics import triad as tp
 from gyrojax.physics.model import indicated_output
@@ -58,6 +60,12 @@ def linear_matrices(model, theta):
 
 
 linear_matrices_jit = jax.jit(linear_matrices, static_argnums=0)
+
+
+def scale_matrix(model, theta) -> np.ndarray:
+    """S (3, 3) of the channel model at θ (:func:`linear_matrices`, compiled and kept)."""
+    th = np.asarray(theta, dtype=float)
+    return np.asarray(kept_call("triad_linear_matrices", linear_matrices, linear_matrices_jit, model, th)[1])
 
 
 # ---- segment means ---------------------------------------------------------------------------------------------
@@ -92,7 +100,7 @@ def pack_segments(segments, bucketed: bool = False) -> tuple:
         t, temp = np.concatenate([t, np.zeros(extra)]), np.concatenate([temp, np.full(extra, 20.0)])
         idx = np.concatenate([idx, np.full(extra, m_pad - 1)])
         counts = np.concatenate([counts, np.ones(m_pad - m)])
-    return tuple(jnp.asarray(x) for x in (w, a, t, temp, idx, counts))
+    return tuple(jax.device_put(x) for x in (w, a, t, temp, idx, counts))  # a copy to the device, no compiled op
 
 
 segment_means_jit = jax.jit(segment_means, static_argnums=0)
@@ -104,13 +112,15 @@ def _means_twice(model, theta, arrays):
     return y, y
 
 
-_segment_rows_jit = jax.jit(jax.jacfwd(_means_twice, argnums=1, has_aux=True), static_argnums=0)
+_segment_rows = jax.jacfwd(_means_twice, argnums=1, has_aux=True)
+_segment_rows_jit = jax.jit(_segment_rows, static_argnums=0)
 
 
 def segment_rows(model, theta, arrays, n_segments: int):
     """(model of the segment means (3m,) deg/h, its Jacobian (3m, 3p) in deg/h per report unit) at θ, one compiled
     call; ``arrays`` from :func:`pack_segments` (bucketed or not), ``n_segments`` = m real segments."""
-    jac, y = _segment_rows_jit(model, jnp.asarray(theta), arrays)
+    th = np.asarray(theta, dtype=float)
+    jac, y = kept_call("triad_segment_rows", _segment_rows, _segment_rows_jit, model, th, arrays)
     k = 3 * n_segments
     return np.asarray(y)[:k], np.asarray(jac)[:k]
 
@@ -286,7 +296,8 @@ def move_rows(model, theta, packed, whitening):
     basis[:m] = [p for p, _ in whitening]
     inv_sd[:m] = [1.0 / sd for _, sd in whitening]
     # numpy arguments go to the compiled call as they are (jnp.asarray would dispatch a conversion op each)
-    r, rows, jac = _move_rows_jit(model, np.asarray(theta, dtype=float), *packed, basis, inv_sd)
+    th = np.asarray(theta, dtype=float)
+    r, rows, jac = kept_call("triad_move_rows", _move_rows, _move_rows_jit, model, th, *packed, basis, inv_sd)
     return np.asarray(r)[:m], np.asarray(rows)[:m].reshape(-1), np.asarray(jac)[:m].reshape(2 * m, -1)
 
 
@@ -317,4 +328,4 @@ def pack_moves(moves, bucketed: bool = False) -> tuple:
             temp[i, :n], temp[i, n:] = m.temp, m.temp[-1]
         mask[i, : n - 1] = 1.0
         dt[i], u0[i], u1[i] = m.dt, m.u_from, m.u_to
-    return tuple(jnp.asarray(x) for x in (g, a, t_h, temp, mask, dt, u0, u1))
+    return tuple(jax.device_put(x) for x in (g, a, t_h, temp, mask, dt, u0, u1))

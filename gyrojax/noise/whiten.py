@@ -19,7 +19,6 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
-from scipy.signal import lfilter
 
 from . import reml
 from .randomdrift import levinson_durbin, segment_autocovariance_sums, yule_walker_cov
@@ -114,6 +113,8 @@ def whiten(x: np.ndarray, labels: np.ndarray, noise, times: np.ndarray | None = 
         if e - s <= p:
             continue
         seg = x[s:e]
+        from scipy.signal import lfilter  # scipy.signal loads scipy.stats: a triad fit needs neither
+
         y = lfilter(b, [1.0], seg, axis=0)
         rows.append(y[p:])
         keep.append(np.arange(s + p, e))
