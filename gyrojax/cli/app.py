@@ -8,10 +8,10 @@ Start-up imports only argparse: each command imports the part of the library it 
 Compiled XLA code is kept across processes in JAX's persistent compilation cache, under the user's cache
 directory (``$XDG_CACHE_HOME/gyrojax/jax`` or ``~/.cache/gyrojax/jax``); ``GYROJAX_NO_CACHE=1`` turns it off and
 ``GYROJAX_CACHE_DIR`` moves it. Beside it (``…/jax-exported``) the traced REML functions, the measurement model's
-``predict`` and ``jacobian`` of built-in models (:mod:`gyrojax.inference.kept_model`) and the built-in plans'
-regressors are kept (:mod:`gyrojax.noise.kept`), so a fresh process does not trace them again. The settings reach
-JAX through its environment variables when JAX is not yet imported: ``gyrojax --help``, ``plans`` and ``import``
-never import it.
+``predict`` and ``jacobian`` of built-in models and the triad fit's passes (:mod:`gyrojax.inference.kept_model`) and
+the built-in plans' regressors are kept (:mod:`gyrojax.noise.kept`), so a fresh process does not trace them again.
+The settings reach JAX through its environment variables when JAX is not yet imported: ``gyrojax --help``,
+``plans`` and ``import`` never import it.
 """
 
 from __future__ import annotations
