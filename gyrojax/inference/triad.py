@@ -195,7 +195,7 @@ def fit_triad(
     # S is seen by rotations or moves only; without them the body-rate covariances stay at the nominal scale
     passes = MAX_NOISE_PASSES if moves or any(s.kind == "rotation" for s in segments) else 1
     for _pass in range(passes):  # fixed noise per pass; the passes update it with the fitted S
-        s_mat = _scale_matrix(model, theta) if passes > 1 else np.eye(3)
+        s_mat = scale_matrix(model, theta) if passes > 1 else np.eye(3)
         if s_prev is not None and np.max(np.abs(s_mat - s_prev)) <= NOISE_PASS_TOL * np.max(np.abs(s_prev)):
             break
         _check_scale_matrix(s_mat)
@@ -246,7 +246,7 @@ def fit_triad(
     step, cov = solve(jw, rw)  # rank-cut SVD in normalised columns; unseen coefficients get NaN rows and columns
     theta = theta + step
     bad = ~np.isfinite(np.diag(cov))
-    s_fit = _scale_matrix(model, theta)
+    s_fit = scale_matrix(model, theta)
     if moves:  # one evaluation of the moves at the fitted θ: their Up residuals and rows of the white-noise model
         lr0, lj0, mw0 = base_w
         r_moves, mr, _ = move_rows(model, theta, packed, mw0)
@@ -352,11 +352,6 @@ def whiten_segments(segments, resid, jac, q, s_mat, pose_var: float = 0.0):
     both = np.concatenate([resid.reshape(m, 3, 1), jac.reshape(m, 3, -1)], axis=2)
     out = np.linalg.solve(low, both)
     return out[:, :, 0].reshape(-1), out[:, :, 1:].reshape(3 * m, -1)
-
-
-def _scale_matrix(model, theta) -> np.ndarray:
-    """S (3, 3) of the channel model at θ (:func:`~gyrojax.inference.triad_rows.scale_matrix`, compiled and kept)."""
-    return scale_matrix(model, theta)
 
 
 def _check_scale_matrix(s_mat) -> None:
