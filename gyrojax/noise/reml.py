@@ -432,7 +432,8 @@ def neg2_loglik(s: Series, theta, reml: bool) -> float:
     """−2 log L_R (``reml``) or −2 log L_P of the series under ``theta`` = (τ s, σ_g², σ_w²) (σ_g² may be 0: white)."""
     th = np.asarray(theta, dtype=float)
     logs, quad, logdet = likelihood_terms_jit(th, *s.arrays, s.readout)
-    return float(logs + quad + (float(logdet) + s.logdet_const if reml else 0.0))
+    # summed on the host (the same double additions, without dispatching an XLA add of two device scalars)
+    return float(logs) + float(quad) + (float(logdet) + s.logdet_const if reml else 0.0)
 
 
 def _bounds(s: Series):
