@@ -1,5 +1,5 @@
 """``python -m gyrojax`` is the ``gyrojax`` command."""
 
-from gyrojax.cli.app import main
+from gyrojax.cli.app import console
 
-raise SystemExit(main())
+console()

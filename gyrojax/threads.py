@@ -26,6 +26,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 ENV = "GYROJAX_BLAS_THREADS"
 WORKERS_ENV = "GYROJAX_WORKERS"
+POOL_PREFIX = "gyrojax"
+"""Name prefix of the worker pool's threads (:func:`parallel_map`)."""
 MAX_WORKERS = 4
 """Default cap of the worker threads: each keeps about one core busy, and the default is the cores, at most this."""
 
@@ -94,8 +96,18 @@ def _executor() -> ThreadPoolExecutor:
         if _pool is None or _pool._max_workers != n:
             if _pool is not None:
                 _pool.shutdown(wait=False)
-            _pool = ThreadPoolExecutor(max_workers=n, thread_name_prefix="gyrojax")
+            _pool = ThreadPoolExecutor(max_workers=n, thread_name_prefix=POOL_PREFIX)
         return _pool
+
+
+def stop_workers() -> None:
+    """Stop the worker pool and wait for its threads to end (idle ones end at once); a later :func:`parallel_map`
+    starts a new one."""
+    global _pool
+    with _pool_lock:
+        pool, _pool = _pool, None
+    if pool is not None:
+        pool.shutdown(wait=True)
 
 
 def single_threaded_blas() -> None:

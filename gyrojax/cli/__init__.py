@@ -2,6 +2,6 @@
 each sub-command does; :mod:`gyrojax.cli.args`: the usage error and the option parsers both share). The library
 never imports this package."""
 
-from gyrojax.cli.app import main
+from gyrojax.cli.app import console, main
 
-__all__ = ["main"]
+__all__ = ["console", "main"]
