@@ -300,6 +300,9 @@ def console() -> None:
     if busy or not hasattr(atexit, "_run_exitfuncs"):
         raise SystemExit(rc)
     atexit._run_exitfuncs()
-    sys.stdout.flush()
-    sys.stderr.flush()
+    for stream in (sys.stdout, sys.stderr):  # what the handlers printed
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
     os._exit(rc)
