@@ -420,8 +420,7 @@ def _segment_residuals(segments, e, raw_res, moves, r_moves, move_w) -> list:
             }
         )
     if moves:
-        r = r_moves
-        ang = _angles_deg(r)
+        ang = _angles_deg(r_moves)
         off = 3 * len(segments)
         for k, (m, (p, _sd)) in enumerate(zip(moves, move_w)):
             w = e[off + 2 * k : off + 2 * k + 2]
@@ -430,7 +429,7 @@ def _segment_residuals(segments, e, raw_res, moves, r_moves, move_w) -> list:
                     "name": m.name,
                     "kind": "move",
                     "whitened": w.tolist(),
-                    "natural": np.degrees(p.T @ r[k]).tolist(),
+                    "natural": np.degrees(p.T @ r_moves[k]).tolist(),
                     "angle_deg": float(ang[k]),
                     "unit": "deg",
                     "chi2": float(w @ w),

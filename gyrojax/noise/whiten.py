@@ -105,6 +105,8 @@ def whiten(x: np.ndarray, labels: np.ndarray, noise, times: np.ndarray | None = 
         keep = np.flatnonzero(labels >= 0)
         w, _ = kalman_whiten(x[keep], times[keep], noise, reml.series_restarts(times[keep]))
         return w, keep
+    from scipy.signal import lfilter  # here only: scipy.signal loads scipy.stats, which a triad fit needs neither
+
     p = len(noise.ar)
     s = noise.innovation_std
     b = np.concatenate([[1.0], -np.asarray(noise.ar)]) / (s if s > 0 else 1.0)
@@ -113,8 +115,6 @@ def whiten(x: np.ndarray, labels: np.ndarray, noise, times: np.ndarray | None = 
         if e - s <= p:
             continue
         seg = x[s:e]
-        from scipy.signal import lfilter  # scipy.signal loads scipy.stats: a triad fit needs neither
-
         y = lfilter(b, [1.0], seg, axis=0)
         rows.append(y[p:])
         keep.append(np.arange(s + p, e))
