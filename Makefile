@@ -12,7 +12,7 @@ LOCK   := constraints.txt
 LATEST := .venv-latest
 NEED_PYTHON = @test -n "$(PYTHON)" || { echo "need Python >= 3.11 (python3.11, 3.12, 3.13 or python3); or run: make PYTHON=/path/to/python ..."; exit 2; }
 
-.PHONY: demo test test-latest lock lint docs bench clean venv
+.PHONY: demo test test-isa test-latest lock lint docs bench clean venv
 
 $(PY):
 	$(NEED_PYTHON)
@@ -31,6 +31,16 @@ demo: $(STAMP)
 # the whole suite, statistical studies included (marked slow); the 20 slowest tests are printed
 test: $(STAMP)
 	$(PY) -m pytest -q -n 2 --dist loadfile --durations=20 tests
+
+# the whole suite as another CPU would run it: XLA's code and OpenBLAS's kernels held to an older instruction set
+# (default AVX2; ISA=SSE4_2 BLAS_CORE=Nehalem for older still), with a compilation cache of its own so that no
+# executable compiled for this CPU is loaded. Tolerances must hold there too: they are the numerics', not one CPU's.
+ISA       ?= AVX2
+BLAS_CORE ?= Haswell
+test-isa: $(STAMP)
+	cache=$$(mktemp -d) && trap 'rm -rf "$$cache"' EXIT && \
+	XDG_CACHE_HOME="$$cache" XLA_FLAGS="--xla_cpu_max_isa=$(ISA)" OPENBLAS_CORETYPE=$(BLAS_CORE) \
+	$(PY) -m pytest -q -n 2 --dist loadfile tests
 
 # the whole suite with the newest versions the registries serve (no lock), in a venv of its own
 test-latest:
