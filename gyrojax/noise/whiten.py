@@ -154,15 +154,18 @@ def kalman_whiten(x: np.ndarray, times: np.ndarray, nz: NoiseSpec, restart: np.n
     if restart is not None:
         bad |= restart
     nb = reml.bucket_rows(n)  # padded rows (masked) pass through: a few compiled shapes for every length
-    xp = np.zeros((nb, x2.shape[1]))
-    xp[:n] = x2
+    # columns padded too (a single series excepted): each column is filtered on its own, so the padding changes no
+    # bit of the others, and the fit's whitening keeps one compiled shape while a model grows by an effect a step
+    mb = x2.shape[1] if x2.shape[1] == 1 else reml.bucket_cols(x2.shape[1])
+    xp = np.zeros((nb, mb))
+    xp[:n, : x2.shape[1]] = x2
     dtp, rp, mp = np.ones(nb), np.ones(nb, dtype=bool), np.zeros(nb, dtype=bool)
     dtp[:n], rp[:n], mp[:n] = np.where(bad, 1.0, dt), bad, True
     steps = dt[~bad]
     readout = nz.whitening_readout(float(np.median(steps)) if steps.size else 1.0)
     readout = None if readout is None else np.asarray(readout, float)
     w, logs = reml.whiten_jit(np.asarray(nz.whitening_theta(), float), xp, dtp, rp, mp, readout)
-    w = np.asarray(w)[:n]
+    w = np.asarray(w)[:n, : x2.shape[1]]
     return (w[:, 0] if x.ndim == 1 else w), np.asarray(logs)[:n]
 
 
