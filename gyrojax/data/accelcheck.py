@@ -26,6 +26,59 @@ def sphere_fit(points: np.ndarray) -> tuple[np.ndarray, float]:
     return c, float(np.sqrt(max(sol[3] + c @ c, 0.0)))
 
 
+REST_ERROR_G = 1e-3
+"""Error of one rest's |a| (in g) at which :func:`determinacy` states the calibration's standard errors: 0.1 %, a
+tenth of :data:`ACC_CALIBRATED_TOL` (the pose-to-pose repeatability of a consumer MEMS accelerometer)."""
+WEAK = {"scale": 0.01, "bias": 0.01, "misalignment": 0.01}
+"""Standard errors (at :data:`REST_ERROR_G`) beyond which :func:`determinacy` says the rests determine the
+calibration poorly: 1 % of scale factor, 10 mg of bias, 10 mrad of misalignment."""
+
+
+def determinacy(params: np.ndarray, means: np.ndarray, g_units: float) -> tuple[dict, str | None]:
+    """Standard errors of imu_tk's ellipsoid calibration ``params`` from the rest means ``means`` (k, 3, raw units)
+    if each rest's |a| erred by :data:`REST_ERROR_G` (linearised least squares, the exact Jacobian
+    :func:`gyrojax.data.segments.imutk_acc_jacobian`, columns normalised): ``scale`` relative, ``bias`` in g,
+    ``misalignment`` in rad, per parameter (None where the rests do not determine it at all); and a note when any is
+    beyond :data:`WEAK` (rests too few, or an axis never pointed up or down: its scale factor and bias then trade
+    with |a| still g at every rest), else None."""
+    from gyrojax.data.segments import imutk_acc_jacobian
+
+    jac = imutk_acc_jacobian(params, means) / g_units
+    norms = np.sqrt((jac * jac).sum(axis=0))
+    z = jac / np.where(norms > 0, norms, 1.0)
+    sv = np.linalg.svd(z, compute_uv=False)
+    if sv[-1] <= 1e-12 * sv[0]:
+        sd = np.full(len(params), np.inf)
+    else:
+        sd = np.sqrt(np.diag(np.linalg.inv(z.T @ z))) / np.where(norms > 0, norms, 1.0) * REST_ERROR_G
+    scale = params[3:6]
+    out = {"scale": sd[3:6] / np.abs(scale), "bias": sd[6:9] * np.abs(scale), "misalignment": sd[:3]}
+    weak = {k: v for k, v in out.items() if np.any(~np.isfinite(v) | (v > WEAK[k]))}
+    unit = {"scale": ("%", 100.0), "bias": ("mg", 1e3), "misalignment": ("mrad", 1e3)}
+    axes = {"scale": "x/y/z", "bias": "x/y/z", "misalignment": "α_yz/α_zy/α_zx"}
+    parts = [
+        f"{k} ±" + "/".join(f"{unit[k][1] * x:.2g}" for x in out[k]) + f" {unit[k][0]} ({axes[k]})"
+        for k in ("scale", "bias", "misalignment")
+    ]
+    out = {k: [float(x) if np.isfinite(x) else None for x in v] for k, v in out.items()}  # None: not determined
+    if not weak:
+        return out, None
+    note = (
+        f"the {len(means)} rests determine the accelerometer's calibration poorly: at {100 * REST_ERROR_G:g} % of g "
+        f"per rest, {'; '.join(parts)}; the rests' gravity directions, which give the moves' rotations, inherit "
+        "it: record more rests, each axis up and down (Tedaldi et al. 2014: 36-50 poses)"
+    )
+    return out, note
+
+
+def accelerometer_poorly_determined(calibration: dict | None) -> bool:
+    """Whether a record's ``accelerometer_calibration`` (its JSON key, written by the importers) states standard
+    errors beyond :data:`WEAK`, or none for a direction the rests do not determine (:func:`determinacy`); False
+    without them."""
+    std = (calibration or {}).get("std_at_rest_error") or {}
+    return any(x is None or x > WEAK[k] for k in WEAK for x in std.get(k, []))
+
+
 def accelerometer_in_g(
     acc: np.ndarray,
     intervals: list,
@@ -98,11 +151,15 @@ def accelerometer_in_g(
         + ", ".join(f"{v:.4g}" for v in params[6:9])
         + f"; |a| = g to {100 * rms:.2g} % rms"
     )
+    std, weak = determinacy(params, means, g_units)
+    if weak:
+        notes.append(weak)
     calib = {
         "model": "imu_tk: a = T K (raw - b) in g; params alpha_yz, alpha_zy, alpha_zx, s_x..s_z, b_x..b_z",
         "raw_unit": acc_unit,
         "params": params.tolist(),
         "rms_magnitude_error": rms,
+        "std_at_rest_error": {"rest_error_g": REST_ERROR_G, **std},
     }
     check = {"unit": acc_unit, "calibrated_here": True, "max_rest_magnitude_error": float(np.abs(resid).max())}
     return acc_cal, calib, notes, check

@@ -527,7 +527,8 @@ def import_csv(
             bad = np.flatnonzero(np.diff(t_col) <= 0)
             if bad.size:
                 raise RecordError(
-                    f"{path}: row {bad[0] + 3}, column {time_col!r}: time does not increase ({t_col[bad[0] + 1]!r}); "
+                    f"{path}: row {bad[0] + df.attrs['first_line'] + 1}, column {time_col!r}: time does not increase "
+                    f"({t_col[bad[0] + 1]!r}); "
                     "a receive time? map the log's sample counter instead (sample=COL with --rate-hz)"
                 )
         note = jitter_note(t_col, f"time column {time_col!r}")
@@ -537,7 +538,8 @@ def import_csv(
             notes.append(note)
     if "sample" in mapping:
         col = mapping["sample"]
-        t = time_from_counter(numeric_columns(df, [col], str(path))[:, 0], rate_hz, f"{path}, column {col!r}")
+        counter = numeric_columns(df, [col], str(path))[:, 0]
+        t = time_from_counter(counter, rate_hz, f"{path}, column {col!r}", df.attrs["first_line"])
     elif t_col is not None:
         t = t_col
     elif rate_hz:

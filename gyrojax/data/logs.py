@@ -14,29 +14,77 @@ DELIMITERS = {",": ",", ";": ";", "tab": "\t", "\t": "\t", "\\t": "\t"}
 """The delimiters of ``--delimiter`` (``auto``: detected from the file's first lines)."""
 
 
-def sniff_delimiter(path, lines: int = 20) -> str:
-    """The delimiter (``,``, ``;`` or tab) that splits the first ``lines`` non-empty lines of a text file into the
-    same number (≥ 2) of fields, the most fields when several do; :class:`RecordError` naming the file otherwise."""
+MAX_PREAMBLE = 50
+"""Lines a log may carry before its table's header (a logger's ``Fs,100``, a device name, units) that are skipped."""
+
+
+def _head(path, count: int) -> list:
+    """The first ``count`` non-empty lines of a text file (plain or ``.gz``/``.bz2``/``.xz``) as (line index from 0,
+    counting blank lines; text without its line end); :class:`RecordError` naming the file when it cannot be read."""
     import bz2
     import gzip
     import lzma
 
     opener = {".gz": gzip.open, ".bz2": bz2.open, ".xz": lzma.open}.get(Path(path).suffix.lower(), open)
+    head = []
     try:
         with opener(path, "rt", encoding="utf-8") as fh:
-            head = [ln for ln in (fh.readline() for _ in range(4 * lines)) if ln.strip()][:lines]
+            for k, ln in enumerate(fh):
+                if ln.strip():
+                    head.append((k, ln.rstrip("\r\n")))
+                    if len(head) >= count:
+                        break
     except (OSError, UnicodeDecodeError, EOFError, lzma.LZMAError) as e:
         raise RecordError(f"{path}: not a readable text table ({str(e).strip()[:120]})") from None
-    best, fields = None, 1
-    for d in (",", ";", "\t"):
-        counts = {ln.count(d) for ln in head}
-        if len(counts) == 1 and (c := counts.pop()) + 1 > fields:
-            best, fields = d, c + 1
-    if best is None:
+    return head
+
+
+def _names_a_column(line: str, sep: str) -> bool:
+    """Whether a line split by ``sep`` has a field that is not a number (a header's column name)."""
+    for field in line.split(sep):
+        try:
+            float(field)
+        except ValueError:
+            return True
+    return False
+
+
+def sniff_layout(
+    path, lines: int = 20, max_preamble: int = MAX_PREAMBLE, delimiters=(",", ";", "\t")
+) -> tuple[str, int, list]:
+    """(delimiter, header line, preamble) of a delimited text file: the delimiter of ``delimiters`` that splits
+    ``lines`` consecutive non-empty lines into the same number (≥ 2) of fields (the most fields when several do),
+    from the first line where one does (at most ``max_preamble`` lines in) and whose first line, the header, names
+    a column (a field that is not a number). The header line is counted from 0 in the file (blank lines included),
+    as pandas' ``skiprows``; the preamble is the non-empty lines before it. :class:`RecordError` naming the file
+    when no such table starts within ``max_preamble`` lines."""
+    head = _head(path, max_preamble + lines)
+    alike = None  # a delimiter that splits some lines alike, though no header line names a column above them
+    for s in range(min(max_preamble, max(len(head) - 1, 0)) + 1):
+        window = [ln for _, ln in head[s : s + lines]]
+        best, fields = None, 1
+        for d in delimiters:
+            counts = {ln.count(d) for ln in window}
+            if len(counts) == 1 and (c := counts.pop()) + 1 > fields:
+                best, fields = d, c + 1
+        if best is not None and _names_a_column(window[0], best):
+            return best, head[s][0], [ln for _, ln in head[:s]]
+        alike = alike or best
+    if alike is not None:
         raise RecordError(
-            f"{path}: cannot tell its delimiter (none of ',', ';', tab splits its first lines alike); give --delimiter"
+            f"{path}: no header line naming its columns within its first {max_preamble} lines (its lines split "
+            f"alike by {'tab' if alike == chr(9) else repr(alike)}, but hold numbers only): the column mapping needs "
+            "a header"
         )
-    return best
+    raise RecordError(
+        f"{path}: cannot tell its delimiter (none of ',', ';', tab splits a header and the lines after it alike "
+        f"within its first {max_preamble} lines); give --delimiter"
+    )
+
+
+def sniff_delimiter(path, lines: int = 20) -> str:
+    """The delimiter of :func:`sniff_layout`."""
+    return sniff_layout(path, lines)[0]
 
 
 def file_stem(path) -> str:
@@ -49,26 +97,41 @@ def file_stem(path) -> str:
 
 def read_table(path, delimiter: str | None = None, notes: list | None = None):
     """A delimited text file as a pandas DataFrame; ``delimiter`` one of :data:`DELIMITERS` or None/``"auto"``
-    (detected, and said in ``notes``). :class:`RecordError` naming the file when it is not a readable table."""
+    (detected, and said in ``notes``). Lines before the table's header (a logger's preamble: ``Fs,100``, a device
+    name) are skipped and said in ``notes``; ``df.attrs["first_line"]`` is the file line (from 1) of the first data
+    row, for error messages. :class:`RecordError` naming the file when it is not a readable table."""
     import pandas as pd
 
     if delimiter in (None, "auto"):
-        sep = sniff_delimiter(path)
+        sep, skip, preamble = sniff_layout(path)
         if notes is not None:
             notes.append(f"delimiter {'tab' if sep == chr(9) else repr(sep)} detected (--delimiter to choose another)")
     elif delimiter in DELIMITERS:
         sep = DELIMITERS[delimiter]
+        try:  # the header: the first line that names columns and that the delimiter splits like the lines after it
+            _, skip, preamble = sniff_layout(path, delimiters=(sep,))
+        except RecordError:
+            skip, preamble = 0, []  # pandas names what is wrong with the file
     else:
         raise RecordError(f"--delimiter {delimiter!r}: give ',', ';', 'tab' or 'auto'")
+    if preamble and notes is not None:
+        shown = "; ".join(repr(ln[:40]) for ln in preamble[:3]) + (" …" if len(preamble) > 3 else "")
+        notes.append(
+            f"{len(preamble)} line(s) before the table's header (line {skip + 1}) skipped: {shown} "
+            "(a rate there is not read: give --rate-hz or map a clock column)"
+        )
     try:
-        return pd.read_csv(path, sep=sep)
+        df = pd.read_csv(path, sep=sep, skiprows=skip)
     except (UnicodeDecodeError, ValueError, pd.errors.ParserError, pd.errors.EmptyDataError) as e:
         raise RecordError(f"{path}: not a readable {sep!r}-separated table ({str(e).strip()[:120]})") from None
+    df.attrs["first_line"] = skip + 2
+    return df
 
 
 def numeric_columns(df, cols: list, where: str):
     """The columns ``cols`` of ``df`` as an (n, k) float array; :class:`RecordError` naming the first row and column
-    that is not a finite number (rows counted as in the file, the header being row 1)."""
+    that is not a finite number (rows counted as lines of the file: ``df.attrs["first_line"]`` is the first data
+    row's, :func:`read_table`; 2 when absent, the header being line 1)."""
     import pandas as pd
 
     arr = df[cols].apply(pd.to_numeric, errors="coerce").to_numpy(dtype=float)
@@ -77,22 +140,24 @@ def numeric_columns(df, cols: list, where: str):
         i, j = np.argwhere(bad)[0]
         cell = df[cols[j]].iloc[i]
         hint = " (a decimal comma? the file's numbers need a '.')" if isinstance(cell, str) and "," in cell else ""
-        raise RecordError(f"{where}: row {i + 2}, column {cols[j]!r} is not a finite number: {cell!r}{hint}")
+        row = i + df.attrs.get("first_line", 2)
+        raise RecordError(f"{where}: row {row}, column {cols[j]!r} is not a finite number: {cell!r}{hint}")
     return arr
 
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6}
 
 
-def time_from_counter(c: np.ndarray, rate_hz: float | None, where: str) -> np.ndarray:
+def time_from_counter(c: np.ndarray, rate_hz: float | None, where: str, first_line: int = 2) -> np.ndarray:
     """Times (s) from a gap-free sample counter at ``rate_hz`` counts per second: every step the same positive
-    integer (a counter that wraps to 0 is unwrapped); :class:`RecordError` naming the row of a gap otherwise."""
+    integer (a counter that wraps to 0 is unwrapped); :class:`RecordError` naming the row of a gap otherwise (rows
+    counted as lines of the file, ``first_line`` the first sample's)."""
     if not rate_hz or not rate_hz > 0:
         raise RecordError(f"{where}: a sample counter needs its rate: give --rate-hz (counts per second)")
     c = np.asarray(c, dtype=float)
     if np.any(c != np.round(c)):
         i = int(np.flatnonzero(c != np.round(c))[0])
-        raise RecordError(f"{where}: row {i + 2}: the sample counter holds {c[i]!r}, not an integer")
+        raise RecordError(f"{where}: row {i + first_line}: the sample counter holds {c[i]!r}, not an integer")
     d = np.diff(c)
     if d.size and np.any(d < 0):  # a wrapping counter: modulo the largest value seen + 1
         period = c.max() + 1
@@ -102,8 +167,8 @@ def time_from_counter(c: np.ndarray, rate_hz: float | None, where: str) -> np.nd
     if step <= 0 or bad.size:
         i = int(bad[0]) if bad.size else 0
         raise RecordError(
-            f"{where}: row {i + 3}: the sample counter steps from {c[i]:g} to {c[i + 1]:g} (its step is {step:g}): "
-            "a gap or repeat; a gap-free counter is needed"
+            f"{where}: row {i + first_line + 1}: the sample counter steps from {c[i]:g} to {c[i + 1]:g} "
+            f"(its step is {step:g}): a gap or repeat; a gap-free counter is needed"
         )
     return np.concatenate([[0.0], np.cumsum(d)]) / float(rate_hz)
 

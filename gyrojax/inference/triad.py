@@ -45,6 +45,7 @@ import numpy as np
 from scipy import special
 
 from gyrojax import units
+from gyrojax.data.accelcheck import accelerometer_poorly_determined
 from gyrojax.data.record import Record
 from gyrojax.data.triad import TRIAD_KIND
 from gyrojax.data.triad_segments import triad_segments
@@ -281,6 +282,13 @@ def fit_triad(
             f"the segment means scatter more than the sample noise explains (chi2 {chi2:.3g} on {dof} dof, "
             f"p {special.chdtrc(dof, chi2):.2g}; largest shares: {drivers}): bias shifts between poses, hand-move "
             f"errors or a missing effect; {tail}"
+        )
+    weak = [r.name for r in recs if accelerometer_poorly_determined(r.meta.get("accelerometer_calibration"))]
+    if weak:
+        notes.append(
+            f"the accelerometer calibration of {', '.join(weak)} is poorly determined by its rests (the import's "
+            "note): the rests' gravity directions, and with them the moves' rotations, carry its error, which the "
+            "standard errors do not include"
         )
     if why:
         warnings.warn(f"triad fit with moves did not converge: {why}", ConvergenceWarning, stacklevel=3)
