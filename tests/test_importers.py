@@ -647,6 +647,21 @@ def test_a_table_without_a_header_is_refused_as_such(session, tmp_path):
         import_csv(path, dict(kv.split("=") for kv in MAP.split(",")))
 
 
+@pytest.mark.parametrize("flag", [None, ","])
+def test_a_row_a_field_short_is_named(session, tmp_path, flag):
+    """Detected, the delimiter no longer splits the header like the lines after it: the refusal says a row may have
+    a field too many or too few; given, the short row's empty cell is named by its line."""
+    rec, _ = session
+    lines = write_log(tmp_path / "plain.csv", log_columns(rec)).read_text().splitlines()
+    lines[4] = lines[4].rsplit(",", 1)[0]  # file line 5 loses its last field (az)
+    path = tmp_path / "ragged.csv"
+    path.write_text("\n".join(lines) + "\n")
+    mapping = dict(kv.split("=") for kv in MAP.split(","))
+    want = "a field too many or too few" if flag is None else r"row 5, column 'az' is empty \(a field missing"
+    with pytest.raises(RecordError, match=want):
+        import_csv(path, mapping, delimiter=flag)
+
+
 def test_mpu6050_session_has_too_few_rests_for_the_default_detection_which_says_why(tmp_path, capsys):
     """The hand session's poses are held for well under the default 0.5 s of quiet: the import refuses, naming the
     poses found and every candidate it dropped, with its time and reason."""

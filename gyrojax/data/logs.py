@@ -73,8 +73,9 @@ def sniff_layout(
     if alike is not None:
         raise RecordError(
             f"{path}: no header line naming its columns within its first {max_preamble} lines (its lines split "
-            f"alike by {'tab' if alike == chr(9) else repr(alike)}, but hold numbers only): the column mapping needs "
-            "a header"
+            f"alike by {'tab' if alike == chr(9) else repr(alike)} hold numbers only): the column mapping needs a "
+            f"header, split like the {lines} lines after it (a row among them with a field too many or too few "
+            "breaks that)"
         )
     raise RecordError(
         f"{path}: cannot tell its delimiter (none of ',', ';', tab splits a header and the lines after it alike "
@@ -141,7 +142,10 @@ def numeric_columns(df, cols: list, where: str):
         cell = df[cols[j]].iloc[i]
         hint = " (a decimal comma? the file's numbers need a '.')" if isinstance(cell, str) and "," in cell else ""
         row = i + df.attrs.get("first_line", 2)
-        raise RecordError(f"{where}: row {row}, column {cols[j]!r} is not a finite number: {cell!r}{hint}")
+        if not isinstance(cell, str) and pd.isna(cell):  # an empty cell, or a row a field short
+            raise RecordError(f"{where}: row {row}, column {cols[j]!r} is empty (a field missing from the row?)")
+        shown = repr(cell) if isinstance(cell, str) else repr(float(cell))
+        raise RecordError(f"{where}: row {row}, column {cols[j]!r} is not a finite number: {shown}{hint}")
     return arr
 
 
