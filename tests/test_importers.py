@@ -647,6 +647,18 @@ def test_a_table_without_a_header_is_refused_as_such(session, tmp_path):
         import_csv(path, dict(kv.split("=") for kv in MAP.split(",")))
 
 
+def test_spaces_after_the_delimiter_and_a_byte_order_mark_are_no_part_of_a_name(session, tmp_path):
+    """A spreadsheet's export: a UTF-8 byte order mark before the header and ", " between fields."""
+    rec, _ = session
+    plain = write_log(tmp_path / "plain.csv", log_columns(rec))
+    spaced = tmp_path / "spaced.csv"
+    spaced.write_text(plain.read_text().replace(",", ", "), encoding="utf-8-sig")
+    mapping = dict(kv.split("=") for kv in MAP.split(","))
+    a, b = import_csv(spaced, mapping), import_csv(plain, mapping)
+    for k in b.columns:
+        assert np.array_equal(a.columns[k], b.columns[k]), k
+
+
 @pytest.mark.parametrize("flag", [None, ","])
 def test_a_row_a_field_short_is_named(session, tmp_path, flag):
     """Detected, the delimiter no longer splits the header like the lines after it: the refusal says a row may have

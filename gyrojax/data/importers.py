@@ -528,7 +528,7 @@ def import_csv(
             if bad.size:
                 raise RecordError(
                     f"{path}: row {bad[0] + df.attrs['first_line'] + 1}, column {time_col!r}: time does not increase "
-                    f"({t_col[bad[0] + 1]!r}); "
+                    f"({float(t_col[bad[0] + 1])!r}); "
                     "a receive time? map the log's sample counter instead (sample=COL with --rate-hz)"
                 )
         note = jitter_note(t_col, f"time column {time_col!r}")

@@ -121,10 +121,13 @@ def read_table(path, delimiter: str | None = None, notes: list | None = None):
             f"{len(preamble)} line(s) before the table's header (line {skip + 1}) skipped: {shown} "
             "(a rate there is not read: give --rate-hz or map a clock column)"
         )
-    try:
-        df = pd.read_csv(path, sep=sep, skiprows=skip)
+    try:  # spaces after a delimiter ("t, gx, gy") are no part of a name or a number
+        df = pd.read_csv(path, sep=sep, skiprows=skip, skipinitialspace=True)
     except (UnicodeDecodeError, ValueError, pd.errors.ParserError, pd.errors.EmptyDataError) as e:
         raise RecordError(f"{path}: not a readable {sep!r}-separated table ({str(e).strip()[:120]})") from None
+    names = [str(c).strip() for c in df.columns]
+    if len(set(names)) == len(names):
+        df.columns = names
     df.attrs["first_line"] = skip + 2
     return df
 
