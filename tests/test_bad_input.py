@@ -865,10 +865,17 @@ _MAP = "gyro_x=gx,gyro_y=gy,gyro_z=gz,acc_x=ax,acc_y=ay,acc_z=az"
             ["--map", _MAP + ",time=t"],
             ("log.csv", "row 9", "column 't'", "does not increase"),
         ),
-        (
-            lambda d: _log(d, [[c.replace(".", ",") for c in r] for r in _rows()], sep=";"),
+        (  # decimal commas beside decimal points: not read as numbers, and the hint says why
+            lambda d: _log(
+                d, [[c.replace(".", ",") if k == 2 else c for k, c in enumerate(r)] for r in _rows()], sep=";"
+            ),
             ["--map", _MAP + ",time=t"],
             ("log.csv", "row 2", "column", "decimal comma"),
+        ),
+        (  # decimal commas alone are read; a log too short for the static detector is refused naming the file
+            lambda d: _log(d, [[c.replace(".", ",") for c in r] for r in _rows()], sep=";"),
+            ["--map", _MAP + ",time=t"],
+            ("log.csv", "static detector needs at least two windows"),
         ),
         (lambda d: _log(d, _rows()), ["--map", _MAP + ",time=t", "--delimiter", "|"], ("delimiter", "'|'")),
         (

@@ -659,6 +659,22 @@ def test_spaces_after_the_delimiter_and_a_byte_order_mark_are_no_part_of_a_name(
         assert np.array_equal(a.columns[k], b.columns[k]), k
 
 
+@pytest.mark.parametrize("flag", [None, ";"])
+def test_a_european_log_with_decimal_commas(session, tmp_path, capsys, flag):
+    """';' between fields and ',' before the decimals: read as the plain file, and said."""
+    rec, _ = session
+    plain = write_log(tmp_path / "plain.csv", log_columns(rec))
+    euro = tmp_path / "euro.csv"
+    euro.write_text(plain.read_text().replace(",", ";").replace(".", ","))
+    assert main(csv_argv(euro, tmp_path / "e", *(["--delimiter", flag] if flag else []))) == 0
+    assert "decimal commas read" in capsys.readouterr().out
+    assert main(csv_argv(plain, tmp_path / "p")) == 0
+    assert "decimal commas" not in capsys.readouterr().out
+    (a,), (b,) = load_records(tmp_path / "e"), load_records(tmp_path / "p")
+    for k in b.columns:
+        assert np.array_equal(a.columns[k], b.columns[k]), k
+
+
 @pytest.mark.parametrize("flag", [None, ","])
 def test_a_row_a_field_short_is_named(session, tmp_path, flag):
     """Detected, the delimiter no longer splits the header like the lines after it: the refusal says a row may have

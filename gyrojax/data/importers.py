@@ -420,7 +420,10 @@ def triad_from_arrays(
     acc = np.asarray(acc, dtype=float)
     gyr = np.asarray(gyr, dtype=float)
     rate_hz = (len(t) - 1) / (t[-1] - t[0])
-    det = detect_rests(acc, rate_hz, gyro=gyr, threshold=static_threshold, min_rest_s=min_rest_s)
+    try:
+        det = detect_rests(acc, rate_hz, gyro=gyr, threshold=static_threshold, min_rest_s=min_rest_s)
+    except RecordError as e:  # the detector knows the samples, not the file: name it
+        raise RecordError(f"{source}: {e}") from None
     iv = det.intervals
     if len(iv) < 9:
         raise RecordError(f"{source}: found {len(iv)} static poses; the calibration needs at least 9 ({det.summary()})")

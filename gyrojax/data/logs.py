@@ -4,6 +4,7 @@ its rate — with a note when the time steps jitter. Used by the importers (:mod
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -96,6 +97,17 @@ def file_stem(path) -> str:
     return p.stem
 
 
+_DECIMAL_COMMA = re.compile(r"^[+-]?\d+,\d+([eE][+-]?\d+)?$")
+
+
+def _decimal_commas(path, skip: int, sep: str, lines: int = 20) -> bool:
+    """Whether the data lines after the header (line ``skip``, from 0) write their numbers with a decimal comma
+    (``0,125``): some field of them does, and none with a decimal point."""
+    rows = [ln for k, ln in _head(path, skip + lines + 1) if k > skip]
+    fields = [f.strip() for ln in rows for f in ln.split(sep)]
+    return any(_DECIMAL_COMMA.match(f) for f in fields) and not any("." in f for f in fields)
+
+
 def read_table(path, delimiter: str | None = None, notes: list | None = None):
     """A delimited text file as a pandas DataFrame; ``delimiter`` one of :data:`DELIMITERS` or None/``"auto"``
     (detected, and said in ``notes``). Lines before the table's header (a logger's preamble: ``Fs,100``, a device
@@ -115,6 +127,9 @@ def read_table(path, delimiter: str | None = None, notes: list | None = None):
             skip, preamble = 0, []  # pandas names what is wrong with the file
     else:
         raise RecordError(f"--delimiter {delimiter!r}: give ',', ';', 'tab' or 'auto'")
+    decimal = "," if sep != "," and _decimal_commas(path, skip, sep) else "."
+    if decimal == "," and notes is not None:
+        notes.append("decimal commas read (numbers such as 0,125 between the delimiters)")
     if preamble and notes is not None:
         shown = "; ".join(repr(ln[:40]) for ln in preamble[:3]) + (" …" if len(preamble) > 3 else "")
         notes.append(
@@ -122,7 +137,7 @@ def read_table(path, delimiter: str | None = None, notes: list | None = None):
             "(a rate there is not read: give --rate-hz or map a clock column)"
         )
     try:  # spaces after a delimiter ("t, gx, gy") are no part of a name or a number
-        df = pd.read_csv(path, sep=sep, skiprows=skip, skipinitialspace=True)
+        df = pd.read_csv(path, sep=sep, skiprows=skip, skipinitialspace=True, decimal=decimal)
     except (UnicodeDecodeError, ValueError, pd.errors.ParserError, pd.errors.EmptyDataError) as e:
         raise RecordError(f"{path}: not a readable {sep!r}-separated table ({str(e).strip()[:120]})") from None
     names = [str(c).strip() for c in df.columns]
