@@ -675,6 +675,32 @@ def test_a_european_log_with_decimal_commas(session, tmp_path, capsys, flag):
         assert np.array_equal(a.columns[k], b.columns[k]), k
 
 
+def test_iso_date_times_and_epoch_nanoseconds_are_clocks(session, tmp_path, capsys):
+    """A phone logger's clocks: ISO 8601 date-times (read without --time-unit, and said) and nanoseconds since the
+    epoch (--time-unit ns) give the times of the plain log in seconds (to the date-times' microsecond)."""
+    import datetime as dt
+
+    rec, _ = session
+    base = dt.datetime(2026, 3, 1, 12, 0, 0)
+    iso = [(base + dt.timedelta(seconds=float(x))).isoformat(timespec="microseconds") for x in rec.time_s]
+    lines = write_log(tmp_path / "plain.csv", log_columns(rec)).read_text().splitlines()
+
+    def with_clock(name, stamps):  # the plain log with its time column replaced
+        body = [f"{c},{ln.split(',', 1)[1]}" for c, ln in zip(stamps, lines[1:])]
+        (tmp_path / name).write_text("\n".join([lines[0], *body]) + "\n")
+        return tmp_path / name
+
+    assert main(csv_argv(with_clock("iso.csv", iso), tmp_path / "i")) == 0
+    said = "time column 't' read as ISO 8601 date-times (s since the first, 2026-03-01T12:00:00"
+    assert said in capsys.readouterr().out
+    (a,) = load_records(tmp_path / "i")
+    assert np.allclose(a.time_s, rec.time_s - rec.time_s[0], atol=1e-6, rtol=0)
+    epoch = [str(1_772_366_400_000_000_000 + int(round(x * 1e9))) for x in rec.time_s]
+    assert main(csv_argv(with_clock("ns.csv", epoch), tmp_path / "n", "--time-unit", "ns")) == 0
+    (b,) = load_records(tmp_path / "n")
+    assert np.allclose(b.time_s, rec.time_s - rec.time_s[0], atol=1e-6, rtol=0)
+
+
 @pytest.mark.parametrize("flag", [None, ","])
 def test_a_row_a_field_short_is_named(session, tmp_path, flag):
     """Detected, the delimiter no longer splits the header like the lines after it: the refusal says a row may have

@@ -184,7 +184,11 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--gravity", type=float, default=9.81, help="local gravity, m/s^2")
     s.add_argument("--map", help="csv: column mapping time=COL (or sample=COL),gyro_x=COL,…,acc_z=COL")
     s.add_argument("--delimiter", help="imucal, csv: ',', ';', 'tab' or 'auto' (default: detected)")
-    s.add_argument("--time-unit", choices=("s", "ms", "us"), help="csv: unit of the time column (default s)")
+    s.add_argument(
+        "--time-unit",
+        choices=("s", "ms", "us", "ns"),
+        help="csv: unit of the time column (default s; ISO 8601 date-times are read without one)",
+    )
     s.add_argument("--min-rest", type=float, metavar="S", help="imutk, csv: shortest rest kept, s (default 0.5)")
     s.add_argument(
         "--static-threshold",

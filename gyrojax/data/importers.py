@@ -28,7 +28,15 @@ import numpy as np
 
 from gyrojax import units
 from gyrojax.data.accelcheck import accelerometer_in_g
-from gyrojax.data.logs import TIME_UNITS, file_stem, jitter_note, numeric_columns, read_table, time_from_counter
+from gyrojax.data.logs import (
+    TIME_UNITS,
+    file_stem,
+    jitter_note,
+    numeric_columns,
+    read_table,
+    time_column,
+    time_from_counter,
+)
 from gyrojax.data.record import Record
 from gyrojax.data.segments import MIN_REST_S
 from gyrojax.data.triad import CHANNELS, TRIAD_KIND, validate_triad_columns, validate_triad_meta
@@ -493,7 +501,8 @@ def import_csv(
     "time": "t"}``: rests detected and moves between them, as :func:`triad_from_arrays` (other keyword arguments go
     there).
 
-    The clock: ``time`` (or ``time_s``) a time column in ``time_unit`` (``s``, ``ms``, ``us``; default s), noted when
+    The clock: ``time`` (or ``time_s``) a time column in ``time_unit`` (``s``, ``ms``, ``us``, ``ns``; default s, or
+    ISO 8601 date-times when no unit is given), noted when
     it jitters; or ``sample`` a gap-free sample counter at ``rate_hz`` counts per second (used instead of a time
     column mapped beside it, whose jitter is then noted); or neither, samples at ``rate_hz``. ``delimiter``: ``,``,
     ``;``, ``tab`` or None (detected, and noted).
@@ -508,7 +517,7 @@ def import_csv(
         raise RecordError("column mapping: 'time' and 'time_s' are the same key; map one")
     time_col = mapping.get("time", mapping.get("time_s"))
     if time_unit is not None and time_unit not in TIME_UNITS:
-        raise RecordError(f"time unit (--time-unit) must be one of s, ms, us, got {time_unit!r}")
+        raise RecordError(f"time unit (--time-unit) must be one of s, ms, us, ns, got {time_unit!r}")
     if time_unit is not None and time_col is None:
         raise RecordError("a time unit (--time-unit) was given but no time column is mapped (time=COL)")
     if time_col is not None and "sample" not in mapping and rate_hz is not None:
@@ -525,7 +534,9 @@ def import_csv(
     gyr = numeric_columns(df, [mapping[f"gyro_{c}"] for c in CHANNELS], str(path))
     t_col = None
     if time_col is not None:
-        t_col = numeric_columns(df, [time_col], str(path))[:, 0] * TIME_UNITS[time_unit or "s"]
+        t_col, how = time_column(df, time_col, time_unit, str(path))
+        if how:
+            notes.append(how)
         if "sample" not in mapping:
             bad = np.flatnonzero(np.diff(t_col) <= 0)
             if bad.size:

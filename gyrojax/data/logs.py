@@ -167,7 +167,27 @@ def numeric_columns(df, cols: list, where: str):
     return arr
 
 
-TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6}
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9}
+
+
+def time_column(df, col: str, unit: str | None, where: str) -> tuple[np.ndarray, str | None]:
+    """A time column of ``df`` in s: numbers in ``unit`` (:data:`TIME_UNITS`, default s), or — with no unit given —
+    ISO 8601 date-times (``2026-03-01T12:00:00.125``, a phone logger's or a spreadsheet's), as seconds since the
+    first; returns (times, a note saying how they were read, or None). :class:`RecordError` naming the first cell
+    that is neither (:func:`numeric_columns`)."""
+    import pandas as pd
+
+    raw = df[col]
+    if unit is None and not pd.api.types.is_numeric_dtype(raw):
+        try:
+            stamps = pd.to_datetime(raw, format="ISO8601")
+        except (ValueError, TypeError):
+            stamps = None
+        if stamps is not None and not stamps.isna().any():
+            ns = stamps.to_numpy(dtype="datetime64[ns]").astype(np.int64)
+            note = f"time column {col!r} read as ISO 8601 date-times (s since the first, {raw.iloc[0]!s})"
+            return (ns - ns[0]) * 1e-9, note
+    return numeric_columns(df, [col], where)[:, 0] * TIME_UNITS[unit or "s"], None
 
 
 def time_from_counter(c: np.ndarray, rate_hz: float | None, where: str, first_line: int = 2) -> np.ndarray:
