@@ -84,11 +84,6 @@ def sniff_layout(
     )
 
 
-def sniff_delimiter(path, lines: int = 20) -> str:
-    """The delimiter of :func:`sniff_layout`."""
-    return sniff_layout(path, lines)[0]
-
-
 def file_stem(path) -> str:
     """A file's name without its extension and a compression suffix (``log.tsv.gz`` → ``log``)."""
     p = Path(path)
@@ -199,7 +194,7 @@ def time_from_counter(c: np.ndarray, rate_hz: float | None, where: str, first_li
     c = np.asarray(c, dtype=float)
     if np.any(c != np.round(c)):
         i = int(np.flatnonzero(c != np.round(c))[0])
-        raise RecordError(f"{where}: row {i + first_line}: the sample counter holds {c[i]!r}, not an integer")
+        raise RecordError(f"{where}: row {i + first_line}: the sample counter holds {float(c[i])!r}, not an integer")
     d = np.diff(c)
     if d.size and np.any(d < 0):  # a wrapping counter: modulo the largest value seen + 1
         period = c.max() + 1
