@@ -71,14 +71,6 @@ def determinacy(params: np.ndarray, means: np.ndarray, g_units: float) -> tuple[
     return out, note
 
 
-def accelerometer_poorly_determined(calibration: dict | None) -> bool:
-    """Whether a record's ``accelerometer_calibration`` (its JSON key, written by the importers) states standard
-    errors beyond :data:`WEAK`, or none for a direction the rests do not determine (:func:`determinacy`); False
-    without them."""
-    std = (calibration or {}).get("std_at_rest_error") or {}
-    return any(x is None or x > WEAK[k] for k in WEAK for x in std.get(k, []))
-
-
 def accelerometer_in_g(
     acc: np.ndarray,
     intervals: list,

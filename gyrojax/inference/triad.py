@@ -45,7 +45,6 @@ import numpy as np
 from scipy import special
 
 from gyrojax import units
-from gyrojax.data.accelcheck import accelerometer_poorly_determined
 from gyrojax.data.record import Record
 from gyrojax.data.triad import TRIAD_KIND
 from gyrojax.data.triad_segments import triad_segments
@@ -283,13 +282,8 @@ def fit_triad(
             f"p {special.chdtrc(dof, chi2):.2g}; largest shares: {drivers}): bias shifts between poses, hand-move "
             f"errors or a missing effect; {tail}"
         )
-    weak = [r.name for r in recs if accelerometer_poorly_determined(r.meta.get("accelerometer_calibration"))]
-    if weak:
-        notes.append(
-            f"the accelerometer calibration of {', '.join(weak)} is poorly determined by its rests (the import's "
-            "note): the rests' gravity directions, and with them the moves' rotations, carry its error, which the "
-            "standard errors do not include"
-        )
+    if acc_fit is not None and acc_fit["poorly_determined"]:  # the gyro fit takes the specific force as calibrated
+        notes.append(f"{acc_fit['poorly_determined']}; the gyro's standard errors do not include that error")
     if why:
         warnings.warn(f"triad fit with moves did not converge: {why}", ConvergenceWarning, stacklevel=3)
     scales = {float(r.meta["instrument"].get("gyro_counts_per_dps") or 0.0) for r in recs}

@@ -19,7 +19,7 @@ import numpy as np
 from scipy import special
 
 from gyrojax import units
-from gyrojax.data.accelcheck import ACC_CALIBRATED_TOL
+from gyrojax.data.accelcheck import ACC_CALIBRATED_TOL, determinacy
 from gyrojax.data.segments import ellipsoid_accelerometer, imutk_acc_jacobian, imutk_acc_model
 from gyrojax.data.triad import acc_g
 from gyrojax.data.triad_segments import label_rows
@@ -65,8 +65,11 @@ def residual_jacobian(params, means) -> np.ndarray:
 def fit_accelerometer(records) -> dict | None:
     """imu_tk's 9 accelerometer parameters with their covariance from the rests of ``records`` (module doc), or
     None when they have no accelerometer or fewer than :data:`MIN_POSES` poses. Returns ``params`` (9,), ``cov``
-    (9, 9), ``chi2``, ``dof``, ``birge`` (the factor applied to the covariance, ≥ 1) and
-    ``max_rest_magnitude_error`` of the records' specific force as given (fraction of g)."""
+    (9, 9), ``chi2``, ``dof``, ``birge`` (the factor applied to the covariance, ≥ 1),
+    ``max_rest_magnitude_error`` of the records' specific force as given (fraction of g), and the standard errors the
+    rests allow at 0.1 % of g per rest with a note when they are poor (``std_at_rest_error``, ``poorly_determined``:
+    :func:`gyrojax.data.accelcheck.determinacy`; the pose-noise covariance above understates them when the poses
+    scatter by more than their noise, which Birge's factor sees only beyond 9 poses)."""
     means, var, g_loc = rest_means(records)
     if len(means) < MIN_POSES:
         return None
@@ -86,6 +89,8 @@ def fit_accelerometer(records) -> dict | None:
     chi2 = float(r @ r)
     cov = np.linalg.pinv(jac.T @ jac)
     birge = max(chi2 / dof, 1.0) if dof > 0 else 1.0
+    # what the rests leave undetermined, whatever wrote the record (the importers say it too, on the raw counts)
+    std_at_rest_error, poorly = determinacy(params, means, g_mean)
     return {
         "params": params,
         "cov": cov * birge,
@@ -95,6 +100,8 @@ def fit_accelerometer(records) -> dict | None:
         "birge": birge,
         "max_rest_magnitude_error": before,
         "n_poses": len(means),
+        "std_at_rest_error": std_at_rest_error,
+        "poorly_determined": poorly,
     }
 
 
@@ -151,5 +158,6 @@ def accelerometer_json(acc_fit: dict | None) -> dict | None:
         "n_poses": int(acc_fit["n_poses"]),
         "max_rest_magnitude_error_as_given": float(acc_fit["max_rest_magnitude_error"]),
         "calibrated_before_gyro_fit": bool(acc_fit.get("applied", False)),
+        "std_at_rest_error": acc_fit["std_at_rest_error"],
         "kalibr": kalibr_accelerometer(p),
     }
