@@ -171,11 +171,14 @@ def test_whitened_gram_derivative_matches_forward_mode():
     np.testing.assert_allclose(da, ref, rtol=1e-6, atol=1e-7 * np.abs(ref).max())
 
 
-def test_padding_does_not_change_the_likelihood():
-    """Rows and columns padded to the buckets are inert: the value equals the one on unpadded arrays."""
+@pytest.mark.parametrize("columns", [3, 5])
+def test_padding_does_not_change_the_likelihood(columns):
+    """Rows and columns padded to the buckets are inert: the value equals the one on unpadded arrays (3 regressors
+    padded to 4, 5 to 8)."""
     r, x, lab, t = _series(3, n=333)
+    x = np.column_stack([x, np.cos(t / 25.0)])[:, :columns]
     s = reml.prepare(r, x, lab, t, 1.0)
-    assert s.x.shape[0] > s.n and s.x.shape[1] > 1 + s.rank
+    assert s.rank == columns and s.x.shape[0] > s.n and s.x.shape[1] == 1 + reml.bucket_cols(columns) > 1 + s.rank
     ok = lab >= 0
     m = s.n
     arrays = (s.x[:m, : 1 + s.rank], s.dt[:m], s.restart[:m], s.mask[:m])

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy import special, stats
 
-from gyrojax.inference.tails import chi2_logsf, f_logsf, log_incomplete_beta, log_upper_gamma
+from gyrojax.inference.tails import chi2_logsf, f_logsf, f_logsf_many, log_incomplete_beta, log_upper_gamma
 
 REL = 1e-12  # continued fractions stop at 1e-15 per step; a few hundred steps and the logs of Γ, B keep this
 
@@ -55,3 +55,14 @@ def test_a_strong_candidate_has_a_finite_log10_p():
     its log10 p is finite, so the JSON holds a number (not null) and the ranking compares it."""
     v = f_logsf(1818.24, 1, 8600.0) / math.log(10)
     assert math.isfinite(v) and -400 < v < -300
+
+
+def test_the_batched_f_tail_is_the_scalar_one():
+    """:func:`f_logsf_many` (one scipy call for a diagnosis' candidates) returns exactly what :func:`f_logsf` returns
+    for each, on both sides of where scipy underflows, with mixed numerator degrees of freedom and a zero."""
+    xs = np.concatenate([np.geomspace(0.01, 5e3, 40), [0.0, 1818.24]])
+    dfn = np.resize([1, 2, 3, 6], xs.size)
+    many = f_logsf_many(xs, dfn, 8600.0)
+    assert many == [f_logsf(float(x), float(n), 8600.0) for x, n in zip(xs, dfn)]
+    assert np.all(np.isfinite(many)) and not np.all(np.isfinite(stats.f.logsf(xs, dfn, 8600.0)))
+    assert f_logsf_many([], [], 10.0) == []

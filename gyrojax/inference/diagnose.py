@@ -45,7 +45,7 @@ from gyrojax.inference.ranking import by_evidence
 from gyrojax.inference.result import FitResult
 from gyrojax.inference.separation import separating_plans
 from gyrojax.inference.solver import solve, stack_whitened
-from gyrojax.inference.tails import chi2_logsf, f_logsf
+from gyrojax.inference.tails import chi2_logsf, f_logsf_many
 from gyrojax.noise import reml
 from gyrojax.noise.readout import white_beside_readout
 from gyrojax.noise.spec import NoiseSpec
@@ -279,20 +279,22 @@ def _score(lin, noises, model: Model, full: Model, cand, p0: int, rms_now: float
     r_raw = np.concatenate([r for r, *_ in lin])
     j_raw = np.concatenate([j for _, j, *_ in lin], axis=0)
     n_raw = len(r_raw)
-    tested, perps, unexcited = [], {}, []
+    # the model's least-squares fit to every candidate column at once (one factorisation of j0, many right sides)
+    x_all = jw * ~residue
+    b_all = np.linalg.lstsq(j0, x_all, rcond=None)[0] if p0 else np.zeros((0, x_all.shape[1]))
+    tested, perps, unexcited, pending = [], {}, [], []
     for c in cand:
-        cols = sl[c]
-        keep = ~residue[cols]
-        x = jw[:, cols] * keep
+        cols = np.arange(full.size)[sl[c]]
+        x = x_all[:, cols]
         xn = float(np.sqrt((x * x).sum()))
-        xr = j_raw[:, cols] * keep
+        xr = j_raw[:, cols] * ~residue[cols]
         if xn == 0.0 or float(np.abs(xr).max()) == 0.0:
             unexcited.append(c)
             continue
+        b_model = b_all[:, cols]
         xp = x - u0 @ (u0.T @ x)
         rel = float(np.sqrt((xp * xp).sum())) / xn
         if rel < UNSEEN:
-            b_model, *_ = np.linalg.lstsq(j0, x, rcond=None)
             weight = np.abs(b_model).max(axis=1) * np.sqrt((j0 * j0).sum(axis=0))
             idx = np.flatnonzero(weight > 1e-3 * weight.max())
             aliases = sorted({fx.effect_of_coefficient(model.coefficient_names[k]) for k in idx}, key=model.terms.index)
@@ -301,18 +303,21 @@ def _score(lin, noises, model: Model, full: Model, cand, p0: int, rms_now: float
         uc = adequacy.perp_basis(u0, x, tol=1e-7)  # directions measured against the candidate's own columns
         proj = uc.T @ r_perp
         stat = float(proj @ proj) / sigma2
-        df = uc.shape[1]
-        logp = float(f_logsf(stat / df, df, dof))  # σ̃² estimated with dof degrees of freedom (module doc)
         # the candidate's coefficients if it were added (whitened LS), and the raw residual it would leave
         beta, *_ = np.linalg.lstsq(xp, r_perp, rcond=None)
-        b_model = np.linalg.lstsq(j0, x, rcond=None)[0] if p0 else np.zeros((0, x.shape[1]))
         delta = (xr - j_raw[:, :p0] @ b_model) @ beta
         rms_after = float(np.sqrt(np.mean((r_raw - delta) ** 2))) if n_raw else float("nan")
         est = {
             name: {"value": float(v), "unit": u} for name, v, u in zip(fx.get(c).coefficients, beta, fx.get(c).units)
         }
-        tested.append(Candidate(c, stat, df, math.exp(logp), 1.0, [], rms_after, est, log10_p=logp / math.log(10)))
+        cand_c = Candidate(c, stat, uc.shape[1], 1.0, 1.0, [], rms_after, est)
+        tested.append(cand_c)
+        pending.append(cand_c)
         perps[c] = uc
+    # σ̃² estimated with dof degrees of freedom (module doc): F(df, dof) tails, all in one call
+    logps = f_logsf_many([c.statistic / c.df for c in pending], [c.df for c in pending], dof)
+    for c, logp in zip(pending, logps):
+        c.p_value, c.log10_p = math.exp(logp), logp / math.log(10)
     return tested, perps, unexcited, (rw, jw)
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from scipy import special, stats
 
 _EPS = 1e-15
@@ -78,3 +79,14 @@ def f_logsf(x: float, dfn: float, dfd: float) -> float:
     if w >= (a + 1.0) / (a + b + 2.0):  # not in the tail (scipy is finite there): the fraction would converge slowly
         return v
     return log_incomplete_beta(w, a, b)
+
+
+def f_logsf_many(x, dfn, dfd: float) -> list[float]:
+    """:func:`f_logsf` of each ``x`` (with its ``dfn``; dimensionless): scipy called once on the arrays (one call
+    per candidate cost more in overhead than in arithmetic), the continued fraction only where scipy's value is not
+    finite."""
+    x, dfn = np.asarray(x, dtype=float), np.asarray(dfn, dtype=float)
+    if x.size == 0:
+        return []
+    v = np.atleast_1d(stats.f.logsf(x, dfn, dfd))
+    return [float(a) if math.isfinite(a) else f_logsf(float(b), float(n), dfd) for a, b, n in zip(v, x, dfn)]

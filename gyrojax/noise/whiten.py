@@ -156,7 +156,8 @@ def kalman_whiten(x: np.ndarray, times: np.ndarray, nz: NoiseSpec, restart: np.n
     nb = reml.bucket_rows(n)  # padded rows (masked) pass through: a few compiled shapes for every length
     # columns padded too (a single series excepted): each column is filtered on its own, so the padding changes no
     # bit of the others, and the fit's whitening keeps one compiled shape while a model grows by an effect a step
-    mb = x2.shape[1] if x2.shape[1] == 1 else reml.bucket_cols(x2.shape[1])
+    # (to a multiple of 8: whitening is a forward pass, cheap beside the likelihood's gradient, which pads finer)
+    mb = x2.shape[1] if x2.shape[1] == 1 else -(-x2.shape[1] // 8) * 8
     xp = np.zeros((nb, mb))
     xp[:n, : x2.shape[1]] = x2
     dtp, rp, mp = np.ones(nb), np.ones(nb, dtype=bool), np.zeros(nb, dtype=bool)
