@@ -151,20 +151,3 @@ def test_shapes_cover_every_input_the_records_carry():
     n = len(recs[0].time_s)
     for _, _, _, _, blocks in lib:
         assert blocks[0].shape[0] == n and np.all(np.isfinite(blocks[0]))
-
-
-@pytest.mark.parametrize("rows", [500, 40_000])
-def test_compress_is_the_qr_triangle_of_the_tall_system(rows):
-    """The triangle of :func:`gyrojax.inference.subspace.compress` (one QR, or row blocks on the worker threads
-    stacked and factored again when tall) against numpy's QR of the whole: RᵀR = MᵀM, and R equal up to the signs of
-    its rows."""
-    from gyrojax.inference.subspace import compress
-
-    rng = np.random.default_rng(7)
-    m = rng.normal(size=(rows, 12)) * np.geomspace(1.0, 1e4, 12)
-    r = compress(m)
-    ref = np.linalg.qr(m, mode="r")
-    assert r.shape == ref.shape == (12, 12)
-    scale = np.abs(ref).max()
-    assert np.abs(r.T @ r - m.T @ m).max() <= 1e-12 * np.abs(m.T @ m).max()
-    assert np.abs(np.abs(r) - np.abs(ref)).max() <= 1e-12 * scale

@@ -9,13 +9,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from gyrojax.noise.whiten import whiten
-from gyrojax.threads import parallel_map, workers
 
 UNSEEN = 1e-6
 """|X⊥| / |X| below which a span holds a column: no direction of it is left (:func:`perp_basis`)."""
-TSQR_ROWS = 8192
-"""Rows per block at least before :func:`compress` splits its QR over the worker threads (the demo campaign's
-34 464 × 60 system: 23 ms in one QR, 13 ms in two halves on 2 cores)."""
 
 
 def basis(a: np.ndarray, tol: float = 1e-7) -> np.ndarray:
@@ -81,20 +77,10 @@ def compress(m: np.ndarray) -> np.ndarray:
     """The triangle R of m = QR (Householder QR, Q not formed; (min(n, k), k) for m (n, k)): RᵀR = mᵀm, so every
     inner product, norm, projection and canonical correlation between columns of ``m`` is the same computed on
     the columns of R (Q has orthonormal columns), in k rows instead of n. The tests of a diagnosis touch the tall
-    whitened system only through such quantities: one QR of it replaces dozens of passes over its rows.
-
-    A tall ``m`` is split in row blocks whose triangles are found side by side (:func:`gyrojax.threads.parallel_map`)
-    and stacked, and the QR of the stack is the triangle (TSQR, Demmel et al. 2012): as stable as one Householder QR,
-    and equal to it up to the signs of its rows, which no quantity above depends on."""
+    whitened system only through such quantities: one QR of it replaces dozens of passes over its rows."""
     if m.shape[1] == 0:
         return np.zeros((0, 0))
-    n, k = m.shape
-    blocks = min(workers(), n // max(TSQR_ROWS, 4 * k))
-    if blocks < 2:
-        return np.linalg.qr(m, mode="r")
-    edges = np.linspace(0, n, blocks + 1).astype(int)
-    parts = parallel_map(lambda i: np.linalg.qr(m[edges[i] : edges[i + 1]], mode="r"), range(blocks))
-    return np.linalg.qr(np.concatenate(parts, axis=0), mode="r")
+    return np.linalg.qr(m, mode="r")
 
 
 @dataclass
