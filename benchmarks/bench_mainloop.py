@@ -175,9 +175,7 @@ FIRST_CALL = r"""
 import collections, json, sys, time
 sys.path.insert(0, sys.argv[1])
 t0 = time.perf_counter()
-import gyrojax
-from gyrojax.cli.app import enable_compilation_cache
-enable_compilation_cache()
+import gyrojax  # turns JAX's persistent compilation cache on, as for a notebook
 from jax._src import monitoring
 from benchmarks.bench_mainloop import _campaign
 from gyrojax.inference.diagnose import diagnose

@@ -85,7 +85,7 @@ def main(argv=None):
 
     import allantools
 
-    from gyrojax.cli.app import enable_compilation_cache
+    from gyrojax import enable_compilation_cache
     from gyrojax.cli.app import main as cli
     from gyrojax.data.records import load_records
     from gyrojax.data.static import static_rate_segments

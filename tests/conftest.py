@@ -5,7 +5,7 @@ from pathlib import Path
 import pytest
 
 import gyrojax  # noqa: F401  (x64 is switched on by the package, once)
-from gyrojax.cli.app import enable_compilation_cache
+from gyrojax import enable_compilation_cache
 from gyrojax.threads import single_threaded_blas
 
 single_threaded_blas()  # two test workers on two cores: BLAS threads would only spin against each other

@@ -6,6 +6,9 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -251,7 +254,7 @@ def test_chunked_fit_static_positions_without_rate_columns(tmp_path):
 def test_compilation_cache_location_follows_the_environment(monkeypatch, tmp_path):
     """The CLI's persistent compilation cache: GYROJAX_NO_CACHE turns it off, GYROJAX_CACHE_DIR places it, otherwise
     it lives under XDG_CACHE_HOME (or ~/.cache) in gyrojax/jax."""
-    from gyrojax.cli.app import cache_dir
+    from gyrojax import cache_dir
 
     for var in ("GYROJAX_NO_CACHE", "GYROJAX_CACHE_DIR", "XDG_CACHE_HOME"):
         monkeypatch.delenv(var, raising=False)
@@ -265,3 +268,32 @@ def test_compilation_cache_location_follows_the_environment(monkeypatch, tmp_pat
     assert cache_dir() == str(tmp_path / "here")
     monkeypatch.setenv("GYROJAX_NO_CACHE", "1")
     assert cache_dir() is None
+
+
+_CACHE_PROBE = "import sys, gyrojax, jax; print(jax.config.jax_compilation_cache_dir)"
+_CACHE_PROBE_JAX_FIRST = (
+    "import jax; jax.config.update('jax_compilation_cache_dir', sys.argv[1]); import gyrojax; "
+    "print(jax.config.jax_compilation_cache_dir)"
+)
+
+
+@pytest.mark.parametrize(
+    "env, code, want",
+    [
+        ({"GYROJAX_CACHE_DIR": "{tmp}/here"}, _CACHE_PROBE, "{tmp}/here"),  # a notebook's import turns it on
+        ({"XDG_CACHE_HOME": "{tmp}/xdg"}, _CACHE_PROBE, "{tmp}/xdg/gyrojax/jax"),
+        ({"GYROJAX_NO_CACHE": "1", "GYROJAX_CACHE_DIR": "{tmp}/here"}, _CACHE_PROBE, "None"),
+        ({"JAX_COMPILATION_CACHE_DIR": "{tmp}/mine", "GYROJAX_CACHE_DIR": "{tmp}/here"}, _CACHE_PROBE, "{tmp}/mine"),
+        ({"GYROJAX_CACHE_DIR": "{tmp}/here"}, "import sys; " + _CACHE_PROBE_JAX_FIRST, "{tmp}/own"),
+    ],
+)
+def test_import_gyrojax_turns_the_compilation_cache_on_unless_the_process_chose_one(tmp_path, env, code, want):
+    """``import gyrojax`` in a fresh process (a notebook's kernel) gets the command's persistent compilation cache,
+    so its first diagnosis loads what earlier processes compiled; a cache the process set itself (JAX's variable, or
+    JAX's config before the import) is kept, and GYROJAX_NO_CACHE=1 keeps it off."""
+    base = {k: v for k, v in os.environ.items() if not k.startswith(("GYROJAX_", "JAX_COMPILATION", "XDG_CACHE"))}
+    base.update({k: v.format(tmp=tmp_path) for k, v in env.items()})
+    out = subprocess.run(
+        [sys.executable, "-c", code, str(tmp_path / "own")], env=base, capture_output=True, text=True, check=True
+    ).stdout.strip()
+    assert out == want.format(tmp=tmp_path)

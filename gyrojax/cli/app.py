@@ -22,6 +22,7 @@ import os
 import sys
 import threading
 
+from gyrojax import enable_compilation_cache
 from gyrojax.cli.args import UsageError
 from gyrojax.errors import GyrojaxError
 from gyrojax.threads import POOL_PREFIX, single_threaded_blas, stop_workers
@@ -216,35 +217,6 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--quick", action="store_true", help="shorter records (for tests)")
     s.set_defaults(func=_command("demo"))
     return p
-
-
-def cache_dir() -> str | None:
-    """Where the CLI keeps JAX's persistent compilation cache, or ``None`` when ``GYROJAX_NO_CACHE`` is set."""
-    if os.environ.get("GYROJAX_NO_CACHE", "").strip() not in ("", "0"):
-        return None
-    if os.environ.get("GYROJAX_CACHE_DIR"):
-        return os.environ["GYROJAX_CACHE_DIR"]
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return os.path.join(base, "gyrojax", "jax")
-
-
-def enable_compilation_cache() -> None:
-    """Turn on JAX's persistent compilation cache at :func:`cache_dir` (nothing when it is switched off)."""
-    path = cache_dir()
-    if path is None:
-        return
-    # every compiled function, however small: a diagnosis compiles dozens of them
-    settings = {
-        "jax_compilation_cache_dir": path,
-        "jax_persistent_cache_min_compile_time_secs": 0.0,
-        "jax_persistent_cache_min_entry_size_bytes": 0,
-    }
-    if "jax" in sys.modules:
-        for name, value in settings.items():
-            sys.modules["jax"].config.update(name, value)
-    else:  # JAX reads them when (and if) a command imports it: `gyrojax plans` and `import` never do
-        for name, value in settings.items():
-            os.environ[name.upper()] = str(value)
 
 
 def main(argv=None) -> int:
