@@ -285,6 +285,7 @@ _CACHE_PROBE_JAX_FIRST = (
         ({"GYROJAX_NO_CACHE": "1", "GYROJAX_CACHE_DIR": "{tmp}/here"}, _CACHE_PROBE, "None"),
         ({"JAX_COMPILATION_CACHE_DIR": "{tmp}/mine", "GYROJAX_CACHE_DIR": "{tmp}/here"}, _CACHE_PROBE, "{tmp}/mine"),
         ({"GYROJAX_CACHE_DIR": "{tmp}/here"}, "import sys; " + _CACHE_PROBE_JAX_FIRST, "{tmp}/own"),
+        ({"GYROJAX_CACHE_DIR": "{tmp}/here"}, "import jax; " + _CACHE_PROBE, "{tmp}/here"),  # JAX first, no cache
     ],
 )
 def test_import_gyrojax_turns_the_compilation_cache_on_unless_the_process_chose_one(tmp_path, env, code, want):
