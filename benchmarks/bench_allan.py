@@ -13,6 +13,7 @@ from pathlib import Path
 import allantools
 import numpy as np
 
+from benchmarks.timing import compile_here
 from gyrojax import save_record, simulate
 from gyrojax.cli.app import main
 from gyrojax.data import plans
@@ -55,4 +56,5 @@ def run(n: int = 1_000_000):
 
 
 if __name__ == "__main__":
+    compile_here()
     run(int(sys.argv[1]) if len(sys.argv) > 1 else 1_000_000)

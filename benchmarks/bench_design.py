@@ -12,6 +12,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from benchmarks.timing import compile_here
 from gyrojax.data import plans
 from gyrojax.inference.campaign import Campaign, linearize
 from gyrojax.noise.processes import random_drift
@@ -112,6 +113,7 @@ def detect():
 
 
 if __name__ == "__main__":
+    compile_here()
     res = timing_24()
     comparison(res)
     detect()

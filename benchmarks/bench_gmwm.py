@@ -20,6 +20,7 @@ import jax
 import numpy as np
 from scipy import stats
 
+from benchmarks.timing import compile_here
 from gyrojax.noise import allan, gmwm
 from gyrojax.noise import gmwm_model as gm
 from gyrojax.noise.processes import simulate
@@ -118,6 +119,7 @@ def coverage(draws=500, n=2**18):
 
 
 if __name__ == "__main__":
+    compile_here()
     nums = [int(a) for a in sys.argv[1:] if a.isdigit()]  # (python -m benchmarks passes bench names)
     draws = nums[0] if nums else 500
     n_mc = nums[1] if len(nums) > 1 else 2**18

@@ -26,6 +26,7 @@ import jax.numpy as jnp
 import numpy as np
 import scipy.signal as sig
 
+from benchmarks.timing import compile_here
 from gyrojax import units
 from gyrojax.dynamics import loops
 from gyrojax.dynamics.discretize import zoh
@@ -234,4 +235,5 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
+    compile_here()
     main()

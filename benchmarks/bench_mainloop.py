@@ -48,7 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.timing import run_process
+from benchmarks.timing import compile_here, run_process
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -286,13 +286,7 @@ def main(argv=None):
     ap.add_argument("--no-loop", action="store_true", help="skip the demo's loop and the profile")
     args = ap.parse_args(argv)
 
-    import jax
-
-    import gyrojax  # noqa: F401  (turns the persistent compilation cache on, as for every process; not for this one:)
-
-    # this process times compiling itself (cold − warm): no persistent cache here, nor kept traces beside it; the
-    # child processes' own `import gyrojax` turns it on for them
-    jax.config.update("jax_compilation_cache_dir", None)
+    compile_here()  # this process times compiling (cold − warm); its child processes load from the cache
     from gyrojax.inference.campaign import Campaign
     from gyrojax.inference.diagnose import diagnose
     from gyrojax.inference.identify import fit

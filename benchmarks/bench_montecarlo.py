@@ -41,6 +41,7 @@ if "jax" not in sys.modules:
         os.environ.get("XLA_FLAGS", "") + f" --xla_force_host_platform_device_count={_devices_from_argv()}"
     ).strip()
 
+from benchmarks.timing import compile_here  # noqa: E402
 from gyrojax import units  # noqa: E402
 from gyrojax.montecarlo import pipeline, runner  # noqa: E402
 from gyrojax.montecarlo import study as mc  # noqa: E402
@@ -230,4 +231,5 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
+    compile_here()
     main()

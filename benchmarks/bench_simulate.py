@@ -11,6 +11,7 @@ import time
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from benchmarks.timing import compile_here
 from gyrojax import simulate, units
 from gyrojax.data import plans
 
@@ -83,4 +84,5 @@ def main():
 
 
 if __name__ == "__main__":
+    compile_here()
     main()

@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.timing import run_process
+from benchmarks.timing import compile_here, run_process
 from gyrojax.data.importers import import_imucal
 from gyrojax.inference.triad import fit_triad
 from gyrojax.montecarlo.triad import EARTH_MODES, ferraris_coverage, multiposition_coverage
@@ -182,4 +182,5 @@ def main(argv=None) -> None:
 
 
 if __name__ == "__main__":
+    compile_here()
     main()

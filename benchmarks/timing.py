@@ -18,3 +18,14 @@ def run_process(cmd, env=None, ok=(0,)) -> tuple[float, float, str]:
     if out.returncode not in ok:
         raise RuntimeError(f"{' '.join(map(str, cmd[:4]))} …: exit {out.returncode}: {out.stderr[-2000:]}")
     return dt, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), out.stdout
+
+
+def compile_here() -> None:
+    """A benchmark process times compiling itself (cold − warm, reported apart from the run): JAX's persistent
+    compilation cache, which ``import gyrojax`` turns on, is off in it (and the traces kept beside the cache with
+    it). Child processes it starts turn the cache on for themselves, as any process does."""
+    import jax
+
+    import gyrojax  # noqa: F401  (turns the cache on; switched off below, for this process only)
+
+    jax.config.update("jax_compilation_cache_dir", None)
