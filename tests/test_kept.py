@@ -120,3 +120,17 @@ def test_files_of_other_library_sources_are_pruned(where, monkeypatch):
     assert (where / f"energy-{mine}-{key}.bin").read_bytes() == b"mine"
     assert len([n for n in left if n.startswith(f"energy-{mine}-")]) == 2  # the new trace beside the planted one
     assert kept.prune(where) == []  # nothing more to delete
+
+
+def test_a_folder_that_cannot_be_written_is_said_once(tmp_path, monkeypatch):
+    """A cache folder below a file (or read-only): the traces run all the same, and one warning names the folder
+    and the way out, however many traces and arrays could not be kept."""
+    pytest.importorskip("flatbuffers")
+    (tmp_path / "file").write_text("not a folder")
+    monkeypatch.setattr(kept, "folder", lambda: tmp_path / "file" / "k")
+    monkeypatch.setattr(kept, "_UNWRITABLE", set())
+    with pytest.warns(UserWarning, match="GYROJAX_NO_CACHE=1") as said:
+        assert float(_fresh()(np.ones(2), 1.0)[0]) == 2.0
+        assert float(_fresh()(np.ones(3), 1.0)[0]) == 3.0  # another shape: another trace not saved
+        assert kept.kept_arrays("rows", ("x",), lambda: [np.arange(2)])[0].tolist() == [0, 1]
+    assert len([w for w in said if "not saved" in str(w.message)]) == 1

@@ -45,6 +45,7 @@ KEEP_OTHER_SOURCES = 2
 _NAMED = re.compile(rf"^.+-(?P<digest>[0-9a-f]{{{DIGEST_CHARS}}})-[0-9a-f]{{32}}\.(bin|npz)$")
 _UNNAMED = re.compile(r"^.+-[0-9a-f]{32}\.(bin|npz)$")  # the names before the digest was in them
 _PRUNED: set = set()
+_UNWRITABLE: set = set()  # folders a kept file could not be written to (said once)
 _LOCK = threading.RLock()  # a trace loaded (and the folder pruned) by one thread at a time
 
 
@@ -99,6 +100,23 @@ def prune(where: Path) -> list[Path]:
     return deleted
 
 
+def _save(path: Path, data: bytes, what: str, stacklevel: int) -> None:
+    """Write a kept file atomically; a folder that cannot be written (a read-only home, a path through a file) is
+    said once per process and then left alone: the process traces or computes again what it could not keep."""
+    try:
+        atomic_write_bytes(path, data)
+    except OSError as e:
+        with _LOCK:
+            if path.parent in _UNWRITABLE:
+                return
+            _UNWRITABLE.add(path.parent)
+        warnings.warn(
+            f"{path.parent}: kept {what} not saved ({e.strerror or e}); this process traces and computes them again "
+            "(GYROJAX_CACHE_DIR moves the cache, GYROJAX_NO_CACHE=1 turns it off)",
+            stacklevel=stacklevel,
+        )
+
+
 def _path(where: Path, name: str, key: str, suffix: str) -> Path:
     """The file of a kept trace or array set; the folder is pruned (:func:`prune`) at its first use in a process."""
     with _LOCK:
@@ -149,10 +167,7 @@ class Kept:
 
         flat.__name__ = self.name
         exported = jax.export.export(jax.jit(flat))(*specs)
-        try:
-            atomic_write_bytes(path, exported.serialize())
-        except OSError as e:
-            warnings.warn(f"{path}: kept trace not saved ({e.strerror or e}); this process traces it", stacklevel=3)
+        _save(path, exported.serialize(), "traces", stacklevel=4)
         return exported
 
     def __call__(self, *args):
@@ -198,8 +213,5 @@ def kept_arrays(name: str, parts, compute):
     arrays = [np.asarray(a) for a in compute()]
     buf = io.BytesIO()
     np.savez(buf, **{f"a{i}": a for i, a in enumerate(arrays)})
-    try:
-        atomic_write_bytes(path, buf.getvalue())
-    except OSError as e:
-        warnings.warn(f"{path}: kept arrays not saved ({e.strerror or e})", stacklevel=2)
+    _save(path, buf.getvalue(), "arrays", stacklevel=3)
     return arrays
