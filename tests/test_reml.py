@@ -84,6 +84,10 @@ def test_whitening_is_the_inverse_cholesky_factor():
     w, keep = whiten(np.column_stack([r, x]), lab, NZ, t)
     np.testing.assert_array_equal(keep, np.flatnonzero(ok))
     np.testing.assert_allclose(w, linalg.solve_triangular(c, np.column_stack([r, x])[ok], lower=True), atol=1e-10)
+    # wider than one compiled call (gyrojax.noise.whiten.WHITEN_COLUMNS): filtered in chunks, the same factor
+    wide = np.column_stack([r, x, np.random.default_rng(3).normal(size=(len(r), 15))])
+    w, _ = whiten(wide, lab, NZ, t)
+    np.testing.assert_allclose(w, linalg.solve_triangular(c, wide[ok], lower=True), atol=1e-10)
     white = NoiseSpec.from_sample_variances(0.8, 1.0)
     w, _ = whiten(r, lab, white, t)
     np.testing.assert_allclose(w, r[ok] / np.sqrt(0.8), rtol=1e-12)

@@ -140,6 +140,9 @@ def first_difference_std(r: np.ndarray, labels: np.ndarray) -> float:
 
 # ---- white + first-order Gauss–Markov: exact whitening by the Kalman filter ------------------------------------
 
+WHITEN_COLUMNS = 8
+"""Columns :func:`kalman_whiten` filters per compiled call (a shape per row bucket, whatever the width)."""
+
 
 def kalman_whiten(x: np.ndarray, times: np.ndarray, nz: NoiseSpec, restart: np.ndarray | None = None):
     """Exact GLS whitening under ``nz`` by the Kalman filter of :func:`gyrojax.noise.reml.whiten_scan`: (whitened x,
@@ -154,10 +157,11 @@ def kalman_whiten(x: np.ndarray, times: np.ndarray, nz: NoiseSpec, restart: np.n
     if restart is not None:
         bad |= restart
     nb = reml.bucket_rows(n)  # padded rows (masked) pass through: a few compiled shapes for every length
-    # columns padded too (a single series excepted): each column is filtered on its own, so the padding changes no
-    # bit of the others, and the fit's whitening keeps one compiled shape while a model grows by an effect a step
-    # (to a multiple of 8: whitening is a forward pass, cheap beside the likelihood's gradient, which pads finer)
-    mb = x2.shape[1] if x2.shape[1] == 1 else -(-x2.shape[1] // 8) * 8
+    # columns padded too (a single series excepted) and filtered WHITEN_COLUMNS at a time: each column is filtered
+    # on its own, so neither the padding nor the chunks change a bit of the others, and one compiled shape per row
+    # bucket serves a fit's few columns, a model grown by an effect and a diagnosis' dozens of shapes alike
+    width = 1 if x2.shape[1] == 1 else WHITEN_COLUMNS
+    mb = -(-x2.shape[1] // width) * width
     xp = np.zeros((nb, mb))
     xp[:n, : x2.shape[1]] = x2
     dtp, rp, mp = np.ones(nb), np.ones(nb, dtype=bool), np.zeros(nb, dtype=bool)
@@ -165,9 +169,11 @@ def kalman_whiten(x: np.ndarray, times: np.ndarray, nz: NoiseSpec, restart: np.n
     steps = dt[~bad]
     readout = nz.whitening_readout(float(np.median(steps)) if steps.size else 1.0)
     readout = None if readout is None else np.asarray(readout, float)
-    w, logs = reml.whiten_jit(np.asarray(nz.whitening_theta(), float), xp, dtp, rp, mp, readout)
-    w = np.asarray(w)[:n, : x2.shape[1]]
-    return (w[:, 0] if x.ndim == 1 else w), np.asarray(logs)[:n]
+    theta = np.asarray(nz.whitening_theta(), float)
+    # every chunk dispatched before the first is read back (log S is the same in each: it is the filter's alone)
+    parts = [reml.whiten_jit(theta, xp[:, k : k + width], dtp, rp, mp, readout) for k in range(0, mb, width)]
+    w = np.concatenate([np.asarray(p[0]) for p in parts], axis=1)[:n, : x2.shape[1]]
+    return (w[:, 0] if x.ndim == 1 else w), np.asarray(parts[0][1])[:n]
 
 
 def gm_loglik(r: np.ndarray, labels: np.ndarray, times: np.ndarray, nz: NoiseSpec) -> tuple[float, int]:
