@@ -331,3 +331,24 @@ def test_reml_covariance_of_the_natural_parameters():
 
     jac = np.column_stack([(natural(u0 + d) - natural(u0 - d)) / (2 * h) for d in e])
     np.testing.assert_allclose(np.asarray(got.cov), jac @ cov_u @ jac.T, rtol=2e-3, atol=1e-12)
+
+
+@pytest.mark.parametrize("p", [1, 2, 3, 5])
+def test_ar_whitening_is_scipys_lfilter_to_the_last_bit(p):
+    """The AR whitening's FIR filter (numpy, so that a diagnosis does not import scipy.signal) against
+    ``scipy.signal.lfilter`` on each labelled segment: the rows past a segment's first p, equal to the last bit, for
+    columns and for a vector; a segment of p rows or fewer gives none."""
+    from scipy.signal import lfilter
+
+    rng = np.random.default_rng(p)
+    phi = tuple(0.5 * rng.standard_normal(p))
+    nz = NoiseSpec.from_sample_variances(2.5, 0.1, ar=phi, method="ar")
+    b = np.concatenate([[1.0], -np.asarray(phi)]) / nz.innovation_std
+    x = rng.standard_normal((700, 4)) * 1e3
+    labels = np.repeat([0, 1, 2], [300, p, 400 - p])  # the middle segment is too short to keep a row
+    segments = [(0, 300), (300 + p, 700)]
+    for data in (x, x[:, 1]):
+        w, keep = whiten(data, labels, nz)
+        want = np.concatenate([lfilter(b, [1.0], data[s:e], axis=0)[p:] for s, e in segments])
+        np.testing.assert_array_equal(w, want)
+        np.testing.assert_array_equal(keep, np.concatenate([np.arange(s + p, e) for s, e in segments]))

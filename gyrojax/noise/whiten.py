@@ -105,8 +105,6 @@ def whiten(x: np.ndarray, labels: np.ndarray, noise, times: np.ndarray | None = 
         keep = np.flatnonzero(labels >= 0)
         w, _ = kalman_whiten(x[keep], times[keep], noise, reml.series_restarts(times[keep]))
         return w, keep
-    from scipy.signal import lfilter  # here only: scipy.signal loads scipy.stats, which a triad fit needs neither
-
     p = len(noise.ar)
     s = noise.innovation_std
     b = np.concatenate([[1.0], -np.asarray(noise.ar)]) / (s if s > 0 else 1.0)
@@ -114,14 +112,24 @@ def whiten(x: np.ndarray, labels: np.ndarray, noise, times: np.ndarray | None = 
     for s, e in segment_bounds(labels):
         if e - s <= p:
             continue
-        seg = x[s:e]
-        y = lfilter(b, [1.0], seg, axis=0)
-        rows.append(y[p:])
+        rows.append(fir_past_start(b, x[s:e]))
         keep.append(np.arange(s + p, e))
     if not rows:
         shape = (0,) + x.shape[1:]
         return np.zeros(shape), np.zeros(0, dtype=int)
     return np.concatenate(rows, axis=0), np.concatenate(keep)
+
+
+def fir_past_start(b: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """y_t = Σ_k b_k x_{t−k} (k = 0…p) for the rows t ≥ p of ``x`` (n,) or (n, m), whose filter lies inside it: the
+    rows of ``scipy.signal.lfilter(b, [1], x, axis=0)[p:]``, summed in its order (direct form II transposed:
+    b_0 x_t + (b_1 x_{t−1} + (… + b_p x_{t−p}))), so equal to its last bit (test). Plain numpy: importing
+    scipy.signal costs a diagnosis' first call 0.12 s (issue 26)."""
+    p, n = len(b) - 1, len(x)
+    acc = b[p] * x[: n - p]
+    for k in range(p - 1, -1, -1):
+        acc = b[k] * x[p - k : n - k] + acc
+    return acc
 
 
 def first_difference_std(r: np.ndarray, labels: np.ndarray) -> float:
