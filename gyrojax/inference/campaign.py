@@ -14,7 +14,7 @@ from gyrojax.data.arrays import record_data
 from gyrojax.data.record import Record
 from gyrojax.data.triad import TRIAD_KIND
 from gyrojax.errors import ModelError, RecordError
-from gyrojax.inference.kept_model import kept_jacobian, kept_predict
+from gyrojax.inference.kept_model import kept_predict, kept_predict_and_jacobian
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model, RecordData, check_servo
 
@@ -157,8 +157,12 @@ def linearize(model: Model, theta, campaign: Campaign):
     for d, lab, t in zip(campaign.data, campaign.labels, campaign.times):
         ok = lab >= 0
         # traces kept across processes (built-in models: gyrojax.inference.kept_model)
-        r = (np.asarray(d.y) - np.asarray(kept_predict(model, th, d)))[ok]
-        jac = np.asarray(kept_jacobian(model, th, d))[ok] if model.size else np.zeros((int(ok.sum()), 0))
+        if model.size:
+            y, jac = kept_predict_and_jacobian(model, th, d)
+            jac = np.asarray(jac)[ok]
+        else:
+            y, jac = kept_predict(model, th, d), np.zeros((int(ok.sum()), 0))
+        r = (np.asarray(d.y) - np.asarray(y))[ok]
         out.append((r, jac, lab[ok], t[ok]))
     return out
 

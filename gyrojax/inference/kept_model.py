@@ -23,7 +23,15 @@ import jax
 
 from gyrojax.noise.kept import Kept
 from gyrojax.physics import registry
-from gyrojax.physics.model import Model, jacobian, jacobian_jit, predict, predict_jit
+from gyrojax.physics.model import (
+    Model,
+    jacobian,
+    jacobian_jit,
+    predict,
+    predict_and_jacobian,
+    predict_and_jacobian_jit,
+    predict_jit,
+)
 
 
 def keepable(model: Model) -> bool:
@@ -61,3 +69,9 @@ def kept_jacobian(model: Model, theta, data):
     """:func:`gyrojax.physics.model.jacobian` of ``model`` (``jacobian_jit``), through a kept trace when
     :func:`keepable`."""
     return kept_call("jacobian", jacobian, jacobian_jit, model, theta, data)
+
+
+def kept_predict_and_jacobian(model: Model, theta, data):
+    """:func:`gyrojax.physics.model.predict_and_jacobian` of ``model`` (one compiled pass: a fresh process loads one
+    executable per model instead of two), through a kept trace when :func:`keepable`."""
+    return kept_call("predict_jacobian", predict_and_jacobian, predict_and_jacobian_jit, model, theta, data)
