@@ -1,5 +1,5 @@
 """The measurement model's traces kept across processes (gyrojax.inference.kept_model, issue 26): a built-in
-model's predict and Jacobian through the kept trace equal the jitted functions bit for bit, a reload does not
+model's predict and Jacobian (one pass) through the kept trace equal the jitted functions bit for bit, a reload does not
 trace, a file of another function under the key's name is traced again (never called), and a model with an effect
 the user registered is never kept."""
 
@@ -42,28 +42,29 @@ def _file(stem: str) -> str:
 
 def test_kept_model_functions_equal_the_jitted_ones_and_reload_without_tracing(data, where, monkeypatch):
     theta = jnp.linspace(0.1, 0.4, MODEL.size)
-    j, y = kept_model.kept_jacobian(MODEL, theta, data), kept_model.kept_predict(MODEL, theta, data)
-    assert len(list(where.glob(_file("jacobian")))) == 1 and len(list(where.glob(_file("predict")))) == 1
+    y, j = kept_model.kept_predict_and_jacobian(MODEL, theta, data)
+    assert len(list(where.glob(_file("predict_jacobian")))) == 1
     np.testing.assert_array_equal(np.asarray(j), np.asarray(jacobian_jit(MODEL, theta, data)))
     np.testing.assert_array_equal(np.asarray(y), np.asarray(predict_jit(MODEL, theta, data)))
+    np.testing.assert_array_equal(np.asarray(kept_model.kept_predict(MODEL, theta, data)), np.asarray(y))
     kept_model._kept.cache_clear()  # as in a fresh process
 
     def no_export(*a, **k):
         raise AssertionError("traced again")
 
     monkeypatch.setattr(jax.export, "export", no_export)
-    np.testing.assert_array_equal(np.asarray(kept_model.kept_jacobian(MODEL, 2 * theta, data)), np.asarray(j))
+    np.testing.assert_array_equal(np.asarray(kept_model.kept_predict_and_jacobian(MODEL, 2 * theta, data)[1]), j)
 
 
 def test_a_foreign_file_under_the_key_is_traced_again(data, where):
     theta = jnp.zeros(MODEL.size)
-    kept_model.kept_jacobian(MODEL, theta, data)
-    (path,) = where.glob(_file("jacobian"))
+    kept_model.kept_predict_and_jacobian(MODEL, theta, data)
+    (path,) = where.glob(_file("predict_jacobian"))
     other = jax.export.export(jax.jit(lambda x: 2.0 * x))(jax.ShapeDtypeStruct((3,), np.float64))
     path.write_bytes(other.serialize())  # a valid module of another function and shape
     kept_model._kept.cache_clear()
     with pytest.warns(UserWarning, match="kept trace unreadable"):
-        j = kept_model.kept_jacobian(MODEL, theta, data)
+        _, j = kept_model.kept_predict_and_jacobian(MODEL, theta, data)
     np.testing.assert_array_equal(np.asarray(j), np.asarray(jacobian_jit(MODEL, theta, data)))
 
 
@@ -71,6 +72,6 @@ def test_a_model_with_a_user_effect_is_not_kept(data, where):
     with ex.defined("U_kept=a_I**3") as (name,):
         model = Model(("D_F", name))
         assert not kept_model.keepable(model) and kept_model.keepable(MODEL)
-        j = kept_model.kept_jacobian(model, jnp.zeros(2), data)
+        _, j = kept_model.kept_predict_and_jacobian(model, jnp.zeros(2), data)
         np.testing.assert_array_equal(np.asarray(j), np.asarray(jacobian_jit(model, jnp.zeros(2), data)))
     assert not where.exists()

@@ -1,8 +1,9 @@
-"""The measurement model's traces kept across processes (issue 26): ``predict`` and ``jacobian`` of a
-:class:`~gyrojax.physics.model.Model` (a static argument: one trace per model and record shape) called through
-their ``jax.export`` modules (:class:`gyrojax.noise.kept.Kept`), so that the first diagnosis of a fresh process does
-not trace the model again (tracing ``jacobian`` of the demo's saturated model is about a second per shape; the
-persistent compilation cache spares only the compile).
+"""The measurement model's traces kept across processes (issue 26): ``predict``, and ``predict_and_jacobian`` (the
+prediction and the Jacobian in one pass: what ``linearize`` needs), of a :class:`~gyrojax.physics.model.Model` (a
+static argument: one trace per model and record shape) called through their ``jax.export`` modules
+(:class:`gyrojax.noise.kept.Kept`), so that the first diagnosis of a fresh process does not trace the model again
+(tracing ``jacobian`` of the demo's saturated model is about a second per shape; the persistent compilation cache
+spares only the compile).
 
 A model is kept only when every term is a built-in effect (:data:`gyrojax.physics.registry.BUILTIN`): the trace
 of a built-in effect depends on the library source alone, which the key carries (with the model's kind and terms,
@@ -25,8 +26,6 @@ from gyrojax.noise.kept import Kept
 from gyrojax.physics import registry
 from gyrojax.physics.model import (
     Model,
-    jacobian,
-    jacobian_jit,
     predict,
     predict_and_jacobian,
     predict_and_jacobian_jit,
@@ -63,12 +62,6 @@ def kept_predict(model: Model, theta, data):
     """:func:`gyrojax.physics.model.predict` of ``model`` (``predict_jit``), through a kept trace when
     :func:`keepable`."""
     return kept_call("predict", predict, predict_jit, model, theta, data)
-
-
-def kept_jacobian(model: Model, theta, data):
-    """:func:`gyrojax.physics.model.jacobian` of ``model`` (``jacobian_jit``), through a kept trace when
-    :func:`keepable`."""
-    return kept_call("jacobian", jacobian, jacobian_jit, model, theta, data)
 
 
 def kept_predict_and_jacobian(model: Model, theta, data):
