@@ -387,8 +387,10 @@ def gram_scan(theta, x, dt, restart, mask, readout=None):
 
 
 def likelihood_terms(theta, x, dt, restart, mask, readout=None):
-    """(Σ log S_k, |ẽ|², log det(X̃ᵀX̃) of the normalised columns), dimensionless, under ``theta`` = (τ in s,
-    σ_g², σ_w² in the residual's unit squared); ``dt`` the sample steps in s; ``readout`` as :func:`whiten_scan`."""
+    """(Σ log S_k, |ẽ|², log det(X̃ᵀX̃) of the normalised columns, X̃ᵀX̃ (P, P) of the normalised, padded columns),
+    dimensionless, under ``theta`` = (τ in s, σ_g², σ_w² in the residual's unit squared); ``dt`` the sample steps in
+    s; ``readout`` as :func:`whiten_scan`. The Gram matrix rides along (the likelihood computes it anyway), so that
+    :func:`whitened_gram` needs no compiled function of its own."""
     gram, logs = gram_scan(theta, x, dt, restart, mask, readout)
     a, b, rr = gram[1:, 1:], gram[1:, 0], gram[0, 0]
     sc = jnp.sqrt(jnp.diag(a))
@@ -396,14 +398,14 @@ def likelihood_terms(theta, x, dt, restart, mask, readout=None):
     z = jax.scipy.linalg.solve_triangular(chol, b / sc, lower=True)
     quad = rr - z @ z
     logdet = 2.0 * jnp.sum(jnp.log(jnp.diag(chol))) + 2.0 * jnp.sum(jnp.log(sc))
-    return logs, quad, logdet
+    return logs, quad, logdet, a
 
 
 def objective(u, x, dt, restart, mask, reml, readout=None):
     """−2 log L (profile, ``reml`` = 0) or −2 log L_R (``reml`` = 1) at u = (log τ, log σ_g², log σ_w²), without
     the 2π terms and the constant of the column scaling (dimensionless; τ in s, ``dt`` in s); ``readout`` the fixed
     (σ_q², Δ) or None (:func:`whiten_scan`)."""
-    logs, quad, logdet = likelihood_terms(jnp.exp(u), x, dt, restart, mask, readout)
+    logs, quad, logdet, _ = likelihood_terms(jnp.exp(u), x, dt, restart, mask, readout)
     return logs + quad + reml * logdet
 
 
@@ -418,22 +420,13 @@ error is ~1e-8 relative, and the compiled first-order functions are reused inste
 (about a second per shape in every fresh process)."""
 
 
-def _gram(u, x, dt, restart, mask, readout=None):
-    """X̃ᵀX̃ (P, P) of the normalised, padded columns of a :class:`Series` (dimensionless), at u = (log τ/s, log σ_g²,
-    log σ_w²); ``dt`` the sample steps in s."""
-    return gram_scan(jnp.exp(u), x, dt, restart, mask, readout)[0][1:, 1:]
-
-
-gram = Kept("gram", jax.jit(_gram))
-
-
 # ---- the minimiser ------------------------------------------------------------------------------------------------
 
 
 def neg2_loglik(s: Series, theta, reml: bool) -> float:
     """−2 log L_R (``reml``) or −2 log L_P of the series under ``theta`` = (τ s, σ_g², σ_w²) (σ_g² may be 0: white)."""
     th = np.asarray(theta, dtype=float)
-    logs, quad, logdet = likelihood_terms_jit(th, *s.arrays, s.readout)
+    logs, quad, logdet, _ = likelihood_terms_jit(th, *s.arrays, s.readout)
     # summed on the host (the same double additions, without dispatching an XLA add of two device scalars)
     return float(logs) + float(quad) + (float(logdet) + s.logdet_const if reml else 0.0)
 
@@ -556,7 +549,7 @@ def values(s: Series, us, reml: bool) -> np.ndarray:
     arrays = s.arrays
 
     def one(u):
-        logs, quad, logdet = likelihood_terms_jit(np.exp(np.asarray(u, dtype=float)), *arrays, s.readout)
+        logs, quad, logdet, _ = likelihood_terms_jit(np.exp(np.asarray(u, dtype=float)), *arrays, s.readout)
         return float(logs) + float(quad) + c * float(logdet)
 
     return np.array(parallel_map(one, us))
@@ -587,13 +580,13 @@ def reml_hessian(s: Series, theta, step: float = HESSIAN_STEP) -> np.ndarray:
 
 def whitened_gram(s: Series, theta, step: float = HESSIAN_STEP):
     """X̃ᵀX̃ (p, p) of the whitened regressors of ``s`` in their own units and its derivatives (p, p, 3) in
-    u = log(τ, σ_g², σ_w²) at ``theta`` = (τ s, σ_g², σ_w²) (central differences of the compiled :func:`gram`,
-    :data:`HESSIAN_STEP`)."""
+    u = log(τ, σ_g², σ_w²) at ``theta`` = (τ s, σ_g², σ_w²) (central differences of the Gram matrix of the compiled
+    :func:`likelihood_terms`, :data:`HESSIAN_STEP`)."""
     u = np.log(np.asarray(theta, dtype=float))
     p, d = s.rank, s.norms
     scale = np.outer(d, d)
     points = [u] + [u + sign * e for e in np.eye(3) * step for sign in (1.0, -1.0)]
-    g = parallel_map(lambda v: np.asarray(gram(v, *s.arrays, s.readout))[:p, :p], points)
+    g = parallel_map(lambda v: np.asarray(likelihood_terms_jit(np.exp(v), *s.arrays, s.readout)[3])[:p, :p], points)
     a = g[0] * scale
     da = np.stack([(g[1 + 2 * k] - g[2 + 2 * k]) / (2.0 * step) for k in range(3)], axis=-1)
     return a, da * scale[:, :, None]
