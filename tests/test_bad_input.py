@@ -883,10 +883,10 @@ _MAP = "gyro_x=gx,gyro_y=gy,gyro_z=gz,acc_x=ax,acc_y=ay,acc_z=az"
             ["--map", _MAP + ",time=t", "--delimiter", ","],
             ("log.csv", "not in the file"),
         ),
-        (
+        (  # a rate beside a time column is checked against it: 200 Hz said, 100 Hz in the column
             lambda d: _log(d, _rows()),
-            ["--map", _MAP + ",time=t", "--rate-hz", "100"],
-            ("log.csv", "--rate-hz", "time column"),
+            ["--map", _MAP + ",time=t", "--rate-hz", "200"],
+            ("log.csv", "--rate-hz says 200 Hz", "time column 't' (s) gives 100 Hz"),
         ),
         (lambda d: _log(d, _rows()), ["--map", _MAP, "--time-unit", "ms"], ("--time-unit", "no time column")),
         (lambda d: _log(d, _rows()), ["--map", _MAP + ",time=t,time_s=t"], ("'time' and 'time_s'",)),

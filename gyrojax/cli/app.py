@@ -175,15 +175,22 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("inputs", nargs="+", help="imucal: SESSION.csv; imutk: ACC GYRO; csv: FILE.csv")
     s.add_argument("--out", required=True, help="output directory")
     s.add_argument("--sections", help='imucal: section list {"x_p": {"start": s, "end": e}, …} (JSON or CSV)')
-    s.add_argument("--rate-hz", type=float, help="imucal: sample rate (default 204.8); csv: rate of a sample counter")
+    s.add_argument(
+        "--rate-hz",
+        type=float,
+        help="imucal: sample rate (default 204.8); csv: the log's rate (checked with its clock)",
+    )
     s.add_argument("--gyro-unit", default="counts", choices=("counts", "dps", "rad/s"))
     s.add_argument("--gyro-scale", type=float, help="nominal gyro scale, counts per deg/s (raw counts)")
     s.add_argument("--acc-unit", choices=("g", "m/s^2", "counts"), help="imutk (default counts), csv (default g)")
+    s.add_argument(
+        "--acc-scale", type=float, metavar="COUNTS_PER_G", help="imutk, csv: a rest log's nominal accelerometer scale"
+    )
     s.add_argument("--angle", type=float, help="imucal: total angle of each hand rotation, deg (default 360)")
     s.add_argument("--angle-std", type=float, help="imucal: 1-sigma error of that angle, deg (default 0)")
     s.add_argument("--latitude", type=float, help="site latitude, deg (default: unknown)")
     s.add_argument("--gravity", type=float, default=9.81, help="local gravity, m/s^2")
-    s.add_argument("--map", help="csv: column mapping time=COL (or sample=COL),gyro_x=COL,…,acc_z=COL")
+    s.add_argument("--map", help="csv: column mapping time=COL (or sample=COL),gyro_x=COL,…[,acc_x=COL,…]")
     s.add_argument("--delimiter", help="imucal, csv: ',', ';', 'tab' or 'auto' (default: detected)")
     s.add_argument(
         "--time-unit",

@@ -381,6 +381,7 @@ IMPORT_OPTIONS = {
     "sections": ("imucal",),
     "rate_hz": ("imucal", "csv"),
     "acc_unit": ("imutk", "csv"),
+    "acc_scale": ("imutk", "csv"),
     "angle": ("imucal",),
     "angle_std": ("imucal",),
     "map": ("csv",),
@@ -433,8 +434,15 @@ def cmd_import(args) -> int:
     elif args.format == "imutk":
         if len(args.inputs) != 2:
             raise UsageError("import imutk takes two files: ACC GYRO")
-        rec = importers.import_imutk(
-            args.inputs[0], args.inputs[1], acc_unit=args.acc_unit or "counts", **detector, **common
+        from gyrojax.data.imutk import import_imutk
+
+        rec = import_imutk(
+            args.inputs[0],
+            args.inputs[1],
+            acc_unit=args.acc_unit or "counts",
+            acc_counts_per_g=args.acc_scale,
+            **detector,
+            **common,
         )
     else:
         if len(args.inputs) != 1:
@@ -451,6 +459,7 @@ def cmd_import(args) -> int:
             rate_hz=args.rate_hz,
             time_unit=args.time_unit,
             delimiter=args.delimiter,
+            acc_counts_per_g=args.acc_scale,
             **detector,
             **common,
         )
@@ -466,7 +475,13 @@ def cmd_import(args) -> int:
     if args.json:
         print(json.dumps({"record": str(path), "segments": summary, "n_samples": rec.n, "import": report}))
     else:
+        from gyrojax.data.door import door_lines
+
         print(f"{path}: {rec.n} samples; segments " + ", ".join(f"{v} {k}" for k, v in summary.items()))
+        if report.get("kind") == "rest log":
+            print(f"{rec.meta['notes']}; for gyrojax noise and apply (a calibration needs at least 9 rests)")
+        for line in door_lines(report):
+            print(line)
         print(f"rests: {import_summary(report)}")
         for d in report.get("dropped", []):
             print(f"  dropped {d['start_s']:.2f}–{d['end_s']:.2f} s: {d['reason']} ({d['detail']})")

@@ -96,6 +96,7 @@ def cmd_noise(args) -> int:
         robust=args.robust,
     )
     source = ", ".join(r.name for r in recs)
+    out["warnings"] = arw_warnings({"gyro": out}, mems=False)
     kalibr_file = _kalibr_file(args, {"gyro": out}, accel, tau0, source) if args.kalibr else None
     if args.plot:  # matplotlib is imported only when a plot is asked for
         from gyrojax.report.figures import noise_model_figure, save
@@ -103,6 +104,7 @@ def cmd_noise(args) -> int:
         save(noise_model_figure(out, title=source), args.plot)
     if kalibr_file:
         out["kalibr"] = _write(args.kalibr, *kalibr_file)
+    _say(out["warnings"])
     if args.json:
         print(json.dumps(out))
         return 0
@@ -241,6 +243,8 @@ def _noise_triad(args, recs) -> int:
         )
         reports[name] = accelerometer_report(out) if name.startswith("acc_") else out
     result = {"instrument": "imu-triad", "tau0_s": tau0, "channels": reports}
+    result["warnings"] = arw_warnings({k: v for k, v in reports.items() if k.startswith("gyro_")}, mems=True)
+    _say(result["warnings"])
     source = ", ".join(r.name for r in recs)
     gyro = {k: v for k, v in reports.items() if k.startswith("gyro_")}
     accel = {k: v for k, v in reports.items() if k.startswith("acc_")}
@@ -268,6 +272,29 @@ def _noise_triad(args, recs) -> int:
     if args.kalibr:
         print(f"Kalibr imu.yaml -> {args.kalibr}")
     return 0
+
+
+def arw_warnings(reports: dict, mems: bool) -> list[str]:
+    """The ARW of each gyro report (the model's read-off, else the curve's) checked by
+    :func:`gyrojax.noise.plausible.arw_warning`; the sentences of those that fail."""
+    from gyrojax.noise.plausible import arw_warning
+
+    out = []
+    for name, rep in reports.items():
+        arw = rep.get("headline", {}).get("arw", {})
+        value = (arw.get("model") or {}).get("value") or (arw.get("curve") or {}).get("value")
+        said = arw_warning(name, value, mems=mems)
+        if said:
+            out.append(said)
+    return out
+
+
+def _say(warnings: list[str]) -> None:
+    """Each warning as one line on stderr (also in the JSON's ``warnings``), whatever the output format."""
+    import sys
+
+    for w in warnings:
+        print(f"gyrojax: warning: {w}", file=sys.stderr)
 
 
 def _print_headline(head: dict) -> None:

@@ -4,11 +4,12 @@
 * :func:`import_imucal` — imucal's Ferraris sessions (mad-lab-fau/imucal): a table with columns
   ``acc_x, acc_y, acc_z, gyr_x, gyr_y, gyr_z`` and either a ``part`` column naming the sections (``x_p``, ``x_a``, …,
   ``x_rot``, …: imucal's annotated sessions) or imucal's section list (:func:`read_sections`).
-* :func:`import_imutk` — imu_tk's ASCII files (one sample per line: time, then three values), accelerometer and
-  gyroscope apart; rests by the variance detector of :mod:`gyrojax.data.segments`, the moves between them as
-  gravity-to-gravity segments.
-* :func:`import_csv` — any delimited log, with a column mapping; its clock a time column (s, ms, µs) or a sample
-  counter with its rate.
+* :func:`gyrojax.data.imutk.import_imutk` — imu_tk's files (its own module), through :func:`triad_from_arrays`.
+* :func:`import_csv` — any delimited log (or a MATLAB file), with a column mapping; its clock a time column (s, ms,
+  µs), a sample counter or a rate (given, or the logger's preamble's), every statement of it cross-checked.
+* :func:`triad_from_arrays` — a calibration session (at least 9 rests and the moves between them) or a rest log
+  (:mod:`gyrojax.data.restlog`), the gyro at rest checked and the clock, ranges and rests said
+  (:mod:`gyrojax.data.door`).
 
 The accelerometer is never taken as calibrated on trust (:func:`~gyrojax.data.accelcheck.accelerometer_in_g`):
 calibrated by the importer (Ferraris' six faces: raw = A a + b by least squares; imu_tk's ellipsoid over the rests)
@@ -32,10 +33,10 @@ from gyrojax.data.logs import (
     TIME_UNITS,
     file_stem,
     jitter_note,
+    log_clock,
     numeric_columns,
     read_table,
     time_column,
-    time_from_counter,
 )
 from gyrojax.data.record import Record
 from gyrojax.data.segments import MIN_REST_S
@@ -325,79 +326,6 @@ def import_imucal(
     return Record(meta, {k: np.asarray(v, dtype=float) for k, v in cols.items()})
 
 
-def read_imutk_ascii(path) -> np.ndarray:
-    """imu_tk's ASCII format: one sample per line, ``time x y z`` (time in s, values in raw units) separated by
-    blanks (its ``.mat`` text files; gzip-compressed files are read too). Returns (n, 4) floats; :class:`RecordError`
-    naming the line otherwise."""
-    p = Path(path)
-    try:
-        data = np.loadtxt(p, ndmin=2)
-    except (OSError, ValueError) as e:
-        raise RecordError(f"{p}: not an imu_tk ASCII file (time x y z per line): {e}") from None
-    if data.shape[1] != 4 or len(data) < 2:
-        raise RecordError(f"{p}: expected 4 columns (time x y z) and at least 2 lines, got shape {data.shape}")
-    bad = np.flatnonzero(np.diff(data[:, 0]) <= 0)
-    if bad.size:
-        raise RecordError(f"{p}: line {bad[0] + 2}: time does not increase ({data[bad[0] + 1, 0]!r})")
-    return data
-
-
-def import_imutk(
-    acc_path,
-    gyro_path,
-    *,
-    acc_unit: str = "counts",
-    gyro_unit: str = "counts",
-    gyro_counts_per_dps: float | None = None,
-    acc_g_per_count: float | None = None,
-    acc_bias0=None,
-    latitude_deg: float | None = None,
-    gravity_mps2: float = 9.81,
-    min_rest_s: float = MIN_REST_S,
-    static_threshold: float | None = None,
-    name: str | None = None,
-    instrument_id: str | None = None,
-) -> Record:
-    """An imu_tk multi-position recording (accelerometer and gyroscope files) as one ``imu-triad`` record.
-
-    Static poses come from :func:`gyrojax.data.segments.detect_rests` (accelerometer and gyro variance against the
-    rests' own noise; ``min_rest_s`` the shortest rest, ``static_threshold`` the threshold in multiples of the
-    noise variance); each pair of consecutive poses gets a ``move`` segment (the samples between them: a
-    gravity-to-gravity move, its rotation known through the accelerometer directions before and after). The
-    accelerometer (``acc_unit``, imu_tk's raw counts by default) is checked and calibrated as
-    :func:`accelerometer_in_g` says, started from ``acc_g_per_count`` and ``acc_bias0`` when given.
-
-    Args: gyro_unit ``"counts"`` (with ``gyro_counts_per_dps``), ``"dps"`` or ``"rad/s"``; latitude_deg (None:
-    unknown); gravity_mps2 (local gravity, m/s²).
-    """
-    acc = read_imutk_ascii(acc_path)
-    gyr = read_imutk_ascii(gyro_path)
-    if len(acc) != len(gyr) or not np.allclose(acc[:, 0], gyr[:, 0], atol=1e-6):
-        raise RecordError(f"{gyro_path}: its timestamps differ from {acc_path}'s; resample one onto the other first")
-    notes = []
-    note = jitter_note(acc[:, 0], f"{acc_path}: time")
-    if note:
-        notes.append(note)
-    return triad_from_arrays(
-        acc[:, 0] - acc[0, 0],
-        acc[:, 1:],
-        gyr[:, 1:],
-        acc_unit=acc_unit,
-        gyro_unit=gyro_unit,
-        gyro_counts_per_dps=gyro_counts_per_dps,
-        acc_g_per_count=acc_g_per_count,
-        acc_bias0=acc_bias0,
-        latitude_deg=latitude_deg,
-        gravity_mps2=gravity_mps2,
-        min_rest_s=min_rest_s,
-        static_threshold=static_threshold,
-        name=name or Path(acc_path).name.split(".")[0],
-        instrument_id=instrument_id,
-        source=f"imu_tk files {acc_path}, {gyro_path}",
-        notes=notes,
-    )
-
-
 def triad_from_arrays(
     t,
     acc,
@@ -416,16 +344,25 @@ def triad_from_arrays(
     instrument_id: str | None = None,
     source: str = "arrays",
     notes: list | None = None,
+    acc_counts_per_g: float | None = None,
+    clock: dict | None = None,
 ) -> Record:
-    """A multi-position recording (times s, accelerometer (n, 3), gyro (n, 3)) as an ``imu-triad`` record: rests
-    detected (:func:`gyrojax.data.segments.detect_rests`, ``min_rest_s`` and ``static_threshold`` its options), a
-    gravity-to-gravity move between each pair of consecutive rests; the accelerometer in g as
-    :func:`accelerometer_in_g` makes it. ``meta["import"]`` reports the rests found, the candidates dropped and why,
+    """A recording (times s, accelerometer (n, 3) or None, gyro (n, 3)) as an ``imu-triad`` record: rests detected
+    (:func:`gyrojax.data.segments.detect_rests`, ``min_rest_s`` and ``static_threshold`` its options).
+
+    At least 9 rests, an accelerometer, and moves between the rests: a calibration session, a gravity-to-gravity
+    move between each pair of consecutive rests, the accelerometer in g as :func:`accelerometer_in_g` makes it.
+    Fewer rests covering most of the log, or no accelerometer: a rest log (:mod:`gyrojax.data.restlog`), each rest a
+    static segment (the accelerometer in counts then needs ``acc_counts_per_g``). Either way the gyro at rest is
+    checked (:func:`gyrojax.data.door.check_rest_gyro`) and ``meta["import"]`` reports the clock (``clock``, from
+    :func:`gyrojax.data.logs.log_clock`), the channels' ranges, the rests found, the candidates dropped and why,
     and the notes (``notes``: earlier ones to keep)."""
+    from gyrojax.data import restlog
+    from gyrojax.data.door import channel_ranges, check_rest_gyro
     from gyrojax.data.segments import detect_rests
 
     t = np.asarray(t, dtype=float)
-    acc = np.asarray(acc, dtype=float)
+    acc = None if acc is None else np.asarray(acc, dtype=float)
     gyr = np.asarray(gyr, dtype=float)
     rate_hz = (len(t) - 1) / (t[-1] - t[0])
     try:
@@ -433,9 +370,53 @@ def triad_from_arrays(
     except RecordError as e:  # the detector knows the samples, not the file: name it
         raise RecordError(f"{source}: {e}") from None
     iv = det.intervals
-    if len(iv) < 9:
-        raise RecordError(f"{source}: found {len(iv)} static poses; the calibration needs at least 9 ({det.summary()})")
+    gcols, gyro_counts_per_dps = _gyro_columns(gyr, gyro_unit, gyro_counts_per_dps, source)
+    dps = np.column_stack(list(gcols.values())) / (gyro_counts_per_dps or 1.0)
+    door = {"clock": clock} if clock else {}
+    door["ranges"] = channel_ranges({f"gyro_{c}": gyr[:, j] for j, c in enumerate(CHANNELS)})
+    door["range_units"] = {f"gyro_{c}": gyro_unit for c in CHANNELS}
+    if acc is not None:
+        door["ranges"].update(channel_ranges({f"acc_{c}": acc[:, j] for j, c in enumerate(CHANNELS)}))
+        door["range_units"].update({f"acc_{c}": acc_unit for c in CHANNELS})
+    if iv:
+        door["rest_gyro"] = check_rest_gyro(dps, iv, source, gyro_unit)
     notes = list(notes or [])
+    if restlog.is_rest_log(iv, len(t), acc):
+        acc_g, rest_g, acc_notes = (None, None, [])
+        if acc is not None:
+            g_units = gravity_mps2 / units.G0
+            acc_g, rest_g, acc_notes = restlog.rest_accelerometer(acc, iv, acc_unit, g_units, acc_counts_per_g, source)
+            door["rest_gravity"] = rest_g
+        labels, segs = restlog.rest_segments(iv, len(t))
+        cols = {"time_s": t, "segment": labels, **gcols}
+        if acc_g is not None:
+            cols.update({f"acc_{c}_g": acc_g[:, j] for j, c in enumerate(CHANNELS)})
+        covered = restlog.coverage(iv, len(t))
+        what = f"a rest log: {len(iv)} rest(s) covering {covered:.1%} of {t[-1]:.6g} s"
+        report = {"source": source, "kind": "rest log", **door, **det.to_json(), "notes": notes + acc_notes}
+        return _triad_record(
+            name,
+            segs,
+            cols,
+            latitude_deg,
+            gravity_mps2,
+            gyro_counts_per_dps,
+            instrument_id,
+            f"imported from {source}: {what} ({rate_hz:.6g} Hz)",
+            {"import": report},
+        )
+    if acc is None or not iv:
+        found = "no rest found" if not iv else f"its rests cover {restlog.coverage(iv, len(t)):.0%}"
+        raise RecordError(
+            f"{source}: {found} of a gyro-only log: a rest log must be still for most of its length ({det.summary()})"
+        )
+    if len(iv) < 9:
+        raise RecordError(
+            f"{source}: found {len(iv)} static poses; the calibration needs at least 9 (a rest log would be one "
+            f"orientation, its rests covering {restlog.REST_LOG_COVERAGE:.0%} of it: these cover "
+            f"{restlog.coverage(iv, len(t)):.0%}) ({det.summary()})"
+        )
+    _hand_clock(t, iv, source)
     acc_cal, calib, acc_notes, acc_check = accelerometer_in_g(
         acc,
         iv,
@@ -458,26 +439,59 @@ def triad_from_arrays(
                 {"label": 2 * i + 1, "type": "move", "name": f"move-{i}-{i + 1}", "from": 2 * i, "to": 2 * i + 2}
             )
     cols = {"time_s": t, "segment": labels}
-    gcols, gyro_counts_per_dps = _gyro_columns(gyr, gyro_unit, gyro_counts_per_dps, source)
     cols.update(gcols)
     for j, c in enumerate(CHANNELS):
         cols[f"acc_{c}_g"] = acc_cal[:, j]
-    extra = {"import": {"source": source, **det.to_json(), "accelerometer": acc_check, "notes": notes}}
+    extra = {"import": {"source": source, **door, **det.to_json(), "accelerometer": acc_check, "notes": notes}}
     if calib is not None:
         extra["accelerometer_calibration"] = calib
+    return _triad_record(
+        name,
+        segs,
+        cols,
+        latitude_deg,
+        gravity_mps2,
+        gyro_counts_per_dps,
+        instrument_id,
+        f"imported from {source} ({len(iv)} static poses, {rate_hz:.6g} Hz)",
+        extra,
+    )
+
+
+def _triad_record(name, segs, cols, latitude_deg, gravity_mps2, counts_per_dps, instrument_id, notes, extra):
+    """The checked record of :func:`triad_from_arrays`."""
     meta = triad_meta(
         name,
         segs,
         latitude_deg=latitude_deg,
         gravity_mps2=gravity_mps2,
-        counts_per_dps=gyro_counts_per_dps,
+        counts_per_dps=counts_per_dps,
         instrument_id=instrument_id,
-        notes=f"imported from {source} ({len(iv)} static poses, {rate_hz:.6g} Hz)",
+        notes=notes,
         extra=extra,
     )
     validate_triad_meta(meta, f"{meta['name']}.json")
     validate_triad_columns(meta, cols, f"{meta['name']}.csv")
     return Record(meta, {k: np.asarray(v, dtype=float) for k, v in cols.items()})
+
+
+MAX_HAND_REST_S = 3600.0
+"""Longest rest of a hand calibration session, s (poses are held for seconds to minutes)."""
+MAX_HAND_MOVE_S = 600.0
+"""Longest move between two rests of a hand session, s (a hand turns the IMU in seconds)."""
+
+
+def _hand_clock(t, intervals, source: str) -> None:
+    """Refuse a hand session whose clock makes a rest last hours or a move tens of minutes: a wrong time unit or
+    rate, naming the flags."""
+    rests = [(t[e - 1] - t[s], "rest", s) for s, e in intervals]
+    moves = [(t[s2] - t[e - 1], "move", e) for (_, e), (s2, _) in zip(intervals, intervals[1:])]
+    for (d, kind, i), limit in [(max(rests), MAX_HAND_REST_S), (max(moves, default=(0.0, "move", 0)), MAX_HAND_MOVE_S)]:
+        if d > limit:
+            raise RecordError(
+                f"{source}: a hand session whose {kind} at {t[i]:.6g} s lasts {d:.6g} s ({d / 3600:.3g} h; a hand "
+                f"{kind} lasts under {limit:g} s): is the clock's unit right (--time-unit, --rate-hz)?"
+            )
 
 
 CSV_KEYS = ("time", "time_s", "sample", "gyro_x", "gyro_y", "gyro_z", "acc_x", "acc_y", "acc_z")
@@ -497,22 +511,27 @@ def import_csv(
     name: str | None = None,
     **kw,
 ) -> Record:
-    """Any delimited log of a multi-position recording, with a column mapping ``{"gyro_x": "gx", …, "acc_z": "az",
-    "time": "t"}``: rests detected and moves between them, as :func:`triad_from_arrays` (other keyword arguments go
-    there).
+    """Any delimited log — a multi-position session or a rest log, the accelerometer optional — with a column
+    mapping ``{"gyro_x": "gx", …, "acc_z": "az", "time": "t"}``: rests detected, as :func:`triad_from_arrays`
+    (other keyword arguments go there).
 
-    The clock: ``time`` (or ``time_s``) a time column in ``time_unit`` (``s``, ``ms``, ``us``, ``ns``; default s, or
-    ISO 8601 date-times when no unit is given), noted when
-    it jitters; or ``sample`` a gap-free sample counter at ``rate_hz`` counts per second (used instead of a time
-    column mapped beside it, whose jitter is then noted); or neither, samples at ``rate_hz``. ``delimiter``: ``,``,
-    ``;``, ``tab`` or None (detected, and noted).
+    The clock (:func:`gyrojax.data.logs.log_clock`): ``time`` (or ``time_s``) a time column in ``time_unit`` (``s``,
+    ``ms``, ``us``, ``ns``; default s, or ISO 8601 date-times when no unit is given), noted when it jitters; or
+    ``sample`` a gap-free sample counter at ``rate_hz`` counts per second (used instead of a time column mapped beside
+    it, whose jitter is then noted); or neither, samples at ``rate_hz``. A rate in the logger's preamble (``Fs,100``)
+    serves where ``rate_hz`` would; every rate stated is checked against the others and refused when they
+    contradict. ``delimiter``: ``,``, ``;``, ``tab`` or None (detected, and noted).
     """
     unknown = sorted(set(mapping) - set(CSV_KEYS))
     if unknown:
         raise RecordError(f"column mapping: unknown keys {unknown}; valid: {', '.join(CSV_KEYS)}")
-    need = [k for k in CSV_KEYS[3:] if k not in mapping]
+    need = [k for k in CSV_KEYS[3:6] if k not in mapping]
+    acc_keys = [k for k in CSV_KEYS[6:] if k in mapping]
     if need:
-        raise RecordError(f"column mapping: {need} missing (map every gyro_<c> and acc_<c> to a column)")
+        raise RecordError(f"column mapping: {need} missing (map every gyro_<c> to a column, acc_<c> too if any)")
+    if acc_keys and len(acc_keys) != 3:
+        missing = [k for k in CSV_KEYS[6:] if k not in mapping]
+        raise RecordError(f"column mapping: {missing} missing (map all three acc_<c>, or none for a gyro-only log)")
     if "time" in mapping and "time_s" in mapping:
         raise RecordError("column mapping: 'time' and 'time_s' are the same key; map one")
     time_col = mapping.get("time", mapping.get("time_s"))
@@ -520,17 +539,12 @@ def import_csv(
         raise RecordError(f"time unit (--time-unit) must be one of s, ms, us, ns, got {time_unit!r}")
     if time_unit is not None and time_col is None:
         raise RecordError("a time unit (--time-unit) was given but no time column is mapped (time=COL)")
-    if time_col is not None and "sample" not in mapping and rate_hz is not None:
-        raise RecordError(
-            f"{path}: a time column and a rate (--rate-hz) were both given; the rate goes with a sample counter "
-            "(sample=COL) or with no clock column"
-        )
     notes: list[str] = []
     df = read_table(path, delimiter, notes)
     miss = [v for v in mapping.values() if v not in df.columns]
     if miss:
         raise RecordError(f"{path}: columns {miss} (from the mapping) are not in the file; it has {list(df.columns)}")
-    acc = numeric_columns(df, [mapping[f"acc_{c}"] for c in CHANNELS], str(path))
+    acc = numeric_columns(df, [mapping[f"acc_{c}"] for c in CHANNELS], str(path)) if acc_keys else None
     gyr = numeric_columns(df, [mapping[f"gyro_{c}"] for c in CHANNELS], str(path))
     t_col = None
     if time_col is not None:
@@ -550,18 +564,16 @@ def import_csv(
             note = note.split("; the fit")[0] + f"; the sample counter {mapping['sample']!r} is used instead"
         if note:
             notes.append(note)
+    counter = None
     if "sample" in mapping:
         col = mapping["sample"]
-        counter = numeric_columns(df, [col], str(path))[:, 0]
-        t = time_from_counter(counter, rate_hz, f"{path}, column {col!r}", df.attrs["first_line"])
-    elif t_col is not None:
-        t = t_col
-    elif rate_hz:
-        t = np.arange(len(df)) / float(rate_hz)
-    else:
-        raise RecordError(f"{path}: map a time column (time=COL), a sample counter (sample=COL) or give --rate-hz")
+        counter = (numeric_columns(df, [col], str(path))[:, 0], col, df.attrs["first_line"])
+    clock_kw = dict(rate_hz=rate_hz, preamble=df.attrs.get("preamble", ()), counter=counter)
+    if counter is None and t_col is not None:
+        clock_kw.update(times=t_col, time_source=f"the time column {time_col!r} ({time_unit or 's'})")
+    t, clock = log_clock(len(df), str(path), **clock_kw)
     return triad_from_arrays(
-        t - t[0],
+        t,
         acc,
         gyr,
         gyro_unit=gyro_unit,
@@ -569,5 +581,6 @@ def import_csv(
         name=name or file_stem(path),
         source=str(path),
         notes=notes,
+        clock=clock,
         **kw,
     )

@@ -103,12 +103,80 @@ def _decimal_commas(path, skip: int, sep: str, lines: int = 20) -> bool:
     return any(_DECIMAL_COMMA.match(f) for f in fields) and not any("." in f for f in fields)
 
 
+MAT_MAGIC = b"MATLAB"
+"""The first bytes of a MATLAB ``.mat`` file (level 5, v6, v7 and the v7.3 HDF5 form all start with its text
+header)."""
+
+
+def is_mat_file(path) -> bool:
+    """Whether ``path`` is a MATLAB ``.mat`` file (by its header, whatever its name: imu_tk's text files are named
+    ``.mat`` too)."""
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(len(MAT_MAGIC)) == MAT_MAGIC
+    except OSError:
+        return False
+
+
+def read_mat(path) -> dict:
+    """The numeric variables of a MATLAB ``.mat`` file (scipy.io: levels 4 and 5, MATLAB's v6 and v7), name →
+    float array; :class:`RecordError` naming the file otherwise (a v7.3 file is HDF5: save it with ``-v7``)."""
+    from scipy import io
+
+    try:
+        raw = io.loadmat(path, squeeze_me=False)
+    except NotImplementedError:
+        raise RecordError(f"{path}: a MATLAB v7.3 (HDF5) file; save it with MATLAB's save -v7 to read it") from None
+    except (ValueError, TypeError, OSError, EOFError) as e:
+        raise RecordError(f"{path}: not a readable MATLAB .mat file ({str(e).strip()[:120]})") from None
+    out = {}
+    for k, v in raw.items():
+        if k.startswith("__") or not isinstance(v, np.ndarray) or v.dtype.kind not in "biuf" or v.ndim != 2:
+            continue
+        out[k] = np.asarray(v, dtype=float)
+    if not out:
+        raise RecordError(f"{path}: a MATLAB file without a numeric matrix or vector; it holds {sorted(raw)}")
+    return out
+
+
+def mat_table(path):
+    """A MATLAB file as a table: each vector variable a column of its name, each matrix variable of k columns the
+    columns ``NAME:1`` … ``NAME:k`` (samples along the longer side), all of one length; each scalar a line of the
+    preamble, ``NAME = value`` (``fs = 100`` states the rate, :func:`preamble_rate`)."""
+    import pandas as pd
+
+    cols, preamble = {}, []
+    for k, v in read_mat(path).items():
+        if v.size == 1:
+            preamble.append(f"{k} = {float(v.flat[0])!r}")
+            continue
+        v = v.T if v.shape[0] < v.shape[1] else v
+        if v.shape[1] == 1:
+            cols[k] = v[:, 0]
+        else:
+            cols.update({f"{k}:{j + 1}": v[:, j] for j in range(v.shape[1])})
+    lengths = {k: len(v) for k, v in cols.items()}
+    if len(set(lengths.values())) > 1:
+        raise RecordError(f"{path}: its variables differ in length ({lengths}); a log's channels share one length")
+    if not cols:
+        raise RecordError(f"{path}: a MATLAB file of scalars only ({', '.join(preamble)}); a log needs its samples")
+    df = pd.DataFrame(cols)
+    df.attrs.update(first_line=1, preamble=preamble)
+    return df
+
+
 def read_table(path, delimiter: str | None = None, notes: list | None = None):
     """A delimited text file as a pandas DataFrame; ``delimiter`` one of :data:`DELIMITERS` or None/``"auto"``
     (detected, and said in ``notes``). Lines before the table's header (a logger's preamble: ``Fs,100``, a device
     name) are skipped and said in ``notes``; ``df.attrs["first_line"]`` is the file line (from 1) of the first data
-    row, for error messages. :class:`RecordError` naming the file when it is not a readable table."""
+    row, for error messages. :class:`RecordError` naming the file when it is not a readable table. A MATLAB file is
+    read as :func:`mat_table` (its rows numbered from 1)."""
     import pandas as pd
+
+    if is_mat_file(path):
+        if notes is not None:
+            notes.append("read as a MATLAB .mat file: its variables are the columns (a matrix's as NAME:1 … NAME:k)")
+        return mat_table(path)
 
     if delimiter in (None, "auto"):
         sep, skip, preamble = sniff_layout(path)
@@ -127,10 +195,9 @@ def read_table(path, delimiter: str | None = None, notes: list | None = None):
         notes.append("decimal commas read (numbers such as 0,125 between the delimiters)")
     if preamble and notes is not None:
         shown = "; ".join(repr(ln[:40]) for ln in preamble[:3]) + (" …" if len(preamble) > 3 else "")
-        notes.append(
-            f"{len(preamble)} line(s) before the table's header (line {skip + 1}) skipped: {shown} "
-            "(a rate there is not read: give --rate-hz or map a clock column)"
-        )
+        said = preamble_rate(preamble)
+        rate = f"its sample rate {said[0]:g} Hz read from {said[1]!r}" if said else "no sample rate among them"
+        notes.append(f"{len(preamble)} line(s) before the table's header (line {skip + 1}) skipped: {shown} ({rate})")
     try:  # spaces after a delimiter ("t, gx, gy") are no part of a name or a number
         df = pd.read_csv(path, sep=sep, skiprows=skip, skipinitialspace=True, decimal=decimal)
     except (UnicodeDecodeError, ValueError, pd.errors.ParserError, pd.errors.EmptyDataError) as e:
@@ -139,7 +206,28 @@ def read_table(path, delimiter: str | None = None, notes: list | None = None):
     if len(set(names)) == len(names):
         df.columns = names
     df.attrs["first_line"] = skip + 2
+    df.attrs["preamble"] = list(preamble)
     return df
+
+
+_PREAMBLE_RATE = re.compile(
+    r"^\s*[#%;/]*\s*(fs|sample[ _-]?rate|sampling[ _-]?(rate|frequency)|rate|odr|data[ _-]?rate)"
+    r"\s*(\[?hz\]?)?\s*[,;:=\t ]\s*([0-9]+(\.[0-9]*)?([eE][+-]?[0-9]+)?)\s*(hz)?\s*[,;]*\s*$",
+    re.IGNORECASE,
+)
+
+
+def preamble_rate(preamble) -> tuple[float, str] | None:
+    """The sample rate (Hz) a logger wrote before its table — ``Fs,100``, ``Sample rate: 200 Hz``,
+    ``# rate = 1000`` — and the line that says it; None when no line of ``preamble`` does (or two disagree)."""
+    found = []
+    for line in preamble:
+        m = _PREAMBLE_RATE.match(line)
+        if m and float(m.group(4)) > 0:
+            found.append((float(m.group(4)), line.strip()))
+    if not found or len({f for f, _ in found}) > 1:
+        return None
+    return found[0]
 
 
 def numeric_columns(df, cols: list, where: str):
@@ -163,6 +251,86 @@ def numeric_columns(df, cols: list, where: str):
 
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9}
+
+RATE_TOL = 0.02
+"""Largest relative difference between two statements of a log's sample rate (a time column's mean rate, a
+logger's preamble, ``--rate-hz``) taken as the same rate: a logger's crystal and its rounding (99.5 Hz said as
+100) are well inside; a wrong unit (10³) or a halved rate is not."""
+PLAUSIBLE_RATE_HZ = (1.0, 5e4)
+"""Sample rates of IMU logs (Hz): MEMS and navigation IMUs log at 10 Hz–10 kHz (the fastest MEMS output rates
+are 32 kHz). A clock outside this range comes from a wrong unit (a time column in ms read as s gives 0.1 Hz for a
+100 Hz log), and is refused."""
+
+
+def unit_hint(ratio: float, time_column: bool) -> str:
+    """The flag a rate ``ratio`` = stated / from the clock points to: 10³, 10⁶, 10⁹ (or their inverses) a time
+    unit, anything else the stated rate."""
+    for k, unit in ((1e3, "ms"), (1e6, "us"), (1e9, "ns")):
+        for r, word in ((k, f"is the time column in {unit} (--time-unit {unit})?"), (1 / k, "is --time-unit right?")):
+            if abs(ratio / r - 1.0) < 0.05 and time_column:
+                return word
+    return "is --rate-hz right?" if time_column else "which rate is right (--rate-hz)?"
+
+
+def log_clock(n: int, where: str, *, times=None, time_source=None, rate_hz=None, preamble=(), counter=None):
+    """The sample times (s, from 0) of a log of ``n`` samples and where they came from, every statement of its
+    rate checked against the others (:data:`RATE_TOL`) and against :data:`PLAUSIBLE_RATE_HZ`.
+
+    ``times``: a time column already in s (``time_source`` says which and in what unit); ``counter``: (gap-free
+    counter values, its description); ``rate_hz`` the rate given (``--rate-hz``); ``preamble`` the lines before the
+    table (:func:`preamble_rate`). Returns (times, ``clock``: ``rate_hz``, ``duration_s``, ``n_samples``,
+    ``rate_from``, ``checked_against``). :class:`RecordError` naming the contradiction and the flag it points to."""
+    said = preamble_rate(preamble)
+    stated = [(float(rate_hz), "--rate-hz")] if rate_hz is not None else []
+    stated += [(said[0], f"the preamble line {said[1]!r}")] if said else []
+    checked = []
+    if times is not None:
+        t = np.asarray(times, dtype=float)
+        span = float(t[-1] - t[0]) if n > 1 else 0.0
+        rate = (n - 1) / span if span > 0 else float("inf")
+        source = time_source
+        for r, name in stated:
+            if abs(r / rate - 1.0) > RATE_TOL:
+                raise RecordError(
+                    f"{where}: {name} says {r:g} Hz but {time_source} gives {rate:.6g} Hz ({n} samples over "
+                    f"{span:.6g} s): {unit_hint(r / rate, True)}"
+                )
+            checked.append(name)
+    else:
+        if len(stated) == 2 and abs(stated[0][0] / stated[1][0] - 1.0) > RATE_TOL:
+            raise RecordError(
+                f"{where}: --rate-hz {stated[0][0]:g} contradicts {stated[1][1]} ({stated[1][0]:g} Hz): "
+                "which rate is right? (--rate-hz)"
+            )
+        if not stated:
+            what = f"the sample counter {counter[1]}" if counter is not None else "the samples"
+            raise RecordError(
+                f"{where}: {what} need a rate: give --rate-hz (or map a time column, time=COL); no preamble line "
+                "states one"
+            )
+        rate, source = stated[0]
+        checked = [name for _, name in stated[1:]]
+        if counter is not None:
+            t = time_from_counter(counter[0], rate, f"{where}, column {counter[1]!r}", counter[2])
+            source = f"sample counter {counter[1]!r} at {source}"
+        else:
+            t = np.arange(n) / rate
+    lo, hi = PLAUSIBLE_RATE_HZ
+    if not lo <= rate <= hi:
+        flag = "--time-unit" if times is not None else "--rate-hz"
+        fix = f"is the time column's unit right ({flag})?" if times is not None else "is --rate-hz right?"
+        raise RecordError(
+            f"{where}: the clock ({source}) gives {rate:.4g} Hz, {n} samples over {(n - 1) / rate:.6g} s "
+            f"({(n - 1) / rate / 3600:.3g} h): no IMU log is sampled outside {lo:g} Hz–{hi:g} Hz; {fix}"
+        )
+    clock = {
+        "n_samples": int(n),
+        "rate_hz": float(rate),
+        "duration_s": float((n - 1) / rate),
+        "rate_from": source,
+        "checked_against": checked,
+    }
+    return t - t[0], clock
 
 
 def time_column(df, col: str, unit: str | None, where: str) -> tuple[np.ndarray, str | None]:

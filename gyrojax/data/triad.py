@@ -6,7 +6,8 @@ A triad record is ``NAME.csv`` + ``NAME.json`` like any record. Its JSON has no 
 
 * ``{"label": 0, "type": "static", "name": "x_p"}`` — the IMU rests; its orientation comes from the accelerometer
   (columns ``acc_<c>_g``) or, without one, from ``"up": [ux, uy, uz]`` (the body-frame direction of Up); the
-  heading is unknown (``heading`` nuisance, see :mod:`gyrojax.inference.triad`).
+  heading is unknown (``heading`` nuisance, see :mod:`gyrojax.inference.triad`). Without either, a rest of unknown
+  orientation: ``noise`` and ``apply`` read it, the fit refuses it.
 * ``{"label": 6, "type": "rotation", "axis": "x", "angle_deg": 360, "angle_std_deg": 0.0}`` — a rotation of a
   known total angle about a body axis (``"x"``, ``"-y"``, or a unit vector), angle history unknown; its sign is taken
   from the data (``"direction": "from-data"``, the default) or given (``"positive"``/``"negative"``).
@@ -142,14 +143,10 @@ def validate_triad_columns(meta: dict, columns: dict, file="record.csv") -> None
     if np.any(seg != np.round(seg)):
         i = int(np.flatnonzero(seg != np.round(seg))[0])
         raise _err(file, f"row {i + 2}, column 'segment' holds {seg[i]!r}; segment labels are integers")
-    acc = [f"acc_{c}_g" for c in CHANNELS]
-    has_acc = all(a in columns for a in acc)
     present = set(np.unique(seg).astype(int))
     for i, s in enumerate(meta["segments"]):
         if s["label"] not in present:
             raise _err(file, f"segment label {s['label']} (JSON segments[{i}]) has no sample in column 'segment'")
-        if s["type"] == "static" and not has_acc and "up" not in s:
-            raise _err(file, f"segments[{i}] is static but the record has no acc_<c>_g columns and no 'up' direction")
 
 
 def is_triad(meta: dict) -> bool:

@@ -121,9 +121,14 @@ def triad_segments(record, earth_rate: bool | None = None):
             if a is not None:
                 a_mean = a.mean(axis=0)
                 u = a_mean / np.linalg.norm(a_mean)
-            else:
+            elif "up" in spec:
                 u = axis_vector(spec["up"])
                 a_mean = u * g_site
+            else:
+                raise ModelError(
+                    f"{record.name}: segment {spec['label']} ({name}) is a rest of unknown orientation (no "
+                    "accelerometer columns, no 'up'): noise and apply read it; a fit needs its Up ('up' in the JSON)"
+                )
             w = np.zeros((1, 3)) if vertical is None else (vertical * u)[None, :]
             extra = 0.5 * horizontal**2 * (np.eye(3) - np.outer(u, u))
             out.append(

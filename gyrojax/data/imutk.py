@@ -1,0 +1,104 @@
+"""imu_tk's files (Tedaldi, Pretto & Menegatti, ICRA 2014; bitbucket alberto_pretto/imu_tk): an accelerometer
+file and a gyroscope file of ``time x y z`` samples — its ASCII text, or the MATLAB matrices of the authors' MATLAB
+code (``IMU0x2Dalpha.mat``, ``IMU0x2Domega.mat``) — into an ``imu-triad`` record by
+:func:`gyrojax.data.importers.triad_from_arrays` (a multi-position session, or a rest log)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from gyrojax.data.importers import triad_from_arrays
+from gyrojax.data.logs import jitter_note, log_clock
+from gyrojax.data.record import Record
+from gyrojax.data.segments import MIN_REST_S
+from gyrojax.errors import RecordError
+
+
+def read_imutk_ascii(path) -> np.ndarray:
+    """imu_tk's files: its ASCII format, one sample per line, ``time x y z`` (time in s, values in raw units)
+    separated by blanks (its ``.mat`` text files; gzip-compressed files are read too), or a MATLAB file holding one
+    such n × 4 matrix (the ``IMU0x2Dalpha.mat``/``IMU0x2Domega.mat`` of Tedaldi et al.'s MATLAB code). Returns
+    (n, 4) floats; :class:`RecordError` naming the line (or the variables) otherwise."""
+    from gyrojax.data.logs import is_mat_file, read_mat
+
+    p = Path(path)
+    if is_mat_file(p):
+        found = {k: v for k, v in read_mat(p).items() if 4 in v.shape and max(v.shape) > 1}
+        if len(found) != 1:
+            raise RecordError(f"{p}: an imu_tk MATLAB file holds one n × 4 matrix (time x y z); found {sorted(found)}")
+        ((_, data),) = found.items()
+        data = data.T if data.shape[0] == 4 and data.shape[1] != 4 else data
+    else:
+        try:
+            data = np.loadtxt(p, ndmin=2)
+        except (OSError, ValueError, UnicodeDecodeError) as e:
+            raise RecordError(f"{p}: not an imu_tk ASCII file (time x y z per line): {str(e)[:160]}") from None
+    if data.shape[1] != 4 or len(data) < 2:
+        raise RecordError(f"{p}: expected 4 columns (time x y z) and at least 2 lines, got shape {data.shape}")
+    bad = np.flatnonzero(np.diff(data[:, 0]) <= 0)
+    if bad.size:
+        raise RecordError(f"{p}: line {bad[0] + 2}: time does not increase ({data[bad[0] + 1, 0]!r})")
+    return data
+
+
+def import_imutk(
+    acc_path,
+    gyro_path,
+    *,
+    acc_unit: str = "counts",
+    gyro_unit: str = "counts",
+    gyro_counts_per_dps: float | None = None,
+    acc_g_per_count: float | None = None,
+    acc_bias0=None,
+    latitude_deg: float | None = None,
+    gravity_mps2: float = 9.81,
+    min_rest_s: float = MIN_REST_S,
+    static_threshold: float | None = None,
+    name: str | None = None,
+    instrument_id: str | None = None,
+    acc_counts_per_g: float | None = None,
+) -> Record:
+    """An imu_tk multi-position recording (or a rest log in its format, ``acc_counts_per_g`` its accelerometer's
+    nominal scale) (accelerometer and gyroscope files) as one ``imu-triad`` record.
+
+    Static poses come from :func:`gyrojax.data.segments.detect_rests` (accelerometer and gyro variance against the
+    rests' own noise; ``min_rest_s`` the shortest rest, ``static_threshold`` the threshold in multiples of the
+    noise variance); each pair of consecutive poses gets a ``move`` segment (the samples between them: a
+    gravity-to-gravity move, its rotation known through the accelerometer directions before and after). The
+    accelerometer (``acc_unit``, imu_tk's raw counts by default) is checked and calibrated as
+    :func:`accelerometer_in_g` says, started from ``acc_g_per_count`` and ``acc_bias0`` when given.
+
+    Args: gyro_unit ``"counts"`` (with ``gyro_counts_per_dps``), ``"dps"`` or ``"rad/s"``; latitude_deg (None:
+    unknown); gravity_mps2 (local gravity, m/s²).
+    """
+    acc = read_imutk_ascii(acc_path)
+    gyr = read_imutk_ascii(gyro_path)
+    if len(acc) != len(gyr) or not np.allclose(acc[:, 0], gyr[:, 0], atol=1e-6):
+        raise RecordError(f"{gyro_path}: its timestamps differ from {acc_path}'s; resample one onto the other first")
+    notes = []
+    note = jitter_note(acc[:, 0], f"{acc_path}: time")
+    if note:
+        notes.append(note)
+    t, clock = log_clock(len(acc), str(acc_path), times=acc[:, 0], time_source=f"the time column of {acc_path} (s)")
+    return triad_from_arrays(
+        t,
+        acc[:, 1:],
+        gyr[:, 1:],
+        acc_unit=acc_unit,
+        gyro_unit=gyro_unit,
+        gyro_counts_per_dps=gyro_counts_per_dps,
+        acc_g_per_count=acc_g_per_count,
+        acc_bias0=acc_bias0,
+        latitude_deg=latitude_deg,
+        gravity_mps2=gravity_mps2,
+        min_rest_s=min_rest_s,
+        static_threshold=static_threshold,
+        name=name or Path(acc_path).name.split(".")[0],
+        instrument_id=instrument_id,
+        source=f"imu_tk files {acc_path}, {gyro_path}",
+        notes=notes,
+        acc_counts_per_g=acc_counts_per_g,
+        clock=clock,
+    )

@@ -1,0 +1,237 @@
+"""Rest logs through the ordinary doors (``gyrojax import csv`` / ``import imutk``), checked against what nobody here
+wrote: a real 449 s MPU-6050 rest log (tests/data/mpu6050, MIT) read by allantools, its logger's own preamble, and
+the physics of a gyro at rest. The clock is said and cross-checked, and each unit mistake ends in a refusal or a
+warning naming its flag."""
+
+import gzip
+import json
+
+import allantools
+import numpy as np
+import pandas as pd
+import pytest
+
+from gyrojax.cli.app import main
+from gyrojax.data.importers import import_csv
+from gyrojax.data.records import load_records, save_record
+from gyrojax.errors import RecordError
+from gyrojax.noise.chunked import OctaveAllan
+
+from .conftest import DATA
+from .kalibr_reader import kalibr_imu_parameters
+
+REST = DATA / "mpu6050" / "example_data_tinit_calc.csv.gz"
+MAP = "gyro_x=gx,gyro_y=gy,gyro_z=gz,acc_x=ax,acc_y=ay,acc_z=az"
+COUNTS = ["--gyro-unit", "counts", "--gyro-scale", "131", "--acc-unit", "counts", "--acc-scale", "16384"]
+
+
+def rest_table() -> pd.DataFrame:
+    """The MPU-6050 rest log's table as its logger wrote it (four preamble lines, then ax … gz, raw counts)."""
+    return pd.read_csv(REST, skiprows=4)
+
+
+def write_log(path, df: pd.DataFrame, preamble: str = "") -> str:
+    path.write_text(preamble + df.to_csv(index=False))
+    return str(path)
+
+
+def allantools_arw(counts: np.ndarray) -> float:
+    """ARW (deg/√h) of raw gyro counts at the nominal 131 counts per deg/s by allantools alone: the overlapping ADEV
+    (deg/h) at τ = 1 s (m = 100 at 100 Hz), on the −1/2 slope, times √(1 s)/60."""
+    taus, adev, _, _ = allantools.oadev(counts / 131.0 * 3600.0, rate=100.0, data_type="freq", taus=[1.0])
+    assert taus[0] == 1.0
+    return float(adev[0] / 60.0)
+
+
+def test_a_real_rest_log_imports_and_noise_gives_its_arw_within_6_percent_of_allantools(tmp_path, capsys):
+    """The 449 s MPU-6050 rest log, exactly as its logger wrote it (preamble `Fs,100`, raw counts), through the
+    ordinary `import csv`: one rest over the whole log, its rate read from the preamble and said. `noise` gives each
+    gyro axis's ARW (the model's read-off) within 6 % of allantools' overlapping ADEV at τ = 1 s (where the curve's
+    slope is −1/2: the white noise dominates every τ up to a few seconds), and a Kalibr file Kalibr's reader
+    takes, at the log's 100 Hz."""
+    out = tmp_path / "rec"
+    assert main(["import", "csv", str(REST), "--map", MAP, *COUNTS, "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "a rest log: 1 rest(s) covering 100.0% of 449.29 s" in text
+    assert "clock: 44930 samples at 100 Hz from the preamble line 'Fs,100'; 449.29 s" in text
+    assert "gx" not in text and "gyro_x: -478 to -392 (mean -438.18) counts" in text
+    assert "accelerometer at rest: |a| 0.9179 g" in text  # 14791 counts / 16384 of the nominal scale, not calibrated
+    (rec,) = load_records(out)
+    assert rec.meta["segments"] == [{"label": 0, "type": "static", "name": "rest-0"}]
+    kal = tmp_path / "imu.yaml"
+    assert main(["noise", str(out), "--json", "--kalibr", str(kal)]) == 0
+    res = json.loads(capsys.readouterr().out)
+    df = rest_table()
+    for c in "xyz":
+        ours = res["channels"][f"gyro_{c}"]["headline"]["arw"]["model"]["value"]
+        ref = allantools_arw(df[f"g{c}"].to_numpy(float))
+        assert abs(ours / ref - 1.0) < 0.06, (c, ours, ref)
+    assert res["warnings"] == []
+    topic, rate, _, gyro = kalibr_imu_parameters(kal)
+    assert rate == 100.0 and gyro[2] > 0
+
+
+def test_the_chunked_allan_variance_is_allantools_oadev_at_every_octave_of_the_real_log():
+    """All six channels of the real rest log, fed in chunks of random sizes: at every octave τ (m = 1 … 16384, all
+    summed at every offset) the variance is allantools' oadev² to rounding, and its count of second differences
+    allantools' n; summed at a step (8 exact levels), the longer octaves stay within their own sampling error."""
+    data = rest_table().to_numpy(float)
+    rng = np.random.default_rng(7)
+    for exact in (14, 8):
+        acc = OctaveAllan(0.01, channels=6, exact_levels=exact)
+        i = 0
+        while i < len(data):
+            k = int(rng.integers(1, 5000))
+            acc.feed(data[i : i + k])
+            i += k
+        m, avar, counts, n = acc.result()
+        assert n == len(data) and list(m) == [2**k for k in range(15)]
+        for j in range(6):
+            taus, adev, _, ns = allantools.oadev(data[:, j], rate=100.0, data_type="freq", taus=m * 0.01)
+            assert np.array_equal(taus, m * 0.01)
+            full = m <= 2**exact
+            assert np.allclose(avar[full, j], adev[full] ** 2, rtol=1e-9, atol=0), j
+            assert np.array_equal(counts[full], ns[full])
+            rel = np.abs(avar[~full, j] / adev[~full] ** 2 - 1.0)
+            assert np.all(rel < 3.0 * np.sqrt(2.0 * m[~full] / counts[~full])), (j, rel)
+
+
+def test_a_gyro_only_rest_log_imports_and_its_noise_needs_the_kalibr_accelerometer_pair(tmp_path, capsys):
+    df = rest_table()[["gx", "gy", "gz"]]
+    path = write_log(tmp_path / "gyro.csv", df, "Fs,100\n")
+    gyro_map = "gyro_x=gx,gyro_y=gy,gyro_z=gz"
+    argv = ["import", "csv", path, "--map", gyro_map, "--gyro-unit", "counts", "--gyro-scale", "131"]
+    assert main([*argv, "--out", str(tmp_path / "o")]) == 0
+    assert "a rest log: 1 rest(s)" in capsys.readouterr().out
+    (rec,) = load_records(tmp_path / "o")
+    assert "acc_x_g" not in rec.columns
+    assert main(["noise", str(tmp_path / "o"), "--kalibr", str(tmp_path / "k.yaml")]) == 2
+    assert "--kalibr-accel" in capsys.readouterr().err
+    kal = ["--kalibr", str(tmp_path / "k.yaml"), "--kalibr-accel", "0.002,0.0003", "--json"]
+    assert main(["noise", str(tmp_path / "o"), *kal]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert set(res["channels"]) == {"gyro_x", "gyro_y", "gyro_z"}
+
+
+def test_apply_reads_a_rest_record(tmp_path):
+    """A saved triad fit applied to the rest record: calibrated rates ω = S⁻¹(ω_ind − b − G a) at every sample,
+    computed here from the fit JSON's matrices and the record's raw columns."""
+    from gyrojax.inference.triad import fit_triad
+    from gyrojax.simulation.triad import simulate_multiposition
+
+    from .test_triad_accel import TRUTH
+
+    res = fit_triad(simulate_multiposition(TRUTH, poses=10, seed=8, earth_rate=False))
+    fit = res.save(tmp_path / "fit.json")
+    assert main(["import", "csv", str(REST), "--map", MAP, *COUNTS, "--out", str(tmp_path / "rec")]) == 0
+    assert main(["apply", str(fit), str(tmp_path / "rec"), "--out", str(tmp_path / "cal")]) == 0
+    out = pd.read_csv(next((tmp_path / "cal").glob("*.calibrated.csv")))
+    (rec,) = load_records(tmp_path / "rec")
+    mats = json.loads(fit.read_text())["matrices"]
+    s, b, g = (np.asarray(mats[k], float) for k in ("S", "b_deg_per_h", "G_deg_per_h_per_g"))
+    raw = np.column_stack([rec.columns[f"gyro_{c}_counts"] for c in "xyz"]) / 131.0 * 3600.0
+    acc = np.column_stack([rec.columns[f"acc_{c}_g"] for c in "xyz"])
+    want = np.linalg.solve(s, (raw - b - acc @ g.T).T).T / 3600.0
+    got = out[["gyro_x_dps", "gyro_y_dps", "gyro_z_dps"]].to_numpy()
+    assert len(got) == 44930 and np.allclose(got, want, rtol=1e-9, atol=1e-9)
+
+
+# ---- the clock: said, cross-checked, refused when it contradicts itself or no IMU runs at it ---------------------
+
+
+def test_a_stated_rate_that_contradicts_the_preamble_or_the_time_column_is_refused(tmp_path):
+    df = rest_table()
+    mapping = dict(kv.split("=") for kv in MAP.split(","))
+    kw = dict(gyro_unit="counts", gyro_counts_per_dps=131.0, acc_unit="counts", acc_counts_per_g=16384.0)
+    with pytest.raises(RecordError, match=r"--rate-hz 200 contradicts the preamble line 'Fs,100' \(100 Hz\)"):
+        import_csv(REST, mapping, rate_hz=200.0, **kw)
+    timed = df.assign(t_ms=10.0 * np.arange(len(df)))  # a time column in ms
+    path = write_log(tmp_path / "t.csv", timed)
+    with pytest.raises(RecordError, match=r"--rate-hz says 200 Hz but the time column 't_ms' \(ms\) gives 100 Hz"):
+        import_csv(path, {**mapping, "time": "t_ms"}, time_unit="ms", rate_hz=200.0, **kw)
+    rec = import_csv(path, {**mapping, "time": "t_ms"}, time_unit="ms", rate_hz=100.0, **kw)
+    assert rec.meta["import"]["clock"]["checked_against"] == ["--rate-hz"]
+    with_pre = write_log(tmp_path / "tp.csv", timed, "Fs,100\nLogging Type,1\n")
+    with pytest.raises(RecordError, match=r"the time column 't_ms' \(s\) gives 0.1 Hz .*\(--time-unit ms\)"):
+        import_csv(with_pre, {**mapping, "time": "t_ms"}, **kw)
+
+
+def test_a_time_column_in_ms_read_as_seconds_is_refused_naming_the_time_unit(tmp_path, capsys):
+    """Without a preamble to contradict it, the ms clock read as s makes a 449 s log a 12.5-hour one at 0.1 Hz:
+    no IMU logs that slowly; refused, naming --time-unit (the issue's ARW 14.2 instead of 0.45 deg/√h never
+    happens)."""
+    path = write_log(tmp_path / "t.csv", rest_table().assign(t=10.0 * np.arange(44930)))
+    argv = ["import", "csv", path, "--map", "time=t," + MAP, *COUNTS, "--out", str(tmp_path / "o")]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "gives 0.1 Hz, 44930 samples over 449290 s (125 h)" in err and "--time-unit" in err
+    assert not (tmp_path / "o").exists()
+    assert main([*argv, "--time-unit", "ms"]) == 0
+
+
+def test_rates_in_the_wrong_unit_are_refused_or_warned_naming_the_gyro_unit(tmp_path, capsys):
+    """deg/s declared rad/s reads 57.3× too high at rest: refused at the door. rad/s declared deg/s reads a
+    plausible bias, but its ARW is 57.3× too low for a MEMS gyro: `noise` warns, naming --gyro-unit and the ARW it
+    would be."""
+    df = rest_table()
+    dps = df.assign(**{f"g{c}": df[f"g{c}"] / 131.0 for c in "xyz"})
+    path = write_log(tmp_path / "dps.csv", dps, "Fs,100\n")
+    argv = ["import", "csv", path, "--map", MAP, "--acc-unit", "counts", "--acc-scale", "16384"]
+    assert main([*argv, "--gyro-unit", "rad/s", "--out", str(tmp_path / "a")]) == 2
+    err = capsys.readouterr().err
+    assert "reads |ω| = 203.6 deg/s at rest" in err and "--gyro-unit dps" in err
+    rads = df.assign(**{f"g{c}": np.radians(df[f"g{c}"] / 131.0) for c in "xyz"})
+    path = write_log(tmp_path / "rad.csv", rads, "Fs,100\n")
+    argv = ["import", "csv", path, "--map", MAP, "--acc-unit", "counts", "--acc-scale", "16384"]
+    assert main([*argv, "--gyro-unit", "dps", "--out", str(tmp_path / "b")]) == 0
+    capsys.readouterr()
+    assert main(["noise", str(tmp_path / "b"), "--json"]) == 0
+    cap = capsys.readouterr()
+    warned = json.loads(cap.out)["warnings"]
+    assert len(warned) == 3 and all("--gyro-unit" in w and "rad/s declared deg/s" in w for w in warned)
+    assert "gyro_x: ARW 0.0078" in warned[0] and "N would be 0.448" in warned[0]
+    assert cap.err.count("gyrojax: warning:") == 3
+    assert main([*argv, "--gyro-unit", "rad/s", "--out", str(tmp_path / "c")]) == 0
+    capsys.readouterr()
+    assert main(["noise", str(tmp_path / "c"), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["warnings"] == []
+
+
+# ---- formats: MATLAB files, imu_tk's MATLAB pair ------------------------------------------------------------------
+
+
+def test_imu_tks_matlab_pair_imports_as_its_text_files(tmp_path, capsys):
+    """Tedaldi et al.'s MATLAB code keeps the Xsens session as IMU0x2Dalpha.mat / IMU0x2Domega.mat: MATLAB level-5
+    files of one n × 4 matrix each (variables named IMU0x2Dalpha, IMU0x2Domega), the same numbers as imu_tk's text
+    files (tests/data/imutk; checked against the MATLAB code's own files, which carry no licence to vendor). Written
+    here by scipy.io.savemat from those text files, they import to the same record."""
+    from scipy import io
+
+    text = [DATA / "imutk" / f"xsens_{k}.mat.gz" for k in ("acc", "gyro")]
+    mats = []
+    for src, var in zip(text, ("IMU0x2Dalpha", "IMU0x2Domega")):
+        with gzip.open(src, "rt") as fh:
+            data = np.loadtxt(fh)
+        mats.append(tmp_path / f"{var}.mat")
+        io.savemat(mats[-1], {var: data})
+    flags = ["--gyro-scale", "109.22", "--gravity", "9.81744"]
+    assert main(["import", "imutk", *map(str, text), *flags, "--name", "a", "--out", str(tmp_path / "t")]) == 0
+    assert main(["import", "imutk", *map(str, mats), *flags, "--name", "a", "--out", str(tmp_path / "m")]) == 0
+    (a,), (b,) = load_records(tmp_path / "t"), load_records(tmp_path / "m")
+    for k in a.columns:
+        assert np.array_equal(a.columns[k], b.columns[k]), k
+    assert "clock: 51175 samples at" in capsys.readouterr().out
+
+
+def test_a_matlab_log_of_named_vectors_imports_like_its_csv(tmp_path):
+    from scipy import io
+
+    df = rest_table()
+    io.savemat(tmp_path / "log.mat", {k: df[k].to_numpy(float)[:, None] for k in df.columns} | {"fs": 100.0})
+    mapping = dict(kv.split("=") for kv in MAP.split(","))
+    kw = dict(gyro_unit="counts", gyro_counts_per_dps=131.0, acc_unit="counts", acc_counts_per_g=16384.0)
+    a = import_csv(tmp_path / "log.mat", mapping, rate_hz=100.0, **kw)
+    b = import_csv(REST, mapping, **kw)
+    for k in b.columns:
+        assert np.array_equal(a.columns[k], b.columns[k]), k
+    save_record(a, tmp_path / "o")
