@@ -235,3 +235,38 @@ def test_a_matlab_log_of_named_vectors_imports_like_its_csv(tmp_path):
     for k in b.columns:
         assert np.array_equal(a.columns[k], b.columns[k]), k
     save_record(a, tmp_path / "o")
+
+
+# ---- records too long to hold: read in chunks, the Allan variance at octave τ accumulated over them -------------
+
+
+def test_a_record_analysed_in_chunks_gives_the_octave_curve_and_model_of_the_record_held_whole(
+    tmp_path, capsys, monkeypatch
+):
+    """The rest record read in chunks (as a record of more than 2^19 samples is) gives, per channel, the octave
+    Allan deviation of the record held whole (`--taus octave`) to rounding, the same noise model and ARW; it says
+    that glitches and spectral lines were not searched, and refuses --robust and other taus."""
+    import gyrojax.data.stream as stream
+
+    out = tmp_path / "rec"
+    assert main(["import", "csv", str(REST), "--map", MAP, *COUNTS, "--out", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["noise", str(out), "--json", "--taus", "octave"]) == 0
+    whole = json.loads(capsys.readouterr().out)["channels"]
+    monkeypatch.setattr(stream, "STREAM_SAMPLES", 1000)
+    monkeypatch.setattr(stream, "CHUNK_ROWS", 7001)
+    assert main(["noise", str(out), "--json"]) == 0
+    chunked = json.loads(capsys.readouterr().out)["channels"]
+    for ch, a in whole.items():
+        b = chunked[ch]
+        curve = "adev_deg_per_h" if ch.startswith("gyro") else "adev_m_per_s2"
+        curve = curve if curve in a else next(k for k in a if k.startswith("adev_") and "model" not in k)
+        assert np.allclose(a[curve], b[curve], rtol=1e-9, atol=0), ch
+        assert a["model"]["info"]["model"] == b["model"]["info"]["model"]
+        arw_a, arw_b = (x["headline"]["arw"]["model"]["value"] for x in (a, b))
+        assert arw_a == pytest.approx(arw_b, rel=1e-9)
+        assert "analysed in chunks" in b["notes"][0] and "not searched" in b["notes"][0]
+    assert main(["noise", str(out), "--robust"]) == 2
+    assert "needs every sample at once" in capsys.readouterr().err
+    assert main(["noise", str(out), "--taus", "decade"]) == 2
+    assert "--taus octave" in capsys.readouterr().err

@@ -63,22 +63,15 @@ def cmd_noise(args) -> int:
     """``gyrojax noise``: Allan deviation (deg/h against τ in s), noise model and adequacy of static records."""
     from gyrojax.data.records import load_records
     from gyrojax.data.static import static_rate_segments
+    from gyrojax.data.stream import long_records
     from gyrojax.noise.readoff import noise_report
-    from gyrojax.noise.spec import UNITS
 
+    long = long_records(args.records)
+    if long is not None:  # hours at a high rate: never held, analysed in chunks
+        return _noise_streamed(args, long)
     recs = load_records(args.records)
     triad = any(r.meta["instrument"]["kind"] == "imu-triad" for r in recs)
-    if getattr(args, "kalibr_accel", None) and not args.kalibr:
-        raise UsageError("--kalibr-accel: only with --kalibr (it gives the Kalibr file's accelerometer pair)")
-    for name, option in (("--plot", args.plot), ("--kalibr", args.kalibr)):
-        if option is not None and not option.strip():
-            raise UsageError(f"{name}: empty file name")
-    plots = triad_plot_paths(args.plot, _has_accelerometer(recs)) if triad and args.plot else [args.plot]
-    for option in (*plots, args.kalibr):
-        if option and Path(option).exists() and not args.force:
-            raise UsageError(f"{option}: exists; pass --force to overwrite")
-    if args.robust and args.method == "ieee952":
-        raise UsageError("noise --robust: the robust estimate is a GMWM or AVLR fit; not with --method ieee952")
+    _check_options(args, triad, _has_accelerometer(recs))
     if triad:
         return _noise_triad(args, recs)
     notes: list[str] = []
@@ -95,7 +88,30 @@ def cmd_noise(args) -> int:
         gauss_markov=args.gauss_markov,
         robust=args.robust,
     )
-    source = ", ".join(r.name for r in recs)
+    return _sdf_output(args, out, res, ieee, nm, tau0, accel, ", ".join(r.name for r in recs), notes)
+
+
+def _check_options(args, triad: bool, accelerometer: bool) -> None:
+    """The option checks of ``gyrojax noise`` made before any work: ``--kalibr-accel`` only with ``--kalibr``, no
+    empty file names, no output over an existing file without ``--force``, ``--robust`` not with ieee952."""
+    if getattr(args, "kalibr_accel", None) and not args.kalibr:
+        raise UsageError("--kalibr-accel: only with --kalibr (it gives the Kalibr file's accelerometer pair)")
+    for name, option in (("--plot", args.plot), ("--kalibr", args.kalibr)):
+        if option is not None and not option.strip():
+            raise UsageError(f"{name}: empty file name")
+    plots = triad_plot_paths(args.plot, accelerometer) if triad and args.plot else [args.plot]
+    for option in (*plots, args.kalibr):
+        if option and Path(option).exists() and not args.force:
+            raise UsageError(f"{option}: exists; pass --force to overwrite")
+    if args.robust and args.method == "ieee952":
+        raise UsageError("noise --robust: the robust estimate is a GMWM or AVLR fit; not with --method ieee952")
+
+
+def _sdf_output(args, out: dict, res, ieee, nm, tau0: float, accel, source: str, notes: list) -> int:
+    """Write the Kalibr file and plot of an SDF noise report and print it (JSON, or ``notes`` and the table); exit
+    code."""
+    from gyrojax.noise.spec import UNITS
+
     out["warnings"] = arw_warnings({"gyro": out}, mems=False)
     kalibr_file = _kalibr_file(args, {"gyro": out}, accel, tau0, source) if args.kalibr else None
     if args.plot:  # matplotlib is imported only when a plot is asked for
@@ -214,7 +230,7 @@ def _noise_triad(args, recs) -> int:
 
     if not all(r.meta["instrument"]["kind"] == "imu-triad" for r in recs):
         raise UsageError("noise: imu-triad records and SDF records cannot be analysed together")
-    accel_given = _kalibr_accel(args, has_accelerometer=_has_accelerometer(recs))
+    _kalibr_accel(args, has_accelerometer=_has_accelerometer(recs))  # a refusal before any work
     series: dict = {}
     tau0 = None
     for r in recs:
@@ -242,10 +258,15 @@ def _noise_triad(args, recs) -> int:
             segs, tau0, m_list, method=args.method, model=args.model, gauss_markov=args.gauss_markov, robust=args.robust
         )
         reports[name] = accelerometer_report(out) if name.startswith("acc_") else out
+    return _triad_output(args, reports, tau0, ", ".join(r.name for r in recs))
+
+
+def _triad_output(args, reports: dict, tau0: float, source: str) -> int:
+    """Write the Kalibr file and plots of imu-triad noise reports (per channel) and print them; exit code."""
+    accel_given = _kalibr_accel(args, has_accelerometer=any(k.startswith("acc_") for k in reports))
     result = {"instrument": "imu-triad", "tau0_s": tau0, "channels": reports}
     result["warnings"] = arw_warnings({k: v for k, v in reports.items() if k.startswith("gyro_")}, mems=True)
     _say(result["warnings"])
-    source = ", ".join(r.name for r in recs)
     gyro = {k: v for k, v in reports.items() if k.startswith("gyro_")}
     accel = {k: v for k, v in reports.items() if k.startswith("acc_")}
     kalibr_file = _kalibr_file(args, gyro, accel_given or accel, tau0, source) if args.kalibr else None
@@ -315,3 +336,77 @@ def _print_headline(head: dict) -> None:
         unit = v["curve"].get("unit") or v["model"].get("unit", "")
         flag = "" if v["agree"] in (None, True) else "  DISAGREE"
         print(f"  {k}: {one(v['curve'])} | {one(v['model'])} {unit}{flag}")
+
+
+def _noise_streamed(args, long: list) -> int:
+    """``gyrojax noise`` on records too long to hold (:data:`gyrojax.data.stream.STREAM_SAMPLES`): each read in
+    chunks (:func:`gyrojax.data.stream.static_pieces`, a progress bar on a terminal), the Allan variance at the
+    octave τ accumulated over them (:mod:`gyrojax.noise.chunked`), the noise model fitted on the variances; the same
+    report as a record held whole, less the glitch and spectral-line searches (which need the samples)."""
+    from gyrojax.data.stream import STREAM_SAMPLES, Progress, static_pieces
+    from gyrojax.data.triad import is_triad
+    from gyrojax.noise import allan as allan_mod
+    from gyrojax.noise.chunked import pooled
+    from gyrojax.noise.gmwm import fit_wv
+    from gyrojax.noise.readoff import variance_report
+    from gyrojax.noise.sensor_units import accelerometer_report
+
+    kinds = {is_triad(meta) for _, meta, _ in long}
+    if len(kinds) > 1:
+        raise UsageError("noise: imu-triad records and SDF records cannot be analysed together")
+    triad = kinds.pop()
+    total = sum(n for *_, n in long)
+    why = f"a record of more than {STREAM_SAMPLES} samples is analysed in chunks"
+    if args.robust:
+        raise UsageError(f"noise --robust: {why}, and the robust wavelet variance needs every sample at once")
+    if args.taus is not None and args.taus.strip().lower() != "octave":
+        raise UsageError(f"--taus {args.taus}: {why}, at the octave taus (--taus octave)")
+    acc_cols = triad and any(all(f"acc_{c}_g" in h for c in "xyz") for h in (_header(p) for p, _, _ in long))
+    _check_options(args, triad, acc_cols)
+    accel = _kalibr_accel(args, has_accelerometer=acc_cols)
+    progress = Progress("noise", total)
+    pieces = {}
+    for path, meta, _ in long:
+        pieces.update(static_pieces(path, meta, progress))
+    progress.close()
+    pieces = {k: p for k, p in pieces.items() if p.n >= 16}
+    if not pieces:
+        raise UsageError("noise: the records hold no static piece of 16 samples or more")
+    tau0 = None
+    for p in pieces.values():
+        d = p.interval()
+        if tau0 is None:
+            tau0 = d
+        elif abs(d - tau0) > 1e-3 * tau0:
+            raise UsageError(f"{p.name}: sample interval {d:g} s differs from {tau0:g} s of the other pieces")
+    channels = next(iter(pieces.values())).channels
+    notes = [
+        f"{total} samples: {why} (the Allan variance at the octave taus from running sums, summed at every offset "
+        "up to m = 16384 and at a step of m/16384 beyond; the noise model fitted on the variances); glitches and "
+        "spectral lines are not searched"
+    ]
+    extra = {
+        "glitches": {"searched": False, "masked": False},
+        "spectral_lines": [],
+        "spectral_line_search": {"searched": False},
+    }
+    reports = {}
+    for j, ch in enumerate(channels):
+        results = []
+        for p in pieces.values():
+            m, avar, counts, n = p.allan.result()
+            results.append((m, avar[:, j], counts, n))
+        res, est = pooled(results, tau0)
+        res, ieee = allan_mod.refine(res, gauss_markov=args.gauss_markov)
+        nm = fit_wv(est, args.model, args.method) if args.method in ("gmwm", "avlr") else None
+        out = variance_report(res, ieee, nm, est, notes, method=args.method, extra=extra)
+        reports[ch] = accelerometer_report(out) if ch.startswith("acc_") else out
+    source = ", ".join(meta["name"] for _, meta, _ in long)
+    if triad:
+        return _triad_output(args, reports, tau0, source)
+    return _sdf_output(args, reports["gyro"], res, ieee, nm, tau0, accel, source, notes)
+
+
+def _header(path) -> list[str]:
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        return [h.strip() for h in fh.readline().split(",")]

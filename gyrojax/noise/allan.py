@@ -442,9 +442,13 @@ def analyze(segments, tau0: float, m_list=None, gauss_markov: bool = False, **fi
     The fit runs twice: first with the EDF of the slope-identified noise types, then with those of the noise
     type the first fit finds dominant at each τ (the returned intervals use the latter).
     """
-    res = allan(segments, tau0, m_list)
+    return refine(allan(segments, tau0, m_list), gauss_markov=gauss_markov, **fit_kw)
+
+
+def refine(res: AllanResult, gauss_markov: bool = False, **fit_kw):
+    """The two fits of :func:`analyze` on an Allan deviation already estimated: (AllanResult with the EDF of the
+    noise type the first fit finds dominant at each τ, the IEEE 952 term fit with those EDF)."""
     fit = fit_noise_model(res.taus_s, res.avar, res.edf, gauss_markov=gauss_markov, **fit_kw)
-    # second pass: degrees of freedom for the noise type the first fit finds at each τ
     res = res.with_alpha(dominant_alpha(fit, res.taus_s))
     return res, fit_noise_model(res.taus_s, res.avar, res.edf, gauss_markov=gauss_markov, **fit_kw)
 

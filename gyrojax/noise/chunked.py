@@ -159,3 +159,41 @@ class OctaveAllan:
         m = np.asarray(m, dtype=np.int64)[keep]
         tau = m * self.tau0
         return m, sums[keep] / (2.0 * (tau * tau * counts[keep])[:, None]), counts[keep], self.n
+
+
+def pooled(results, tau0: float):
+    """Pool the :meth:`OctaveAllan.result` of independent pieces of one channel (each (m, σ² (L,), M, n)) as
+    :func:`gyrojax.noise.allan.allan` pools segments: σ²(τ) = Σ_j M_j σ²_j / Σ_j M_j over the pieces that reach
+    that m. Returns (:class:`~gyrojax.noise.allan.AllanResult` at the octave τ = m·τ0 with 2m ≤ n_max − 1, its EDF
+    that of the full overlap, :class:`~gyrojax.noise.gmwm.WaveletVariance` at the dyadic m ≤ n_max/8): the
+    variances of a record never held."""
+    from gyrojax.noise.allan import AllanError, AllanResult, noise_alpha
+    from gyrojax.noise.gmwm import WaveletVariance
+    from gyrojax.noise.wavelet import dyadic_m
+
+    lengths = tuple(int(r[3]) for r in results)
+    n_max = max(lengths)
+    if n_max < 16:
+        raise AllanError(f"need at least 16 samples for a noise model, got {n_max}")
+    m_all = 2 ** np.arange(int(np.log2(max(n_max // 2, 1))) + 1)
+    num, dens = np.zeros(len(m_all)), np.zeros(len(m_all))
+    full = np.zeros(len(m_all))  # the full overlap's count: the strided sums carry its information
+    for m, avar, counts, n in results:
+        idx = np.searchsorted(m_all, m)
+        num[idx] += avar * counts
+        dens[idx] += counts
+        full[idx] += n + 1 - 2 * m
+    ok = dens > 0
+    avar = np.where(ok, num / np.where(ok, dens, 1.0), 0.0)
+    curve = ok & (2 * m_all <= n_max - 1)
+    m_c = m_all[curve]
+    taus = m_c * tau0
+    adev = np.sqrt(avar[curve])
+    if not np.any(adev > 0):
+        raise AllanError("the Allan variance is zero at every tau (to rounding): the rate series is constant")
+    one = np.ones(len(m_c))
+    res = AllanResult(taus, adev, adev, adev, one, np.zeros(len(m_c), int), m_c, full[curve], lengths)
+    res = res.with_alpha(noise_alpha(taus, avar[curve]))
+    dy = np.isin(m_all, dyadic_m(n_max)) & ok & (full > 0)
+    est = WaveletVariance(m_all[dy], avar[dy] / 2.0, full[dy], float(tau0), int(sum(lengths)))
+    return res, est

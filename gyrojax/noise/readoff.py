@@ -142,21 +142,21 @@ def mata_interval(values, stds, weights, level: float = headline.TWO_SIGMA) -> t
     return lo, hi
 
 
-def candidate_fits(nm: NoiseSpec, segments, tau0: float, robust: bool = False) -> list:
+def candidate_fits(nm: NoiseSpec, est) -> list:
     """(weight, fit) of every candidate of ``nm``'s selection (``info["selection"]``) that the record identifies
     and that passes its own J test (:func:`gyrojax.noise.gmwm_select.passes_j_test`; the chosen model always),
-    refitted on the same scales with its own efficient weights; weights :func:`selection_weights`. [] when
-    ``nm`` was not selected (a model given by name)."""
+    refitted on the same scales of the wavelet variance ``est`` (the one ``nm`` was selected on) with its own
+    efficient weights; weights :func:`selection_weights`. [] when ``nm`` was not selected (a model given by
+    name)."""
     from dataclasses import replace
 
     from gyrojax.noise import gmwm_select as sel
-    from gyrojax.noise.gmwm import WaveletVariance, fit_spec
+    from gyrojax.noise.gmwm import fit_spec
     from gyrojax.noise.gmwm_model import ModelSpec
 
     rows = nm.info.get("selection")
     if not rows:
         return []
-    est = WaveletVariance.of(segments, tau0, robust=robust)
     k = int(np.searchsorted(est.m * est.dt, nm.info["tau_min_s"] * (1 - 1e-9)))
     est = replace(est, m=est.m[k:], nu2=est.nu2[k:], counts=est.counts[k:])
     keep, fits = [], []
@@ -284,7 +284,7 @@ def noise_report(
     from gyrojax.noise import allan as allan_mod
     from gyrojax.noise import glitch, robust_wv
     from gyrojax.noise import lines as lines_mod
-    from gyrojax.noise.gmwm import fit_gmwm
+    from gyrojax.noise.gmwm import WaveletVariance, fit_wv
 
     notes = list(notes)
     if robust and method not in ("gmwm", "avlr"):
@@ -297,22 +297,17 @@ def noise_report(
             segments = cleaned
 
     res, ieee = allan_mod.analyze(segments, tau0, m_list, gauss_markov=gauss_markov)
-    nm = None
+    est = nm = None
     if method in ("gmwm", "avlr"):
-        nm = fit_gmwm(segments, tau0, model=model, method=method, robust=robust)
-        model_adev = nm.adev(res.taus_s)
-        model_std = adev_std(nm, res.taus_s)
-    elif method == "ieee952":
-        model_adev = ieee.adev(res.taus_s)
-        model_std = np.full(len(res.taus_s), np.nan)
-    else:
+        est = WaveletVariance.of(segments, tau0, robust=robust)
+        nm = fit_wv(est, model, method)
+    elif method != "ieee952":
         raise NoiseModelError(f"method must be gmwm, avlr or ieee952, got {method!r}")
+    extra = {}
     if robust:  # the curve too is the robust one (σ²_A = 2ν̂²_R with its own interval): table, band, read-offs
         classical = res
         res, info = robust_wv.robust_allan(segments, tau0, res.m, nm)
         ieee = allan_mod.fit_noise_model(res.taus_s, res.avar, res.edf, gauss_markov=gauss_markov)
-        model_adev = nm.adev(res.taus_s)
-        model_std = adev_std(nm, res.taus_s)
         notes.append(
             "robust: the Allan deviation, its band and the curve read-offs are the robust wavelet variance's "
             f"(sqrt(2 nu2_R), Tukey biweight, {info['outlier_samples']} outlier samples treated as missing); the "
@@ -328,24 +323,50 @@ def noise_report(
         )
         if differ:
             notes.append(differ)
+        extra["curve_estimator"] = "robust wavelet variance (sqrt(2 nu2_R))"
+        extra["classical_adev_deg_per_h"] = [float(x) for x in np.interp(res.taus_s, classical.taus_s, classical.adev)]
     search = lines_mod.find_lines(segments, tau0)
     spectral = lines_mod.with_reach(search, res.taus_s, res.avar, res.edf, "deg/h")
     if lines_mod.note(spectral, search):
         notes.append(lines_mod.note(spectral, search))
+    extra["glitches"] = {**found, "masked": bool(mask_glitches)}
+    extra["spectral_lines"] = spectral
+    extra["spectral_line_search"] = {k: v for k, v in search.items() if k != "lines"}
+    out = variance_report(res, ieee, nm, est, notes, method=method, selection_ci=selection_ci, extra=extra)
+    return out, res, ieee, nm
+
+
+def variance_report(res, ieee, nm, est, notes, *, method: str, selection_ci: bool = True, extra=None) -> dict:
+    """The part of :func:`noise_report` that needs no samples, only the variances: from the Allan deviation
+    ``res`` (:class:`~gyrojax.noise.allan.AllanResult`), its IEEE 952 term fit ``ieee``, the GMWM/AVLR model
+    ``nm`` (or None for ``method`` ieee952) and the wavelet variance ``est`` it was selected on — the model's ADEV
+    with its standard error, the adequacy band and verdict, the derived and headline figures (with the selection's
+    intervals) and the notes. ``extra``: entries of the output made from the samples (glitches, spectral lines),
+    placed first; their verdict cause (a spectral line) is read from ``extra["spectral_lines"]``."""
+    from gyrojax.noise import allan as allan_mod
+
+    notes = list(notes)
+    extra = dict(extra or {})
+    spectral = extra.get("spectral_lines", [])
+    if nm is not None:
+        model_adev = nm.adev(res.taus_s)
+        model_std = adev_std(nm, res.taus_s)
+    else:
+        model_adev = ieee.adev(res.taus_s)
+        model_std = np.full(len(res.taus_s), np.nan)
     low95, high95 = allan_mod.confidence_interval(res.adev, res.edf, ADEQUACY_CI)
     adq = adequacy(res.taus_s, res.adev, low95, high95, model_adev)
     out = allan_mod.noise_json(res, ieee)
     out["method"] = method
-    if robust:
-        out["curve_estimator"] = "robust wavelet variance (sqrt(2 nu2_R))"
-        out["classical_adev_deg_per_h"] = [float(x) for x in np.interp(res.taus_s, classical.taus_s, classical.adev)]
+    for k in ("curve_estimator", "classical_adev_deg_per_h"):
+        if k in extra:
+            out[k] = extra.pop(k)
     out["adev_model_deg_per_h"] = [float(x) for x in model_adev]
     out["adev_model_std"] = [None if not np.isfinite(x) else float(x) for x in model_std]
     out["adequacy"] = {"ci": ADEQUACY_CI, "low": [float(x) for x in low95], "high": [float(x) for x in high95], **adq}
-    out["glitches"] = {**found, "masked": bool(mask_glitches)}
+    out.update({k: extra[k] for k in ("glitches",) if k in extra})
     out["wavelet_variance"] = nm.info["wavelet_variance"] if nm is not None else None
-    out["spectral_lines"] = spectral
-    out["spectral_line_search"] = {k: v for k, v in search.items() if k != "lines"}
+    out.update({k: v for k, v in extra.items() if k != "glitches"})
     tau_fit = None if nm is None else nm.info.get("tau_min_s")
     short = nm.info.get("short_scales", "") if nm else ""
     out["adequacy"]["verdict"] = verdict_line(res.taus_s, adq, tau_fit, short, spectral)
@@ -362,7 +383,7 @@ def noise_report(
         at_b = read_at(nm, b["tau_s"], 1.0 / BI_FACTOR, "deg/h")
         model_figs["bias_instability"] = {**at_b, "kind": "at the curve's minimum"}
     if nm is not None and selection_ci:
-        cands = candidate_fits(nm, segments, tau0, robust=robust)
+        cands = candidate_fits(nm, est)
         b_tau = b["tau_s"] if b.get("kind") == "read" else None
         model_figs = with_selection(model_figs, cands, float(res.taus_s.min()), float(res.taus_s.max()), b_tau)
     for v in model_figs.values():
@@ -388,7 +409,7 @@ def noise_report(
     if nm is not None and nm.info.get("j_test"):  # gmwm_select's adequacy gate found no candidate that passes
         notes.append(f"model {nm.info['model']}: {nm.info['j_test']}; it is the least-criterion identified one")
     out["notes"] = notes
-    return out, res, ieee, nm
+    return out
 
 
 def _direct(spec: NoiseSpec) -> dict:
