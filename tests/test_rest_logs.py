@@ -270,3 +270,116 @@ def test_a_record_analysed_in_chunks_gives_the_octave_curve_and_model_of_the_rec
     assert "needs every sample at once" in capsys.readouterr().err
     assert main(["noise", str(out), "--taus", "decade"]) == 2
     assert "--taus octave" in capsys.readouterr().err
+
+
+# ---- logs too long to hold: imported in chunks ------------------------------------------------------------------
+
+
+def test_numbers_are_written_as_pythons_own_formatting_reads_them():
+    """format_column's text of each number is the number of Python's f"{x:.{d}f}" (as a float parser reads both),
+    for counts, negative and positive decimals, zeros and large values, in both of its ways (a table of the texts
+    of a narrow range of counts, and digits cut all at once) — except at a tie (x·10^d a half-integer to rounding,
+    99.9995 at 3 decimals), which either way is within half a unit of the last decimal."""
+    from gyrojax.data.longlog import format_column
+
+    rng = np.random.default_rng(5)
+    cases = [
+        (np.round(rng.normal(0, 30, 5000)), 0),  # narrow counts: the table
+        (np.round(rng.normal(0, 3e6, 5000)), 0),  # wide counts: the digits
+        (rng.normal(0, 2.0, 5000), 6),
+        (rng.normal(-5e3, 1e3, 5000), 3),
+        (np.array([0.0, -0.0004, 0.0004, -1.0, 1e-9, -123456.789, 99.9995]), 3),
+    ]
+    for x, d in cases:
+        text = format_column(x, d)
+        assert len({len(r) for r in text}) == 1
+        ours = np.array([float(bytes(r).decode()) for r in text])
+        python = np.array([float(f"{v:.{d}f}") for v in x])
+        tie = np.abs(np.abs(x * 10.0**d) % 1.0 - 0.5) < 1e-6
+        assert np.array_equal(ours[~tie], python[~tie]), (d, x[ours != python][:3], ours[ours != python][:3])
+        assert np.all(np.abs(ours - x) <= 0.5 * 10.0**-d * (1 + 1e-6) + 1e-12 * np.abs(x))
+
+
+def _long_argv(path, out, *extra):
+    m = "time=time_ms,gyro_x=gx,gyro_y=gy,gyro_z=gz,acc_x=ax,acc_y=ay,acc_z=az"
+    return ["import", "csv", str(path), "--map", m, "--time-unit", "ms", *COUNTS, *extra, "--out", str(out)]
+
+
+def _timed_log(tmp_path, df, name="log.csv") -> str:
+    return write_log(tmp_path / name, df.assign(time_ms=10.0 * np.arange(len(df)))[["time_ms", *df.columns]])
+
+
+def test_a_long_log_read_in_chunks_writes_the_record_of_the_log_held_whole(tmp_path, capsys, monkeypatch):
+    """The real rest log, read as a log of more than 2^19 rows is (in chunks, written as it is read), gives the
+    record the ordinary import writes: the same columns to the decimals it says it wrote (counts exactly), one rest
+    over all of it, and the same noise."""
+    import gyrojax.data.stream as stream
+
+    path = _timed_log(tmp_path, rest_table())
+    assert main(_long_argv(path, tmp_path / "whole")) == 0
+    capsys.readouterr()
+    monkeypatch.setattr(stream, "STREAM_SAMPLES", 1000)
+    monkeypatch.setattr(stream, "CHUNK_ROWS", 6007)
+    assert main(_long_argv(path, tmp_path / "long")) == 0
+    text = capsys.readouterr().out
+    assert "read in chunks" in text and "clock: 44930 samples at 100 Hz from the time column 'time_ms' (ms)" in text
+    (a,), (b,) = load_records(tmp_path / "whole"), load_records(tmp_path / "long")
+    decimals = b.meta["import"]["written"]["decimals"]
+    for k in a.columns:
+        tol = 0.5 * 10.0 ** -decimals[k] if k in decimals else 0.0
+        assert np.allclose(a.columns[k], b.columns[k], rtol=0, atol=tol * (1 + 1e-9)), k
+    assert decimals["gyro_x"] == 0 and b.meta["segments"] == a.meta["segments"]
+
+
+def test_a_long_log_that_moves_is_cut_into_rests_and_one_that_keeps_moving_is_refused(tmp_path, capsys, monkeypatch):
+    """A bump of 2 s in the middle of the real rest log (the gyro swings by 50 deg/s): read in chunks, the bump's
+    rows are labelled −1 in the record and the two still stretches are two rests, each a static segment; a log that
+    turns to a new orientation every few seconds is no rest log and is refused, naming how little of it rests."""
+    import gyrojax.data.stream as stream
+
+    monkeypatch.setattr(stream, "STREAM_SAMPLES", 1000)
+    df = rest_table()
+    bumped = df.copy()
+    bump = slice(20000, 20200)
+    gx = bumped["gx"].to_numpy(float)
+    gx[bump] += (50 * 131 * np.sin(np.linspace(0, np.pi, 200))).round()
+    bumped["gx"] = gx
+    assert main(_long_argv(_timed_log(tmp_path, bumped), tmp_path / "o")) == 0
+    capsys.readouterr()
+    (rec,) = load_records(tmp_path / "o")
+    seg = rec.columns["segment"]
+    assert [s["label"] for s in rec.meta["segments"]] == [0, 1]
+    assert np.all(seg[bump] == -1) and np.all(seg[:19900] == 0) and np.all(seg[20400:] == 1)
+    assert main(["noise", str(tmp_path / "o"), "--json"]) == 0  # read in chunks: two pieces per channel, pooled
+    capsys.readouterr()
+    turned = df.copy()
+    gx = turned["gx"].to_numpy(float)
+    for k in range(0, len(df), 1000):  # a new orientation every 10 s, half of each spent turning
+        gx[k : k + 500] += (2000 * np.sin(np.linspace(0, np.pi, len(gx[k : k + 500])))).round()
+    turned["gx"] = gx
+    assert main(_long_argv(_timed_log(tmp_path, turned, "t.csv"), tmp_path / "t")) == 2
+    err = capsys.readouterr().err
+    assert "is read in chunks as a rest log, and this one moves" in err and "its rests cover" in err
+    assert not (tmp_path / "t").exists() or not list((tmp_path / "t").iterdir())
+
+
+def test_a_bad_cell_or_a_backward_time_in_a_long_log_is_named_and_nothing_is_written(tmp_path, capsys, monkeypatch):
+    import gyrojax.data.stream as stream
+
+    monkeypatch.setattr(stream, "STREAM_SAMPLES", 1000)
+    monkeypatch.setattr(stream, "CHUNK_ROWS", 5000)
+    lines = _timed_log(tmp_path, rest_table())
+    text = open(lines).read().splitlines()
+    bad = list(text)
+    bad[30001] = bad[30001].replace(",", ",oops", 1)  # file line 30002: its 'ax' cell
+    (tmp_path / "bad.csv").write_text("\n".join(bad) + "\n")
+    assert main(_long_argv(tmp_path / "bad.csv", tmp_path / "o")) == 2
+    err = capsys.readouterr().err
+    assert "row 30002, column 'ax'" in err and "oops" in err
+    back = list(text)
+    back[12001] = "0," + back[12001].split(",", 1)[1]  # file line 12002 goes back to t = 0
+    (tmp_path / "back.csv").write_text("\n".join(back) + "\n")
+    assert main(_long_argv(tmp_path / "back.csv", tmp_path / "o")) == 2
+    err = capsys.readouterr().err
+    assert "row 12002, column 'time_ms': time does not increase" in err
+    assert not (tmp_path / "o").exists() or not any(p.suffix in (".csv", ".json") for p in (tmp_path / "o").iterdir())

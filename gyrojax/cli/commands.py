@@ -452,6 +452,9 @@ def cmd_import(args) -> int:
         pairs = [p.split("=", 1) for p in args.map.split(",")]
         if any(len(p) != 2 or not p[0] or not p[1] for p in pairs):
             raise UsageError(f"import csv: option --map {args.map!r}: give KEY=COLUMN pairs separated by commas")
+        long = _long_log(args, dict(pairs), common, detector)
+        if long is not None:
+            return long
         rec = importers.import_csv(
             args.inputs[0],
             dict(pairs),
@@ -487,6 +490,53 @@ def cmd_import(args) -> int:
             print(f"  dropped {d['start_s']:.2f}–{d['end_s']:.2f} s: {d['reason']} ({d['detail']})")
         for note in report.get("notes", []):
             print(f"note: {note}")
+    return 0
+
+
+def _long_log(args, mapping: dict, common: dict, detector: dict) -> int | None:
+    """``import csv`` of a log of more than :data:`gyrojax.data.stream.STREAM_SAMPLES` rows: read in chunks as a
+    rest log (:mod:`gyrojax.data.longlog`), said as any import; None for a shorter log (or a MATLAB file)."""
+    from gyrojax.data.door import door_lines
+    from gyrojax.data.importers import check_mapping
+    from gyrojax.data.logs import is_mat_file
+    from gyrojax.data.longlog import import_long_csv
+    from gyrojax.data.records import read_meta
+    from gyrojax.data.stream import STREAM_SAMPLES, count_rows
+
+    path = args.inputs[0]
+    if is_mat_file(path) or not Path(path).is_file():
+        return None
+    rows = count_rows(path)
+    if rows <= STREAM_SAMPLES:
+        return None
+    check_mapping(mapping, args.time_unit)
+    if args.static_threshold is not None:
+        raise UsageError("import csv --static-threshold: a log this long is read in chunks; its blocks take none")
+    out = import_long_csv(
+        path,
+        mapping,
+        args.out,
+        acc_unit=args.acc_unit or "g",
+        acc_counts_per_g=args.acc_scale,
+        rate_hz=args.rate_hz,
+        time_unit=args.time_unit,
+        delimiter=args.delimiter,
+        force=args.force,
+        rows_hint=rows,
+        **{k: v for k, v in detector.items() if k == "min_rest_s"},
+        **common,
+    )
+    meta = read_meta(out)
+    report = meta["import"]
+    if args.json:
+        print(json.dumps({"record": str(out), "segments": {"static": len(meta["segments"])}, "import": report}))
+        return 0
+    print(f"{out}: {report['read_in_chunks']['rows']} samples; segments {len(meta['segments'])} static")
+    print(f"{meta['notes']}; for gyrojax noise and apply (a calibration needs at least 9 rests)")
+    for line in door_lines(report):
+        print(line)
+    for note in report["notes"]:
+        print(f"note: {note}")
     return 0
 
 

@@ -499,6 +499,29 @@ CSV_KEYS = ("time", "time_s", "sample", "gyro_x", "gyro_y", "gyro_z", "acc_x", "
 six sensor channels."""
 
 
+def check_mapping(mapping: dict, time_unit: str | None) -> tuple[str | None, list]:
+    """The column mapping of :func:`import_csv` checked (keys, the gyro's three, the accelerometer's three or none,
+    one time key, a time unit only with a time column): (the time column or None, the accelerometer keys)."""
+    unknown = sorted(set(mapping) - set(CSV_KEYS))
+    if unknown:
+        raise RecordError(f"column mapping: unknown keys {unknown}; valid: {', '.join(CSV_KEYS)}")
+    need = [k for k in CSV_KEYS[3:6] if k not in mapping]
+    acc_keys = [k for k in CSV_KEYS[6:] if k in mapping]
+    if need:
+        raise RecordError(f"column mapping: {need} missing (map every gyro_<c> to a column, acc_<c> too if any)")
+    if acc_keys and len(acc_keys) != 3:
+        missing = [k for k in CSV_KEYS[6:] if k not in mapping]
+        raise RecordError(f"column mapping: {missing} missing (map all three acc_<c>, or none for a gyro-only log)")
+    if "time" in mapping and "time_s" in mapping:
+        raise RecordError("column mapping: 'time' and 'time_s' are the same key; map one")
+    time_col = mapping.get("time", mapping.get("time_s"))
+    if time_unit is not None and time_unit not in TIME_UNITS:
+        raise RecordError(f"time unit (--time-unit) must be one of s, ms, us, ns, got {time_unit!r}")
+    if time_unit is not None and time_col is None:
+        raise RecordError("a time unit (--time-unit) was given but no time column is mapped (time=COL)")
+    return time_col, acc_keys
+
+
 def import_csv(
     path,
     mapping: dict,
@@ -522,23 +545,7 @@ def import_csv(
     serves where ``rate_hz`` would; every rate stated is checked against the others and refused when they
     contradict. ``delimiter``: ``,``, ``;``, ``tab`` or None (detected, and noted).
     """
-    unknown = sorted(set(mapping) - set(CSV_KEYS))
-    if unknown:
-        raise RecordError(f"column mapping: unknown keys {unknown}; valid: {', '.join(CSV_KEYS)}")
-    need = [k for k in CSV_KEYS[3:6] if k not in mapping]
-    acc_keys = [k for k in CSV_KEYS[6:] if k in mapping]
-    if need:
-        raise RecordError(f"column mapping: {need} missing (map every gyro_<c> to a column, acc_<c> too if any)")
-    if acc_keys and len(acc_keys) != 3:
-        missing = [k for k in CSV_KEYS[6:] if k not in mapping]
-        raise RecordError(f"column mapping: {missing} missing (map all three acc_<c>, or none for a gyro-only log)")
-    if "time" in mapping and "time_s" in mapping:
-        raise RecordError("column mapping: 'time' and 'time_s' are the same key; map one")
-    time_col = mapping.get("time", mapping.get("time_s"))
-    if time_unit is not None and time_unit not in TIME_UNITS:
-        raise RecordError(f"time unit (--time-unit) must be one of s, ms, us, ns, got {time_unit!r}")
-    if time_unit is not None and time_col is None:
-        raise RecordError("a time unit (--time-unit) was given but no time column is mapped (time=COL)")
+    time_col, acc_keys = check_mapping(mapping, time_unit)
     notes: list[str] = []
     df = read_table(path, delimiter, notes)
     miss = [v for v in mapping.values() if v not in df.columns]

@@ -165,19 +165,10 @@ def mat_table(path):
     return df
 
 
-def read_table(path, delimiter: str | None = None, notes: list | None = None):
-    """A delimited text file as a pandas DataFrame; ``delimiter`` one of :data:`DELIMITERS` or None/``"auto"``
-    (detected, and said in ``notes``). Lines before the table's header (a logger's preamble: ``Fs,100``, a device
-    name) are skipped and said in ``notes``; ``df.attrs["first_line"]`` is the file line (from 1) of the first data
-    row, for error messages. :class:`RecordError` naming the file when it is not a readable table. A MATLAB file is
-    read as :func:`mat_table` (its rows numbered from 1)."""
-    import pandas as pd
-
-    if is_mat_file(path):
-        if notes is not None:
-            notes.append("read as a MATLAB .mat file: its variables are the columns (a matrix's as NAME:1 … NAME:k)")
-        return mat_table(path)
-
+def table_layout(path, delimiter: str | None = None, notes: list | None = None) -> tuple[str, int, list, str]:
+    """(separator, header line counted from 0, preamble lines, decimal mark) of a delimited text file, as
+    :func:`read_table` reads it (the delimiter detected or given, the preamble skipped, decimal commas), what it
+    found said in ``notes``."""
     if delimiter in (None, "auto"):
         sep, skip, preamble = sniff_layout(path)
         if notes is not None:
@@ -198,6 +189,22 @@ def read_table(path, delimiter: str | None = None, notes: list | None = None):
         said = preamble_rate(preamble)
         rate = f"its sample rate {said[0]:g} Hz read from {said[1]!r}" if said else "no sample rate among them"
         notes.append(f"{len(preamble)} line(s) before the table's header (line {skip + 1}) skipped: {shown} ({rate})")
+    return sep, skip, preamble, decimal
+
+
+def read_table(path, delimiter: str | None = None, notes: list | None = None):
+    """A delimited text file as a pandas DataFrame; ``delimiter`` one of :data:`DELIMITERS` or None/``"auto"``
+    (detected, and said in ``notes``). Lines before the table's header (a logger's preamble: ``Fs,100``, a device
+    name) are skipped and said in ``notes``; ``df.attrs["first_line"]`` is the file line (from 1) of the first data
+    row, for error messages. :class:`RecordError` naming the file when it is not a readable table. A MATLAB file is
+    read as :func:`mat_table` (its rows numbered from 1)."""
+    import pandas as pd
+
+    if is_mat_file(path):
+        if notes is not None:
+            notes.append("read as a MATLAB .mat file: its variables are the columns (a matrix's as NAME:1 … NAME:k)")
+        return mat_table(path)
+    sep, skip, preamble, decimal = table_layout(path, delimiter, notes)
     try:  # spaces after a delimiter ("t, gx, gy") are no part of a name or a number
         df = pd.read_csv(path, sep=sep, skiprows=skip, skipinitialspace=True, decimal=decimal)
     except (UnicodeDecodeError, ValueError, pd.errors.ParserError, pd.errors.EmptyDataError) as e:
@@ -272,21 +279,24 @@ def unit_hint(ratio: float, time_column: bool) -> str:
     return "is --rate-hz right?" if time_column else "which rate is right (--rate-hz)?"
 
 
-def log_clock(n: int, where: str, *, times=None, time_source=None, rate_hz=None, preamble=(), counter=None):
+def log_clock(n: int, where: str, *, times=None, time_source=None, rate_hz=None, preamble=(), counter=None, span=None):
     """The sample times (s, from 0) of a log of ``n`` samples and where they came from, every statement of its
     rate checked against the others (:data:`RATE_TOL`) and against :data:`PLAUSIBLE_RATE_HZ`.
 
     ``times``: a time column already in s (``time_source`` says which and in what unit); ``counter``: (gap-free
     counter values, its description); ``rate_hz`` the rate given (``--rate-hz``); ``preamble`` the lines before the
-    table (:func:`preamble_rate`). Returns (times, ``clock``: ``rate_hz``, ``duration_s``, ``n_samples``,
-    ``rate_from``, ``checked_against``). :class:`RecordError` naming the contradiction and the flag it points to."""
+    table (:func:`preamble_rate`); ``span``: the (first, last) time of a time column read in chunks, in place of
+    ``times`` (the times returned are then None). Returns (times, ``clock``: ``rate_hz``, ``duration_s``,
+    ``n_samples``, ``rate_from``, ``checked_against``). :class:`RecordError` naming the contradiction and the flag
+    it points to."""
     said = preamble_rate(preamble)
     stated = [(float(rate_hz), "--rate-hz")] if rate_hz is not None else []
     stated += [(said[0], f"the preamble line {said[1]!r}")] if said else []
     checked = []
-    if times is not None:
-        t = np.asarray(times, dtype=float)
-        span = float(t[-1] - t[0]) if n > 1 else 0.0
+    if times is not None or span is not None:
+        t = None if times is None else np.asarray(times, dtype=float)
+        first, last = (t[0], t[-1]) if t is not None else span
+        span = float(last - first) if n > 1 else 0.0
         rate = (n - 1) / span if span > 0 else float("inf")
         source = time_source
         for r, name in stated:
@@ -317,8 +327,7 @@ def log_clock(n: int, where: str, *, times=None, time_source=None, rate_hz=None,
             t = np.arange(n) / rate
     lo, hi = PLAUSIBLE_RATE_HZ
     if not lo <= rate <= hi:
-        flag = "--time-unit" if times is not None else "--rate-hz"
-        fix = f"is the time column's unit right ({flag})?" if times is not None else "is --rate-hz right?"
+        fix = "is the time column's unit right (--time-unit)?" if time_source else "is --rate-hz right?"
         raise RecordError(
             f"{where}: the clock ({source}) gives {rate:.4g} Hz, {n} samples over {(n - 1) / rate:.6g} s "
             f"({(n - 1) / rate / 3600:.3g} h): no IMU log is sampled outside {lo:g} Hz–{hi:g} Hz; {fix}"
@@ -330,7 +339,7 @@ def log_clock(n: int, where: str, *, times=None, time_source=None, rate_hz=None,
         "rate_from": source,
         "checked_against": checked,
     }
-    return t - t[0], clock
+    return (None if t is None else t - t[0]), clock
 
 
 def time_column(df, col: str, unit: str | None, where: str) -> tuple[np.ndarray, str | None]:

@@ -66,8 +66,13 @@ class Progress:
 def count_rows(csv_path) -> int:
     """Data rows of a CSV file with a one-line header (lines after the first that are not blank), counted by
     reading the bytes in blocks (a 10⁸-row file in seconds, in constant memory)."""
+    import bz2
+    import gzip
+    import lzma
+
+    opener = {".gz": gzip.open, ".bz2": bz2.open, ".xz": lzma.open}.get(Path(csv_path).suffix.lower(), open)
     lines, last = 0, b"\n"
-    with open(csv_path, "rb") as fh:
+    with opener(csv_path, "rb") as fh:
         while block := fh.read(1 << 24):
             lines += block.count(b"\n")
             last = block[-1:]
@@ -86,21 +91,40 @@ def csv_chunks(csv_path: Path, columns: list[str], rows: int | None = None):
     missing = [c for c in columns if c not in header]
     if missing:
         raise _err(csv_path, f"missing columns {missing}")
+
+    def reader(dtype):
+        return pd.read_csv(csv_path, usecols=lambda c: c.strip() in columns, chunksize=rows, dtype=dtype)
+
     line = 2
-    reader = pd.read_csv(
-        csv_path, usecols=lambda c: c.strip() in columns, chunksize=rows, skipinitialspace=True, dtype=str
-    )
-    for df in reader:
+    try:
+        for df in reader(np.float64):  # pandas' C parser straight to floats (blanks around a number are no part of it)
+            df.columns = df.columns.str.strip()
+            out = {c: df[c].to_numpy() for c in columns}
+            for c, col in out.items():
+                if not np.all(np.isfinite(col)):
+                    i = int(np.flatnonzero(~np.isfinite(col))[0])
+                    raise _err(csv_path, f"row {line + i}, column {c!r} holds {col[i]!r}; values must be finite")
+            yield line, out
+            line += len(df)
+    except ValueError as e:
+        if isinstance(e, RecordError):
+            raise
+        _name_bad_cell(csv_path, columns, reader(str))
+        raise _err(csv_path, f"is not a table of numbers ({str(e).strip()[:120]})") from None
+
+
+def _name_bad_cell(csv_path, columns, frames) -> None:
+    """Raise the :class:`RecordError` of the first cell of ``columns`` that is not a number, by row and column."""
+    import pandas as pd
+
+    line = 2
+    for df in frames:
         df.columns = df.columns.str.strip()
-        out = {}
         for c in columns:
-            col = pd.to_numeric(df[c], errors="coerce").to_numpy(dtype=float)
-            bad = ~np.isfinite(col)
-            if bad.any():
-                i = int(np.flatnonzero(bad)[0])
+            col = pd.to_numeric(df[c].str.strip(), errors="coerce").to_numpy(dtype=float)
+            if not np.all(np.isfinite(col)):
+                i = int(np.flatnonzero(~np.isfinite(col))[0])
                 raise _err(csv_path, f"row {line + i}, column {c!r} holds {df[c].iloc[i]!r}; values must be finite")
-            out[c] = col
-        yield line, out
         line += len(df)
 
 
