@@ -383,3 +383,87 @@ def test_a_bad_cell_or_a_backward_time_in_a_long_log_is_named_and_nothing_is_wri
     err = capsys.readouterr().err
     assert "row 12002, column 'time_ms': time does not increase" in err
     assert not (tmp_path / "o").exists() or not any(p.suffix in (".csv", ".json") for p in (tmp_path / "o").iterdir())
+
+
+# ---- ROS bags of sensor_msgs/Imu, written here by the rosbags library -----------------------------------------
+
+
+def _write_bag(path, version: int, topics: dict, stamps=True):
+    """A ROS ``version`` bag at ``path`` written by rosbags: per topic, (times s, acc m/s², gyro rad/s) as
+    sensor_msgs/Imu messages stamped with those times (or all stamped 0 when not ``stamps``), received at them."""
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC if version == 1 else Stores.ROS2_HUMBLE)
+    imu, header = store.types["sensor_msgs/msg/Imu"], store.types["std_msgs/msg/Header"]
+    stamp_t, quat, vec = (store.types[k] for k in ("builtin_interfaces/msg/Time", "geometry_msgs/msg/Quaternion",
+                                                    "geometry_msgs/msg/Vector3"))  # fmt: skip
+    if version == 1:
+        from rosbags.rosbag1 import Writer
+
+        writer, ser = Writer(path), store.serialize_ros1
+    else:
+        from rosbags.rosbag2 import Writer
+
+        writer, ser = Writer(path, version=8), store.serialize_cdr
+    with writer:
+        for topic, (t, acc, gyr) in topics.items():
+            conn = writer.add_connection(topic, imu.__msgtype__, typestore=store)
+            for k in range(len(t)):
+                ns = 1_700_000_000_000_000_000 + int(round(t[k] * 1e9))
+                st = stamp_t(sec=ns // 10**9, nanosec=ns % 10**9) if stamps else stamp_t(sec=0, nanosec=0)
+                extra = {"seq": k} if version == 1 else {}
+                msg = imu(
+                    header=header(stamp=st, frame_id="imu", **extra),
+                    orientation=quat(x=0.0, y=0.0, z=0.0, w=1.0),
+                    orientation_covariance=np.zeros(9),
+                    angular_velocity=vec(x=gyr[k, 0], y=gyr[k, 1], z=gyr[k, 2]),
+                    angular_velocity_covariance=np.zeros(9),
+                    linear_acceleration=vec(x=acc[k, 0], y=acc[k, 1], z=acc[k, 2]),
+                    linear_acceleration_covariance=np.zeros(9),
+                )
+                writer.write(conn, ns, ser(msg, imu.__msgtype__))
+
+
+@pytest.mark.parametrize("version", [1, 2])
+def test_a_ros_bag_of_the_real_rest_log_imports_as_its_csv_does(tmp_path, capsys, version):
+    """The first 60 s of the real rest log, in rad/s and m/s² (sensor_msgs/Imu's units), in a ROS 1 and a ROS 2 bag
+    that rosbags writes: `import bag` gives the record `import csv` gives from the same numbers (a time column in s,
+    --gyro-unit rad/s, --acc-unit m/s^2), the clock said from the header stamps; two IMU topics need --topic, and
+    a bag whose stamps are all zero is timed by its receive times, and says so."""
+    df = rest_table().iloc[:6000]
+    t = np.arange(len(df)) / 100.0
+    gyr = np.radians(df[["gx", "gy", "gz"]].to_numpy(float) / 131.0)
+    acc = df[["ax", "ay", "az"]].to_numpy(float) / 16384.0 * 9.80665
+    bag = tmp_path / ("log.bag" if version == 1 else "log")
+    _write_bag(bag, version, {"/imu0": (t, acc, gyr)})
+    assert main(["import", "bag", str(bag), "--out", str(tmp_path / "b")]) == 0
+    text = capsys.readouterr().out
+    assert "clock: 6000 samples at 100 Hz from the header stamps of topic '/imu0'" in text
+    csv = write_log(tmp_path / "log.csv", pd.DataFrame({"t": t, **dict(zip(["ax", "ay", "az"], acc.T)),
+                                                        **dict(zip(["gx", "gy", "gz"], gyr.T))}))  # fmt: skip
+    argv = ["import", "csv", csv, "--map", "time=t," + MAP, "--gyro-unit", "rad/s", "--acc-unit", "m/s^2"]
+    assert main([*argv, "--name", "log", "--out", str(tmp_path / "c")]) == 0
+    capsys.readouterr()
+    (a,), (b,) = load_records(tmp_path / "b"), load_records(tmp_path / "c")
+    for k in b.columns:
+        assert np.allclose(a.columns[k], b.columns[k], rtol=1e-12, atol=1e-12), k
+    two = tmp_path / ("two.bag" if version == 1 else "two")
+    _write_bag(two, version, {"/imu0": (t, acc, gyr), "/imu1": (t, acc, gyr)})
+    assert main(["import", "bag", str(two), "--out", str(tmp_path / "t")]) == 2
+    assert "2 sensor_msgs/Imu topics ['/imu0', '/imu1']: choose one with --topic" in capsys.readouterr().err
+    assert main(["import", "bag", str(two), "--topic", "/imu1", "--out", str(tmp_path / "t")]) == 0
+    capsys.readouterr()
+    zero = tmp_path / ("zero.bag" if version == 1 else "zero")
+    _write_bag(zero, version, {"/imu0": (t, acc, gyr)}, stamps=False)
+    assert main(["import", "bag", str(zero), "--out", str(tmp_path / "z")]) == 0
+    assert "from the bag's receive times of topic '/imu0' (its header stamps repeat)" in capsys.readouterr().out
+
+
+def test_bad_bags_and_bag_options_are_refused_naming_what(tmp_path, capsys):
+    (tmp_path / "no.bag").write_bytes(b"#ROSBAG V2.0\nnot really")
+    assert main(["import", "bag", str(tmp_path / "no.bag"), "--out", str(tmp_path / "o")]) == 2
+    assert "not a readable ROS 1 or ROS 2 bag" in capsys.readouterr().err
+    assert main(["import", "bag", str(tmp_path / "no.bag"), "--gyro-unit", "dps", "--out", str(tmp_path / "o")]) == 2
+    assert "sensor_msgs/Imu carries rad/s" in capsys.readouterr().err
+    assert main(["import", "csv", str(REST), "--map", MAP, "--topic", "/imu", "--out", str(tmp_path / "o")]) == 2
+    assert "--topic does not apply" in capsys.readouterr().err

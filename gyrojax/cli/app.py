@@ -170,9 +170,13 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--force", action="store_true", help="overwrite existing results")
     s.set_defaults(func=_command("mc_merge"))
 
-    s = sub.add_parser("import", help="convert an IMU calibration session (imucal, imu_tk, CSV) into triad records")
-    s.add_argument("format", choices=("imucal", "imutk", "csv"))
-    s.add_argument("inputs", nargs="+", help="imucal: SESSION.csv; imutk: ACC GYRO; csv: FILE.csv")
+    s = sub.add_parser(
+        "import",
+        help="convert an IMU calibration session or rest log (imucal, imu_tk, CSV, ROS bag) into triad records",
+    )
+    s.add_argument("format", choices=("imucal", "imutk", "csv", "bag"))
+    s.add_argument("inputs", nargs="+", help="imucal: SESSION.csv; imutk: ACC GYRO; csv: FILE.csv (or .mat); bag: BAG")
+    s.add_argument("--topic", help="bag: the sensor_msgs/Imu topic (default: the bag's only one)")
     s.add_argument("--out", required=True, help="output directory")
     s.add_argument("--sections", help='imucal: section list {"x_p": {"start": s, "end": e}, …} (JSON or CSV)')
     s.add_argument(
@@ -180,7 +184,9 @@ def build_parser() -> argparse.ArgumentParser:
         type=float,
         help="imucal: sample rate (default 204.8); csv: the log's rate (checked with its clock)",
     )
-    s.add_argument("--gyro-unit", default="counts", choices=("counts", "dps", "rad/s"))
+    s.add_argument(
+        "--gyro-unit", choices=("counts", "dps", "rad/s"), help="default counts (bag: rad/s, sensor_msgs/Imu's)"
+    )
     s.add_argument("--gyro-scale", type=float, help="nominal gyro scale, counts per deg/s (raw counts)")
     s.add_argument("--acc-unit", choices=("g", "m/s^2", "counts"), help="imutk (default counts), csv (default g)")
     s.add_argument(

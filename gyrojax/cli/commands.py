@@ -387,14 +387,16 @@ IMPORT_OPTIONS = {
     "map": ("csv",),
     "delimiter": ("imucal", "csv"),
     "time_unit": ("csv",),
-    "min_rest": ("imutk", "csv"),
-    "static_threshold": ("imutk", "csv"),
+    "min_rest": ("imutk", "csv", "bag"),
+    "static_threshold": ("imutk", "csv", "bag"),
+    "topic": ("bag",),
 }
 """The ``import`` options that only some importers take; any other importer refuses them."""
 
 
 def cmd_import(args) -> int:
-    """``gyrojax import imucal|imutk|csv``: convert a calibration session into imu-triad records in ``--out``."""
+    """``gyrojax import imucal|imutk|csv|bag``: convert a calibration session or a rest log into imu-triad records in
+    ``--out``."""
     from gyrojax.data import importers
     from gyrojax.data.records import record_paths, save_record
 
@@ -404,6 +406,12 @@ def cmd_import(args) -> int:
                 f"import {args.format}: option --{dest.replace('_', '-')} does not apply (it is for import "
                 f"{' and '.join(formats)})"
             )
+    if args.format == "bag":
+        if args.gyro_unit not in (None, "rad/s") or args.acc_unit not in (None, "m/s^2") or args.gyro_scale:
+            raise UsageError("import bag: sensor_msgs/Imu carries rad/s and m/s^2; --gyro-unit, --gyro-scale and "
+                             "--acc-unit do not apply")  # fmt: skip
+        args.gyro_unit = "rad/s"
+    args.gyro_unit = args.gyro_unit or "counts"
     if args.gyro_scale is not None and args.gyro_unit != "counts":
         raise UsageError(
             f"import {args.format}: option --gyro-scale applies to --gyro-unit counts, not {args.gyro_unit}"
@@ -431,6 +439,14 @@ def cmd_import(args) -> int:
             delimiter=args.delimiter,
             **common,
         )
+    elif args.format == "bag":
+        from gyrojax.data.rosbag import import_bag
+
+        if len(args.inputs) != 1:
+            raise UsageError("import bag takes one bag (a ROS 1 .bag file or a ROS 2 bag folder)")
+        common.pop("gyro_unit")
+        common.pop("gyro_counts_per_dps")
+        rec = import_bag(args.inputs[0], args.topic, **detector, **common)
     elif args.format == "imutk":
         if len(args.inputs) != 2:
             raise UsageError("import imutk takes two files: ACC GYRO")
