@@ -45,7 +45,8 @@ r = resource.getrusage(resource.RUSAGE_CHILDREN)
 if out.returncode:
     sys.stderr.write(out.stderr[-3000:])
     raise SystemExit(out.returncode)
-print(wall, r.ru_maxrss / 1024.0, r.ru_utime + r.ru_stime)
+sys.stdout.write(out.stdout)
+print("\n", wall, r.ru_maxrss / 1024.0, r.ru_utime + r.ru_stime)
 """
 
 REFERENCE = r"""
@@ -74,13 +75,14 @@ print(json.dumps(out))
 """
 
 
-def measure(cmd, env=None) -> tuple[float, float, float]:
-    """(wall s, peak resident MB, CPU s) of ``cmd`` as a fresh process."""
+def measure(cmd, env=None) -> tuple[float, float, float, str]:
+    """(wall s, peak resident MB, CPU s, its stdout) of ``cmd`` as a fresh process."""
     out = subprocess.run([sys.executable, "-c", MEASURE, *map(str, cmd)], capture_output=True, text=True, env=env)
     if out.returncode:
         raise SystemExit(f"{' '.join(map(str, cmd[:5]))} …: exit {out.returncode}: {out.stderr[-2000:]}")
-    wall, rss, cpu = map(float, out.stdout.split())
-    return wall, rss, cpu
+    text, last = out.stdout.rstrip().rsplit("\n", 1)
+    wall, rss, cpu = map(float, last.split())
+    return wall, rss, cpu, text
 
 
 def write_log(path: Path, n: int, rate: float, seed: int = 3) -> None:
@@ -146,9 +148,7 @@ def main(argv=None):
         measure(noise if (folder / "rec").exists() else imp, env)  # warm the cache (and the page cache)
     w_imp, w_noise = measure(imp, env), measure(noise, env)
     ref = measure([sys.executable, "-c", REFERENCE, log, args.rate, "log"])
-    ours = json.loads(subprocess.run(noise, capture_output=True, text=True, env=env).stdout)
-    theirs = json.loads(subprocess.run([sys.executable, "-c", REFERENCE, log, args.rate, "log"],
-                                       capture_output=True, text=True).stdout)  # fmt: skip
+    ours, theirs = json.loads(w_noise[3]), json.loads(ref[3])
     agree = []
     for c, r in zip(("gyro_x", "gyro_y", "gyro_z", "acc_x", "acc_y", "acc_z"), ("gx", "gy", "gz", "ax", "ay", "az")):
         key = "adev_deg_per_h" if c.startswith("gyro") else "adev_mps2"

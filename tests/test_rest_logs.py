@@ -67,6 +67,10 @@ def test_a_real_rest_log_imports_and_noise_gives_its_arw_within_6_percent_of_all
         ref = allantools_arw(df[f"g{c}"].to_numpy(float))
         assert abs(ours / ref - 1.0) < 0.06, (c, ours, ref)
     assert res["warnings"] == []
+    for c in "xyz":  # the accelerometer's read-offs in its units, the chosen model's own interval too
+        arw = res["channels"][f"acc_{c}"]["headline"]["arw"]["model"]
+        lo, hi = arw.get("ci_given_model") or arw["ci"]
+        assert lo <= arw["value"] <= hi and arw["unit"] == "m/s/sqrt(h)"
     topic, rate, _, gyro = kalibr_imu_parameters(kal)
     assert rate == 100.0 and gyro[2] > 0
 

@@ -127,8 +127,10 @@ def read_mat(path) -> dict:
         raw = io.loadmat(path, squeeze_me=False)
     except NotImplementedError:
         raise RecordError(f"{path}: a MATLAB v7.3 (HDF5) file; save it with MATLAB's save -v7 to read it") from None
-    except (ValueError, TypeError, OSError, EOFError) as e:
-        raise RecordError(f"{path}: not a readable MATLAB .mat file ({str(e).strip()[:120]})") from None
+    except Exception as e:  # a damaged file raises anything from scipy's parser (MatReadError, zlib, struct …)
+        raise RecordError(
+            f"{path}: not a readable MATLAB .mat file ({type(e).__name__}: {str(e).strip()[:120]})"
+        ) from None
     out = {}
     for k, v in raw.items():
         if k.startswith("__") or not isinstance(v, np.ndarray) or v.dtype.kind not in "biuf" or v.ndim != 2:
@@ -243,7 +245,13 @@ def numeric_columns(df, cols: list, where: str):
     row's, :func:`read_table`; 2 when absent, the header being line 1)."""
     import pandas as pd
 
-    arr = df[cols].apply(pd.to_numeric, errors="coerce").to_numpy(dtype=float)
+    def numbers(col):  # a number too large for a float (400 digits) is not finite, not an OverflowError
+        try:
+            return pd.to_numeric(col, errors="coerce")
+        except OverflowError:
+            return pd.Series([_float_or_nan(v) for v in col], index=col.index, dtype=float)
+
+    arr = df[cols].apply(numbers).to_numpy(dtype=float)
     bad = ~np.isfinite(arr)
     if bad.any():
         i, j = np.argwhere(bad)[0]
@@ -252,9 +260,20 @@ def numeric_columns(df, cols: list, where: str):
         row = i + df.attrs.get("first_line", 2)
         if not isinstance(cell, str) and pd.isna(cell):  # an empty cell, or a row a field short
             raise RecordError(f"{where}: row {row}, column {cols[j]!r} is empty (a field missing from the row?)")
-        shown = repr(cell) if isinstance(cell, str) else repr(float(cell))
+        shown = repr(cell) if isinstance(cell, str) else repr(_float_or_nan(cell))
+        shown = shown if len(shown) <= 40 else shown[:37] + "..."
         raise RecordError(f"{where}: row {row}, column {cols[j]!r} is not a finite number: {shown}{hint}")
     return arr
+
+
+def _float_or_nan(v) -> float:
+    """``float(v)``: inf when it overflows, nan when it is no number."""
+    try:
+        return float(v)
+    except OverflowError:
+        return float("inf")
+    except (TypeError, ValueError):
+        return float("nan")
 
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9}

@@ -308,14 +308,19 @@ def _pass(pd, path, fh, sep, skip, decimal, wanted, time_col, scale_t, rate_hz, 
     def frames():
         try:
             yield from chunks(np.float64)  # pandas' C parser straight to floats
-        except (ValueError, pd.errors.ParserError):  # a cell that is not a number: named by the checked reading
+        except (ValueError, pd.errors.ParserError) as e:  # a cell that is not a number: named by the checked reading
             first = skip + 2
-            for df in chunks(str):
-                df.columns = [str(c).strip() for c in df.columns]
-                df.attrs["first_line"] = first
-                numeric_columns(df, [c for c in wanted if c in df.columns], where)
-                first += len(df)
-            raise RecordError(f"{where}: not a readable table of numbers") from None
+            try:
+                for df in chunks(str):
+                    df.columns = [str(c).strip() for c in df.columns]
+                    df.attrs["first_line"] = first
+                    numeric_columns(df, [c for c in wanted if c in df.columns], where)
+                    first += len(df)
+            except (UnicodeDecodeError, pd.errors.ParserError) as e2:
+                raise RecordError(
+                    f"{where}: after row {first}, not a readable table ({str(e2).strip()[:120]})"
+                ) from None
+            raise RecordError(f"{where}: not a readable table of numbers ({str(e).strip()[:120]})") from None
 
     st = {"n": 0, "chunks": [], "ranges": {}, "range_units": {}, "notes": [], "written": {}}
     offset = fh.tell()

@@ -31,7 +31,7 @@ def read_imu_bag(path, topic: str | None = None) -> tuple[np.ndarray, np.ndarray
     try:
         reader = AnyReader([p], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
         reader.open()
-    except Exception as e:  # rosbags raises its own types for a file that is no bag  # noqa: BLE001
+    except Exception as e:  # rosbags raises its own types for a file that is no bag
         raise RecordError(f"{p}: not a readable ROS 1 or ROS 2 bag ({type(e).__name__}: {str(e)[:120]})") from None
     try:
         imu = sorted({c.topic for c in reader.connections if c.msgtype in IMU_TYPES})
@@ -45,14 +45,18 @@ def read_imu_bag(path, topic: str | None = None) -> tuple[np.ndarray, np.ndarray
             raise RecordError(f"{p}: --topic {topic!r} is no sensor_msgs/Imu topic of the bag; it has {imu}")
         conns = [c for c in reader.connections if c.topic == topic]
         stamp, recv, acc, gyr = [], [], [], []
-        for conn, t_ns, raw in reader.messages(connections=conns):
-            msg = reader.deserialize(raw, conn.msgtype)
-            h = msg.header.stamp
-            stamp.append(int(getattr(h, "sec", 0)) * 1_000_000_000 + int(getattr(h, "nanosec", getattr(h, "nsec", 0))))
-            recv.append(t_ns)
-            a, w = msg.linear_acceleration, msg.angular_velocity
-            acc.append((a.x, a.y, a.z))
-            gyr.append((w.x, w.y, w.z))
+        try:
+            for conn, t_ns, raw in reader.messages(connections=conns):
+                msg = reader.deserialize(raw, conn.msgtype)
+                h = msg.header.stamp
+                stamp.append(int(getattr(h, "sec", 0)) * 1_000_000_000 + int(getattr(h, "nanosec", 0)))
+                recv.append(t_ns)
+                a, w = msg.linear_acceleration, msg.angular_velocity
+                acc.append((a.x, a.y, a.z))
+                gyr.append((w.x, w.y, w.z))
+        except Exception as e:  # a damaged bag: rosbags' own error types, struct or decompression errors
+            why = f"{type(e).__name__}: {str(e)[:100]}"
+            raise RecordError(f"{p}: topic {topic!r}, message {len(stamp) + 1} cannot be read ({why})") from None
     finally:
         reader.close()
     if len(stamp) < 2:

@@ -109,7 +109,10 @@ def csv_chunks(csv_path: Path, columns: list[str], rows: int | None = None):
     except ValueError as e:
         if isinstance(e, RecordError):
             raise
-        _name_bad_cell(csv_path, columns, reader(str))
+        try:
+            _name_bad_cell(csv_path, columns, reader(str))
+        except (UnicodeDecodeError, pd.errors.ParserError) as e2:
+            raise _err(csv_path, f"is not a readable table ({str(e2).strip()[:120]})") from None
         raise _err(csv_path, f"is not a table of numbers ({str(e).strip()[:120]})") from None
 
 

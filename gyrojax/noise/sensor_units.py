@@ -55,11 +55,12 @@ def _scaled(fig: dict, name: str) -> dict:
     """One read-off (``value``, ``std``, ``unit`` …) in accelerometer units; one not read keeps its reason."""
     unit, f = ACCEL_UNITS[name]
     out = dict(fig)
-    for k in ("value", "std"):
+    for k in ("value", "std", "std_given_model"):
         if out.get(k) is not None:
             out[k] = out[k] * f
-    if out.get("ci") is not None:
-        out["ci"] = [None if c is None else c * f for c in out["ci"]]
+    for k in ("ci", "ci_given_model"):  # the selection's interval and the chosen model's own
+        if out.get(k) is not None:
+            out[k] = [None if c is None else c * f for c in out[k]]
     if "unit" in out or out.get("value") is not None:
         out["unit"] = unit
     return out
