@@ -135,8 +135,10 @@ def main(argv=None):
     log = folder / "rest.csv"
     t = time.perf_counter()
     write_log(log, n, args.rate)
-    print(f"log: {n} samples × 6 channels at {args.rate:g} Hz ({n / args.rate / 3600:.3g} h), "
-          f"{log.stat().st_size / 1e9:.2f} GB, written in {time.perf_counter() - t:.0f} s")  # fmt: skip
+    print(
+        f"log: {n} samples × 6 channels at {args.rate:g} Hz ({n / args.rate / 3600:.3g} h), "
+        f"{log.stat().st_size / 1e9:.2f} GB, written in {time.perf_counter() - t:.0f} s"
+    )
     imp = [*gj, "import", "csv", log, "--map", "time=time_ms,gyro_x=gx,gyro_y=gy,gyro_z=gz,acc_x=ax,acc_y=ay,acc_z=az"]
     imp += ["--time-unit", "ms", "--gyro-unit", "counts", "--gyro-scale", "131", "--acc-unit", "counts"]
     imp += ["--acc-scale", "16384", "--out", folder / "rec", "--force"]

@@ -106,8 +106,17 @@ def test_mutated_matlab_and_bag_files(log_bytes, tmp_path_factory):
     df = pd.read_csv(io.BytesIO(log_bytes), skiprows=2)
     sio.savemat(d / "log.mat", {k: df[k].to_numpy(float)[:, None] for k in df.columns})
     t = df["t"].to_numpy()
-    _write_bag(d / "log.bag", 1, {"/imu": (t, df[["ax", "ay", "az"]].to_numpy() / 1670.0,
-                                           np.radians(df[["gx", "gy", "gz"]].to_numpy() / 131.0))})  # fmt: skip
+    _write_bag(
+        d / "log.bag",
+        1,
+        {
+            "/imu": (
+                t,
+                df[["ax", "ay", "az"]].to_numpy() / 1670.0,
+                np.radians(df[["gx", "gy", "gz"]].to_numpy() / 131.0),
+            )
+        },
+    )
     cases = [
         ("log.mat", ["import", "csv", "{path}", "--map", MAP, *UNITS, "--out", "{out}"]),
         ("log.bag", ["import", "bag", "{path}", "--out", "{out}"]),
@@ -136,9 +145,22 @@ def _mutated_file_check(name: str, argv: list, original: bytes):
 
 _VALUES = st.sampled_from(["0", "-1", "1e-9", "nan", "inf", "1e300", "abc", "", "100", "0.1", "1e6", ",", "=", "s"])
 _OPTIONS = st.sampled_from(
-    ["--rate-hz", "--time-unit", "--acc-scale", "--gyro-scale", "--gyro-unit", "--acc-unit", "--topic", "--map",
-     "--min-rest", "--static-threshold", "--delimiter", "--latitude", "--gravity"]
-)  # fmt: skip
+    [
+        "--rate-hz",
+        "--time-unit",
+        "--acc-scale",
+        "--gyro-scale",
+        "--gyro-unit",
+        "--acc-unit",
+        "--topic",
+        "--map",
+        "--min-rest",
+        "--static-threshold",
+        "--delimiter",
+        "--latitude",
+        "--gravity",
+    ]
+)
 
 
 def test_random_options_of_the_new_doors(log_bytes, tmp_path_factory):

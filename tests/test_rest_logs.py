@@ -399,8 +399,10 @@ def _write_bag(path, version: int, topics: dict, stamps=True):
 
     store = get_typestore(Stores.ROS1_NOETIC if version == 1 else Stores.ROS2_HUMBLE)
     imu, header = store.types["sensor_msgs/msg/Imu"], store.types["std_msgs/msg/Header"]
-    stamp_t, quat, vec = (store.types[k] for k in ("builtin_interfaces/msg/Time", "geometry_msgs/msg/Quaternion",
-                                                    "geometry_msgs/msg/Vector3"))  # fmt: skip
+    stamp_t, quat, vec = (
+        store.types[k]
+        for k in ("builtin_interfaces/msg/Time", "geometry_msgs/msg/Quaternion", "geometry_msgs/msg/Vector3")
+    )
     if version == 1:
         from rosbags.rosbag1 import Writer
 
@@ -443,8 +445,10 @@ def test_a_ros_bag_of_the_real_rest_log_imports_as_its_csv_does(tmp_path, capsys
     assert main(["import", "bag", str(bag), "--out", str(tmp_path / "b")]) == 0
     text = capsys.readouterr().out
     assert "clock: 6000 samples at 100 Hz from the header stamps of topic '/imu0'" in text
-    csv = write_log(tmp_path / "log.csv", pd.DataFrame({"t": t, **dict(zip(["ax", "ay", "az"], acc.T)),
-                                                        **dict(zip(["gx", "gy", "gz"], gyr.T))}))  # fmt: skip
+    csv = write_log(
+        tmp_path / "log.csv",
+        pd.DataFrame({"t": t, **dict(zip(["ax", "ay", "az"], acc.T)), **dict(zip(["gx", "gy", "gz"], gyr.T))}),
+    )
     argv = ["import", "csv", csv, "--map", "time=t," + MAP, "--gyro-unit", "rad/s", "--acc-unit", "m/s^2"]
     assert main([*argv, "--name", "log", "--out", str(tmp_path / "c")]) == 0
     capsys.readouterr()

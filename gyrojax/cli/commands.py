@@ -408,8 +408,10 @@ def cmd_import(args) -> int:
             )
     if args.format == "bag":
         if args.gyro_unit not in (None, "rad/s") or args.acc_unit not in (None, "m/s^2") or args.gyro_scale:
-            raise UsageError("import bag: sensor_msgs/Imu carries rad/s and m/s^2; --gyro-unit, --gyro-scale and "
-                             "--acc-unit do not apply")  # fmt: skip
+            raise UsageError(
+                "import bag: sensor_msgs/Imu carries rad/s and m/s^2; --gyro-unit, --gyro-scale and "
+                "--acc-unit do not apply"
+            )
         args.gyro_unit = "rad/s"
     args.gyro_unit = args.gyro_unit or "counts"
     if args.gyro_scale is not None and args.gyro_unit != "counts":

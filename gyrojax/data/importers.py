@@ -170,7 +170,7 @@ def _sections_to_parts(n: int, sections: dict, where: str, session: str) -> np.n
     return part
 
 
-def _gyro_columns(gyr, gyro_unit: str, counts_per_dps, where: str, units_ok=("counts", "dps", "rad/s")) -> tuple:
+def gyro_record_columns(gyr, gyro_unit: str, counts_per_dps, where: str, units_ok=("counts", "dps", "rad/s")) -> tuple:
     """The record's gyro columns from (n, 3) values in ``gyro_unit`` and the nominal scale kept (counts only)."""
     if gyro_unit not in units_ok:
         raise RecordError(f"gyro unit (--gyro-unit) must be one of {', '.join(units_ok)}, got {gyro_unit!r}")
@@ -289,7 +289,7 @@ def import_imucal(
                 }
             )
     cols = {"time_s": samples / float(rate_hz), "segment": labels}
-    gcols, gyro_counts_per_dps = _gyro_columns(gyr, gyro_unit, gyro_counts_per_dps, where)
+    gcols, gyro_counts_per_dps = gyro_record_columns(gyr, gyro_unit, gyro_counts_per_dps, where)
     cols.update(gcols)
     for c, j in zip(CHANNELS, range(3)):
         cols[f"acc_{c}_g"] = acc_cal[:, j]
@@ -370,7 +370,7 @@ def triad_from_arrays(
     except RecordError as e:  # the detector knows the samples, not the file: name it
         raise RecordError(f"{source}: {e}") from None
     iv = det.intervals
-    gcols, gyro_counts_per_dps = _gyro_columns(gyr, gyro_unit, gyro_counts_per_dps, source)
+    gcols, gyro_counts_per_dps = gyro_record_columns(gyr, gyro_unit, gyro_counts_per_dps, source)
     dps = np.column_stack(list(gcols.values())) / (gyro_counts_per_dps or 1.0)
     door = {"clock": clock} if clock else {}
     door["ranges"] = channel_ranges({f"gyro_{c}": gyr[:, j] for j, c in enumerate(CHANNELS)})

