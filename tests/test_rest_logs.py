@@ -475,3 +475,17 @@ def test_bad_bags_and_bag_options_are_refused_naming_what(tmp_path, capsys):
     assert "sensor_msgs/Imu carries rad/s" in capsys.readouterr().err
     assert main(["import", "csv", str(REST), "--map", MAP, "--topic", "/imu", "--out", str(tmp_path / "o")]) == 2
     assert "--topic does not apply" in capsys.readouterr().err
+
+
+def test_a_hand_session_on_a_clock_100_times_slow_is_refused_naming_the_rate(tmp_path):
+    """A simulated hand session at 100 Hz (moves of 0.8–1.6 s) declared --rate-hz 1: its moves would last
+    80–160 s each, which no hand takes; refused, naming --rate-hz. At its own rate it imports."""
+    from .test_importers import hand_session, log_columns
+
+    rec, _ = hand_session()
+    cols = {k: v for k, v in log_columns(rec).items() if k != "t"}
+    path = write_log(tmp_path / "h.csv", pd.DataFrame(cols))
+    mapping = {"gyro_x": "gx", "gyro_y": "gy", "gyro_z": "gz", "acc_x": "ax", "acc_y": "ay", "acc_z": "az"}
+    with pytest.raises(RecordError, match=r"its median move last 1\d\d(\.\d*)? s .*--rate-hz"):
+        import_csv(path, mapping, rate_hz=1.0)
+    assert import_csv(path, mapping, rate_hz=100.0).meta["import"]["rests_found"] == 36

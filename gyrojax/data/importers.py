@@ -477,20 +477,22 @@ def _triad_record(name, segs, cols, latitude_deg, gravity_mps2, counts_per_dps, 
 
 MAX_HAND_REST_S = 3600.0
 """Longest rest of a hand calibration session, s (poses are held for seconds to minutes)."""
-MAX_HAND_MOVE_S = 600.0
-"""Longest move between two rests of a hand session, s (a hand turns the IMU in seconds)."""
+MAX_HAND_MOVE_S = 60.0
+"""Longest median move between two rests of a hand session, s (a hand turns the IMU in a few seconds)."""
 
 
 def _hand_clock(t, intervals, source: str) -> None:
-    """Refuse a hand session whose clock makes a rest last hours or a move tens of minutes: a wrong time unit or
-    rate, naming the flags."""
-    rests = [(t[e - 1] - t[s], "rest", s) for s, e in intervals]
-    moves = [(t[s2] - t[e - 1], "move", e) for (_, e), (s2, _) in zip(intervals, intervals[1:])]
-    for (d, kind, i), limit in [(max(rests), MAX_HAND_REST_S), (max(moves, default=(0.0, "move", 0)), MAX_HAND_MOVE_S)]:
+    """Refuse a hand session whose clock makes a rest last hours or its moves a minute each (the median move): a
+    wrong time unit or rate, naming the flags."""
+    rests = [t[e - 1] - t[s] for s, e in intervals]
+    moves = [t[s2] - t[e - 1] for (_, e), (s2, _) in zip(intervals, intervals[1:])]
+    said = [("its longest rest", max(rests), MAX_HAND_REST_S)]
+    said += [("its median move", float(np.median(moves)), MAX_HAND_MOVE_S)] if moves else []
+    for what, d, limit in said:
         if d > limit:
             raise RecordError(
-                f"{source}: a hand session whose {kind} at {t[i]:.6g} s lasts {d:.6g} s ({d / 3600:.3g} h; a hand "
-                f"{kind} lasts under {limit:g} s): is the clock's unit right (--time-unit, --rate-hz)?"
+                f"{source}: a hand session of {len(intervals)} rests whose clock makes {what} last {d:.6g} s "
+                f"(a hand keeps it under {limit:g} s): is the clock right (--time-unit, --rate-hz)?"
             )
 
 
