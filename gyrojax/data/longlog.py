@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -212,10 +213,8 @@ def import_long_csv(
             cols_out = ["time_s", *[f"gyro_{c}_{'counts' if gyro_unit == 'counts' else 'dps'}" for c in CHANNELS]]
             cols_out += [f"acc_{c}_g" for c in CHANNELS][: len(acc_names)]
             fh.write((",".join([*cols_out, "segment"]) + "\n").encode())
-            state = _pass(
-                pd,
+            log = _Log(
                 path,
-                fh,
                 sep,
                 skip,
                 decimal,
@@ -231,8 +230,8 @@ def import_long_csv(
                 acc_unit,
                 acc_counts_per_g,
                 where,
-                progress,
             )
+            state = _pass(pd, log, fh, progress)
         progress.close()
         n = state["n"]
         kw = dict(rate_hz=rate_hz, preamble=preamble)
@@ -321,27 +320,29 @@ def import_long_csv(
     return json_path
 
 
-def _pass(
-    pd,
-    path,
-    fh,
-    sep,
-    skip,
-    decimal,
-    wanted,
-    time_col,
-    scale_t,
-    rate_hz,
-    preamble,
-    gyro_names,
-    acc_names,
-    gyro_unit,
-    gyro_scale,
-    acc_unit,
-    acc_scale,
-    where,
-    progress,
-) -> dict:
+@dataclass(frozen=True)
+class _Log:
+    """What :func:`_pass` reads: the file, its layout and columns, its clock and its units."""
+
+    path: object
+    sep: str
+    skip: int
+    decimal: str
+    wanted: list
+    time_col: str | None
+    scale_t: float
+    rate_hz: float | None
+    preamble: list
+    gyro_names: list
+    acc_names: list
+    gyro_unit: str
+    gyro_scale: float | None
+    acc_unit: str
+    acc_scale: float | None
+    where: str
+
+
+def _pass(pd, log: _Log, fh, progress) -> dict:
     """The one pass over the log: read, check, say, write, keep the block statistics."""
     from gyrojax.data.importers import gyro_record_columns
     from gyrojax.data.logs import numeric_columns, preamble_rate
@@ -349,12 +350,12 @@ def _pass(
 
     def chunks(dtype):
         return pd.read_csv(
-            path,
-            sep=sep,
-            skiprows=skip,
+            log.path,
+            sep=log.sep,
+            skiprows=log.skip,
             skipinitialspace=True,
-            decimal=decimal,
-            usecols=lambda c: c.strip() in wanted,
+            decimal=log.decimal,
+            usecols=lambda c: c.strip() in log.wanted,
             chunksize=CHUNK_ROWS,
             dtype=dtype,
         )
@@ -363,56 +364,60 @@ def _pass(
         try:
             yield from chunks(np.float64)  # pandas' C parser straight to floats
         except (ValueError, pd.errors.ParserError) as e:  # a cell that is not a number: named by the checked reading
-            first = skip + 2
+            first = log.skip + 2
             try:
                 for df in chunks(str):
                     df.columns = [str(c).strip() for c in df.columns]
                     df.attrs["first_line"] = first
-                    numeric_columns(df, [c for c in wanted if c in df.columns], where)
+                    numeric_columns(df, [c for c in log.wanted if c in df.columns], log.where)
                     first += len(df)
             except (UnicodeDecodeError, pd.errors.ParserError) as e2:
                 raise RecordError(
-                    f"{where}: after row {first}, not a readable table ({str(e2).strip()[:120]})"
+                    f"{log.where}: after row {first}, not a readable table ({str(e2).strip()[:120]})"
                 ) from None
-            raise RecordError(f"{where}: not a readable table of numbers ({str(e).strip()[:120]})") from None
+            raise RecordError(f"{log.where}: not a readable table of numbers ({str(e).strip()[:120]})") from None
 
     st = {"n": 0, "chunks": [], "ranges": {}, "range_units": {}, "notes": [], "written": {}}
     offset = fh.tell()
     t_last = None
-    line = skip + 2
+    line = log.skip + 2
     step = None
     for df in frames():
         df.columns = [str(c).strip() for c in df.columns]
         df.attrs["first_line"] = line
-        gyr = numeric_columns(df, gyro_names, where)
-        acc = numeric_columns(df, acc_names, where) if acc_names else None
-        if time_col:
-            t = numeric_columns(df, [time_col], where)[:, 0] * scale_t
+        gyr = numeric_columns(df, log.gyro_names, log.where)
+        acc = numeric_columns(df, log.acc_names, log.where) if log.acc_names else None
+        if log.time_col:
+            t = numeric_columns(df, [log.time_col], log.where)[:, 0] * log.scale_t
             prev = t if t_last is None else np.concatenate([[t_last], t])
             bad = np.flatnonzero(np.diff(prev) <= 0)
             if bad.size:
                 i = int(bad[0]) + (1 if t_last is None else 0)
-                raise RecordError(f"{where}: row {line + i}, column {time_col!r}: time does not increase")
+                raise RecordError(f"{log.where}: row {line + i}, column {log.time_col!r}: time does not increase")
             if t_last is None:
                 st["t_first"] = float(t[0])
             t_last = float(t[-1])
             st["t_last"] = t_last
         else:
-            rate = rate_hz or (preamble_rate(preamble) or (None,))[0]
+            rate = log.rate_hz or (preamble_rate(log.preamble) or (None,))[0]
             if not rate:
-                raise RecordError(f"{where}: the samples need a rate: give --rate-hz or map a time column (time=COL)")
+                raise RecordError(
+                    f"{log.where}: the samples need a rate: give --rate-hz or map a time column (time=COL)"
+                )
             t = (st["n"] + np.arange(len(df))) / float(rate)
             st["t_first"], st["t_last"] = 0.0, float(t[-1])
-        gcols, _ = gyro_record_columns(gyr, gyro_unit, gyro_scale, where)
+        gcols, _ = gyro_record_columns(gyr, log.gyro_unit, log.gyro_scale, log.where)
         g = np.column_stack(list(gcols.values()))
         a = None
         if acc is not None:
-            if acc_unit == "counts" and acc_scale is None:
-                raise RecordError(f"{where}: a rest log's accelerometer in counts needs its nominal scale: --acc-scale")
-            a = acc * ({"g": 1.0, "m/s^2": 1.0 / units.G0}.get(acc_unit) or 1.0 / float(acc_scale))
+            if log.acc_unit == "counts" and log.acc_scale is None:
+                raise RecordError(
+                    f"{log.where}: a rest log's accelerometer in counts needs its nominal scale: --acc-scale"
+                )
+            a = acc * ({"g": 1.0, "m/s^2": 1.0 / units.G0}.get(log.acc_unit) or 1.0 / float(log.acc_scale))
         if step is None:  # the block size and the formats, from the first chunk
             d = np.diff(t)
-            step = float(np.median(d)) if len(d) else 1.0 / (rate_hz or 1.0)
+            step = float(np.median(d)) if len(d) else 1.0 / (log.rate_hz or 1.0)
             size = window_samples(WINDOW_S, 1.0 / step)
             x = g if a is None else np.column_stack([g, a])
             st["blocks"] = _Blocks(size, x.shape[1])
@@ -432,7 +437,7 @@ def _pass(
             raw = gyr[:, j] if j < 3 else acc[:, j - 3]
             lo, hi, sm = st["ranges"].get(nm, [np.inf, -np.inf, 0.0])
             st["ranges"][nm] = [min(lo, float(raw.min())), max(hi, float(raw.max())), sm + float(raw.sum())]
-            st["range_units"][nm] = gyro_unit if j < 3 else acc_unit
+            st["range_units"][nm] = log.gyro_unit if j < 3 else log.acc_unit
         st["blocks"].add(x)
         data, row_len, seg_pos = format_rows([t - t0, *x.T], decs)
         st["chunks"].append((st["n"], offset, row_len, seg_pos))
@@ -442,7 +447,7 @@ def _pass(
         line += len(df)
         progress.add(len(df))
     if st["n"] < 2:
-        raise RecordError(f"{where}: fewer than 2 samples")
+        raise RecordError(f"{log.where}: fewer than 2 samples")
     for v in st["ranges"].values():
         v[2] /= st["n"]
     return st
