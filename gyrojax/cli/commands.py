@@ -383,9 +383,9 @@ IMPORT_OPTIONS = {
     "acc_unit": ("imutk", "csv"),
     "angle": ("imucal",),
     "angle_std": ("imucal",),
-    "map": ("csv",),
-    "delimiter": ("imucal", "csv"),
-    "time_unit": ("csv",),
+    "map": ("csv", "table"),
+    "delimiter": ("imucal", "csv", "table"),
+    "time_unit": ("csv", "table"),
     "min_rest": ("imutk", "csv"),
     "static_threshold": ("imutk", "csv"),
 }
@@ -393,7 +393,9 @@ IMPORT_OPTIONS = {
 
 
 def cmd_import(args) -> int:
-    """``gyrojax import imucal|imutk|csv``: convert a calibration session into imu-triad records in ``--out``."""
+    """``gyrojax import imucal|imutk|csv|table``: convert a calibration session into imu-triad records in ``--out``
+    (a turntable data system's log into a conventions record: :mod:`gyrojax.cli.import_table`)."""
+    from gyrojax.cli.import_table import cmd_import_table, refuse_table_options
     from gyrojax.data import importers
     from gyrojax.data.records import record_paths, save_record
 
@@ -403,6 +405,9 @@ def cmd_import(args) -> int:
                 f"import {args.format}: option --{dest.replace('_', '-')} does not apply (it is for import "
                 f"{' and '.join(formats)})"
             )
+    if args.format == "table":
+        return cmd_import_table(args)
+    refuse_table_options(args)
     if args.gyro_scale is not None and args.gyro_unit != "counts":
         raise UsageError(
             f"import {args.format}: option --gyro-scale applies to --gyro-unit counts, not {args.gyro_unit}"
@@ -411,7 +416,7 @@ def cmd_import(args) -> int:
         gyro_unit=args.gyro_unit,
         gyro_counts_per_dps=args.gyro_scale,
         latitude_deg=args.latitude,
-        gravity_mps2=args.gravity,
+        gravity_mps2=9.81 if args.gravity is None else args.gravity,
         name=args.name,
         instrument_id=args.id,
     )
