@@ -187,6 +187,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--latitude", type=float, help="site latitude, deg (default: unknown)")
     s.add_argument("--gravity", type=float, help="local gravity, m/s^2 (IMU default 9.81; table: normal gravity)")
     s.add_argument("--map", help="csv: column mapping time=COL (or sample=COL),gyro_x=COL,…,acc_z=COL")
+    s.add_argument(
+        "--rotations", metavar="SPEC|FILE", help="csv, gyro only (no acc_<c>): the turns, x:360,y:360,z:360 or a file"
+    )
     s.add_argument("--delimiter", help="imucal, csv: ',', ';', 'tab' or 'auto' (default: detected)")
     s.add_argument(
         "--time-unit",

@@ -122,6 +122,9 @@ def cmd_fit(args) -> int:
             res = fit(recs, terms)
     if triad and not res.converged:
         raise ModelError(f"the triad fit did not converge ({res.convergence_note}); no coefficients are reported")
+    for note in getattr(res, "notes", []) if triad else []:  # beyond the MEMS limits: said on stderr too
+        if note.startswith("implausible"):
+            print(f"gyrojax: warning: {note}", file=sys.stderr)
     if args.json:
         print(json.dumps(res.to_json()))
     elif hasattr(res, "text"):  # an imu-triad fit prints its own table
@@ -384,6 +387,7 @@ IMPORT_OPTIONS = {
     "angle": ("imucal",),
     "angle_std": ("imucal",),
     "map": ("csv", "table"),
+    "rotations": ("csv",),
     "delimiter": ("imucal", "csv", "table"),
     "time_unit": ("csv", "table"),
     "min_rest": ("imutk", "csv"),
@@ -449,9 +453,12 @@ def cmd_import(args) -> int:
         pairs = [p.split("=", 1) for p in args.map.split(",")]
         if any(len(p) != 2 or not p[0] or not p[1] for p in pairs):
             raise UsageError(f"import csv: option --map {args.map!r}: give KEY=COLUMN pairs separated by commas")
+        if args.rotations is not None and any(k.startswith("acc_") for k, _ in pairs):
+            raise UsageError("import csv: --rotations lists the turns of a gyro-only session: map no acc_<c> with it")
         rec = importers.import_csv(
             args.inputs[0],
             dict(pairs),
+            rotations=args.rotations,
             acc_unit=args.acc_unit or "g",
             rate_hz=args.rate_hz,
             time_unit=args.time_unit,
@@ -473,6 +480,11 @@ def cmd_import(args) -> int:
     else:
         print(f"{path}: {rec.n} samples; segments " + ", ".join(f"{v} {k}" for k, v in summary.items()))
         print(f"rests: {import_summary(report)}")
+        for r in report.get("rotations", []) if isinstance(report.get("rotations"), list) else []:
+            turned = ", ".join(f"{x:.5g}" for x in r["integrated_deg"])
+            print(f"  rotation {r['axis']}:{r['angle_deg']:g} {r['start_s']:.2f}–{r['end_s']:.2f} s: {turned} deg")
+        for m in report.get("moves_not_fitted", []):
+            print(f"  move not fitted {m['start_s']:.2f}–{m['end_s']:.2f} s")
         for d in report.get("dropped", []):
             print(f"  dropped {d['start_s']:.2f}–{d['end_s']:.2f} s: {d['reason']} ({d['detail']})")
         for note in report.get("notes", []):

@@ -28,6 +28,7 @@ import numpy as np
 
 from gyrojax import units
 from gyrojax.data.accelcheck import accelerometer_in_g
+from gyrojax.data.gyroonly import gyro_only_segments
 from gyrojax.data.logs import (
     TIME_UNITS,
     file_stem,
@@ -480,6 +481,20 @@ def triad_from_arrays(
     return Record(meta, {k: np.asarray(v, dtype=float) for k, v in cols.items()})
 
 
+def gyro_only_record(t, gyr, rotations, *, gyro_unit="dps", gyro_counts_per_dps=None, name="imu", **kw) -> Record:
+    """A gyro-only session (times s, gyro (n, 3) in ``gyro_unit``) and its ``rotations`` as an ``imu-triad`` record
+    without accelerometer (:func:`gyrojax.data.gyroonly.gyro_only_segments`; :func:`triad_meta` the other keywords)."""
+    seg_kw = {k: kw.pop(k) for k in ("min_rest_s", "static_threshold", "source", "notes") if k in kw}
+    gcols, k = _gyro_columns(np.asarray(gyr, dtype=float), gyro_unit, gyro_counts_per_dps, seg_kw.get("source", ""))
+    dps = np.stack(list(gcols.values()), axis=1) / (k or 1.0)
+    labels, segs, report = gyro_only_segments(t, dps, rotations, **seg_kw)
+    meta = triad_meta(name, segs, counts_per_dps=k, notes="a gyro-only session", extra={"import": report}, **kw)
+    cols = {"time_s": np.asarray(t, dtype=float), "segment": labels, **gcols}
+    validate_triad_meta(meta, f"{name}.json")
+    validate_triad_columns(meta, cols, f"{name}.csv")
+    return Record(meta, cols)
+
+
 CSV_KEYS = ("time", "time_s", "sample", "gyro_x", "gyro_y", "gyro_z", "acc_x", "acc_y", "acc_z")
 """Keys of :func:`import_csv`'s column mapping: ``time`` (``time_s`` the same), ``sample`` (a sample counter), the
 six sensor channels."""
@@ -495,11 +510,12 @@ def import_csv(
     time_unit: str | None = None,
     delimiter: str | None = None,
     name: str | None = None,
+    rotations=None,
     **kw,
 ) -> Record:
     """Any delimited log of a multi-position recording, with a column mapping ``{"gyro_x": "gx", …, "acc_z": "az",
     "time": "t"}``: rests detected and moves between them, as :func:`triad_from_arrays` (other keyword arguments go
-    there).
+    there). Without ``acc_<c>`` in the mapping, a gyro-only session with its ``rotations`` (:func:`gyro_only_record`).
 
     The clock: ``time`` (or ``time_s``) a time column in ``time_unit`` (``s``, ``ms``, ``us``, ``ns``; default s, or
     ISO 8601 date-times when no unit is given), noted when
@@ -510,9 +526,15 @@ def import_csv(
     unknown = sorted(set(mapping) - set(CSV_KEYS))
     if unknown:
         raise RecordError(f"column mapping: unknown keys {unknown}; valid: {', '.join(CSV_KEYS)}")
-    need = [k for k in CSV_KEYS[3:] if k not in mapping]
+    gyro_only = not any(k.startswith("acc_") for k in mapping)
+    need = [k for k in CSV_KEYS[3:] if k not in mapping and not (gyro_only and k.startswith("acc_"))]
     if need:
         raise RecordError(f"column mapping: {need} missing (map every gyro_<c> and acc_<c> to a column)")
+    if gyro_only and rotations is None:
+        raise RecordError(
+            "column mapping: no accelerometer (acc_<c>): a gyro-only session needs its rotations of known angle "
+            "(--rotations x:360,y:360,z:360 or a file)"
+        )
     if "time" in mapping and "time_s" in mapping:
         raise RecordError("column mapping: 'time' and 'time_s' are the same key; map one")
     time_col = mapping.get("time", mapping.get("time_s"))
@@ -530,7 +552,7 @@ def import_csv(
     miss = [v for v in mapping.values() if v not in df.columns]
     if miss:
         raise RecordError(f"{path}: columns {miss} (from the mapping) are not in the file; it has {list(df.columns)}")
-    acc = numeric_columns(df, [mapping[f"acc_{c}"] for c in CHANNELS], str(path))
+    acc = None if gyro_only else numeric_columns(df, [mapping[f"acc_{c}"] for c in CHANNELS], str(path))
     gyr = numeric_columns(df, [mapping[f"gyro_{c}"] for c in CHANNELS], str(path))
     t_col = None
     if time_col is not None:
@@ -560,6 +582,9 @@ def import_csv(
         t = np.arange(len(df)) / float(rate_hz)
     else:
         raise RecordError(f"{path}: map a time column (time=COL), a sample counter (sample=COL) or give --rate-hz")
+    if gyro_only:
+        kw.update(name=name or file_stem(path), source=str(path), notes=notes)
+        return gyro_only_record(t - t[0], gyr, rotations, gyro_unit=gyro_unit, **kw)
     return triad_from_arrays(
         t - t[0],
         acc,

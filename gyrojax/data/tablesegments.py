@@ -32,8 +32,8 @@ NOISE_FACTOR = 6.0
 @dataclass
 class TableSegment:
     """One detected segment: ``kind`` ``position``, ``rate``, ``transition`` or ``servo``; samples ``start`` to
-    ``end`` (end exclusive); ``rates_dps`` (k,) the mean rate of each axis over it; ``angles_deg`` (k,) the mean
-    angle (positions); ``revolutions`` (k,) turns of each axis over it (signed)."""
+    ``end`` (end exclusive), times ``t0``, ``t1`` s; ``rates_dps`` (k,) the mean rate of each axis over it, deg/s;
+    ``angles_deg`` (k,) the mean angle (positions), deg; ``revolutions`` (k,) turns of each axis over it (signed)."""
 
     kind: str
     start: int
@@ -187,7 +187,8 @@ def _segment(kind, s, e, t, angles, rates, resolution=None) -> TableSegment:
 
 
 def describe(segments: list[TableSegment], axes: list) -> str:
-    """One line: the positions (their angles), the rate steps (their rates and revolutions) and the transitions."""
+    """One line: the positions (their angles, deg), the rate steps (their rates, deg/s, and revolutions) and the
+    transitions."""
     pos = [s for s in segments if s.kind == "position"]
     rate = [s for s in segments if s.kind == "rate"]
     servo = [s for s in segments if s.kind == "servo"]

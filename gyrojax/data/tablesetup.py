@@ -97,7 +97,8 @@ MOUNT_KEYS.update({TDF: ("x", "y", "z"), ACCEL: ("ia", "pa", "oa")})
 
 @dataclass
 class Column:
-    """One mapped column: its name in the log, its unit and (encoder angles) the counts per revolution."""
+    """One mapped column: its name in the log, its unit (s, deg, deg/s, mA, V, °C … as the log writes them) and
+    (encoder angles) the counts per revolution."""
 
     column: str
     unit: str | None = None
