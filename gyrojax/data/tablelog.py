@@ -30,13 +30,12 @@ from gyrojax.data.logs import file_stem, numeric_columns, read_table
 from gyrojax.data.record import Record
 from gyrojax.data.schema import FORMAT, validate_columns, validate_meta
 from gyrojax.data.tablesegments import describe, detect_table_segments
-from gyrojax.data.tablesetup import (
+from gyrojax.data.tablesetup import TableSetup, check_setup
+from gyrojax.data.tableunits import (
     ANGLE_UNITS,
     OUTPUT_UNITS,
     RATE_UNITS,
     TIME_UNITS,
-    TableSetup,
-    check_setup,
     scale_in_base,
     somigliana_gravity,
     to_celsius,
