@@ -24,6 +24,7 @@ import threading
 
 from gyrojax import enable_compilation_cache
 from gyrojax.cli.args import UsageError
+from gyrojax.cli.import_table import add_table_arguments
 from gyrojax.errors import GyrojaxError
 from gyrojax.threads import POOL_PREFIX, single_threaded_blas, stop_workers
 
@@ -172,10 +173,14 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser(
         "import",
-        help="convert an IMU calibration session or rest log (imucal, imu_tk, CSV, ROS bag) into triad records",
+        help="convert an IMU session or rest log (imucal, imu_tk, CSV, ROS bag) or a turntable's log into records",
     )
-    s.add_argument("format", choices=("imucal", "imutk", "csv", "bag"))
-    s.add_argument("inputs", nargs="+", help="imucal: SESSION.csv; imutk: ACC GYRO; csv: FILE.csv (or .mat); bag: BAG")
+    s.add_argument("format", choices=("imucal", "imutk", "csv", "bag", "table"))
+    s.add_argument(
+        "inputs",
+        nargs="+",
+        help="imucal: SESSION.csv; imutk: ACC GYRO; csv: FILE.csv (or .mat); bag: BAG; table: TABLE.csv [GYRO.csv]",
+    )
     s.add_argument("--topic", help="bag: the sensor_msgs/Imu topic (default: the bag's only one)")
     s.add_argument("--out", required=True, help="output directory")
     s.add_argument("--sections", help='imucal: section list {"x_p": {"start": s, "end": e}, …} (JSON or CSV)')
@@ -195,13 +200,16 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--angle", type=float, help="imucal: total angle of each hand rotation, deg (default 360)")
     s.add_argument("--angle-std", type=float, help="imucal: 1-sigma error of that angle, deg (default 0)")
     s.add_argument("--latitude", type=float, help="site latitude, deg (default: unknown)")
-    s.add_argument("--gravity", type=float, default=9.81, help="local gravity, m/s^2")
+    s.add_argument("--gravity", type=float, help="local gravity, m/s^2 (IMU default 9.81; table: normal gravity)")
     s.add_argument("--map", help="csv: column mapping time=COL (or sample=COL),gyro_x=COL,…[,acc_x=COL,…]")
+    s.add_argument(
+        "--rotations", metavar="SPEC|FILE", help="csv, gyro only (no acc_<c>): the turns, x:360,y:360,z:360 or a file"
+    )
     s.add_argument("--delimiter", help="imucal, csv: ',', ';', 'tab' or 'auto' (default: detected)")
     s.add_argument(
         "--time-unit",
-        choices=("s", "ms", "us", "ns"),
-        help="csv: unit of the time column (default s; ISO 8601 date-times are read without one)",
+        choices=("s", "ms", "us", "ns", "iso"),
+        help="csv, table: unit of the time column (default s; csv reads ISO 8601 date-times without one)",
     )
     s.add_argument("--min-rest", type=float, metavar="S", help="imutk, csv: shortest rest kept, s (default 0.5)")
     s.add_argument(
@@ -214,6 +222,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--id", help="instrument id (records of different ids are never fitted together)")
     s.add_argument("--force", action="store_true")
     s.add_argument("--json", action="store_true")
+    add_table_arguments(s)
     s.set_defaults(func=_command("import"))
 
     s = sub.add_parser("apply", help="write calibrated rates of imu-triad records with a saved triad fit")

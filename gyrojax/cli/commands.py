@@ -122,6 +122,9 @@ def cmd_fit(args) -> int:
             res = fit(recs, terms)
     if triad and not res.converged:
         raise ModelError(f"the triad fit did not converge ({res.convergence_note}); no coefficients are reported")
+    for note in getattr(res, "notes", []) if triad else []:  # beyond the MEMS limits: said on stderr too
+        if note.startswith("implausible"):
+            print(f"gyrojax: warning: {note}", file=sys.stderr)
     if args.json:
         print(json.dumps(res.to_json()))
     elif hasattr(res, "text"):  # an imu-triad fit prints its own table
@@ -384,9 +387,10 @@ IMPORT_OPTIONS = {
     "acc_scale": ("imutk", "csv"),
     "angle": ("imucal",),
     "angle_std": ("imucal",),
-    "map": ("csv",),
-    "delimiter": ("imucal", "csv"),
-    "time_unit": ("csv",),
+    "map": ("csv", "table"),
+    "rotations": ("csv",),
+    "delimiter": ("imucal", "csv", "table"),
+    "time_unit": ("csv", "table"),
     "min_rest": ("imutk", "csv", "bag"),
     "static_threshold": ("imutk", "csv", "bag"),
     "topic": ("bag",),
@@ -395,8 +399,9 @@ IMPORT_OPTIONS = {
 
 
 def cmd_import(args) -> int:
-    """``gyrojax import imucal|imutk|csv|bag``: convert a calibration session or a rest log into imu-triad records in
-    ``--out``."""
+    """``gyrojax import imucal|imutk|csv|bag|table``: convert a calibration session or a rest log into imu-triad
+    records in ``--out`` (a turntable data system's log into a conventions record: :mod:`gyrojax.cli.import_table`)."""
+    from gyrojax.cli.import_table import cmd_import_table, refuse_table_options
     from gyrojax.data import importers
     from gyrojax.data.records import record_paths, save_record
 
@@ -406,6 +411,9 @@ def cmd_import(args) -> int:
                 f"import {args.format}: option --{dest.replace('_', '-')} does not apply (it is for import "
                 f"{' and '.join(formats)})"
             )
+    if args.format == "table":
+        return cmd_import_table(args)
+    refuse_table_options(args)
     if args.format == "bag":
         if args.gyro_unit not in (None, "rad/s") or args.acc_unit not in (None, "m/s^2") or args.gyro_scale:
             raise UsageError(
@@ -422,7 +430,7 @@ def cmd_import(args) -> int:
         gyro_unit=args.gyro_unit,
         gyro_counts_per_dps=args.gyro_scale,
         latitude_deg=args.latitude,
-        gravity_mps2=args.gravity,
+        gravity_mps2=9.81 if args.gravity is None else args.gravity,
         name=args.name,
         instrument_id=args.id,
     )
@@ -470,12 +478,15 @@ def cmd_import(args) -> int:
         pairs = [p.split("=", 1) for p in args.map.split(",")]
         if any(len(p) != 2 or not p[0] or not p[1] for p in pairs):
             raise UsageError(f"import csv: option --map {args.map!r}: give KEY=COLUMN pairs separated by commas")
+        if args.rotations is not None and any(k.startswith("acc_") for k, _ in pairs):
+            raise UsageError("import csv: --rotations lists the turns of a gyro-only session: map no acc_<c> with it")
         long = _long_log(args, dict(pairs), common, detector)
         if long is not None:
             return long
         rec = importers.import_csv(
             args.inputs[0],
             dict(pairs),
+            rotations=args.rotations,
             acc_unit=args.acc_unit or "g",
             rate_hz=args.rate_hz,
             time_unit=args.time_unit,
@@ -504,6 +515,11 @@ def cmd_import(args) -> int:
         for line in door_lines(report):
             print(line)
         print(f"rests: {import_summary(report)}")
+        for r in report.get("rotations", []) if isinstance(report.get("rotations"), list) else []:
+            turned = ", ".join(f"{x:.5g}" for x in r["integrated_deg"])
+            print(f"  rotation {r['axis']}:{r['angle_deg']:g} {r['start_s']:.2f}–{r['end_s']:.2f} s: {turned} deg")
+        for m in report.get("moves_not_fitted", []):
+            print(f"  move not fitted {m['start_s']:.2f}–{m['end_s']:.2f} s")
         for d in report.get("dropped", []):
             print(f"  dropped {d['start_s']:.2f}–{d['end_s']:.2f} s: {d['reason']} ({d['detail']})")
         for note in report.get("notes", []):
@@ -522,7 +538,7 @@ def _long_log(args, mapping: dict, common: dict, detector: dict) -> int | None:
     from gyrojax.data.stream import STREAM_SAMPLES, count_rows
 
     path = args.inputs[0]
-    if is_mat_file(path) or not Path(path).is_file():
+    if is_mat_file(path) or not Path(path).is_file() or args.rotations is not None:  # turns are read whole
         return None
     rows = count_rows(path)
     if rows <= STREAM_SAMPLES:

@@ -29,6 +29,7 @@ import numpy as np
 
 from gyrojax import units
 from gyrojax.data.accelcheck import accelerometer_in_g
+from gyrojax.data.gyroonly import gyro_only_segments
 from gyrojax.data.logs import (
     TIME_UNITS,
     file_stem,
@@ -408,7 +409,8 @@ def triad_from_arrays(
     if acc is None or not iv:
         found = "no rest found" if not iv else f"its rests cover {restlog.coverage(iv, len(t)):.0%}"
         raise RecordError(
-            f"{source}: {found} of a gyro-only log: a rest log must be still for most of its length ({det.summary()})"
+            f"{source}: {found} of a gyro-only log: a rest log must be still for most of its length; a gyro-only "
+            f"session of turns needs its rotations of known angle (--rotations x:360,y:360,z:360) ({det.summary()})"
         )
     if len(iv) < 9:
         raise RecordError(
@@ -496,6 +498,21 @@ def _hand_clock(t, intervals, source: str) -> None:
             )
 
 
+def gyro_only_record(t, gyr, rotations, *, gyro_unit="dps", gyro_counts_per_dps=None, name="imu", **kw) -> Record:
+    """A gyro-only session (times s, gyro (n, 3) in ``gyro_unit``) and its ``rotations`` as an ``imu-triad`` record
+    without accelerometer (:func:`gyrojax.data.gyroonly.gyro_only_segments`; :func:`triad_meta` the other keywords)."""
+    seg_kw = {k: kw.pop(k) for k in ("min_rest_s", "static_threshold", "source", "notes") if k in kw}
+    source = seg_kw.get("source", "")
+    gcols, k = gyro_record_columns(np.asarray(gyr, dtype=float), gyro_unit, gyro_counts_per_dps, source)
+    dps = np.stack(list(gcols.values()), axis=1) / (k or 1.0)
+    labels, segs, report = gyro_only_segments(t, dps, rotations, **seg_kw)
+    meta = triad_meta(name, segs, counts_per_dps=k, notes="a gyro-only session", extra={"import": report}, **kw)
+    cols = {"time_s": np.asarray(t, dtype=float), "segment": labels, **gcols}
+    validate_triad_meta(meta, f"{name}.json")
+    validate_triad_columns(meta, cols, f"{name}.csv")
+    return Record(meta, cols)
+
+
 CSV_KEYS = ("time", "time_s", "sample", "gyro_x", "gyro_y", "gyro_z", "acc_x", "acc_y", "acc_z")
 """Keys of :func:`import_csv`'s column mapping: ``time`` (``time_s`` the same), ``sample`` (a sample counter), the
 six sensor channels."""
@@ -534,11 +551,13 @@ def import_csv(
     time_unit: str | None = None,
     delimiter: str | None = None,
     name: str | None = None,
+    rotations=None,
     **kw,
 ) -> Record:
-    """Any delimited log — a multi-position session or a rest log, the accelerometer optional — with a column
-    mapping ``{"gyro_x": "gx", …, "acc_z": "az", "time": "t"}``: rests detected, as :func:`triad_from_arrays`
-    (other keyword arguments go there).
+    """Any delimited log — a multi-position session, a rest log, or a gyro-only session — with a column mapping
+    ``{"gyro_x": "gx", …, "acc_z": "az", "time": "t"}``: rests detected, as :func:`triad_from_arrays` (other keyword
+    arguments go there). Without ``acc_<c>`` in the mapping and with ``rotations``, a gyro-only session of turns of
+    known angle (:func:`gyro_only_record`); without either, a rest log.
 
     The clock (:func:`gyrojax.data.logs.log_clock`): ``time`` (or ``time_s``) a time column in ``time_unit`` (``s``,
     ``ms``, ``us``, ``ns``; default s, or ISO 8601 date-times when no unit is given), noted when it jitters; or
@@ -548,6 +567,12 @@ def import_csv(
     contradict. ``delimiter``: ``,``, ``;``, ``tab`` or None (detected, and noted).
     """
     time_col, acc_keys = check_mapping(mapping, time_unit)
+    gyro_only = not acc_keys
+    if rotations is not None and not gyro_only:
+        raise RecordError(
+            "rotations (--rotations) describe a gyro-only session; this mapping has an accelerometer (acc_<c>), whose "
+            "rests give the attitudes: drop --rotations, or the acc_<c> keys"
+        )
     notes: list[str] = []
     df = read_table(path, delimiter, notes)
     miss = [v for v in mapping.values() if v not in df.columns]
@@ -581,6 +606,9 @@ def import_csv(
     if counter is None and t_col is not None:
         clock_kw.update(times=t_col, time_source=f"the time column {time_col!r} ({time_unit or 's'})")
     t, clock = log_clock(len(df), str(path), **clock_kw)
+    if gyro_only and rotations is not None:
+        kw.update(name=name or file_stem(path), source=str(path), notes=notes)
+        return gyro_only_record(t - t[0], gyr, rotations, gyro_unit=gyro_unit, **kw)
     return triad_from_arrays(
         t,
         acc,

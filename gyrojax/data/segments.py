@@ -182,8 +182,8 @@ def detect_rests(
     """The rests of an IMU recording (module doc), with a report of the candidate rests it dropped.
 
     Args:
-      acc: (n, 3) accelerometer samples (any unit), or None (a gyro-only log); gyro: (n, 3) gyro samples (any
-        unit), optional when there is an accelerometer.
+      acc: (n, 3) accelerometer samples (any unit), or None for a gyro alone; gyro: (n, 3) gyro samples (any unit),
+        optional with an accelerometer.
       rate_hz: sample rate, Hz. window_s: variance window, s (at least 5 samples).
       threshold: a sample rests when the windowed variance of each sensor, averaged over its channels in units of
         each channel's rest noise variance, is at most this (default: :func:`default_threshold` of the rest windows'
@@ -192,8 +192,7 @@ def detect_rests(
     """
     if acc is None and gyro is None:
         raise RecordError("the static detector needs the accelerometer or the gyro")
-    acc = None if acc is None else np.asarray(acc, dtype=float)
-    n = len(acc) if acc is not None else len(gyro)
+    n = len(acc if acc is not None else gyro)
     if not (np.isfinite(rate_hz) and rate_hz > 0):
         raise RecordError(f"the static detector needs a positive sample rate, got {rate_hz!r} Hz")
     if not (np.isfinite(window_s) and window_s > 0):
@@ -208,8 +207,7 @@ def detect_rests(
     m = window_samples(window_s, rate_hz)
     if n < 2 * m:
         raise RecordError(f"the static detector needs at least two windows ({2 * m} samples); the record has {n}")
-    sensors = [("acc", acc)] if acc is not None else []
-    sensors += [("gyro", np.asarray(gyro, dtype=float))] if gyro is not None else []
+    sensors = [(k, np.asarray(x, dtype=float)) for k, x in (("acc", acc), ("gyro", gyro)) if x is not None]
     var = {k: rolling_variance(x, m) * m / (m - 1) for k, x in sensors}
     floor = {k: quantum(x) ** 2 / 12.0 for k, x in sensors}
     rest, noise, thr, r = None, {}, {}, {}

@@ -6,11 +6,14 @@ A triad record is ``NAME.csv`` + ``NAME.json`` like any record. Its JSON has no 
 
 * ``{"label": 0, "type": "static", "name": "x_p"}`` — the IMU rests; its orientation comes from the accelerometer
   (columns ``acc_<c>_g``) or, without one, from ``"up": [ux, uy, uz]`` (the body-frame direction of Up); the
-  heading is unknown (``heading`` nuisance, see :mod:`gyrojax.inference.triad`). Without either, a rest of unknown
-  orientation: ``noise`` and ``apply`` read it, the fit refuses it.
+  heading is unknown (``heading`` nuisance, see :mod:`gyrojax.inference.triad`). A rest of a record without
+  accelerometer and without ``up`` has an unknown orientation: its Earth rate is a nuisance of unknown direction,
+  and the g-sensitivities cannot be fitted from it (a gyro-only session, :mod:`gyrojax.data.gyroonly`).
 * ``{"label": 6, "type": "rotation", "axis": "x", "angle_deg": 360, "angle_std_deg": 0.0}`` — a rotation of a
   known total angle about a body axis (``"x"``, ``"-y"``, or a unit vector), angle history unknown; its sign is taken
-  from the data (``"direction": "from-data"``, the default) or given (``"positive"``/``"negative"``).
+  from the data (``"direction": "from-data"``, the default) or given (``"positive"``/``"negative"``); an
+  optional ``"angle_cov_deg2"`` (3×3, deg², body axes) is the uncertainty of the angle vector beyond the angle
+  along the axis (:mod:`gyrojax.data.gyroonly`: where a hand's pause was cut).
 * ``{"label": 9, "type": "move", "from": 3, "to": 4}`` — a gravity-to-gravity move between two static segments
   (imu_tk): the rotation is known only through the accelerometer directions before and after.
 
@@ -54,6 +57,17 @@ def axis_vector(spec, where: str = "axis") -> np.ndarray:
         if n > 0:
             return v / n
     raise RecordError(f"{where} is {spec!r}; give 'x', 'y', 'z' (optionally signed, '-x') or a non-zero 3-vector")
+
+
+def angle_covariance(v, where: str = "angle_cov_deg2") -> np.ndarray:
+    """A rotation's angle covariance (3, 3) in deg² (deg, body axes): symmetric, finite, positive semi-definite."""
+    ok = isinstance(v, (list, tuple)) and len(v) == 3
+    ok = ok and all(isinstance(r, (list, tuple)) and len(r) == 3 and all(is_finite_number(x) for x in r) for r in v)
+    if ok:
+        c = np.asarray(v, dtype=float)
+        if np.allclose(c, c.T, rtol=1e-9, atol=1e-12) and np.linalg.eigvalsh(c).min() >= -1e-9 * max(c.max(), 1e-300):
+            return c
+    raise RecordError(f"{where} must be a symmetric positive semi-definite 3×3 matrix of deg², got {v!r}")
 
 
 def validate_triad_meta(meta: dict, file="record.json") -> dict:
@@ -103,6 +117,8 @@ def validate_triad_meta(meta: dict, file="record.json") -> dict:
                     raise _err(file, f"key '{where}.angle_std_deg' must be a number >= 0 (deg), got {sd!r}")
                 if s.get("direction", "from-data") not in DIRECTIONS:
                     raise _err(file, f"key '{where}.direction' is {s.get('direction')!r}; valid: {DIRECTIONS}")
+                if "angle_cov_deg2" in s:
+                    angle_covariance(s["angle_cov_deg2"], f"key '{where}.angle_cov_deg2'")
             elif typ == "static" and "up" in s:
                 axis_vector(s["up"], f"key '{where}.up'")
         except RecordError as e:

@@ -75,6 +75,13 @@ def earth_terms(record, earth_rate: bool | None = None):
     return omega * math.sin(phi), omega * math.cos(phi), f"latitude {float(lat):g} deg"
 
 
+def unknown_direction_var(record, earth_rate: bool | None = None) -> float:
+    """Variance (deg/h)² of each body component of the Earth rate when the body's orientation is unknown: Ω²/3
+    (a vector of length Ω = 15.04 deg/h, its direction uniform on the sphere); 0 with the Earth rate off."""
+    on = record.meta.get("earth_rate", True) if earth_rate is None else earth_rate
+    return units.OMEGA_IE_DEG_PER_H**2 / 3.0 if on else 0.0
+
+
 def label_rows(seg: np.ndarray):
     """A function giving the sample indices (ascending) of a segment label, from one stable sort of the labels
     instead of a scan of the record per segment; an absent label gives no index."""
@@ -124,13 +131,13 @@ def triad_segments(record, earth_rate: bool | None = None):
             elif "up" in spec:
                 u = axis_vector(spec["up"])
                 a_mean = u * g_site
+            else:  # orientation unknown (a gyro alone): the Earth rate of unknown direction, no specific force
+                u, a_mean = None, np.zeros(3)
+            if u is None:
+                w, extra = np.zeros((1, 3)), unknown_direction_var(record, earth_rate) * np.eye(3)
             else:
-                raise ModelError(
-                    f"{record.name}: segment {spec['label']} ({name}) is a rest of unknown orientation (no "
-                    "accelerometer columns, no 'up'): noise and apply read it; a fit needs its Up ('up' in the JSON)"
-                )
-            w = np.zeros((1, 3)) if vertical is None else (vertical * u)[None, :]
-            extra = 0.5 * horizontal**2 * (np.eye(3) - np.outer(u, u))
+                w = np.zeros((1, 3)) if vertical is None else (vertical * u)[None, :]
+                extra = 0.5 * horizontal**2 * (np.eye(3) - np.outer(u, u))
             out.append(
                 TriadSegment(
                     "static",
@@ -172,7 +179,13 @@ def triad_segments(record, earth_rate: bool | None = None):
             phase = np.radians(theta_deg) * np.cumsum(shape) / total
             m2 = float(abs(np.mean(np.exp(1j * phase))) ** 2)
             nn = np.outer(n_axis, n_axis)
-            extra = sd**2 * nn + 0.5 * horizontal**2 * m2 * (np.eye(3) - nn)
+            if a is None:  # no accelerometer: the axis' tilt is unknown, the Earth rate of any direction
+                var = unknown_direction_var(record, earth_rate)
+                extra = sd**2 * nn + var * (nn + m2 * (np.eye(3) - nn))
+            else:
+                extra = sd**2 * nn + 0.5 * horizontal**2 * m2 * (np.eye(3) - nn)
+            if "angle_cov_deg2" in spec:  # the angle vector's own uncertainty, deg², as a mean rate (deg/h)²
+                extra = extra + np.asarray(spec["angle_cov_deg2"], dtype=float) * (units.SECONDS_PER_HOUR / span) ** 2
             out.append(
                 TriadSegment(
                     "rotation",

@@ -53,6 +53,7 @@ from gyrojax.inference.campaign import check_one_instrument
 from gyrojax.inference.identifiability import IdentifiabilityError, alias_analysis, alias_message, residue_columns
 from gyrojax.inference.solver import damped_least_squares, solve
 from gyrojax.inference.triad_accel import accelerometer_json, fit_accelerometer, needs_calibration
+from gyrojax.inference.triad_checks import divergence_hint, plausibility_notes, terms_for_force
 from gyrojax.inference.triad_components import Group, estimate_components
 from gyrojax.inference.triad_result import TriadFit
 from gyrojax.inference.triad_rows import (  # noqa: F401  (the rows' functions, named here as before)
@@ -122,8 +123,30 @@ def is_triad_input(records) -> bool:
     return bool(recs) and all(isinstance(r, Record) and r.kind == TRIAD_KIND for r in recs)
 
 
+class TriadDivergence(ModelError):
+    """The fit of the moves diverged: a fitted S no triad has, or moves left far off (its numbers are no answer)."""
+
+
 @narrow_blas
-def fit_triad(
+def fit_triad(records, terms=None, **kw) -> TriadFit:
+    """Fit per-channel SDF coefficients of a gyro triad to ``imu-triad`` records of one instrument (module doc),
+    checked at its boundary (:mod:`gyrojax.inference.triad_checks`): g-terms only where the segments have a specific
+    force, coefficients beyond the MEMS limits said in the notes with the import flag they point to, and a fit that
+    diverges refused naming the flag the data point to. Arguments as :func:`fit_triad_unchecked`."""
+    try:
+        fit = fit_triad_unchecked(records, terms, **kw)
+    except TriadDivergence as e:
+        recs = [records] if isinstance(records, Record) else list(records)
+        parts = [triad_segments(r, kw.get("earth_rate")) for r in recs]
+        hint = divergence_hint([s for p in parts for s in p[0]], [m for p in parts for m in p[3]])
+        if not hint:
+            raise
+        raise TriadDivergence(f"{str(e).split('; check ')[0]}; {hint}") from None
+    fit.notes.extend(plausibility_notes(fit.values))
+    return fit
+
+
+def fit_triad_unchecked(
     records,
     terms=None,
     *,
@@ -133,7 +156,7 @@ def fit_triad(
     max_iter: int = 30,
     components: bool = True,
 ) -> TriadFit:
-    """Fit per-channel SDF coefficients of a gyro triad to ``imu-triad`` records of one instrument (module doc).
+    """The fit of :func:`fit_triad` without the checks of the answer (the g-terms' specific force is checked).
 
     Args:
       records: a triad :class:`Record` or a list of them (one instrument: ``instrument.id`` decides).
@@ -170,8 +193,10 @@ def fit_triad(
     if not segments:
         raise ModelError("the records hold no static or rotation segment to fit")
     has_rot = any(s.kind == "rotation" for s in segments) or bool(moves)
-    if terms is None:
+    default = terms is None
+    if default:
         terms = DEFAULT_ROTATION_TERMS if has_rot else DEFAULT_STATIC_TERMS
+    terms, force_notes = terms_for_force(terms, segments, default)
     model = tp.channel_model(terms)
     names = [tp.channel_name(c, ch) for ch in tp.CHANNELS for c in model.coefficient_names]
     q = long_run_variance(resid) if noise_q is None else _channel_variances(noise_q)
@@ -260,7 +285,7 @@ def fit_triad(
     raw_res = y - base - jac @ np.where(bad, 0.0, theta)
     seg_rows = _segment_residuals(segments, e, raw_res, moves, r_moves, mw0)
     mode = " / ".join(sorted(modes))
-    notes = []
+    notes = list(force_notes)
     if "latitude unknown" in modes and any(t == "D_I" for t in model.terms):
         notes.append(
             "site latitude unknown: the vertical Earth rate Omega sin(phi) (|.| <= 15.04 deg/h) cannot be told from "
@@ -361,7 +386,7 @@ def _check_scale_matrix(s_mat) -> None:
     moves has diverged, and its numbers are not an answer."""
     sv = np.linalg.svd(s_mat, compute_uv=False)
     if np.linalg.det(s_mat) <= 0 or sv.min() < 0.2 or sv.max() > 5.0:
-        raise ModelError(
+        raise TriadDivergence(
             f"the triad fit with moves diverged: the fitted scale-and-misalignment matrix has singular values "
             f"{np.array2string(sv, precision=3)} and determinant {np.linalg.det(s_mat):.3g} (a triad's are near 1); "
             "check the record's latitude, the nominal gyro scale and the move segments"
@@ -380,7 +405,7 @@ def _check_moves_converged(s_mat, r_moves, moves) -> None:
     ang = _angles_deg(r_moves)
     if np.median(ang) > MOVE_DIVERGED_DEG:
         worst = int(np.argmax(ang))
-        raise ModelError(
+        raise TriadDivergence(
             f"the triad fit with moves diverged: the fitted model leaves the moves {np.median(ang):.3g} deg off in "
             f"the median (worst {moves[worst].name}: {ang[worst]:.3g} deg); check the record's latitude, the nominal "
             "gyro scale and the move segments"

@@ -69,6 +69,16 @@ class TriadFit(Estimates):
         """b (deg/h), S, G (deg/h/g) of ω_ind = S ω + G a + b (:func:`gyrojax.physics.triad.matrices`)."""
         return tp.matrices(self.values)
 
+    def misalignment_angles(self) -> dict:
+        """The misalignments as angles between each sensing axis and the body frame, arcsec, with σ: independent of
+        the nominal scale (:func:`gyrojax.physics.triad.misalignment_angles`); ``M_O[c]``, ``M_S[c]`` toward the
+        channel's output and spin axes, ``psi[c]`` in all."""
+        angles = tp.misalignment_angles(self.values, self.cov, self.names)
+        out = {"definition": "atan(M / (1 + E_SF)): the rows of S normalised, independent of the nominal scale"}
+        for k, v in angles.items():
+            out[k] = {**v, "std": protocol.strict(v["std"])}
+        return out
+
     def apply(self, record: Record) -> np.ndarray:
         """Calibrated body rates (n, 3) deg/h of a triad record: the model the fit used solved for ω
         (:func:`gyrojax.physics.triad.body_rates`: ω = S⁻¹ (ω_ind − b − G a) for the linear model; g²-terms, E_A,
@@ -122,6 +132,7 @@ class TriadFit(Estimates):
                     **{key: np.asarray(v).tolist() for key, v in kal.items() if key in ("C_gyro_i", "M", "A", "b")},
                 },
             },
+            **({"misalignment_angles": self.misalignment_angles()} if "ia_misalignment" in self.model.terms else {}),
             "earth_rate": {"mode": self.earth_mode, "rate_deg_per_h": units.OMEGA_IE_DEG_PER_H},
             "noise": {
                 ch: {"long_run_std_deg_per_h_sqrt_sample": float(np.sqrt(q))}
@@ -169,6 +180,14 @@ class TriadFit(Estimates):
         u = self.units()
         for n, v, s in zip(self.names, self.theta, self.std):
             lines.append(f"{n:14s} {v:14.6g} {s:12.4g}  {u[n]}")
+        if "ia_misalignment" in self.model.terms:
+            ang = self.misalignment_angles()
+            lines.append("misalignment as angles (arcsec; independent of the nominal scale):")
+            for ch in tp.CHANNELS:
+                cells = [(k, ang[f"{k}[{ch}]"]) for k in ("M_O", "M_S", "psi")]
+                lines.append(
+                    f"  {ch}: " + ", ".join(f"{k} {a['value']:.6g} ± {a['std'] or np.nan:.3g}" for k, a in cells)
+                )
         lines.append(f"earth rate: {self.earth_mode}; chi2 {self.chi2:.3g} on {self.dof} dof")
         if self.segment_residuals and self.dof > 0 and special.chdtrc(self.dof, self.chi2) < 0.01:
             lines.append("chi2 driven by: " + ", ".join(f"{n} ({100 * f:.0f} %)" for n, f in self.chi2_drivers()))

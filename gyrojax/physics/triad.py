@@ -22,6 +22,8 @@ D_I, D_O, D_S. :func:`matrices` and the imucal / Kalibr forms below convert betw
 
 from __future__ import annotations
 
+import math
+
 import jax.numpy as jnp
 import numpy as np
 
@@ -138,6 +140,59 @@ def matrices(values: dict) -> dict:
         s[c, sa] += v("M_S") * units.ARCSEC
         g[c, i], g[c, o], g[c, sa] = v("D_I"), v("D_O"), v("D_S")
     return {"b": b, "S": s, "G": g}
+
+
+def misalignment_angles(values: dict, cov=None, names=None) -> dict:
+    """The misalignment of each channel's sensing axis as geometry: the angles between the axis it senses and the
+    body frame, independent of the nominal scale (a scale error multiplies a whole row of S).
+
+    Channel c senses ŝ_c = S_c / |S_c| (row c of :func:`matrices`' S normalised, the rows of imucal's R_g): tilted
+    toward its output axis by μ_O = atan2(ŝ_c·OA, ŝ_c·IA) = atan(M_O / (1 + E_SF)) and toward its spin axis by
+    μ_S = atan(M_S / (1 + E_SF)), in all by ψ = arccos(ŝ_c·IA) (arcsec). The nominal-scale form M_O, M_S (the
+    coefficients of §6, rad of S's off-diagonal) equals these to first order only when the nominal scale is right.
+
+    ``cov`` (with ``names``, the coefficient names of its rows): the covariance of the per-channel coefficients
+    (report units); σ by the delta method. Returns ``{"M_O[x]": {"value", "std", "unit"}, …, "psi[x]": …}``.
+    """
+    out = {}
+    idx = {n: i for i, n in enumerate(names or [])}
+    for ch in CHANNELS:
+        e = float(values.get(channel_name("E_SF", ch), 0.0)) * units.PPM
+        mo = float(values.get(channel_name("M_O", ch), 0.0)) * units.ARCSEC
+        ms = float(values.get(channel_name("M_S", ch), 0.0)) * units.ARCSEC
+        d = 1.0 + e
+        r2 = mo * mo + ms * ms
+        angles = {
+            "M_O": math.atan2(mo, d),
+            "M_S": math.atan2(ms, d),
+            "psi": math.atan2(math.sqrt(r2), d),
+        }
+        # derivatives by (E_SF ppm, M_O arcsec, M_S arcsec), each angle in rad (NaN where an angle has none: a row
+        # with no component at all along its sensing axis and none toward one side)
+        rho = math.sqrt(r2)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            d_o, d_s, d_p = (np.float64(d * d) + x for x in (mo * mo, ms * ms, r2))
+            jac = {
+                "M_O": np.array([-mo / d_o * units.PPM, d / d_o * units.ARCSEC, 0.0]),
+                "M_S": np.array([-ms / d_s * units.PPM, 0.0, d / d_s * units.ARCSEC]),
+                "psi": np.array(
+                    [-rho / d_p * units.PPM, d / d_p * mo / rho * units.ARCSEC, d / d_p * ms / rho * units.ARCSEC]
+                )
+                if rho
+                else np.array([0.0, np.nan, np.nan]),
+            }
+        keys = [channel_name(k, ch) for k in ("E_SF", "M_O", "M_S")]
+        rows = [idx.get(k) for k in keys]
+        for k, a in angles.items():
+            std = None
+            if cov is not None:
+                use = [(j, r) for j, r in enumerate(rows) if r is not None]
+                sub = np.asarray(cov)[np.ix_([r for _, r in use], [r for _, r in use])]
+                g = jac[k][[j for j, _ in use]]
+                var = float(g @ sub @ g)
+                std = math.sqrt(var) / units.ARCSEC if var >= 0 and math.isfinite(var) else None
+            out[channel_name(k, ch)] = {"value": a / units.ARCSEC, "std": std, "unit": "arcsec"}
+    return out
 
 
 def imucal_form(m: dict, counts_per_dps: float = 1.0, rotation_sign: float = 1.0, grav_mps2: float = 9.81) -> dict:
