@@ -80,7 +80,7 @@ def test_earth_rate_modes():
     assert off.earth_mode == "off" and unknown.earth_mode == "latitude unknown"
     # the vertical Earth rate Ω u = (Ω / |a|) a passes through S like any rate: G absorbs (Ω / |a|) S
     g_true = tp.matrices(TRUTH)
-    absorbed = g_true["G"] + units.OMEGA_IE_DEG_PER_H / (9.81 / units.G0) * g_true["S"]
+    absorbed = g_true["G"] + units.OMEGA_IE_DEG_PER_H / (rec.gravity_mps2 / units.G0) * g_true["S"]
     assert np.allclose(known.matrices()["G"], g_true["G"], atol=1e-5)
     assert np.allclose(unknown.matrices()["G"], absorbed, atol=1e-5)
     assert np.allclose(off.matrices()["G"], absorbed, atol=1e-5)

@@ -13,19 +13,18 @@ import numpy as np
 
 from gyrojax import units
 from gyrojax.inference.triad import fit_triad
+from gyrojax.physics.frames import site_gravity
 from gyrojax.simulation.triad import simulate_ferraris, simulate_multiposition
 
 LATITUDE = 49.6
-"""Latitude of the simulated site, deg."""
-GRAVITY = 9.81
-"""Gravity of the simulated site, m/s² (the default of :func:`~gyrojax.simulation.triad.simulate_ferraris`)."""
+"""Latitude of the simulated site, deg (its gravity is the simulations' default, the normal gravity there)."""
 
 
 def with_vertical_earth_rate(truth: dict) -> dict:
     """The coefficients a fit with the latitude unknown should find: with the site's vertical Earth rate
     Ω sin φ u = (Ω sin φ / |a|) a left in the g-terms (deg/h/g), through each channel's scale factor and
-    misalignment (at :data:`LATITUDE` and :data:`GRAVITY`)."""
-    k = units.OMEGA_IE_DEG_PER_H * math.sin(math.radians(LATITUDE)) / (GRAVITY / units.G0)
+    misalignment (at :data:`LATITUDE`, |a| its normal gravity)."""
+    k = units.OMEGA_IE_DEG_PER_H * math.sin(math.radians(LATITUDE)) / (site_gravity(LATITUDE) / units.G0)
     want = dict(truth)
     for ch in "xyz":
         want[f"D_I[{ch}]"] += k * (1.0 + truth.get(f"E_SF[{ch}]", 0.0) * units.PPM)
