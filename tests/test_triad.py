@@ -17,11 +17,12 @@ from gyrojax.inference.identifiability import IdentifiabilityError
 from gyrojax.inference.identify import fit
 from gyrojax.inference.triad import DEFAULT_ROTATION_TERMS, fit_triad, long_run_variance
 from gyrojax.inference.triad_result import load_triad_fit
-from gyrojax.montecarlo.triad import ferraris_coverage, mems_truth
+from gyrojax.montecarlo.triad import mems_truth
 from gyrojax.physics import triad as tp
 from gyrojax.simulation.triad import simulate_ferraris, simulate_multiposition
 
 from .roundtrip import assert_same, strict_json
+from .triad_coverage import ferraris_coverage
 
 TRUTH = mems_truth(7)
 

@@ -112,13 +112,15 @@ def simulate_ferraris(
     latitude_deg: float | None = 49.6,
     gravity_mps2: float | None = None,
     fit_latitude: bool = True,
+    earth_rate: bool = True,
     seed: int = 0,
 ) -> Record:
     """One simulated Ferraris session (module doc) as an ``imu-triad`` record, gyro columns in deg/s.
 
     ``truth``: per-channel coefficients ``{"D_F[x]": deg/h, "E_SF[y]": ppm, "M_O[z]": arcsec, …}`` of ``terms``.
     ``fit_latitude``: write the latitude into the record (else ``null``: unknown to the fit). ``latitude_deg`` None
-    puts the site on the equator; ``gravity_mps2`` None is the site's normal gravity (conventions §2).
+    puts the site on the equator; ``gravity_mps2`` None is the site's normal gravity (conventions §2);
+    ``earth_rate=False`` leaves the Earth rate out of the motion and the record.
     Samples between segments are transitions (label −1, ``gap_s`` long, not modelled).
     """
     rng = np.random.default_rng(seed)
@@ -127,7 +129,7 @@ def simulate_ferraris(
     dt = 1.0 / rate_hz
     lat_deg = latitude_deg if latitude_deg is not None else 0.0
     lat = math.radians(lat_deg)
-    omega_l = units.OMEGA_IE_DEG_PER_H * np.array([0.0, math.cos(lat), math.sin(lat)])  # deg/h in ENU
+    omega_l = units.OMEGA_IE_DEG_PER_H * np.array([0.0, math.cos(lat), math.sin(lat)]) * float(earth_rate)  # deg/h
     gravity_mps2 = site_gravity(lat_deg) if gravity_mps2 is None else gravity_mps2
     f_l = np.array([0.0, 0.0, gravity_mps2 / units.G0])  # g
     ws, fs, labels, segs = [], [], [], []
@@ -175,6 +177,8 @@ def simulate_ferraris(
         gravity_mps2=gravity_mps2,
         notes="simulated Ferraris session (gyrojax.simulation.triad)",
     )
+    if not earth_rate:
+        meta["earth_rate"] = False
     return Record(meta, cols)
 
 
