@@ -131,7 +131,8 @@ TRIAD_COMMAND = ("design", "--instrument", "imu-triad", "--poses", "12", "--minu
 
 def triad_process(root: Path, out: Path, cache: Path | None) -> tuple[float, float, dict]:
     """(wall s, CPU s, the printed JSON) of one ``gyrojax design --instrument imu-triad`` process of the checkout
-    ``root``: compilation cache off (``cache`` None) or in ``cache``."""
+    ``root`` (run in ``out``'s folder, so that no other checkout shadows it on ``sys.path``): compilation cache off
+    (``cache`` None) or in ``cache``."""
     env = {k: v for k, v in os.environ.items() if k not in ("GYROJAX_NO_CACHE", "GYROJAX_CACHE_DIR")}
     env["PYTHONPATH"] = str(root)
     if cache is None:
@@ -139,7 +140,7 @@ def triad_process(root: Path, out: Path, cache: Path | None) -> tuple[float, flo
     else:
         env["GYROJAX_CACHE_DIR"] = str(cache)
     cmd = [sys.executable, "-m", "gyrojax", *TRIAD_COMMAND, "--out", str(out), "--force", "--json"]
-    wall, cpu, stdout = run_process(cmd, env=env)
+    wall, cpu, stdout = run_process(cmd, env=env, cwd=out.parent)
     return wall, cpu, json.loads(stdout)
 
 

@@ -327,3 +327,24 @@ def test_design_information_is_that_of_its_steps(designed):
     criterion of the steps' F equals the search's loss (to rounding)."""
     f = designed.fisher()
     assert Criterion("D").loss(jnp.asarray(f), f.shape[0]) == pytest.approx(designed.loss, rel=1e-9)
+
+
+def test_flat_design_takes_the_triad():
+    """gj.design designs the hand protocol as it designs turntable plans: the same protocol as the triad's own
+    entry for the same search, a gyro NoiseSpec as the session's white noise, turntable keywords refused."""
+    import gyrojax as gj
+    from gyrojax.errors import ModelError
+    from gyrojax.noise.spec import NoiseSpec
+
+    kw = {"starts": 1, "adam_steps": 20, "seed": 3}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        flat = gj.design(TERMS, 7, criterion="A", instrument="imu-triad", minutes=5.0, noise=NOISE, **kw)
+        own = tpr.design_protocol(TERMS, 7, 5.0, "A", NOISE, starts=1, steps=20, seed=3)
+        spec = gj.design(TERMS, 7, instrument="imu-triad", minutes=5.0, noise=NoiseSpec(white=ARW), **kw)
+    assert flat.steps == own.steps and flat.loss == own.loss and flat.criterion_name == "A"
+    assert spec.noise.arw == ARW and spec.noise.placement_deg == 0.0
+    with pytest.raises(ModelError, match="'dt_s' is not a keyword of an imu-triad"):
+        gj.design(TERMS, 7, instrument="imu-triad", minutes=5.0, dt_s=1.0)
+    with pytest.raises(ModelError, match="unknown instrument"):
+        gj.design(TERMS, 7, instrument="sextant")

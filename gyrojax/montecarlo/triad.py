@@ -213,14 +213,13 @@ class TriadPipeline:
             )
             return jnp.concatenate([r, (jnp.einsum("mij,mj->mi", basis, mv) / x["move_sd"][:, None]).ravel()])
 
-        theta = jnp.zeros(self.fit_model.size)
-        for _ in range(GAUSS_NEWTON_STEPS):
-            r = residuals(theta)
-            jac = jax.jacfwd(residuals)(theta)
-            step, ninv = lstsq(jac, -r, "cholesky")
-            theta = theta + step
+        def gauss_newton(theta, _):
+            step, ninv = lstsq(jax.jacfwd(residuals)(theta), -residuals(theta), "cholesky")
+            return theta + step, ninv
+
+        theta, ninv = jax.lax.scan(gauss_newton, jnp.zeros(self.fit_model.size), None, length=GAUSS_NEWTON_STEPS)
         r = residuals(theta)
-        return theta, jnp.sqrt(jnp.diag(ninv)), jnp.sqrt(jnp.mean(r * r))
+        return theta, jnp.sqrt(jnp.diag(ninv[-1])), jnp.sqrt(jnp.mean(r * r))
 
     def draw(self, index):
         """One draw by index: dict of truth (truth model θ), estimate, std (fit model) and the residual rms."""
@@ -230,7 +229,7 @@ class TriadPipeline:
 
     def draw_record(self, index: int) -> Record:
         """The session of draw ``index`` as an ``imu-triad`` record (gyro deg/s, accelerometer g), for
-        :func:`gyrojax.inference.triad.fit_triad`; the record states the white noise it was drawn with."""
+        :func:`gyrojax.inference.triad.fit_triad`."""
         _, ind, acc = jax.jit(self.simulate)(jax.random.fold_in(jax.random.PRNGKey(self.study.seed), index))
         cols = dict(self.record.columns)
         for j, ch in enumerate(tp.CHANNELS):
