@@ -1,18 +1,30 @@
-"""Optimal design benchmark: time to design a 24-position plan, designed vs classical plans, Monte Carlo check.
+"""Optimal design benchmark: time to design a 24-position plan, designed vs classical plans, Monte Carlo check; and
+the hand protocol of an IMU triad as a user waits for it.
 
 Run: ``python -m benchmarks.bench_design`` (add ``--quick`` for fewer Monte Carlo draws).
+
+``python -m benchmarks.bench_design --triad [--baseline-dir DIR] [--repeat N]``: ``gyrojax design --instrument
+imu-triad --poses 12 --minutes 10 --arw 1.2`` as a process, this checkout beside the one in DIR (e.g. the previous
+commit, ``git worktree add /tmp/old HEAD~1``) run alternately in the same run: cold (compilation cache off) and warm
+(a fresh cache filled by the run before), wall and CPU seconds, compile ≈ cold − warm; then the designs' predicted
+σ of every coefficient, each beside Ferraris' and imu_tk's protocols as the command prints them.
 """
 
 from __future__ import annotations
 
+import json
+import math
+import os
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from benchmarks.timing import compile_here
+from benchmarks.timing import compile_here, run_process
 from gyrojax.data import plans
 from gyrojax.inference.campaign import Campaign, linearize
 from gyrojax.noise.processes import random_drift
@@ -20,6 +32,7 @@ from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics.model import Model
 from gyrojax.planning import baselines, criteria, fisher
 from gyrojax.planning import optimal as D
+from gyrojax.report import figures
 from gyrojax.simulation.simulator import simulate
 
 ARW = 0.01
@@ -61,7 +74,7 @@ def comparison(res24):
         rows = baselines.compare(terms, HOURS, NOISE, designed)
         print(baselines.table_text(rows))
         path = f"/tmp/bench_design_{len(terms)}terms.png"
-        D.figure(rows, path)
+        figures.save(figures.design_figure(rows), path)
         print(f"figure: {path}")
 
 
@@ -112,7 +125,78 @@ def detect():
         print("detect:D_OO ->", e)
 
 
+TRIAD_COMMAND = ("design", "--instrument", "imu-triad", "--poses", "12", "--minutes", "10", "--arw", "1.2")
+"""The command of the speed issue's first row (the CLI's defaults: 8 starts, 600 Adam steps)."""
+
+
+def triad_process(root: Path, out: Path, cache: Path | None) -> tuple[float, float, dict]:
+    """(wall s, CPU s, the printed JSON) of one ``gyrojax design --instrument imu-triad`` process of the checkout
+    ``root`` (run in ``out``'s folder, so that no other checkout shadows it on ``sys.path``): compilation cache off
+    (``cache`` None) or in ``cache``."""
+    env = {k: v for k, v in os.environ.items() if k not in ("GYROJAX_NO_CACHE", "GYROJAX_CACHE_DIR")}
+    env["PYTHONPATH"] = str(root)
+    if cache is None:
+        env["GYROJAX_NO_CACHE"] = "1"
+    else:
+        env["GYROJAX_CACHE_DIR"] = str(cache)
+    cmd = [sys.executable, "-m", "gyrojax", *TRIAD_COMMAND, "--out", str(out), "--force", "--json"]
+    wall, cpu, stdout = run_process(cmd, env=env, cwd=out.parent)
+    return wall, cpu, json.loads(stdout)
+
+
+def triad_row(baseline: Path | None, repeat: int) -> None:
+    """The triad design's wait, this checkout against ``baseline`` (module doc), and the designs' quality."""
+    here = Path(__file__).resolve().parents[1]
+    roots = {"new": here} | ({"old": baseline.resolve()} if baseline else {})
+    print(f"== gyrojax {' '.join(TRIAD_COMMAND)}: process wall / CPU s (load {os.getloadavg()[0]:.1f}) ==")
+    times = {k: {"cold": [], "warm": []} for k in roots}
+    docs = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for i in range(repeat):
+            for name, root in roots.items():  # alternately, so that the machine's load falls on both alike
+                out = Path(tmp) / f"{name}.json"
+                times[name]["cold"].append(triad_process(root, out, None)[:2])
+                cache = Path(tmp) / f"cache-{name}-{i}"
+                triad_process(root, out, cache)  # fills the cache
+                wall, cpu, docs[name] = triad_process(root, out, cache)
+                times[name]["warm"].append((wall, cpu))
+    best = {k: {m: min(v, key=lambda t: t[1]) for m, v in d.items()} for k, d in times.items()}
+    for name, b in best.items():
+        cold, warm = b["cold"], b["warm"]
+        print(
+            f"{name}: cold {cold[0]:6.1f} s wall {cold[1]:6.1f} s CPU; warm {warm[0]:6.1f} s wall "
+            f"{warm[1]:6.1f} s CPU; compile ≈ {cold[1] - warm[1]:.1f} s CPU (best of {repeat}, by CPU)"
+        )
+    if "old" in best:
+        for mode in ("cold", "warm"):
+            n, o = best["new"][mode], best["old"][mode]
+            print(f"new / old, {mode}: wall {n[0] / o[0]:.3f}, CPU {n[1] / o[1]:.3f}")
+    for name, doc in docs.items():
+        rows = doc["comparison"]
+        sig = [r["sigma"] for r in rows]
+        p = len(sig[0])
+        ratios = [math.exp((r["criterion"] - rows[0]["criterion"]) / (2 * p)) for r in rows]
+        print(
+            f"{name}: D criterion designed {rows[0]['criterion']:.4f}, Ferraris {rows[1]['criterion']:.4f}, imu_tk "
+            f"{rows[2]['criterion']:.4f}; geometric-mean σ ratio baseline/designed {ratios[1]:.3f}, {ratios[2]:.3f}; "
+            f"search converged {doc['search']['converged']}"
+        )
+    if "old" in docs:
+        new, old = docs["new"]["comparison"][0]["sigma"], docs["old"]["comparison"][0]["sigma"]
+        worse = {k: round(new[k] / old[k], 4) for k in new if new[k] > old[k]}
+        ratio = [new[k] / old[k] for k in new]
+        print(
+            f"designed σ new / old per coefficient: {min(ratio):.3f} … {max(ratio):.3f}, geometric mean "
+            f"{math.exp(np.mean(np.log(ratio))):.4f}; larger for {worse or 'none'}"
+        )
+
+
 if __name__ == "__main__":
+    if "--triad" in sys.argv:
+        args = sys.argv[sys.argv.index("--triad") + 1 :]
+        base = Path(args[args.index("--baseline-dir") + 1]) if "--baseline-dir" in args else None
+        triad_row(base, int(args[args.index("--repeat") + 1]) if "--repeat" in args else 1)
+        sys.exit(0)
     compile_here()
     res = timing_24()
     comparison(res)

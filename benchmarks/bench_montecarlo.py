@@ -163,7 +163,7 @@ def main(argv=None):
     assert np.allclose(res.estimate, res1.estimate, rtol=1e-12, atol=1e-15)
     from dataclasses import replace
 
-    sample_pipe = replace(pipe, runs=None, _compiled={})
+    sample_pipe = replace(pipe, runs=None, compiled={})
     n_s = min(len(res.draw), 2000)
     res_s = runner.run_study(st, pipeline=sample_pipe, draws=n_s, chunk=args.chunk)
     sample_rate = n_s / res_s.run_s

@@ -6,7 +6,7 @@
    :func:`gyrojax.inference.triad.fit_triad`; printed: the fraction of the 21 coefficients × draws inside θ̂ ± 2σ̂
    (0.9545 for an honest σ̂), under three settings: latitude known; latitude unknown (D_I then holds Ω sin φ);
    hand angle error σ_Θ = 0.5° declared and simulated; and imu_tk-style sessions (``--poses`` random poses,
-   gravity-to-gravity moves between them; :func:`gyrojax.montecarlo.triad.multiposition_coverage`) with the
+   gravity-to-gravity moves between them; :func:`tests.triad_coverage.multiposition_coverage`) with the
    latitude known, unknown and the Earth rate off, and with the latitude known under hand-session misfit (0.5° angle
    error per move, 30 deg/h bias steps: σ honest through the REML variance components).
 2. Speed: the vendored imucal session (tests/data/imucal) calibrated by imucal's FerrarisCalibration and by
@@ -37,7 +37,7 @@ import numpy as np
 from benchmarks.timing import compile_here, run_process
 from gyrojax.data.importers import import_imucal
 from gyrojax.inference.triad import fit_triad
-from gyrojax.montecarlo.triad import EARTH_MODES, ferraris_coverage, multiposition_coverage
+from tests.triad_coverage import EARTH_MODES, ferraris_coverage, multiposition_coverage
 
 SESSION = Path(__file__).resolve().parent.parent / "tests" / "data" / "imucal" / "annotated_session.csv"
 

@@ -7,12 +7,13 @@ import subprocess
 import time
 
 
-def run_process(cmd, env=None, ok=(0,)) -> tuple[float, float, str]:
-    """(wall seconds, CPU seconds of the child: user + sys, stdout) of one run of ``cmd``; the CPU reading is the
-    one a loaded machine disturbs least. An exit code not in ``ok`` raises, with the end of its stderr."""
+def run_process(cmd, env=None, ok=(0,), cwd=None) -> tuple[float, float, str]:
+    """(wall seconds, CPU seconds of the child: user + sys, stdout) of one run of ``cmd`` (in ``cwd``); the CPU
+    reading is the one a loaded machine disturbs least. An exit code not in ``ok`` raises, with the end of its
+    stderr."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    out = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    out = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=cwd)
     dt = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if out.returncode not in ok:

@@ -141,7 +141,7 @@ _FLAT = {
     # noise
     "allan": "gyrojax.noise.allan:allan",
     # planning
-    "design": "gyrojax.planning.optimal:design",
+    "design": "gyrojax.planning.design:design",
     "compare_plans": "gyrojax.planning.baselines:compare",
     # Monte Carlo
     "Study": "gyrojax.montecarlo.study:Study",

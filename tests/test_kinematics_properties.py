@@ -22,7 +22,7 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from gyrojax import units
-from gyrojax.physics import frames, kinematics, model
+from gyrojax.physics import frames, kinematics, model, so3
 
 SETTINGS = settings(max_examples=30, deadline=None, derandomize=True)
 
@@ -247,7 +247,7 @@ def test_vector_form_is_the_matrix_chain(chain, delta):
     axes, angles, rates = chain
     delta = np.array(delta)
     om, f = np.array([0.0, 5e-5, 4e-5]), np.array([0.0, 0.0, 9.8])
-    c, w = (np.asarray(m) for m in _state(axes, angles, rates, jnp.eye(3) + kinematics.skew(jnp.asarray(delta))))
+    c, w = (np.asarray(m) for m in _state(axes, angles, rates, jnp.eye(3) + so3.hat(jnp.asarray(delta))))
     trig = [(jnp.cos(a), jnp.sin(a)) for a in angles]
     wp, fp = kinematics.platform_inputs(jnp.asarray(axes), trig, list(jnp.asarray(rates)), jnp.asarray(delta), om, f)
     np.testing.assert_allclose(np.array(wp), c.T @ (om + w), rtol=0, atol=1e-13)

@@ -93,7 +93,7 @@ def test_static_run_reduction_is_the_sample_level_fit():
     pipe = replace(pipe, whiten=None)  # the least squares the per-run sums reproduce
     assert pipe.runs is not None and [len(f) for _, f in pipe.runs] == [8]
     red = runner.run_study(st, pipeline=pipe)
-    full = runner.run_study(st, pipeline=replace(pipe, runs=None, _compiled={}))
+    full = runner.run_study(st, pipeline=replace(pipe, runs=None, compiled={}))
     assert np.abs(red.estimate).max() > 0.1
     for k in ("truth", "estimate", "std", "rms"):
         np.testing.assert_allclose(getattr(red, k), getattr(full, k), rtol=1e-9, atol=1e-12)

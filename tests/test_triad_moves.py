@@ -15,8 +15,10 @@ from gyrojax.data.records import save_record
 from gyrojax.errors import ConvergenceWarning, ModelError
 from gyrojax.inference import triad as triad_fit
 from gyrojax.inference.triad import fit_triad
-from gyrojax.montecarlo.triad import EARTH_MODES, mems_truth, multiposition_coverage
+from gyrojax.montecarlo.triad import mems_truth
 from gyrojax.simulation.triad import simulate_multiposition
+
+from .triad_coverage import EARTH_MODES, multiposition_coverage
 
 TRUTH = mems_truth(7)
 # the noise passes stop when S changes by < 1e-10 relative (NOISE_PASS_TOL) and Levenberg–Marquardt's xtol is

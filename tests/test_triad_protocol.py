@@ -12,6 +12,8 @@ from __future__ import annotations
 import math
 import warnings
 
+import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -19,7 +21,9 @@ from gyrojax.cli.app import main
 from gyrojax.inference.triad import fit_triad
 from gyrojax.montecarlo.triad import mems_truth
 from gyrojax.planning import triad_protocol as tpr
+from gyrojax.planning.criteria import Criterion
 from gyrojax.planning.triad_fisher import TriadNoise, coefficient_names
+from gyrojax.report.protocol_text import table_text
 from gyrojax.simulation.triad import random_attitude
 from gyrojax.simulation.triad_session import simulate_session
 
@@ -125,7 +129,7 @@ def test_table_shows_known_angle_and_free_turns():
     """A person reads each motion's kind, axis and angle: Ferraris' 360° turns about the face's vertical axis are
     known-angle, its flips not fitted, imu_tk's moves free."""
     c0, st = tpr.ferraris_steps(300.0)
-    proto = tpr.TriadProtocol(TERMS, tpr.TriadCriterion("D"), NOISE, 300.0, c0, st, 0.0, np.zeros(1), np.zeros(1))
+    proto = tpr.TriadProtocol(TERMS, Criterion("D"), NOISE, 300.0, c0, st, 0.0, np.zeros(1), np.zeros(1))
     table = proto.table()
     first = table[0]["motions"]
     assert [(m["kind"], m["turn_axis"], m["angle_deg"]) for m in first[:2]] == [
@@ -133,11 +137,11 @@ def test_table_shows_known_angle_and_free_turns():
         ("known-angle", "-x", 360.0),
     ]
     assert table[0]["up"] == "+x" and first[2]["kind"] == "not fitted"
-    text = tpr.table_text(table).splitlines()
+    text = table_text(table).splitlines()
     assert any("known-angle +x" in line and "360.0°" in line for line in text)
     assert any("not fitted" in line for line in text) and text[-1].startswith("known-angle: turn by exactly")
     c0, st = tpr.random_steps(6, 200.0, seed=1)
-    rows = tpr.TriadProtocol(TERMS, tpr.TriadCriterion("D"), NOISE, 200.0, c0, st, 0.0, np.zeros(1), np.zeros(1))
+    rows = tpr.TriadProtocol(TERMS, Criterion("D"), NOISE, 200.0, c0, st, 0.0, np.zeros(1), np.zeros(1))
     assert {m["kind"] for r in rows.table() for m in r.get("motions", [])} == {"free"}
 
 
@@ -200,7 +204,7 @@ def test_figure_draws_every_rest(tmp_path):
     from gyrojax.report.protocol_figure import protocol_figure
 
     c0, st = tpr.random_steps(6, 200.0, seed=1)
-    proto = tpr.TriadProtocol(TERMS, tpr.TriadCriterion("D"), NOISE, 200.0, c0, st, 0.0, np.zeros(1), np.zeros(1))
+    proto = tpr.TriadProtocol(TERMS, Criterion("D"), NOISE, 200.0, c0, st, 0.0, np.zeros(1), np.zeros(1))
     # the steps' turns (axis, angle) carry the box through the drawn attitudes, and the table's Up is theirs
     rng = np.random.default_rng(1)
     drawn = [random_attitude(rng) for _ in range(6)]
@@ -217,7 +221,7 @@ def test_cli_prints_the_turns_a_person_follows(tmp_path, capsys, monkeypatch):
     c0, st = tpr.ferraris_steps(300.0)
 
     def fake(terms, n_poses, minutes, criterion, noise, **kw):
-        crit = tpr.TriadCriterion.parse(criterion, tpr.triad_model(terms))
+        crit = tpr.parse_criterion(criterion, tpr.triad_model(terms))
         return tpr.TriadProtocol(tuple(terms), crit, noise, 300.0, c0, st, 0.0, np.zeros(1), np.zeros(1), 1, {1: 0.0})
 
     monkeypatch.setattr(tpr, "design_protocol", fake)
@@ -230,3 +234,117 @@ def test_cli_prints_the_turns_a_person_follows(tmp_path, capsys, monkeypatch):
     assert sum("not fitted" in line for line in out) == 6  # five flips and the legend
     doc = tpr.load_protocol(tmp_path / "p.json")
     assert [m["kind"] for m in doc["table"][0]["motions"]] == ["known-angle", "known-angle", "not fitted"]
+
+
+def _reference_information(model, start, steps, noise):
+    """F of a protocol from ``jax.jacfwd`` of the fit's own segment means and move residual
+    (:mod:`gyrojax.inference.triad_rows`) on the sampled motions (attitudes by scipy), with the noise of each part as
+    the module doc of :mod:`gyrojax.planning.triad_fisher` states it: rests ARW²/T I + ½ Ω_h² (I − u uᵀ); turns
+    ARW²/T I + σ_Θ²/T² n nᵀ + ½ Ω_h² |⟨e^{iα}⟩|² (I − n nᵀ); moves ARW² T + (Ω_h T)²/2 + σ_a²/(rate T_rest) on
+    each side, ⟂ Up."""
+    from scipy.spatial.transform import Rotation
+
+    from gyrojax import units
+    from gyrojax.inference.triad_rows import move_residual, segment_means
+
+    theta0 = np.zeros(3 * model.size)
+    vertical, horizontal = noise.earth()
+    vertical = vertical or 0.0
+    f = np.zeros((3 * model.size, 3 * model.size))
+    c = np.asarray(start, dtype=float)
+
+    def sampled(u, n, angle, dur, samples):
+        prof = np.sin(np.pi * (np.arange(samples) + 0.5) / samples)
+        dt = dur / samples
+        rate = prof * angle / (prof.sum() * dt)
+        mid = np.cumsum(rate) * dt - 0.5 * rate * dt
+        ups = np.array([Rotation.from_rotvec(n * a).as_matrix().T @ u for a in mid])
+        return rate, mid, ups, dt
+
+    @jax.jit
+    def means_jacobian(w, a):
+        arrays = (w, a, jnp.zeros(len(w)), jnp.full(len(w), 20.0), jnp.zeros(len(w), int), jnp.array([float(len(w))]))
+        return jax.jacfwd(segment_means, argnums=1)(model, jnp.asarray(theta0), arrays)
+
+    @jax.jit
+    def move_jacobian(g, a, dt, u, u_to):
+        def resid(th):
+            z = jnp.zeros(len(g))
+            return move_residual(model, th, g, a, z, z + 20.0, jnp.ones(len(g) - 1), dt, u, u_to)
+
+        return jax.jacfwd(resid)(jnp.asarray(theta0))
+
+    for i, s in enumerate(steps):
+        u = c[2]
+        if s["type"] == "rest":
+            jac = np.asarray(means_jacobian(vertical * u[None], noise.g * u[None]))
+            alpha = noise.arw**2 * 3600.0 / s["rest_s"]
+            cov = alpha * np.eye(3) + 0.5 * horizontal**2 * (np.eye(3) - np.outer(u, u))
+            f += jac.T @ np.linalg.solve(cov, jac)
+            continue
+        n = np.asarray(s["axis"], float) / np.linalg.norm(s["axis"])
+        angle, dur = np.radians(s["angle_deg"]), s["duration_s"]
+        if s["type"] == "turn":
+            rate, mid, ups, _ = sampled(u, n, angle, dur, 64)
+            jac = np.asarray(means_jacobian(rate[:, None] * n / units.DEG_PER_H + vertical * ups, noise.g * ups))
+            m2 = abs(np.mean(np.exp(1j * mid))) ** 2
+            sd = np.radians(np.sqrt(2.0) * noise.placement_deg) / units.DEG_PER_H / dur
+            nn = np.outer(n, n)
+            cov = noise.arw**2 * 3600.0 / dur * np.eye(3) + sd**2 * nn + 0.5 * horizontal**2 * m2 * (np.eye(3) - nn)
+            f += jac.T @ np.linalg.solve(cov, jac)
+        elif s["type"] == "move":
+            rate, _, ups, dt = sampled(u, n, angle, dur, 24)
+            u_to = Rotation.from_rotvec(n * angle).as_matrix().T @ u
+            g = np.vstack([np.zeros(3), rate[:, None] * n / units.DEG_PER_H, np.zeros(3)])
+            a = np.vstack([u, ups, u_to]) * noise.g
+            rest = (steps[i - 1]["rest_s"], steps[i + 1]["rest_s"])
+            jac = np.asarray(move_jacobian(g, a, dt, u, u_to))
+            span_h = (dur + 2.0 / noise.rate_hz) / 3600.0
+            var = (noise.arw * np.sqrt(span_h) * np.pi / 180) ** 2 + (horizontal * span_h * np.pi / 180) ** 2 / 2.0
+            var += noise.acc_noise_g**2 / noise.rate_hz / noise.g**2 * (1.0 / rest[0] + 1.0 / rest[1])
+            f += jac.T @ (np.eye(3) - np.outer(u_to, u_to)) @ jac / var
+        c = c @ Rotation.from_rotvec(n * angle).as_matrix()
+    return f
+
+
+@pytest.mark.parametrize("latitude", [None, 49.6])
+def test_information_is_that_of_the_fits_own_rows(latitude):
+    """The plug-in's F (rows in closed form from the channel model's affine rows and the first-order perturbation of
+    a move's product of exponentials) against F from jax.jacfwd of the fit's own segment means and move residual
+    on the sampled motions: Ferraris' turns and reorientations, and random poses with moves, at a known and an
+    unknown latitude with a placement error: equal to 1e-12 of the scaled F (rounding)."""
+    model = tpr.triad_model(TERMS)
+    noise = TriadNoise(arw=ARW, rate_hz=RATE, latitude_deg=latitude, placement_deg=1.0)
+    for start, steps in (tpr.ferraris_steps(300.0), tpr.random_steps(7, 300.0, seed=5)):
+        got = tpr.steps_fisher(model, start, steps, noise)
+        want = _reference_information(model, start, steps, noise)
+        s = np.sqrt(np.diag(want))
+        assert np.max(np.abs(got - want) / np.outer(s, s)) < 1e-12
+
+
+def test_design_information_is_that_of_its_steps(designed):
+    """The information the search optimised (of the design's parameters) is that of the steps it wrote: the
+    criterion of the steps' F equals the search's loss (to rounding)."""
+    f = designed.fisher()
+    assert Criterion("D").loss(jnp.asarray(f), f.shape[0]) == pytest.approx(designed.loss, rel=1e-9)
+
+
+def test_flat_design_takes_the_triad():
+    """gj.design designs the hand protocol as it designs turntable plans: the same protocol as the triad's own
+    entry for the same search, a gyro NoiseSpec as the session's white noise, turntable keywords refused."""
+    import gyrojax as gj
+    from gyrojax.errors import ModelError
+    from gyrojax.noise.spec import NoiseSpec
+
+    kw = {"starts": 1, "adam_steps": 20, "seed": 3}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        flat = gj.design(TERMS, 7, criterion="A", instrument="imu-triad", minutes=5.0, noise=NOISE, **kw)
+        own = tpr.design_protocol(TERMS, 7, 5.0, "A", NOISE, starts=1, steps=20, seed=3)
+        spec = gj.design(TERMS, 7, instrument="imu-triad", minutes=5.0, noise=NoiseSpec(white=ARW), **kw)
+    assert flat.steps == own.steps and flat.loss == own.loss and flat.criterion_name == "A"
+    assert spec.noise.arw == ARW and spec.noise.placement_deg == 0.0
+    with pytest.raises(ModelError, match="'dt_s' is not a keyword of an imu-triad"):
+        gj.design(TERMS, 7, instrument="imu-triad", minutes=5.0, dt_s=1.0)
+    with pytest.raises(ModelError, match="unknown instrument"):
+        gj.design(TERMS, 7, instrument="sextant")

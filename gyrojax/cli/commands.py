@@ -213,6 +213,8 @@ def cmd_design(args) -> int:
     from gyrojax.planning.optimal import SDF9, design
     from gyrojax.protocol import atomic_write_text
 
+    if args.lbfgs_steps is None:
+        args.lbfgs_steps = 40
     out = Path(args.out)
     if out.exists() and not args.force:
         raise UsageError(f"{out}: exists; pass --force to overwrite")

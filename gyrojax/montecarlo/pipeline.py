@@ -55,7 +55,8 @@ from gyrojax.data.arrays import record_data
 from gyrojax.data.record import Record
 from gyrojax.errors import GyrojaxError
 from gyrojax.inference.lstsq import lstsq, lstsq_normal
-from gyrojax.montecarlo.study import Study, StudyError, _expand, _prior
+from gyrojax.montecarlo.study import INSTRUMENTS, Study, StudyError, expand_key, parse_prior
+from gyrojax.montecarlo.triad import build_triad_pipeline
 from gyrojax.noise.processes import random_drift
 from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics import effects as fx
@@ -102,7 +103,13 @@ class Pipeline:
     runs: tuple | None = None  # static plans: per record (run index of every sample, first sample of every run)
     whiten: np.ndarray | None = None  # static plans, coloured noise: L⁻¹ of the run means' covariance (block diagonal)
     _sim_jit: object = field(default=None, repr=False)
-    _compiled: dict = field(default_factory=dict, repr=False)  # (devices, chunk) → compiled chunk function
+    compiled: dict = field(default_factory=dict, repr=False)  # (devices, chunk) → compiled chunk function
+
+    @property
+    def draw_bytes(self) -> float:
+        """Bytes of the regressors, residuals and noise of one draw (for the chunk size)."""
+        m = sum(int(d.y.shape[0]) for d in self.data)
+        return 8.0 * m * (3 * self.fit_model.size + self.truth_model.size + 24)
 
     @property
     def n_measurements(self) -> int:
@@ -312,8 +319,11 @@ def constant_runs(data, models, seed: int = 0):
     return tuple(out)
 
 
-def build_pipeline(study: Study, plan=None, records=None) -> Pipeline:
-    """Arrays of a study: nominal records of its plan, the fit and truth models, the prior vectors."""
+def build_pipeline(study: Study, plan=None, records=None):
+    """Arrays of a study: nominal records of its plan, the fit and truth models, the prior vectors (an imu-triad
+    study: :func:`gyrojax.montecarlo.triad.build_triad_pipeline`)."""
+    if study.instrument != INSTRUMENTS[0]:
+        return build_triad_pipeline(study)
     if plan is None:
         try:
             plan = plans_mod.build(study.plan, **study.plan_options)
@@ -325,8 +335,8 @@ def build_pipeline(study: Study, plan=None, records=None) -> Pipeline:
     priors = {}
     for key, setup in (("priors", False), ("setup", True)):
         for name, v in getattr(study, key).items():
-            for c in _expand(name, f"study: key '{key}.{name}'", setup):
-                priors[c] = _prior(v, f"study: key '{key}.{name}'")
+            for c in expand_key(name, f"study: key '{key}.{name}'", setup):
+                priors[c] = parse_prior(v, f"study: key '{key}.{name}'")
     names = list(fit_model.coefficient_names) + [c for c in priors if c not in fit_model.coefficient_names]
     truth_model = Model.of(names, kind)
     uni = np.array([priors.get(c, (False, 0.0, 0.0))[0] for c in truth_model.coefficient_names])

@@ -19,10 +19,9 @@ from gyrojax.montecarlo.study import Study, StudyError
 
 
 def auto_chunk(pipe: Pipeline, n_devices: int = 1, budget_bytes: float = 1.5e9) -> int:
-    """Draws per chunk so that the regressors, residuals and noise of a chunk stay within ``budget_bytes``."""
-    m = sum(int(d.y.shape[0]) for d in pipe.data)
-    per_draw = 8.0 * m * (3 * pipe.fit_model.size + pipe.truth_model.size + 24)
-    c = max(1, int(budget_bytes // per_draw))
+    """Draws per chunk so that the arrays of a chunk's draws (``pipe.draw_bytes`` each) stay within
+    ``budget_bytes``."""
+    c = max(1, int(budget_bytes // pipe.draw_bytes))
     return max(n_devices, (c // n_devices) * n_devices)
 
 
@@ -117,10 +116,10 @@ def _evaluate(pipe: Pipeline, start: int, n: int, chunk, devices, progress):
     t0 = time.perf_counter()
     per = chunk // ndev
     cache_key = (tuple(str(d) for d in (devices if devices is not None else jax.devices())), chunk)
-    compiled = pipe._compiled.get(cache_key)
+    compiled = pipe.compiled.get(cache_key)
     if compiled is None:
         idx0 = jax.device_put(np.arange(start, start + chunk, dtype=np.int64).reshape(ndev, per), sh)
-        compiled = pipe._compiled[cache_key] = f.lower(idx0).compile()
+        compiled = pipe.compiled[cache_key] = f.lower(idx0).compile()
     compile_s = time.perf_counter() - t0
     t1 = time.perf_counter()
     last = [-math.inf]

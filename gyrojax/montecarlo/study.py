@@ -1,9 +1,10 @@
 """Monte Carlo study files: the :class:`Study` a study JSON describes and its validation.
 
 A study names a built-in plan, the fitted terms, the priors of the coefficients and set-up errors, the noise and
-the number of draws (docs/montecarlo.md). :func:`study_from_dict` checks a study dict and names the offending key;
-the draws are made by :mod:`gyrojax.montecarlo.pipeline`, run by :mod:`gyrojax.montecarlo.runner` and kept in a
-:class:`~gyrojax.montecarlo.results.StudyResult`.
+the number of draws (docs/montecarlo.md); ``instrument`` ``imu-triad`` makes it a hand calibration session of a MEMS
+gyro triad (:data:`TRIAD_SESSIONS`, :mod:`gyrojax.montecarlo.triad`). :func:`study_from_dict` checks a study dict
+and names the offending key; the draws are made by :mod:`gyrojax.montecarlo.pipeline`, run by
+:mod:`gyrojax.montecarlo.runner` and kept in a :class:`~gyrojax.montecarlo.results.StudyResult`.
 """
 
 from __future__ import annotations
@@ -19,12 +20,17 @@ from gyrojax.errors import GyrojaxError
 from gyrojax.noise.spec import NoiseModelError, NoiseSpec
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model
+from gyrojax.physics.triad import channel_model
 from gyrojax.protocol import read_json_file
 
 STUDY_FORMAT = "gyrojax-mc-study"
 STUDY_VERSION = 1
 STUDY_LEGACY = {"gyrojax-mc-study-1": (STUDY_FORMAT, 1)}
 """Format strings of study files written before the result protocol, and the version they stand for."""
+INSTRUMENTS = ("turntable", "imu-triad")
+"""The instruments a study simulates: a gyro on a turntable (the default) or a MEMS gyro triad by hand."""
+TRIAD_SESSIONS = ("ferraris", "multiposition", "protocol")
+"""The sessions of an imu-triad study: Ferraris', imu_tk's random poses with moves, a designed protocol's steps."""
 SDF_NINE_TERMS = ("D_F", "D_I", "D_O", "D_S", "D_II", "D_SS", "D_IO", "D_IS", "D_OS")
 """The SDF drift model less D_OO: in a 1 g test a_I² + a_O² + a_S² = 1, so D_F, D_II, D_OO, D_SS are aliased."""
 
@@ -54,6 +60,7 @@ class Study:
     kind: str = fx.SDF
     chunk: int | None = None
     solver: str = "cholesky"
+    instrument: str = INSTRUMENTS[0]
 
     def __post_init__(self):
         if isinstance(self.noise, dict) and protocol.FORMAT_KEY in self.noise:  # a saved noise model
@@ -64,6 +71,8 @@ class Study:
     def to_dict(self) -> dict:
         """The study as a JSON-ready dict (the study file format, ``STUDY_FORMAT`` version ``STUDY_VERSION``)."""
         d = asdict(self)
+        if self.instrument == INSTRUMENTS[0]:  # the default, left out: turntable study files stay as they were
+            del d["instrument"]
         d["terms"] = list(self.terms)
         # a truth dict when the noise is one (conventions §8); otherwise (e.g. two Gauss–Markov terms from
         # gyrojax noise) the saved noise model, tagged
@@ -94,10 +103,11 @@ _STUDY_KEYS = (
     "kind",
     "chunk",
     "solver",
+    "instrument",
 )
 
 
-def _prior(v, where: str):
+def parse_prior(v, where: str):
     """(is_uniform, a, b) of a prior: number → N(v, 0); {"normal": [μ, σ]}; {"uniform": [lo, hi]}."""
     if isinstance(v, bool):
         raise StudyError(f"{where}: a prior must be a number or {{'normal': [mean, std]}} / {{'uniform': [lo, hi]}}")
@@ -124,7 +134,7 @@ def _prior(v, where: str):
     return k == "uniform", a, b
 
 
-def _expand(name: str, where: str, setup: bool) -> tuple[str, ...]:
+def expand_key(name: str, where: str, setup: bool) -> tuple[str, ...]:
     """Coefficient names of a prior key (a coefficient, or an effect = all its coefficients)."""
     idx = fx.coefficient_index()
     if name in fx.names():
@@ -153,8 +163,12 @@ def study_from_dict(d, where: str = "study") -> Study:
         protocol.check_as(d, STUDY_FORMAT, STUDY_VERSION, where, StudyError, STUDY_LEGACY)
     if "plan" not in d:
         raise StudyError(f"{where}: missing required key 'plan' (a built-in plan name)")
-    if d["plan"] not in plans_mod.BUILDERS:
-        raise StudyError(f"{where}: key 'plan' = {d['plan']!r}; built-in plans: {', '.join(plans_mod.BUILDERS)}")
+    instrument = d.get("instrument", INSTRUMENTS[0])
+    if instrument not in INSTRUMENTS:
+        raise StudyError(f"{where}: key 'instrument' = {instrument!r}; valid: {', '.join(INSTRUMENTS)}")
+    plans = plans_mod.BUILDERS if instrument == INSTRUMENTS[0] else TRIAD_SESSIONS
+    if d["plan"] not in plans:
+        raise StudyError(f"{where}: key 'plan' = {d['plan']!r}; {instrument} plans: {', '.join(plans)}")
     opts = d.get("plan_options") or {}
     if not isinstance(opts, dict):
         raise StudyError(f"{where}: key 'plan_options' must be an object")
@@ -165,7 +179,7 @@ def study_from_dict(d, where: str = "study") -> Study:
     if kind not in (fx.SDF, fx.TDF, fx.ACCEL):
         raise StudyError(f"{where}: key 'kind' = {kind!r}; valid: {fx.SDF}, {fx.TDF}, {fx.ACCEL}")
     try:
-        Model.of(terms, kind)
+        Model.of(terms, kind) if instrument == INSTRUMENTS[0] else channel_model(terms)
     except GyrojaxError as e:
         raise StudyError(f"{where}: key 'terms': {e}") from None
     for key, setup in (("priors", False), ("setup", True)):
@@ -173,8 +187,9 @@ def study_from_dict(d, where: str = "study") -> Study:
         if not isinstance(pr, dict):
             raise StudyError(f"{where}: key {key!r} must be an object")
         for name, v in pr.items():
-            _expand(name, f"{where}: key '{key}.{name}'", setup)
-            _prior(v, f"{where}: key '{key}.{name}'")
+            if instrument == INSTRUMENTS[0]:
+                expand_key(name, f"{where}: key '{key}.{name}'", setup)
+            parse_prior(v, f"{where}: key '{key}.{name}'")
     try:
         nd = d.get("noise")
         if isinstance(nd, dict) and protocol.FORMAT_KEY in nd:  # a saved noise model (e.g. two Gauss–Markov terms)
@@ -206,6 +221,7 @@ def study_from_dict(d, where: str = "study") -> Study:
         kind=kind,
         chunk=d.get("chunk"),
         solver=solver,
+        instrument=instrument,
     )
 
 

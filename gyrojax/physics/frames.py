@@ -1,8 +1,12 @@
-"""The local level frame L (ENU) at the test site: Earth rate and specific force (conventions §2).
+"""The local level frame L (ENU) at the test site: Earth rate, gravity and specific force (conventions §2).
 
-All functions are pure JAX and differentiable in the latitude.
+All functions but :func:`site_gravity` are pure JAX and differentiable in the latitude.
 """
 
+import functools
+import math
+
+import jax
 import jax.numpy as jnp
 
 from gyrojax import units
@@ -20,6 +24,17 @@ def normal_gravity(latitude_rad):
     """
     s2 = jnp.sin(latitude_rad) ** 2
     return units.WGS84_GAMMA_E * (1.0 + units.WGS84_K * s2) / jnp.sqrt(1.0 - units.WGS84_E2 * s2)
+
+
+@functools.lru_cache(maxsize=64)
+def site_gravity(latitude_deg: float | None) -> float:
+    """|g| at a site of ``latitude_deg`` (deg) where no gravity is stated, m/s²: WGS-84 normal gravity at the latitude,
+    height 0 (:func:`normal_gravity`; conventions §2); standard gravity g0 when the latitude is unknown (None), within
+    0.3 % of every site's."""
+    if latitude_deg is None:
+        return units.G0
+    with jax.ensure_compile_time_eval():  # a number, also where a caller is being traced
+        return float(normal_gravity(math.radians(latitude_deg)))
 
 
 def specific_force_enu(gravity_mps2):

@@ -2,7 +2,7 @@
 
 A table has k axes, outermost first; axis i has unit vector u_i written in L with every angle at zero.
 
-    C(θ) = R(u_1, θ_1) · … · R(u_k, θ_k),   R(u, θ) = I + sin θ [u×] + (1 − cos θ) [u×]²
+    C(θ) = R(u_1, θ_1) · … · R(u_k, θ_k),   R(u, θ) = exp(θ [u×])   (:func:`gyrojax.physics.so3.rotation`)
     ω_LP = Σ_i θ̇_i · R(u_1, θ_1) … R(u_{i−1}, θ_{i−1}) u_i      (in L)
     ω_IP = Ω + ω_LP
 
@@ -14,18 +14,7 @@ transcendental function per sample.
 
 import jax.numpy as jnp
 
-
-def skew(v):
-    """The cross-product matrix [v×], so that [v×] w = v × w."""
-    x, y, z = v[0], v[1], v[2]
-    zero = jnp.zeros_like(x)
-    return jnp.stack([jnp.stack([zero, -z, y]), jnp.stack([z, zero, -x]), jnp.stack([-y, x, zero])])
-
-
-def rotation(u, theta):
-    """Rotation by ``theta`` (rad) about the unit vector ``u``, right-hand rule (Rodrigues)."""
-    k = skew(u)
-    return jnp.eye(3) + jnp.sin(theta) * k + (1.0 - jnp.cos(theta)) * (k @ k)
+from gyrojax.physics.so3 import hat, rotation
 
 
 def chain(axes, angles):
@@ -115,7 +104,7 @@ def platform_inputs(axes, trig, rates, delta, omega, force):
         for j in range(i - 1, -1, -1):
             v = rotate(axes[j], trig[j][0], trig[j][1], v)
         w = tuple(w[j] + rates[i] * v[j] for j in range(3))
-    b = jnp.eye(3) + skew(delta)
+    b = jnp.eye(3) + hat(delta)
     bw = _matvec(b, w)
     wi = _matvec(b.T, tuple(omega[j] + bw[j] for j in range(3)))  # Bᵀ(Ω + B ω_LP0)
     fb = b.T @ force

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -85,6 +86,24 @@ def triad_output(model: Model, theta, w_body, a_body, t_h, temperature_C):
         for c in range(3)
     ]
     return jnp.stack(outs, axis=1)
+
+
+def affine_rows(model: Model):
+    """∂ω_ind/∂θ of :func:`triad_output` at θ = 0 as an affine function of the inputs, for a model whose effects
+    are affine in the body rate ω (deg/h) and the specific force a (g) and independent of time and temperature
+    (bias, g-terms, scale factor, misalignment): rows(ω, a) = B₀ + Σ_j ω_j B_ω[j] + Σ_j a_j B_a[j], each (3, 3p)
+    (channels × θ of the three channels, in the order x, y, z), from ``jax.jacfwd`` of the channel model at unit
+    inputs. Returns (B₀, B_ω (3, 3, 3p), B_a (3, 3, 3p)); traceable, so a jitted caller folds it into constants."""
+    p = model.size
+    eye, zero = jnp.eye(3), jnp.zeros((3, 3))
+    w = jnp.concatenate([jnp.zeros((1, 3)), eye, zero])  # the inputs 0, ω = e_j, a = e_j
+    a = jnp.concatenate([jnp.zeros((1, 3)), zero, eye])
+
+    def out(theta):
+        return triad_output(model, theta.reshape(3, p), w, a, jnp.zeros(7), jnp.full(7, 20.0))
+
+    jac = jax.jacfwd(out)(jnp.zeros(3 * p))  # (7, 3, 3p)
+    return jac[0], jac[1:4] - jac[0], jac[4:7] - jac[0]
 
 
 BODY_RATE_ITERATIONS = 6
@@ -195,7 +214,14 @@ def misalignment_angles(values: dict, cov=None, names=None) -> dict:
     return out
 
 
-def imucal_form(m: dict, counts_per_dps: float = 1.0, rotation_sign: float = 1.0, grav_mps2: float = 9.81) -> dict:
+IMUCAL_GRAVITY = 9.81
+"""imucal's ``grav``, m/s²: the 1 g its Ferraris calibration divides specific force by (a constant of that tool, not
+a site's gravity)."""
+
+
+def imucal_form(
+    m: dict, counts_per_dps: float = 1.0, rotation_sign: float = 1.0, grav_mps2: float = IMUCAL_GRAVITY
+) -> dict:
     """The gyro part of imucal's Ferraris calibration, ``raw = K_g R_g ω + K_ga a + b_g`` (ω in deg/s, a in m/s²,
     raw in counts; K_g diagonal, rows of R_g unit vectors), from :func:`matrices`.
 

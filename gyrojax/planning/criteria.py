@@ -50,28 +50,35 @@ class Criterion:
     d_weight: float = 0.1
 
     @classmethod
-    def parse(cls, text: str, model: Model) -> "Criterion":
-        """``D``, ``A``, ``A:C=w,...``, ``E``, ``c:C=w,...``, ``detect:NAME`` or ``detect:NAME=δ``."""
+    def parse(cls, text: str, model: Model, names=None) -> "Criterion":
+        """``D``, ``A``, ``A:C=w,...``, ``E``, ``c:C=w,...``, ``detect:NAME`` or ``detect:NAME=δ``, for the
+        coefficients ``names`` of F (default the model's; e.g. an instrument's per-channel names ``D_F[x]``, which
+        takes no ``detect``)."""
+        detect = names is None
+        names = list(model.coefficient_names if names is None else names)
         head, _, rest = text.partition(":")
         if head in ("D", "E") and not rest:
             return cls(head)
         if head in ("A", "c"):
             if not rest:
                 if head == "c":
-                    raise ModelError("criterion c needs a vector: c:COEF=w,...")
+                    raise ModelError(f"criterion c needs a vector: c:COEF=w,... (e.g. c:{names[0]})")
                 return cls("A")
             w = {}
             for item in rest.split(","):
                 k, _, v = item.partition("=")
+                k = k.strip()
+                if k not in names:
+                    raise ModelError(
+                        f"criterion {text!r}: {k!r} is not a coefficient of the model ({', '.join(names)})"
+                    )
                 try:
-                    w[k.strip()] = float(v) if v else 1.0
+                    w[k] = float(v) if v else 1.0
                 except ValueError:
-                    raise ModelError(f"criterion {text!r}: weight {v!r} of {k.strip()} is not a number") from None
-            unknown = set(w) - set(model.coefficient_names)
-            if unknown:
-                raise ModelError(f"criterion {text!r}: {sorted(unknown)} not in the model {model.coefficient_names}")
-            return cls(head, tuple(w.get(c, 0.0) for c in model.coefficient_names))
-        if head == "detect" and rest:
+                    raise ModelError(f"criterion {text!r}: weight {v!r} of {k} is not a number") from None
+            return cls(head, tuple(w.get(c, 0.0) for c in names))
+        valid = "D, A, E, c:COEF=w,..." + (", detect:NAME[=magnitude]" if detect else "")
+        if head == "detect" and rest and detect:
             name, _, mag = rest.partition("=")
             e = fx.get(name if name in fx.names() else fx.effect_of_coefficient(name))
             if e.name in model.terms:
@@ -81,7 +88,7 @@ class Criterion:
             except ValueError:
                 raise ModelError(f"criterion {text!r}: magnitude {mag!r} is not a number") from None
             return cls("detect", effect=e.name, magnitude=(m,) * e.size)
-        raise ModelError(f"unknown criterion {text!r}; valid: D, A, E, c:COEF=w,..., detect:NAME[=magnitude]")
+        raise ModelError(f"unknown criterion {text!r}; valid: {valid} (e.g. c:{names[0]})")
 
     def design_model(self, model: Model) -> Model:
         """The model whose Fisher information the criterion needs (the model plus the omitted effect)."""

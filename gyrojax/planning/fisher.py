@@ -160,6 +160,28 @@ def static_fisher(
     return jnp.einsum("cnp,cnq->pq", w, w)
 
 
+# ---- any instrument: information of rows and their noise ------------------------------------------------------
+
+
+def information(rows, precision, weight):
+    """F = Σ_k w_k J_kᵀ W_k J_k of blocks of rows J_k (K, m, p), each with its noise's precision W_k = C_k⁻¹ (K, m, m)
+    (a pseudo-inverse where the block measures a projection) and weight w_k (K,); traceable."""
+    return jnp.einsum("kip,kiq->pq", rows * weight[:, None, None], jnp.einsum("kij,kjq->kiq", precision, rows))
+
+
+def scaled(f):
+    """F / (s sᵀ), s = √diag F, and log s (the scaling that keeps log det and inverses well conditioned)."""
+    s = jnp.sqrt(jnp.maximum(jnp.diag(f), 1e-300))
+    return f / jnp.outer(s, s), jnp.log(s)
+
+
+def covariance(f):
+    """F⁻¹ through the scaled F (the units of F⁻¹)."""
+    fs, ls = scaled(f)
+    s = jnp.exp(ls)
+    return jnp.linalg.inv(fs) / jnp.outer(s, s)
+
+
 # ---- any plan, from its records -------------------------------------------------------------------------------
 
 
@@ -171,14 +193,14 @@ def record_fisher(model: Model, records, noise: NoiseSpec, theta=None) -> np.nda
     theta = np.zeros(model.size) if theta is None else np.asarray(theta, float)
     f = np.zeros((model.size, model.size))
     for (_r, j, lab, _t), d in zip(linearize(model, theta, camp), camp.data):
-        dt = _measurement_dt(d, lab)
+        dt = measurement_dt(d, lab)
         w = dt / (60.0 * noise.white) ** 2
         f += (j * w[:, None]).T @ j
     return f
 
 
-def _measurement_dt(d: RecordData, lab) -> np.ndarray:
-    """Sample interval of each kept measurement (servo: its own interval; rebalance: the record's median step)."""
+def measurement_dt(d: RecordData, lab) -> np.ndarray:
+    """Sample interval (s) of each kept measurement (servo: its own interval; rebalance: the record's median step)."""
     lab = np.asarray(lab)
     if d.mode == "servo":
         return np.asarray(d.dt)[lab >= 0]

@@ -23,7 +23,6 @@ from dataclasses import dataclass, field
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optax
 
 from gyrojax.data import plans
 from gyrojax.errors import ConvergenceWarning, ModelError
@@ -42,7 +41,6 @@ from gyrojax.planning.fisher import DEFAULT_NOISE, Table, check_static, position
 
 SDF9 = ("D_F", "D_I", "D_O", "D_S", "D_II", "D_SS", "D_IO", "D_IS", "D_OS")
 """The SDF drift model of Hu 2-45 less D_OO (the design tests' model; D_OO is the effect left out)."""
-CONVERGED_WINDOW, CONVERGED_RTOL = search.CONVERGED_WINDOW, search.CONVERGED_RTOL  # the shared rule (search)
 
 
 @dataclass
@@ -65,9 +63,8 @@ class DesignResult:
 
     @property
     def convergence_note(self) -> str:
-        """Why the search is not taken as converged ("" when it is): a non-finite loss, or a best start whose loss
-        still fell by more than :data:`CONVERGED_RTOL` (relative) over its last :data:`CONVERGED_WINDOW`
-        iterations."""
+        """Why the search is not taken as converged ("" when it is; :func:`gyrojax.planning.search.convergence_note`
+        of the best start's history)."""
         return search.convergence_note(self.history, self.loss, "raise adam_steps / lbfgs_steps")
 
     @property
@@ -150,39 +147,11 @@ def _optimiser(model, crit, n_positions, total, m, free_dwell, noise, dt_s, adam
 
         return jnp.mean(jax.vmap(one)(thetas))
 
-    lb = optax.lbfgs()
-
     def optimise(params, template, thetas):
-        def loss(p):
-            return loss_fn(p, template, thetas)
+        def one(p0):
+            return search.minimise(lambda p: loss_fn(p, template, thetas), p0, adam_steps, lbfgs_steps, learning_rate)
 
-        vg = jax.value_and_grad(loss)
-        vg_state = optax.value_and_grad_from_state(loss)
-
-        def run_adam(p0):
-            return search.adam_scan(vg, p0, adam_steps, learning_rate)
-
-        def run_lbfgs(p0):
-            def step(carry, _):
-                p, s = carry
-                val, g = vg_state(p, state=s)
-                upd, s = lb.update(g, s, p, value=val, grad=g, value_fn=loss)
-                return (optax.apply_updates(p, upd), s), val
-
-            (p, _), hist = jax.lax.scan(step, (p0, lb.init(p0)), None, length=lbfgs_steps)
-            return p, hist
-
-        p, h1 = jax.vmap(run_adam)(params)
-        if lbfgs_steps:
-            p2, h2 = jax.vmap(run_lbfgs)(p)
-            # keep the L-BFGS result only where it is finite and no worse
-            l1, l2 = jax.vmap(loss)(p), jax.vmap(loss)(p2)
-            good = jnp.isfinite(l2) & (l2 <= l1)
-            p = jax.tree_util.tree_map(lambda a, b: jnp.where(good.reshape((-1,) + (1,) * (a.ndim - 1)), b, a), p, p2)
-            h1 = jnp.concatenate([h1, h2], axis=1)
-        vals, grads = jax.vmap(vg)(p)
-        gn = jax.vmap(lambda g: jnp.sqrt(sum(jnp.sum(x * x) for x in jax.tree_util.tree_leaves(g))))(grads)
-        return p, h1, vals, gn
+        return jax.vmap(one)(params)
 
     return optimise
 
@@ -247,13 +216,8 @@ def design(
     t1 = time.perf_counter()
     (ang, z), hist, vals, gn = jax.block_until_ready(_COMPILED[ckey](*args))
     timing = {"compile_s": t1 - t0, "run_s": time.perf_counter() - t1}
+    b = search.best_start(vals, "design")
     vals = np.where(np.isfinite(np.asarray(vals)), np.asarray(vals), np.inf)
-    if not np.isfinite(vals).any():
-        raise ModelError(
-            f"design: every one of the {starts} starts ended at a non-finite loss (a singular Fisher information or a "
-            "search that diverged); no plan is written. Try more starts, a smaller learning rate or fewer terms"
-        )
-    b = int(np.argmin(vals))
     dwell = np.asarray(dwell_from_logits(z[b], total, m)) if free_dwell else np.full(n_positions, total / n_positions)
     angles_deg = np.mod(np.rad2deg(np.asarray(ang[b])), 360.0)
     f = np.asarray(static_fisher(model, table, jnp.deg2rad(jnp.asarray(angles_deg)), jnp.asarray(dwell), noise, dt_s))

@@ -1,31 +1,94 @@
-"""The gradient search every design runs: Adam (optax) over a differentiable loss, scanned on the device so that a
-``vmap`` over starts compiles once, and the judgement of whether it settled (never silent: a search cut short says
-so)."""
+"""The gradient search every design runs: Adam (optax), then a few L-BFGS steps, over a differentiable loss, scanned
+on the device so that a ``vmap`` over starts compiles once; the best start; and the judgement of whether it settled
+(never silent: a search cut short says so)."""
 
 from __future__ import annotations
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 import optax
+
+from gyrojax.errors import ModelError
 
 CONVERGED_WINDOW = 10
 """Iterations over which a settled search's loss may fall by at most :data:`CONVERGED_RTOL` (relative)."""
 CONVERGED_RTOL = 1e-6
 
 
-def adam_scan(value_and_grad, p0, steps: int, learning_rate: float, *args):
+def adam_scan(value_and_grad, p0, steps: int, learning_rate, *args, keep_best: bool = False):
     """``steps`` Adam iterations from ``p0`` on ``value_and_grad(p, *args) -> (loss, grad)``; returns (p, the loss
-    at each iteration). Pure (jit and vmap it over starts); the loss is dimensionless, as the criteria's are."""
+    at each iteration). With ``keep_best``, p is the iterate of least loss (Adam's loss need not fall at every
+    step) and a third value is that loss, with no evaluation beyond the iterations'. Pure (jit and vmap it over
+    starts); the loss is dimensionless, as the criteria's are."""
     opt = optax.adam(learning_rate)
 
     def step(carry, _):
-        p, state = carry
+        p, state, best = carry
         val, g = value_and_grad(p, *args)
         upd, state = opt.update(g, state, p)
+        if keep_best:
+            better = val < best[1]  # a NaN loss is never the best
+            best = (
+                jax.tree_util.tree_map(lambda a, b: jnp.where(better, a, b), p, best[0]),
+                jnp.where(better, val, best[1]),
+            )
+        return (optax.apply_updates(p, upd), state, best), val
+
+    best0 = (p0, jnp.asarray(jnp.inf)) if keep_best else None
+    (p, _, best), history = jax.lax.scan(step, (p0, opt.init(p0), best0), None, length=steps)
+    return (best[0], history, best[1]) if keep_best else (p, history)
+
+
+def lbfgs_scan(loss, p0, steps: int):
+    """``steps`` L-BFGS iterations (optax, zoom line search) from ``p0`` on ``loss(p)``; returns (p, the loss at
+    each iteration). Pure."""
+    opt = optax.lbfgs()
+    vg_state = optax.value_and_grad_from_state(loss)
+
+    def step(carry, _):
+        p, state = carry
+        val, g = vg_state(p, state=state)
+        upd, state = opt.update(g, state, p, value=val, grad=g, value_fn=loss)
         return (optax.apply_updates(p, upd), state), val
 
     (p, _), history = jax.lax.scan(step, (p0, opt.init(p0)), None, length=steps)
     return p, history
+
+
+def minimise(loss, p0, adam_steps: int, lbfgs_steps: int, learning_rate, grad_norm: bool = True):
+    """One start of the search: :func:`adam_scan` then :func:`lbfgs_scan`, whose result is kept only where its loss
+    is finite and no worse; the loss and ``learning_rate`` are dimensionless. Returns (p, the loss at every
+    iteration, the final loss, |∇loss| there). Without
+    ``grad_norm`` and L-BFGS steps, p is Adam's iterate of least loss and the norm NaN: the search then evaluates
+    the loss at its iterations only. Pure: jit it, and ``vmap`` it over starts."""
+    vg = jax.value_and_grad(loss)
+    if not grad_norm and not lbfgs_steps:
+        p, history, val = adam_scan(vg, p0, adam_steps, learning_rate, keep_best=True)
+        return p, history, val, jnp.nan
+    p, history = adam_scan(vg, p0, adam_steps, learning_rate)
+    if lbfgs_steps:
+        p2, h2 = lbfgs_scan(loss, p, lbfgs_steps)
+        l1, l2 = loss(p), loss(p2)
+        good = jnp.isfinite(l2) & (l2 <= l1)
+        p = jax.tree_util.tree_map(lambda a, b: jnp.where(good, b, a), p, p2)
+        history = jnp.concatenate([history, h2])
+    if not grad_norm:
+        return p, history, loss(p), jnp.nan
+    val, grad = vg(p)
+    return p, history, val, jnp.sqrt(sum(jnp.sum(g * g) for g in jax.tree_util.tree_leaves(grad)))
+
+
+def best_start(losses, what: str) -> int:
+    """Index of the start of least final loss; :class:`~gyrojax.errors.ModelError` naming ``what`` when every one
+    is non-finite (a singular information or a search that diverged)."""
+    v = np.where(np.isfinite(np.asarray(losses)), np.asarray(losses), np.inf)
+    if not np.isfinite(v).any():
+        raise ModelError(
+            f"{what}: every one of the {v.size} starts ended at a non-finite loss (a singular Fisher information or a "
+            "search that diverged); no plan is written. Try more starts, a smaller learning rate or fewer terms"
+        )
+    return int(np.argmin(v))
 
 
 def convergence_note(history, final_loss: float, remedy: str) -> str:

@@ -1,24 +1,23 @@
 """Calibration protocols for hand-held IMUs: the rests and the turns between them that minimise the predicted σ of
-chosen triad coefficients, designed by gradients (``gyrojax design --instrument imu-triad``; issue 27).
+chosen triad coefficients, designed by gradients (``gyrojax design --instrument imu-triad``).
 
 **Parameterisation.** N rests joined by N − 1 gravity-to-gravity moves (imu_tk's kind: the accelerometer measures
 both ends, so the hand's placement error does not enter). The first rest's attitude is a rotation vector x₀; move
 k turns the box by the body-frame rotation vector v_k (axis v/|v|, angle |v|), so rest k + 1's attitude is
 C_k R(v_k) and its Up in the body frame C_{k+1}ᵀ e_U. A move of Φ degrees takes :data:`MIN_TURN_S` +
 Φ / :data:`HAND_RATE_DPS` seconds (a person's pace); the rests share what is left of the total time by a
-softmax, each at least a quarter of the equal share. The loss is the criterion of the Fisher information of
-:mod:`gyrojax.planning.triad_fisher` (exact JAX derivatives through the fit's own measurement model), minimised by
-Adam (optax) from several random starts (``vmap``); the best start is kept.
+softmax, each at least a quarter of the equal share. The loss is a criterion (:mod:`gyrojax.planning.criteria`:
+``D``, ``A``, ``E`` or ``c:NAME=w,…`` of per-channel coefficients, ``c:E_SF[x]``) of the triad's Fisher
+information (:mod:`gyrojax.planning.triad_fisher`), minimised by the one search of every design
+(:func:`gyrojax.planning.search.minimise`: Adam, then L-BFGS) from several random starts; the best is kept.
 
-**Known-angle turns** (Ferraris'): a few discrete structures are searched, each by the same Adam loop from the
-same starts, the lowest loss kept (:data:`TURN_PAIRS`): m pairs of 360° turns, one each way, about each body axis
-e_j, made on rest j (j = 0, 1, 2) with the box on face +e_j (the turn about the vertical, the table holding the
-tilt; rests 0–2 are those faces), each followed by a reorientation (not fitted, as Ferraris' flips: a move is
-fitted from the rests on either side, and a rest split around the turns would repeat a pose). A turn's angle is
-known to √2 σ_placement about its axis; with σ_placement → 0 the search can hold Ferraris' turns and moves besides.
-
-**Criteria.** ``D`` −log det F; ``A`` Σ Var θ_i (report units: ppm and arcsec weigh more than deg/h);
-``c:NAME=w,…`` Var(Σ w θ) of per-channel coefficients (``c:E_SF[x]``).
+**Known-angle turns** (Ferraris'): a few discrete structures are searched (:data:`TURN_PAIRS`): m pairs of 360°
+turns, one each way, about each body axis e_j, made on rest j (j = 0, 1, 2) with the box on face +e_j (the turn
+about the vertical, the table holding the tilt; rests 0–2 are those faces), each followed by a reorientation (not
+fitted, as Ferraris' flips: a move is fitted from the rests on either side, and a rest split around the turns would
+repeat a pose). A turn's angle is known to √2 σ_placement about its axis; with σ_placement → 0 the search can hold
+Ferraris' turns and moves besides. Every structure and every start is one lane of one compiled, ``vmap``-ed search:
+the structure's turns and fitted moves are weights of the lane's parts.
 
 **Baselines** at the same total time and pace: imucal's Ferraris protocol (6 faces, one turn of 360° each way about
 each axis on its face, the angle known to √2 σ_placement, flips between faces not fitted) and imu_tk's random
@@ -30,29 +29,31 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field
+from functools import partial
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from gyrojax import protocol
 from gyrojax.errors import ConvergenceWarning, ModelError
 from gyrojax.inference.triad import DEFAULT_ROTATION_TERMS as LINEAR_TERMS  # bias, g-terms, scale, misalignment
 from gyrojax.physics import effects as fx
+from gyrojax.physics import so3
 from gyrojax.physics import triad as tp
 from gyrojax.planning import search
+from gyrojax.planning.criteria import Criterion
 from gyrojax.planning.triad_fisher import (
+    Parts,
     TriadNoise,
     coefficient_names,
-    covariance,
-    move_fisher,
-    rest_fisher,
-    rot,
-    scaled,
-    turn_fisher,
-    turn_pairs_fisher,
+    pad_parts,
+    protocol_information,
+    rows_basis,
+    steps_parts,
 )
-from gyrojax.simulation.triad import face_attitude, random_attitude
+from gyrojax.simulation.triad import face_attitude, random_attitude, relative_turn, rotation_matrix
 
 HAND_RATE_DPS = 90.0
 """Mean rate of a hand turn, deg/s (a 180° move takes 1 + 2 s)."""
@@ -68,6 +69,10 @@ TURN_DEG = 360.0
 MOTION_KINDS = {"turn": "known-angle", "move": "free", "reorient": "not fitted"}
 TURN_PAIRS = (0, 1, 2)
 """The structures searched: this many pairs of known-angle turns (one each way) about each body axis."""
+FACE_ATTITUDES = np.array([face_attitude(i, 1.0, 0.0) for i in range(3)])
+"""The rests of the known-angle turns: the box on the faces +x, +y, +z at heading 0 (body → ENU)."""
+_FACES_X0 = Rotation.from_matrix(FACE_ATTITUDES[0]).as_rotvec()
+_FACES_MOVES = np.array([Rotation.from_matrix(a.T @ b).as_rotvec() for a, b in zip(FACE_ATTITUDES, FACE_ATTITUDES[1:])])
 
 
 def turn_seconds(angle_deg) -> float:
@@ -96,6 +101,11 @@ def triad_model(terms):
     return model
 
 
+def parse_criterion(text: str, model) -> Criterion:
+    """The criterion ``text`` over the triad's per-channel coefficients (:func:`coefficient_names`)."""
+    return Criterion.parse(text, model, coefficient_names(model))
+
+
 def min_poses(model) -> int:
     """Fewest rests that can identify the model: the rests give 3 rows each, the moves 2 each; each channel's
     bias and g-terms need as many rests as they have coefficients (D_F, D_I, D_O, D_S: 4), and the scale and
@@ -108,205 +118,86 @@ def min_poses(model) -> int:
     return n
 
 
-@dataclass(frozen=True)
-class TriadCriterion:
-    """``D``, ``A`` or ``c`` with the weight vector over :func:`coefficient_names` (module doc)."""
-
-    kind: str
-    vector: tuple | None = None
-    text: str = "D"
-
-    @classmethod
-    def parse(cls, text: str, model) -> "TriadCriterion":
-        """``D``, ``A`` or ``c:COEF=w,...`` (per-channel names, e.g. ``c:E_SF[x]``) for ``model``."""
-        names = coefficient_names(model)
-        head, _, rest = text.partition(":")
-        if head in ("D", "A") and not rest:
-            return cls(head, None, head)
-        if head == "c" and rest:
-            w = {}
-            for item in rest.split(","):
-                k, _, v = item.partition("=")
-                k = k.strip()
-                if k not in names:
-                    raise ModelError(f"criterion {text!r}: {k!r} is not a coefficient of the model (e.g. {names[0]})")
-                try:
-                    w[k] = float(v) if v else 1.0
-                except ValueError:
-                    raise ModelError(f"criterion {text!r}: weight {v!r} of {k} is not a number") from None
-            return cls("c", tuple(w.get(n, 0.0) for n in names), text)
-        raise ModelError(f"unknown criterion {text!r} for imu-triad; valid: D, A, c:COEF[=w],... (e.g. c:{names[0]})")
-
-    def loss(self, f):
-        """The loss of a Fisher information (module doc)."""
-        if self.kind == "D":
-            fs, ls = scaled(f)
-            return -(jnp.linalg.slogdet(fs)[1] + 2.0 * jnp.sum(ls))
-        cov = covariance(f)
-        if self.kind == "A":
-            return jnp.trace(cov)
-        c = jnp.asarray(self.vector)
-        return c @ cov @ c
-
-
-def _expm(v):
-    th = jnp.sqrt(v @ v + 1e-30)
-    return rot(v / th, th)
+# ---- the design's parameters → its parts ----------------------------------------------------------------------
 
 
 def _chain(x0, v):
     """Attitudes (N, 3, 3) body → ENU of the rests from the start rotation vector and the moves' vectors."""
 
     def step(c, vk):
-        c2 = c @ _expm(vk)
+        c2 = so3.compose(c, so3.exp(vk))
         return c2, c2
 
-    c0 = _expm(x0)
+    c0 = so3.exp(x0)
     _, rest = jax.lax.scan(step, c0, v)
     return jnp.concatenate([c0[None], rest])
 
 
-def _rests(z, total_s, turn_total):
+def _rest_seconds(z, total_s, motions_s):
+    """Rests (N,) s sharing what the motions leave of ``total_s`` by a softmax of ``z``, each ≥ ¼ of the equal share."""
     n = z.shape[0]
     m = 0.25 / n
-    return jnp.maximum(total_s - turn_total, 1.0) * (m + (1.0 - n * m) * jax.nn.softmax(z))
+    return jnp.maximum(total_s - motions_s, 1.0) * (m + (1.0 - n * m) * jax.nn.softmax(z))
 
 
-_FACE_ATT = [face_attitude(i, 1.0, 0.0) for i in range(3)]
-_FACES_X0 = Rotation.from_matrix(_FACE_ATT[0]).as_rotvec()
-_FACES_MOVES = np.array([Rotation.from_matrix(a.T @ b).as_rotvec() for a, b in zip(_FACE_ATT, _FACE_ATT[1:])])
-
-
-def design_parts(params, total_s, pairs: int = 0):
-    """(attitudes, Ups, rest s, move axes, angles rad, durations s) of the design parameters with ``pairs`` pairs of
-    known-angle turns about each body axis (module doc); a host rest's time is the sum of its two halves."""
+def design_parts(params, pairs, total_s, max_pairs: int):
+    """(attitudes (N, 3, 3), :class:`~gyrojax.planning.triad_fisher.Parts`) of the design parameters (x₀, v, z)
+    with ``pairs`` (traceable, ≤ ``max_pairs``) pairs of known-angle turns about each body axis (module doc): turn
+    slots beyond ``pairs`` and the moves replaced by reorientations weigh 0; rotation vectors and angles in rad,
+    ``total_s`` and the parts' times in s. Traceable."""
     x0, v, z = params
-    if pairs:  # the turns' rests on the faces +x, +y, +z (a turn about the vertical, the box on the table)
-        x0, v = jnp.asarray(_FACES_X0), v.at[:2].set(jnp.asarray(_FACES_MOVES))
+    turned = pairs > 0
+    n_moves = v.shape[0]
+    x0 = jnp.where(turned, _FACES_X0, x0)
+    v = jnp.where(turned & (np.arange(n_moves) < 2)[:, None], np.resize(_FACES_MOVES, v.shape), v)
     att = _chain(x0, v)
-    up = jnp.einsum("kji,j->ki", att, jnp.asarray(UP))  # C_kᵀ e_U
+    up = att[:, 2, :]  # C_kᵀ e_U
     ang = jnp.sqrt(jnp.sum(v * v, axis=1) + 1e-30)
     axes = v / ang[:, None]
     dur = MIN_TURN_S + jnp.degrees(ang) / HAND_RATE_DPS
-    rest = _rests(z, total_s, jnp.sum(dur) + 6 * pairs * turn_seconds(TURN_DEG))
-    return att, up, rest, axes, ang, dur
+    rest = _rest_seconds(z, total_s, jnp.sum(dur) + 6 * pairs * turn_seconds(TURN_DEG))
+    slots = 6 * max_pairs  # for each pair q: about +e_j then −e_j (j = 0, 1, 2) on rest j
+    turn_axis = np.tile(np.concatenate([np.eye(3), -np.eye(3)]), (max_pairs, 1))
+    turn_w = (np.repeat(np.arange(max_pairs), 6) < pairs).astype(float)
+    move_w = jnp.where(turned & (np.arange(n_moves) < 3), 0.0, 1.0)  # after the turns, a reorientation
+    parts = Parts(
+        up,
+        rest,
+        jnp.ones_like(rest),
+        up[np.tile(np.arange(3), 2 * max_pairs)],
+        turn_axis,
+        jnp.full(slots, 2.0 * math.pi),
+        jnp.full(slots, turn_seconds(TURN_DEG)),
+        turn_w,
+        up[:-1],
+        axes,
+        ang,
+        dur,
+        rest[:-1],
+        rest[1:],
+        move_w,
+    )
+    return att, parts
 
 
-def design_fisher(model, params, total_s, noise: TriadNoise, pairs: int = 0):
-    """F of the designed protocol's parameters (differentiable): rests, moves and, with ``pairs``, the known-angle
-    turns about e_j at rest j (j < 3) on face +e_j, followed by a reorientation to the next rest instead of a move
-    (a move is fitted from the rests on either side; a rest split around the turns would repeat a pose).
-    ``total_s`` s; the turns are 360° (one each way); F in the units of the fit's coefficients."""
-    _, up, rest, axes, ang, dur = design_parts(params, total_s, pairs)
-    f = rest_fisher(model, up, rest, noise)
-    k = 3 if pairs else 0  # after the turns, a reorientation (not fitted) takes the box on
-    if pairs:
-        f = f + turn_pairs_fisher(model, up, pairs, turn_seconds(TURN_DEG), noise)
-    return f + move_fisher(model, up[k:-1], axes[k:], ang[k:], dur[k:], rest[k:-1], rest[k + 1 :], noise)
+# ---- the search --------------------------------------------------------------------------------------------------
 
 
-_rest_jit = jax.jit(rest_fisher, static_argnums=(0, 3))
-_move_jit = jax.jit(move_fisher, static_argnums=(0, 7))
-_turn_jit = jax.jit(turn_fisher, static_argnums=(0, 5))
+@partial(jax.jit, static_argnames=("crit", "max_pairs", "adam_steps", "lbfgs_steps"))
+def _search(params, pairs, total_s, basis, noise, learning_rate, *, crit, max_pairs, adam_steps, lbfgs_steps):
+    """Every lane (a structure's ``pairs`` and a start) searched at once: the lanes' loss histories and final
+    losses, and their attitudes and parts at the end. The model and the session are arguments, not constants: one
+    compiled search serves every noise, site and duration of the same shapes."""
+    p_total = basis[0].shape[-1]
 
+    def one(p0, k):
+        def loss(p):
+            return crit.loss(protocol_information(basis, design_parts(p, k, total_s, max_pairs)[1], noise), p_total)
 
-def steps_fisher(model, start_attitude, steps, noise: TriadNoise):
-    """F of any protocol given as steps (:mod:`gyrojax.simulation.triad_session`), from ``start_attitude``."""
-    c = np.asarray(start_attitude, dtype=float)
-    ups, rests, mv, tr = [], [], [], []
-    for i, s in enumerate(steps):
-        if s["type"] == "rest":
-            ups.append(c.T @ UP)
-            rests.append(float(s["rest_s"]))
-            continue
-        ax = np.asarray(s["axis"], dtype=float)
-        ax = ax / np.linalg.norm(ax)
-        phi = math.radians(float(s["angle_deg"]))
-        if s["type"] == "move":
-            mv.append(
-                (
-                    c.T @ UP,
-                    ax,
-                    phi,
-                    float(s["duration_s"]),
-                    float(steps[i - 1]["rest_s"]),
-                    float(steps[i + 1]["rest_s"]),
-                )
-            )
-        elif s["type"] == "turn":
-            tr.append((c.T @ UP, ax, phi, float(s["duration_s"])))
-        c = c @ Rotation.from_rotvec(ax * phi).as_matrix()
-    f = _rest_jit(model, jnp.asarray(np.array(ups)), jnp.asarray(rests), noise)
-    if mv:
-        f = f + _move_jit(model, *(jnp.asarray(np.array(x)) for x in zip(*mv)), noise)
-    if tr:
-        f = f + _turn_jit(model, *(jnp.asarray(np.array(x)) for x in zip(*tr)), noise)
-    return np.asarray(f)
+        p, hist, val, _ = search.minimise(loss, p0, adam_steps, lbfgs_steps, learning_rate, grad_norm=False)
+        return hist, val, design_parts(p, k, total_s, max_pairs)
 
-
-def sigma(f, model) -> dict:
-    """Predicted σ of every coefficient (report units; inf where F is singular)."""
-    f = np.asarray(f)
-    s = np.sqrt(np.maximum(np.diag(f), 1e-300))
-    fs = f / np.outer(s, s)
-    ev = np.linalg.eigvalsh(fs)
-    names = coefficient_names(model)
-    if ev[0] < 1e-12 * ev[-1]:
-        return {n: math.inf for n in names}
-    cov = np.linalg.inv(fs) / np.outer(s, s)
-    return dict(zip(names, np.sqrt(np.diag(cov)).tolist()))
-
-
-def _relative(c0, c1):
-    """Body-frame rotation (axis, angle deg) taking attitude ``c0`` to ``c1`` (the shorter way)."""
-    v = Rotation.from_matrix(c0.T @ c1).as_rotvec()
-    a = float(np.linalg.norm(v))
-    return (v / a if a > 0 else np.array([0.0, 0.0, 1.0])), math.degrees(a)
-
-
-def _motion(kind, axis, angle_deg):
-    return {
-        "type": kind,
-        "axis": [float(x) for x in axis],
-        "angle_deg": float(angle_deg),
-        "duration_s": turn_seconds(angle_deg),
-    }
-
-
-def ferraris_steps(total_s: float) -> tuple[np.ndarray, list]:
-    """imucal's Ferraris protocol at ``total_s`` s (module doc): (start attitude, steps)."""
-    faces = [face_attitude(axis, sign, 0.0) for axis, sign in ((0, 1), (0, -1), (1, 1), (1, -1), (2, 1), (2, -1))]
-    motions = []
-    for i in range(6):
-        block = []
-        if i % 2 == 0:  # on face +e_i: a turn of 360° each way about e_i (vertical)
-            e = np.eye(3)[i // 2]
-            block += [_motion("turn", e, 360.0), _motion("turn", -e, 360.0)]
-        if i < 5:
-            block.append(_motion("reorient", *_relative(faces[i], faces[i + 1])))
-        motions.append(block)
-    rest = (total_s - sum(m["duration_s"] for b in motions for m in b)) / 6.0
-    if rest <= 0:
-        raise ModelError(f"{total_s / 60:g} min do not hold Ferraris' turns and flips")
-    steps = []
-    for block in motions:
-        steps.append({"type": "rest", "rest_s": rest})
-        steps += block
-    return faces[0], steps
-
-
-def random_steps(n_poses: int, total_s: float, seed: int = 0) -> tuple[np.ndarray, list]:
-    """imu_tk's random poses: ``n_poses`` uniformly random attitudes joined by moves, equal rests."""
-    rng = np.random.default_rng(seed)
-    att = [random_attitude(rng) for _ in range(n_poses)]
-    moves = [_motion("move", *_relative(att[k], att[k + 1])) for k in range(n_poses - 1)]
-    rest = (total_s - sum(m["duration_s"] for m in moves)) / n_poses
-    if rest <= 0:
-        raise ModelError(f"{total_s / 60:g} min do not hold {n_poses - 1} hand moves")
-    steps = [{"type": "rest", "rest_s": rest}]
-    for m in moves:
-        steps += [m, {"type": "rest", "rest_s": rest}]
-    return att[0], steps
+    return jax.vmap(one)(params, pairs)
 
 
 @dataclass
@@ -314,7 +205,7 @@ class TriadProtocol:
     """A designed protocol: the start attitude (body → ENU at heading 0), the steps, the search's report."""
 
     terms: tuple
-    criterion: TriadCriterion
+    criterion: Criterion
     noise: TriadNoise
     total_s: float
     start_attitude: np.ndarray
@@ -324,11 +215,17 @@ class TriadProtocol:
     history: np.ndarray
     turn_pairs: int = 0
     structure_losses: dict = field(default_factory=dict)
+    criterion_text: str = ""
+
+    @property
+    def criterion_name(self) -> str:
+        """The criterion as given (``c:E_SF[x]=1``), else its label."""
+        return self.criterion_text or self.criterion.label()
 
     @property
     def convergence_note(self) -> str:
         """Why the search is not taken as converged ("" when it is; :mod:`gyrojax.planning.search`)."""
-        return search.convergence_note(self.history, self.loss, "raise --adam-steps")
+        return search.convergence_note(self.history, self.loss, "raise --adam-steps / --lbfgs-steps")
 
     @property
     def converged(self) -> bool:
@@ -336,47 +233,46 @@ class TriadProtocol:
         return not self.convergence_note
 
     def fisher(self) -> np.ndarray:
-        """The protocol's Fisher information (:func:`gyrojax.planning.triad_fisher.steps_fisher`), θ order."""
+        """The protocol's Fisher information (:func:`steps_fisher`), θ order."""
         return steps_fisher(triad_model(self.terms), self.start_attitude, self.steps, self.noise)
 
     def table(self) -> list[dict]:
         """The protocol a person follows: one row per rest, with the motions that follow it (``motions``: kind
         ``known-angle`` — by exactly this angle, back to a mark —, ``free`` — to the next rest, roughly: the
         accelerometer measures where it ends — or ``not fitted``); ``turn_axis``/``angle_deg``/``turn_s`` the last."""
-        rows, c = [], np.asarray(self.start_attitude, dtype=float)
-        for s in self.steps:
+        rows = []
+        for s, c in zip(self.steps, _step_attitudes(self.start_attitude, self.steps)):
             if s["type"] == "rest":
+                up = c.T @ UP
                 rows.append(
-                    {
-                        "step": len(rows) + 1,
-                        "up": face_up(c.T @ UP),
-                        "up_body": (c.T @ UP).tolist(),
-                        "rest_s": float(s["rest_s"]),
-                    }
+                    {"step": len(rows) + 1, "up": face_up(up), "up_body": up.tolist(), "rest_s": float(s["rest_s"])}
                 )
                 continue
-            ax = np.asarray(s["axis"], dtype=float)
             motion = {
-                "turn_axis": axis_text(ax),
+                "turn_axis": axis_text(s["axis"]),
                 "angle_deg": float(s["angle_deg"]),
                 "turn_s": float(s["duration_s"]),
                 "peak_rate_dps": math.pi / 2 * float(s["angle_deg"]) / float(s["duration_s"]),
             }
             rows[-1].setdefault("motions", []).append({"kind": MOTION_KINDS[s["type"]], **motion})
             rows[-1].update(motion)
-            c = c @ Rotation.from_rotvec(ax * math.radians(float(s["angle_deg"]))).as_matrix()
         return rows
 
     def attitudes(self) -> list[np.ndarray]:
         """Body → ENU attitude of every rest, in order."""
-        out, c = [], np.asarray(self.start_attitude, dtype=float)
-        for s in self.steps:
-            if s["type"] == "rest":
-                out.append(c)
-            else:
-                ax = np.asarray(s["axis"], dtype=float)
-                c = c @ Rotation.from_rotvec(ax * math.radians(float(s["angle_deg"]))).as_matrix()
-        return out
+        atts = _step_attitudes(self.start_attitude, self.steps)
+        return [c for s, c in zip(self.steps, atts) if s["type"] == "rest"]
+
+
+def _step_attitudes(start_attitude, steps) -> list[np.ndarray]:
+    """The attitude (body → ENU) at the start of every step."""
+    out, c = [], np.asarray(start_attitude, dtype=float)
+    for s in steps:
+        out.append(c)
+        if s["type"] != "rest":
+            ax = np.asarray(s["axis"], dtype=float)
+            c = c @ rotation_matrix(ax / np.linalg.norm(ax), math.radians(float(s["angle_deg"])))
+    return out
 
 
 def face_up(up_body) -> str:
@@ -402,6 +298,15 @@ def axis_text(ax) -> str:
     return "(" + ", ".join(f"{x:+.2f}" for x in ax) + ")"
 
 
+def _motion(kind, axis, angle_deg):
+    return {
+        "type": kind,
+        "axis": [float(x) for x in axis],
+        "angle_deg": float(angle_deg),
+        "duration_s": turn_seconds(angle_deg),
+    }
+
+
 def design_protocol(
     terms,
     n_poses: int,
@@ -409,18 +314,23 @@ def design_protocol(
     criterion: str = "D",
     noise: TriadNoise | None = None,
     *,
-    starts: int = 6,
-    steps: int = 400,
+    starts: int = 8,
+    steps: int = 600,
+    lbfgs_steps: int = 0,
     learning_rate: float = 0.05,
     seed: int = 0,
     turn_pairs=TURN_PAIRS,
 ) -> TriadProtocol:
     """Design an ``n_poses`` protocol of ``minutes`` in total (rests and turns) minimising the criterion (module
-    doc): each structure of ``turn_pairs`` (pairs of known-angle turns about each body axis) searched by Adam from
-    the same starts, the best kept; refuses terms the protocol cannot fit, too few poses, or too little time."""
+    doc): every structure of ``turn_pairs`` (pairs of known-angle turns about each body axis) searched from the
+    same ``starts`` by ``steps`` Adam iterations (each start keeps its iterate of least loss) and ``lbfgs_steps``
+    L-BFGS ones, all in one compiled search, the best kept; refuses terms the protocol cannot fit, too few poses, or
+    too little time."""
     model = triad_model(terms)
     noise = noise or TriadNoise()
-    crit = TriadCriterion.parse(criterion, model)
+    crit = criterion if isinstance(criterion, Criterion) else parse_criterion(criterion, model)
+    if crit.kind == "detect":
+        raise ModelError("criterion detect: the imu-triad design takes D, A, E or c:COEF=w,...")
     need = min_poses(model)
     if n_poses < need:
         raise ModelError(
@@ -433,103 +343,168 @@ def design_protocol(
             f"{minutes:g} min is too short for {n_poses} poses: the moves alone take about "
             f"{moves_s / 60:.1f} min at a hand's pace; give more --minutes"
         )
-    key = jax.random.PRNGKey(seed)
-    k1, k2 = jax.random.split(key)
-    x0 = jax.random.normal(k1, (starts, 3)) * 2.0
-    v0 = jax.random.normal(k2, (starts, n_poses - 1, 3)) * 1.2
-    z0 = jnp.zeros((starts, n_poses))
-    found = {}
-    for pairs in turn_pairs:
-        if total <= moves_s + 6 * pairs * turn_seconds(TURN_DEG) + (n_poses + 3) * 1.0:
-            continue  # no time left for the rests
-
-        def loss(p, pairs=pairs):
-            return crit.loss(design_fisher(model, p, total, noise, pairs))
-
-        vg = jax.value_and_grad(loss)
-
-        def run(p0, loss=loss, vg=vg):
-            p, hist = search.adam_scan(vg, p0, steps, learning_rate)
-            return p, hist, loss(p)
-
-        p, hist, final = jax.jit(jax.vmap(run))((x0, v0, z0))
-        final = np.where(np.isfinite(np.asarray(final)), np.asarray(final), np.inf)
-        b = int(np.argmin(final))
-        found[pairs] = (float(final[b]), final, jax.tree_util.tree_map(lambda a, b=b: a[b], p), np.asarray(hist[b]))
-    best_pairs = min(found, key=lambda k: found[k][0]) if found else None
-    if best_pairs is None or not np.isfinite(found[best_pairs][0]):
-        raise ModelError(f"no start of the search found a protocol of {n_poses} poses that identifies the terms")
-    value, final, best, hist = found[best_pairs]
-    att, up, rest, axes, ang, dur = (np.asarray(x) for x in design_parts(best, total, best_pairs))
-    # heading is not designed (the fit marginalises it): start at heading 0 with the first rest's Up
-    steps_out = []
-    for k in range(n_poses):
-        steps_out.append({"type": "rest", "rest_s": float(rest[k])})
-        if best_pairs and k < 3:  # the turns about e_k back to the mark, then a reorientation
-            e = np.eye(3)[k]
-            steps_out += [_motion("turn", sign * e, TURN_DEG) for _ in range(best_pairs) for sign in (1.0, -1.0)]
-        if k < n_poses - 1:
-            kind = "reorient" if best_pairs and k < 3 else "move"
-            move = {"type": kind, "axis": axes[k].tolist(), "angle_deg": float(np.degrees(ang[k]))}
-            steps_out.append({**move, "duration_s": float(dur[k])})
+    structures = [k for k in turn_pairs if total > moves_s + 6 * k * turn_seconds(TURN_DEG) + (n_poses + 3) * 1.0]
+    if not structures:
+        raise ModelError(f"{minutes:g} min leave no time for the rests of {n_poses} poses with known-angle turns")
+    rng = np.random.default_rng(seed)
+    x0 = rng.standard_normal((starts, 3)) * 2.0
+    v0 = rng.standard_normal((starts, n_poses - 1, 3)) * 1.2
+    lanes = len(structures) * starts
+    params = (np.tile(x0, (len(structures), 1)), np.tile(v0, (len(structures), 1, 1)), np.zeros((lanes, n_poses)))
+    pairs = np.repeat(np.array(structures), starts)
+    kw = {"crit": crit, "max_pairs": max(structures), "adam_steps": steps, "lbfgs_steps": lbfgs_steps}
+    hist, final, (att, parts) = _search(params, pairs, total, rows_basis(model), noise.numbers(), learning_rate, **kw)
+    final = np.where(np.isfinite(np.asarray(final)), np.asarray(final), np.inf)
+    by_structure = {k: final[i * starts : (i + 1) * starts] for i, k in enumerate(structures)}
+    b = search.best_start(final, "the protocol design")
+    best_pairs = int(pairs[b])
     res = TriadProtocol(
         tuple(model.terms),
         crit,
         noise,
         total,
-        att[0],
-        steps_out,
-        value,
-        final,
-        hist,
+        np.asarray(att[b, 0]),
+        _design_steps(jax.tree_util.tree_map(lambda a: np.asarray(a[b]), parts), best_pairs),
+        float(final[b]),
+        by_structure[best_pairs],
+        np.asarray(hist[b]),
         best_pairs,
-        {k: v[0] for k, v in found.items()},
+        {k: float(v.min()) for k, v in by_structure.items()},
+        criterion if isinstance(criterion, str) else "",
     )
     if not res.converged:
         warnings.warn(f"the protocol design did not converge: {res.convergence_note}", ConvergenceWarning, stacklevel=2)
     return res
 
 
-def baselines(model, n_poses: int, total_s: float, noise: TriadNoise) -> dict:
-    """{name: (F, σ dict)} of Ferraris' protocol and imu_tk's random poses (mean F of :data:`RANDOM_DRAWS`)."""
-    out = {}
-    c0, st = ferraris_steps(total_s)
-    f = steps_fisher(model, c0, st, noise)
-    out["imucal Ferraris (6 faces, 3 turns each way)"] = f
-    fr = [steps_fisher(model, *random_steps(n_poses, total_s, seed), noise) for seed in range(RANDOM_DRAWS)]
-    out[f"imu_tk random ({n_poses} poses, mean of {RANDOM_DRAWS})"] = fr
+def _design_steps(parts: Parts, pairs: int) -> list[dict]:
+    """The steps of a designed protocol's parts (numpy): each rest, then on rests 0–2 ``pairs`` known-angle turns
+    each way about the body axis of the face, then the move (or, after turns, the reorientation) to the next."""
+    out = []
+    n = parts.rest_s.shape[0]
+    for k in range(n):
+        out.append({"type": "rest", "rest_s": float(parts.rest_s[k])})
+        if pairs and k < 3:
+            e = np.eye(3)[k]
+            out += [_motion("turn", sign * e, TURN_DEG) for _ in range(pairs) for sign in (1.0, -1.0)]
+        if k < n - 1:
+            kind = "reorient" if pairs and k < 3 else "move"
+            move = {"type": kind, "axis": parts.move_axis[k].tolist(), "angle_deg": math.degrees(parts.move_angle[k])}
+            out.append({**move, "duration_s": float(parts.move_s[k])})
     return out
 
 
-def criterion_value(crit: TriadCriterion, f) -> float:
-    """The criterion's loss of one F (numpy)."""
-    return float(crit.loss(jnp.asarray(f)))
+# ---- any protocol given as steps; the baselines ---------------------------------------------------------------
+
+
+@partial(jax.jit, static_argnames=("crit",))
+def _evaluate(parts, basis, noise, *, crit):
+    """F and the criterion's loss of every protocol of the stacked ``parts``."""
+
+    def one(pt):
+        f = protocol_information(basis, pt, noise)
+        return f, (0.0 if crit is None else crit.loss(f, f.shape[0]))
+
+    return jax.vmap(one)(parts)
+
+
+def evaluate(model, protocols, noise: TriadNoise, crit: Criterion | None = None):
+    """(F (P, 3p, 3p), criterion losses (P,)) of ``protocols``, each (start attitude, steps), in one compiled call."""
+    parts = pad_parts([steps_parts(c0, st) for c0, st in protocols])
+    f, loss = _evaluate(parts, rows_basis(model), noise.numbers(), crit=crit)
+    return np.asarray(f), np.asarray(loss)
+
+
+def steps_fisher(model, start_attitude, steps, noise: TriadNoise) -> np.ndarray:
+    """F of any protocol given as steps (:mod:`gyrojax.simulation.triad_session`), from ``start_attitude``."""
+    return evaluate(model, [(start_attitude, steps)], noise)[0][0]
+
+
+def sigma(f, model) -> dict:
+    """Predicted σ of every coefficient (report units; inf where F is singular)."""
+    f = np.asarray(f)
+    s = np.sqrt(np.maximum(np.diag(f), 1e-300))
+    fs = f / np.outer(s, s)
+    ev = np.linalg.eigvalsh(fs)
+    names = coefficient_names(model)
+    if ev[0] < 1e-12 * ev[-1]:
+        return {n: math.inf for n in names}
+    cov = np.linalg.inv(fs) / np.outer(s, s)
+    return dict(zip(names, np.sqrt(np.diag(cov)).tolist()))
+
+
+def ferraris_steps(total_s: float) -> tuple[np.ndarray, list]:
+    """imucal's Ferraris protocol at ``total_s`` s (module doc): (start attitude, steps)."""
+    faces = [face_attitude(axis, sign, 0.0) for axis, sign in ((0, 1), (0, -1), (1, 1), (1, -1), (2, 1), (2, -1))]
+    motions = []
+    for i in range(6):
+        block = []
+        if i % 2 == 0:  # on face +e_i: a turn of 360° each way about e_i (vertical)
+            e = np.eye(3)[i // 2]
+            block += [_motion("turn", e, 360.0), _motion("turn", -e, 360.0)]
+        if i < 5:
+            axis, angle = relative_turn(faces[i], faces[i + 1])
+            block.append(_motion("reorient", axis, math.degrees(angle)))
+        motions.append(block)
+    rest = (total_s - sum(m["duration_s"] for b in motions for m in b)) / 6.0
+    if rest <= 0:
+        raise ModelError(f"{total_s / 60:g} min do not hold Ferraris' turns and flips")
+    steps = []
+    for block in motions:
+        steps.append({"type": "rest", "rest_s": rest})
+        steps += block
+    return faces[0], steps
+
+
+def random_steps(n_poses: int, total_s: float, seed: int = 0) -> tuple[np.ndarray, list]:
+    """imu_tk's random poses: ``n_poses`` uniformly random attitudes joined by moves, equal rests."""
+    rng = np.random.default_rng(seed)
+    att = [random_attitude(rng) for _ in range(n_poses)]
+    moves = []
+    for k in range(n_poses - 1):
+        axis, angle = relative_turn(att[k], att[k + 1])
+        moves.append(_motion("move", axis, math.degrees(angle)))
+    rest = (total_s - sum(m["duration_s"] for m in moves)) / n_poses
+    if rest <= 0:
+        raise ModelError(f"{total_s / 60:g} min do not hold {n_poses - 1} hand moves")
+    steps = [{"type": "rest", "rest_s": rest}]
+    for m in moves:
+        steps += [m, {"type": "rest", "rest_s": rest}]
+    return att[0], steps
+
+
+BASELINES = ("imucal Ferraris (6 faces, 3 turns each way)", "imu_tk random ({n} poses, mean of {draws})")
 
 
 def comparison(proto: TriadProtocol) -> list[dict]:
-    """Rows (plan, criterion value, σ of every coefficient) of the design beside the baselines; for imu_tk the
-    criterion and σ are means over the draws."""
+    """Rows (plan, criterion value, σ of every coefficient) of the design beside Ferraris' protocol and imu_tk's
+    random poses at the same total time (s); for imu_tk the criterion and σ (report units) are means over
+    :data:`RANDOM_DRAWS` draws.
+    The Fisher information of all of them in one compiled call."""
     model = triad_model(proto.terms)
     n = sum(s["type"] == "rest" for s in proto.steps)
-    f = proto.fisher()
-    rows = [
-        {
-            "plan": f"designed ({n} poses, {proto.criterion.text})",
-            "criterion": criterion_value(proto.criterion, f),
-            "sigma": sigma(f, model),
-        }
+    protocols = [(proto.start_attitude, proto.steps), ferraris_steps(proto.total_s)]
+    protocols += [random_steps(n, proto.total_s, seed) for seed in range(RANDOM_DRAWS)]
+    f, loss = evaluate(model, protocols, proto.noise, proto.criterion)
+    groups = [
+        (f"designed ({n} poses, {proto.criterion_name})", [0]),
+        (BASELINES[0], [1]),
+        (BASELINES[1].format(n=n, draws=RANDOM_DRAWS), list(range(2, 2 + RANDOM_DRAWS))),
     ]
-    for name, fb in baselines(model, n, proto.total_s, proto.noise).items():
-        fs = fb if isinstance(fb, list) else [fb]
-        sig = [sigma(x, model) for x in fs]
+    rows = []
+    for name, idx in groups:
+        sig = [sigma(f[i], model) for i in idx]
         rows.append(
             {
                 "plan": name,
-                "criterion": float(np.mean([criterion_value(proto.criterion, x) for x in fs])),
+                "criterion": float(np.mean(loss[idx])),
                 "sigma": {k: float(np.mean([s[k] for s in sig])) for k in sig[0]},
             }
         )
     return rows
+
+
+# ---- the protocol file ------------------------------------------------------------------------------------------
 
 
 def protocol_payload(proto: TriadProtocol, rows: list[dict]) -> dict:
@@ -540,7 +515,7 @@ def protocol_payload(proto: TriadProtocol, rows: list[dict]) -> dict:
     return {
         "instrument": "imu-triad",
         "terms": list(proto.terms),
-        "criterion": proto.criterion.text,
+        "criterion": proto.criterion_name,
         "total_s": proto.total_s,
         "noise": {
             "arw_deg_per_sqrt_h": n.arw,
@@ -549,6 +524,7 @@ def protocol_payload(proto: TriadProtocol, rows: list[dict]) -> dict:
             "latitude_deg": n.latitude_deg,
             "earth_rate": n.earth_rate,
             "placement_deg": n.placement_deg,
+            "gravity_g": n.g,
         },
         "pace": {"hand_rate_dps": HAND_RATE_DPS, "min_turn_s": MIN_TURN_S},
         "table": proto.table(),
@@ -557,6 +533,8 @@ def protocol_payload(proto: TriadProtocol, rows: list[dict]) -> dict:
             "loss": proto.loss,
             "start_losses": proto.start_losses.tolist(),
             "iterations": len(proto.history),
+            "turn_pairs": proto.turn_pairs,
+            "structure_losses": {str(k): v for k, v in proto.structure_losses.items()},
             "converged": proto.converged,
             **({"reason": proto.convergence_note} if not proto.converged else {}),
         },
@@ -566,20 +544,12 @@ def protocol_payload(proto: TriadProtocol, rows: list[dict]) -> dict:
 
 def save_protocol(path, payload: dict, force: bool = False):
     """Write a protocol file through :mod:`gyrojax.protocol` (atomic, strict JSON, tagged)."""
-    from gyrojax.protocol import save
-
-    return save(path, payload, PROTOCOL_FORMAT, PROTOCOL_VERSION, force=force)
+    return protocol.save(path, payload, PROTOCOL_FORMAT, PROTOCOL_VERSION, force=force)
 
 
 def load_protocol(path) -> dict:
     """Read a protocol file back (its session plan under ``session``); :class:`FormatError` naming file and key."""
-    from gyrojax.protocol import load, require
-
-    doc = load(path, PROTOCOL_FORMAT, PROTOCOL_VERSION)
-    require(doc, ("session", "terms", "noise"), str(path))
-    require(doc["session"], ("start_attitude", "steps"), f"{path}: session")
+    doc = protocol.load(path, PROTOCOL_FORMAT, PROTOCOL_VERSION)
+    protocol.require(doc, ("session", "terms", "noise"), str(path))
+    protocol.require(doc["session"], ("start_attitude", "steps"), f"{path}: session")
     return doc
-
-
-# the printed table and comparison (presentation, a module of its own)
-from gyrojax.planning.triad_protocol_text import advantage, comparison_text, table_text  # noqa: E402, F401

@@ -11,23 +11,23 @@ CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)
 FACES = [(0, 1, 3, 2), (4, 5, 7, 6), (0, 1, 5, 4), (2, 3, 7, 6), (0, 2, 6, 4), (1, 3, 7, 5)]
 
 
-def protocol_figure(proto, path, per_row: int = 4) -> None:
-    """Write a PNG of the box (body axes x red, y green, z blue, +z face shaded) at every rest of ``proto``,
-    ENU axes (E right, N into the page, U up), with the step number, face up and the turn that follows."""
+def protocol_figure(proto, path=None, per_row: int = 4):
+    """A figure of the box (body axes x red, y green, z blue, +z face shaded) at every rest of ``proto``, ENU axes
+    (E right, N into the page, U up), with the step number, face up and the turn that follows; written to ``path``
+    as PNG when given. A ``matplotlib.figure.Figure`` made without pyplot: the caller's backend is untouched."""
     import io
 
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # registers the 3d projection
 
     atts = proto.attitudes()
     rows = proto.table()
     n = len(atts)
     ncol = min(per_row, n)
     nrow = -(-n // ncol)
-    fig = plt.figure(figsize=(3.3 * ncol, 2.9 * nrow))
+    fig = Figure(figsize=(3.3 * ncol, 2.9 * nrow))
+    FigureCanvasAgg(fig)
     for k, (c, r) in enumerate(zip(atts, rows)):
         ax = fig.add_subplot(nrow, ncol, k + 1, projection="3d")
         pts = CORNERS @ c.T
@@ -47,7 +47,8 @@ def protocol_figure(proto, path, per_row: int = 4) -> None:
         turn = f"\nthen {r['angle_deg']:.0f}° about {r['turn_axis']}" if "turn_axis" in r else "\n(end)"
         ax.set_title(f"{r['step']}: {r['up']} up, {r['rest_s']:.0f} s{turn}", fontsize=7)
     fig.suptitle("rests in order (E right, N away, U up; +z face blue)", fontsize=9)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    plt.close(fig)
-    atomic_write_bytes(path, buf.getvalue())
+    if path is not None:
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=110)
+        atomic_write_bytes(path, buf.getvalue())
+    return fig

@@ -15,19 +15,31 @@ import math
 
 import jax
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from gyrojax import units
 from gyrojax.data.importers import triad_meta
 from gyrojax.data.record import Record
 from gyrojax.physics import triad as tp
+from gyrojax.physics.frames import site_gravity
 
 FACES = (("x_p", 0, 1.0), ("x_a", 0, -1.0), ("y_p", 1, 1.0), ("y_a", 1, -1.0), ("z_p", 2, 1.0), ("z_a", 2, -1.0))
 
 
-def _rot(axis: np.ndarray, angle: float) -> np.ndarray:
-    """Rotation matrix R(u, θ) = I + sin θ [u×] + (1 − cos θ)[u×]² (conventions §3)."""
-    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-    return np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * k @ k
+def rotation_matrix(axis, angle):
+    """The rotation of rotation vector ``axis``·``angle`` (R(n, α) of conventions §3 for a unit ``axis`` (3,)), angle
+    in rad: a scalar → (3, 3), (n,) → (n, 3, 3); numpy, by scipy's rotation vectors."""
+    angle = np.asarray(angle, dtype=float)
+    vec = np.asarray(axis, dtype=float) * angle[..., None]
+    return Rotation.from_rotvec(vec.reshape(-1, 3)).as_matrix().reshape(angle.shape + (3, 3))
+
+
+def relative_turn(c0, c1) -> tuple[np.ndarray, float]:
+    """The body-frame turn (unit axis, angle in rad, in [0, π]) that takes attitude ``c0`` to ``c1`` (body → L,
+    3×3 each): c1 = c0 R(axis, angle); the axis is +z when the attitudes are equal."""
+    v = Rotation.from_matrix(np.asarray(c0).T @ np.asarray(c1)).as_rotvec()
+    a = float(np.linalg.norm(v))
+    return (v / a if a > 0 else np.array([0.0, 0.0, 1.0])), a
 
 
 def face_attitude(axis: int, sign: float, heading: float) -> np.ndarray:
@@ -39,10 +51,10 @@ def face_attitude(axis: int, sign: float, heading: float) -> np.ndarray:
     v = np.cross(up, z)
     c = float(up @ z)
     if np.linalg.norm(v) < 1e-12:
-        base = np.eye(3) if c > 0 else _rot(np.array([1.0, 0.0, 0.0]), math.pi)
+        base = np.eye(3) if c > 0 else rotation_matrix([1.0, 0.0, 0.0], math.pi)
     else:
-        base = _rot(v / np.linalg.norm(v), math.acos(max(-1.0, min(1.0, c))))
-    return _rot(z, heading) @ base
+        base = rotation_matrix(v / np.linalg.norm(v), math.acos(max(-1.0, min(1.0, c))))
+    return rotation_matrix(z, heading) @ base
 
 
 _triad_output_jit = jax.jit(tp.triad_output, static_argnums=0)
@@ -57,13 +69,9 @@ def turn_samples(c0, axis, angle_rad: float, n: int, dt: float, omega_l, f_l):
     prof = np.sin(math.pi * t / (n * dt))
     rate = prof * angle_rad / (prof.sum() * dt)  # rad/s
     ang = np.cumsum(rate) * dt - 0.5 * rate * dt
-    w = np.empty((n, 3))
-    f = np.empty((n, 3))
-    for k in range(n):
-        ck = c0 @ _rot(axis, ang[k])
-        w[k] = ck.T @ omega_l + axis * rate[k] / units.DEG_PER_H
-        f[k] = ck.T @ f_l
-    return w, f
+    ck = np.asarray(c0) @ rotation_matrix(axis, ang)
+    w = np.einsum("kji,j->ki", ck, omega_l) + np.asarray(axis) * (rate / units.DEG_PER_H)[:, None]
+    return w, np.einsum("kji,j->ki", ck, f_l)
 
 
 def sensor_columns(model, theta, ws, fs, labels, dt, gyro_noise_dps, acc_noise_g, rng, extra=None) -> dict:
@@ -102,22 +110,27 @@ def simulate_ferraris(
     angle_deg: float = 360.0,
     angle_std_deg: float = 0.0,
     latitude_deg: float | None = 49.6,
-    gravity_mps2: float = 9.81,
+    gravity_mps2: float | None = None,
     fit_latitude: bool = True,
+    earth_rate: bool = True,
     seed: int = 0,
 ) -> Record:
     """One simulated Ferraris session (module doc) as an ``imu-triad`` record, gyro columns in deg/s.
 
     ``truth``: per-channel coefficients ``{"D_F[x]": deg/h, "E_SF[y]": ppm, "M_O[z]": arcsec, …}`` of ``terms``.
-    ``fit_latitude``: write the latitude into the record (else ``null``: unknown to the fit).
+    ``fit_latitude``: write the latitude into the record (else ``null``: unknown to the fit). ``latitude_deg`` None
+    puts the site on the equator; ``gravity_mps2`` None is the site's normal gravity (conventions §2);
+    ``earth_rate=False`` leaves the Earth rate out of the motion and the record.
     Samples between segments are transitions (label −1, ``gap_s`` long, not modelled).
     """
     rng = np.random.default_rng(seed)
     model = tp.channel_model(terms)
     theta = np.array([[truth.get(tp.channel_name(c, ch), 0.0) for c in model.coefficient_names] for ch in tp.CHANNELS])
     dt = 1.0 / rate_hz
-    lat = math.radians(latitude_deg if latitude_deg is not None else 0.0)
-    omega_l = units.OMEGA_IE_DEG_PER_H * np.array([0.0, math.cos(lat), math.sin(lat)])  # deg/h in ENU
+    lat_deg = latitude_deg if latitude_deg is not None else 0.0
+    lat = math.radians(lat_deg)
+    omega_l = units.OMEGA_IE_DEG_PER_H * np.array([0.0, math.cos(lat), math.sin(lat)]) * float(earth_rate)  # deg/h
+    gravity_mps2 = site_gravity(lat_deg) if gravity_mps2 is None else gravity_mps2
     f_l = np.array([0.0, 0.0, gravity_mps2 / units.G0])  # g
     ws, fs, labels, segs = [], [], [], []
 
@@ -164,6 +177,8 @@ def simulate_ferraris(
         gravity_mps2=gravity_mps2,
         notes="simulated Ferraris session (gyrojax.simulation.triad)",
     )
+    if not earth_rate:
+        meta["earth_rate"] = False
     return Record(meta, cols)
 
 
@@ -180,16 +195,6 @@ def random_attitude(rng) -> np.ndarray:
     )
 
 
-def _axis_angle(r: np.ndarray) -> tuple[np.ndarray, float]:
-    """Unit axis and angle (rad) of a rotation matrix (angle in [0, π])."""
-    angle = math.acos(max(-1.0, min(1.0, (np.trace(r) - 1) / 2)))
-    v = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
-    n = float(np.linalg.norm(v))
-    if n < 1e-12:
-        return np.array([1.0, 0.0, 0.0]), 0.0
-    return v / n, angle
-
-
 def simulate_multiposition(
     truth: dict,
     *,
@@ -202,7 +207,7 @@ def simulate_multiposition(
     gyro_noise_dps: float = 0.05,
     acc_noise_g: float = 0.001,
     latitude_deg: float = 49.6,
-    gravity_mps2: float = 9.81,
+    gravity_mps2: float | None = None,
     earth_rate: bool = True,
     fit_latitude: bool = False,
     move_error_deg: float = 0.0,
@@ -219,13 +224,15 @@ def simulate_multiposition(
     over the move's last 5 %, where the body has nearly stopped, so that it is δφ in the final attitude) and
     ``bias_step_dph`` a bias step at each move (a new level N(0, σ²) per channel about the truth's bias, held from
     the move through the next pose; deg/h). Times in s (``static_s`` and
-    ``move_s`` one duration, or one per pose and per move), latitude in deg."""
+    ``move_s`` one duration, or one per pose and per move), latitude in deg, ``gravity_mps2`` None the site's normal
+    gravity (conventions §2)."""
     rng = np.random.default_rng(seed)
     model = tp.channel_model(terms)
     theta = np.array([[truth.get(tp.channel_name(c, ch), 0.0) for c in model.coefficient_names] for ch in tp.CHANNELS])
     dt = 1.0 / rate_hz
     lat = math.radians(latitude_deg)
     omega_l = units.OMEGA_IE_DEG_PER_H * np.array([0.0, math.cos(lat), math.sin(lat)]) * (1.0 if earth_rate else 0.0)
+    gravity_mps2 = site_gravity(latitude_deg) if gravity_mps2 is None else gravity_mps2
     f_l = np.array([0.0, 0.0, gravity_mps2 / units.G0])
     atts = [random_attitude(rng) for _ in range(poses)]
     ws, fs, labels, segs, extra = [], [], [], [], []
@@ -241,7 +248,7 @@ def simulate_multiposition(
         segs.append({"label": 2 * k, "type": "static", "name": f"pose-{k}"})
         if k + 1 == poses:
             break
-        axis, angle = _axis_angle(c.T @ atts[k + 1])  # body-frame axis taking attitude k to k + 1
+        axis, angle = relative_turn(c, atts[k + 1])
         w, f = turn_samples(c, axis, angle, int(n_moves[k]), dt, omega_l, f_l)
         ws.append(w)
         fs.append(f)

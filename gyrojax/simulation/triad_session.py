@@ -32,14 +32,11 @@ from gyrojax.data.importers import triad_meta
 from gyrojax.data.record import Record
 from gyrojax.errors import ModelError
 from gyrojax.physics import triad as tp
-from gyrojax.simulation.triad import sensor_columns, turn_samples
+from gyrojax.physics.frames import site_gravity
+from gyrojax.simulation.triad import rotation_matrix, sensor_columns, turn_samples
 
 STEP_TYPES = ("rest", "move", "turn", "reorient")
 AXIS_NAMES = {(1, 0, 0): "x", (-1, 0, 0): "-x", (0, 1, 0): "y", (0, -1, 0): "-y", (0, 0, 1): "z", (0, 0, -1): "-z"}
-
-
-def _rot(axis, angle_rad: float) -> np.ndarray:
-    return Rotation.from_rotvec(np.asarray(axis, dtype=float) * angle_rad).as_matrix()
 
 
 def body_axis_name(axis) -> str:
@@ -78,7 +75,7 @@ def simulate_session(
     acc_noise_g: float = 0.002,
     placement_deg: float = 0.0,
     latitude_deg: float = 49.6,
-    gravity_mps2: float = 9.81,
+    gravity_mps2: float | None = None,
     earth_rate: bool = True,
     fit_latitude: bool = False,
     heading_deg: float | None = None,
@@ -88,7 +85,8 @@ def simulate_session(
 
     ``truth`` per-channel coefficients ``{"D_F[x]": deg/h, "E_SF[y]": ppm, "M_O[z]": arcsec, …}``;
     ``start_attitude`` the first rest's body → ENU attitude (3×3, default: z up) before the heading; ``fit_latitude``
-    writes the latitude into the record (else ``null``); ``earth_rate=False`` leaves the Earth rate out of the
+    writes the latitude into the record (else ``null``); ``gravity_mps2`` None is the site's normal gravity (conventions
+    §2); ``earth_rate=False`` leaves the Earth rate out of the
     motion and the record."""
     check_steps(steps)
     rng = np.random.default_rng(seed)
@@ -97,11 +95,12 @@ def simulate_session(
     dt = 1.0 / rate_hz
     lat = math.radians(latitude_deg)
     omega_l = units.OMEGA_IE_DEG_PER_H * np.array([0.0, math.cos(lat), math.sin(lat)]) * (1.0 if earth_rate else 0.0)
+    gravity_mps2 = site_gravity(latitude_deg) if gravity_mps2 is None else gravity_mps2
     f_l = np.array([0.0, 0.0, gravity_mps2 / units.G0])
     psi = math.radians(heading_deg) if heading_deg is not None else rng.uniform(0.0, 2.0 * math.pi)
     c0 = np.eye(3) if start_attitude is None else np.asarray(start_attitude, dtype=float)
-    plan = _rot([0.0, 0.0, 1.0], psi) @ c0  # the attitude the person aims at
-    act = plan @ _rot(rng.standard_normal(3), math.radians(placement_deg)) if placement_deg else plan
+    plan = rotation_matrix([0.0, 0.0, 1.0], psi) @ c0  # the attitude the person aims at
+    act = plan @ rotation_matrix(rng.standard_normal(3), math.radians(placement_deg)) if placement_deg else plan
     sig = math.radians(placement_deg)
     ws, fs, labels, segs = [], [], [], []
     k_rest = 0
@@ -124,8 +123,8 @@ def simulate_session(
         if kind == "turn":
             extra = math.sqrt(2.0) * sig * rng.standard_normal()
             w, f = turn_samples(act, axis, phi + extra, n, dt, omega_l, f_l)
-            act = act @ _rot(axis, phi + extra)
-            plan = plan @ _rot(axis, phi)
+            act = act @ rotation_matrix(axis, phi + extra)
+            plan = plan @ rotation_matrix(axis, phi)
             segs.append(
                 {
                     "label": lab,
@@ -137,12 +136,12 @@ def simulate_session(
                 }
             )
         else:
-            plan = plan @ _rot(axis, phi)
-            target = plan @ _rot(rng.standard_normal(3), sig) if sig else plan
-            err = Rotation.from_matrix((act @ _rot(axis, phi)).T @ target).as_rotvec()
+            plan = plan @ rotation_matrix(axis, phi)
+            target = plan @ rotation_matrix(rng.standard_normal(3), sig) if sig else plan
+            err = Rotation.from_matrix((act @ rotation_matrix(axis, phi)).T @ target).as_rotvec()
             tail = max(n // 20, 2) if sig else 0
             w, f = turn_samples(act, axis, phi, n - tail, dt, omega_l, f_l)
-            mid = act @ _rot(axis, phi)
+            mid = act @ rotation_matrix(axis, phi)
             if tail:
                 e = float(np.linalg.norm(err))
                 w2, f2 = turn_samples(mid, err / e if e > 0 else axis, e, tail, dt, omega_l, f_l)

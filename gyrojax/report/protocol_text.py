@@ -35,15 +35,16 @@ def table_text(table: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def comparison_text(rows: list[dict], crit) -> str:
-    """Predicted σ of every coefficient, the design beside the baselines, and the criterion's ratio."""
+def comparison_text(rows: list[dict], crit, name: str | None = None) -> str:
+    """Predicted σ of every coefficient, the design beside the baselines, and the criterion's ratio (``name``: the
+    criterion as given, default its label)."""
     names = list(rows[0]["sigma"])
     p = len(names)
     heads = ["designed", "Ferraris", "imu_tk"][: len(rows)]
     lines = [f"{'coefficient':<12}" + "".join(f"{h:>12}" for h in heads)]
     for n in names:
         lines.append(f"{n:<12}" + "".join(f"{r['sigma'][n]:12.4g}" for r in rows))
-    lines.append(f"{'criterion ' + crit.text:<12}" + "".join(f"{r['criterion']:12.5g}" for r in rows))
+    lines.append(f"{'criterion ' + (name or crit.label()):<12}" + "".join(f"{r['criterion']:12.5g}" for r in rows))
     ratio = [advantage(crit, r["criterion"], rows[0]["criterion"], p) for r in rows]
     what = "geometric-mean sigma" if crit.kind == "D" else "sigma"
     lines.append(f"{'ratio':<12}" + "".join(f"{x:12.3f}" for x in ratio) + f"   (baseline / designed {what})")
