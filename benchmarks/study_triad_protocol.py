@@ -26,6 +26,7 @@ from gyrojax.inference.triad import fit_triad
 from gyrojax.montecarlo.triad import mems_truth
 from gyrojax.planning import triad_protocol as tpr
 from gyrojax.planning.triad_fisher import TriadNoise, coefficient_names
+from gyrojax.planning.triad_protocol_text import comparison_text, table_text
 from gyrojax.simulation.triad_session import simulate_session
 
 TERMS = ("D_F", "D_I", "D_O", "D_S", "sf_error", "ia_misalignment")
@@ -74,8 +75,8 @@ def main() -> None:
             f"== Earth rate {'on (latitude unknown, random heading)' if earth else 'off'}; "
             f"design {time.perf_counter() - t0:.0f} s"
         )
-        print(tpr.table_text(proto.table()))
-        print(tpr.comparison_text(rows, proto.criterion))
+        print(table_text(proto.table()))
+        print(comparison_text(rows, proto.criterion))
         r = monte_carlo(proto, a.seeds, earth)
         names = coefficient_names(tpr.triad_model(TERMS))
         print(

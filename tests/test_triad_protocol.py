@@ -20,6 +20,7 @@ from gyrojax.inference.triad import fit_triad
 from gyrojax.montecarlo.triad import mems_truth
 from gyrojax.planning import triad_protocol as tpr
 from gyrojax.planning.triad_fisher import TriadNoise, coefficient_names
+from gyrojax.planning.triad_protocol_text import table_text
 from gyrojax.simulation.triad import random_attitude
 from gyrojax.simulation.triad_session import simulate_session
 
@@ -133,7 +134,7 @@ def test_table_shows_known_angle_and_free_turns():
         ("known-angle", "-x", 360.0),
     ]
     assert table[0]["up"] == "+x" and first[2]["kind"] == "not fitted"
-    text = tpr.table_text(table).splitlines()
+    text = table_text(table).splitlines()
     assert any("known-angle +x" in line and "360.0°" in line for line in text)
     assert any("not fitted" in line for line in text) and text[-1].startswith("known-angle: turn by exactly")
     c0, st = tpr.random_steps(6, 200.0, seed=1)

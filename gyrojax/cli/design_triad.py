@@ -71,6 +71,7 @@ def design_triad(args) -> int:
     terms = parse_terms(args.terms) if args.terms else list(DEFAULT_TERMS)
     noise, note = triad_noise_from_args(args)
     from gyrojax.planning import triad_protocol as tpr
+    from gyrojax.planning.triad_protocol_text import comparison_text, table_text
 
     tpr.triad_model(terms)  # refuse bad terms before any work
     proto = tpr.design_protocol(
@@ -97,7 +98,7 @@ def design_triad(args) -> int:
     )
     if note:
         print(f"note: {note}")
-    print(tpr.table_text(payload["table"]))
+    print(table_text(payload["table"]))
     print()
-    print(tpr.comparison_text(rows, proto.criterion))
+    print(comparison_text(rows, proto.criterion))
     return 0

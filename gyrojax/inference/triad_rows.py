@@ -289,7 +289,7 @@ def move_rows(model, theta, packed, whitening):
     """Per move at θ: the residual r (M, 3) (dimensionless), the whitened rows (2M,) P_kᵀ r_k / σ_k and their
     Jacobian (2M, 3p) (rows of "y − f": ∂f/∂θ = −∂r/∂θ), one compiled call. ``packed`` from :func:`pack_moves`
     (bucketed or not), ``whitening`` the list of (P (3, 2), σ rad) of
-    :func:`gyrojax.inference.triad._move_whitening`."""
+    :func:`gyrojax.inference.triad.move_whitening`."""
     m, m_pad = len(whitening), packed[0].shape[0]
     basis = np.zeros((m_pad, 3, 2))
     inv_sd = np.zeros(m_pad)

@@ -55,7 +55,7 @@ from gyrojax.data.arrays import record_data
 from gyrojax.data.record import Record
 from gyrojax.errors import GyrojaxError
 from gyrojax.inference.lstsq import lstsq, lstsq_normal
-from gyrojax.montecarlo.study import Study, StudyError, _expand, _prior
+from gyrojax.montecarlo.study import Study, StudyError, expand_name, parse_prior
 from gyrojax.noise.processes import random_drift
 from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics import effects as fx
@@ -325,8 +325,8 @@ def build_pipeline(study: Study, plan=None, records=None) -> Pipeline:
     priors = {}
     for key, setup in (("priors", False), ("setup", True)):
         for name, v in getattr(study, key).items():
-            for c in _expand(name, f"study: key '{key}.{name}'", setup):
-                priors[c] = _prior(v, f"study: key '{key}.{name}'")
+            for c in expand_name(name, f"study: key '{key}.{name}'", setup):
+                priors[c] = parse_prior(v, f"study: key '{key}.{name}'")
     names = list(fit_model.coefficient_names) + [c for c in priors if c not in fit_model.coefficient_names]
     truth_model = Model.of(names, kind)
     uni = np.array([priors.get(c, (False, 0.0, 0.0))[0] for c in truth_model.coefficient_names])

@@ -97,7 +97,7 @@ _STUDY_KEYS = (
 )
 
 
-def _prior(v, where: str):
+def parse_prior(v, where: str):
     """(is_uniform, a, b) of a prior: number → N(v, 0); {"normal": [μ, σ]}; {"uniform": [lo, hi]}."""
     if isinstance(v, bool):
         raise StudyError(f"{where}: a prior must be a number or {{'normal': [mean, std]}} / {{'uniform': [lo, hi]}}")
@@ -124,7 +124,7 @@ def _prior(v, where: str):
     return k == "uniform", a, b
 
 
-def _expand(name: str, where: str, setup: bool) -> tuple[str, ...]:
+def expand_name(name: str, where: str, setup: bool) -> tuple[str, ...]:
     """Coefficient names of a prior key (a coefficient, or an effect = all its coefficients)."""
     idx = fx.coefficient_index()
     if name in fx.names():
@@ -173,8 +173,8 @@ def study_from_dict(d, where: str = "study") -> Study:
         if not isinstance(pr, dict):
             raise StudyError(f"{where}: key {key!r} must be an object")
         for name, v in pr.items():
-            _expand(name, f"{where}: key '{key}.{name}'", setup)
-            _prior(v, f"{where}: key '{key}.{name}'")
+            expand_name(name, f"{where}: key '{key}.{name}'", setup)
+            parse_prior(v, f"{where}: key '{key}.{name}'")
     try:
         nd = d.get("noise")
         if isinstance(nd, dict) and protocol.FORMAT_KEY in nd:  # a saved noise model (e.g. two Gauss–Markov terms)

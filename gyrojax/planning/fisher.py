@@ -171,13 +171,13 @@ def record_fisher(model: Model, records, noise: NoiseSpec, theta=None) -> np.nda
     theta = np.zeros(model.size) if theta is None else np.asarray(theta, float)
     f = np.zeros((model.size, model.size))
     for (_r, j, lab, _t), d in zip(linearize(model, theta, camp), camp.data):
-        dt = _measurement_dt(d, lab)
+        dt = measurement_dt(d, lab)
         w = dt / (60.0 * noise.white) ** 2
         f += (j * w[:, None]).T @ j
     return f
 
 
-def _measurement_dt(d: RecordData, lab) -> np.ndarray:
+def measurement_dt(d: RecordData, lab) -> np.ndarray:
     """Sample interval of each kept measurement (servo: its own interval; rebalance: the record's median step)."""
     lab = np.asarray(lab)
     if d.mode == "servo":

@@ -45,7 +45,7 @@ from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model, jacobian
 from gyrojax.planning import search
 from gyrojax.planning.criteria import detect_power, noncentrality
-from gyrojax.planning.fisher import TIME_EFFECTS, Table, _measurement_dt
+from gyrojax.planning.fisher import TIME_EFFECTS, Table, measurement_dt
 from gyrojax.planning.optimal import dwell_from_logits
 
 TARGET_POWER = 0.9
@@ -143,7 +143,7 @@ def _record_information(model: Model, records, white=None) -> np.ndarray:
     f = np.zeros((model.size, model.size))
     for i, ((_r, j, lab, _t), d) in enumerate(zip(linearize(model, np.zeros(model.size), camp), camp.data)):
         n = 1.0 if white is None else white[i]
-        w = _measurement_dt(d, lab) / (60.0 * n) ** 2
+        w = measurement_dt(d, lab) / (60.0 * n) ** 2
         f += (j * w[:, None]).T @ j
     return f
 

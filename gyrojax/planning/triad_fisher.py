@@ -27,7 +27,7 @@ import jax
 import jax.numpy as jnp
 
 from gyrojax import units
-from gyrojax.inference.triad import move_residual, segment_means
+from gyrojax.inference.triad_rows import move_residual, segment_means
 from gyrojax.physics import triad as tp
 
 MOVE_SAMPLES = 24

@@ -579,7 +579,3 @@ def load_protocol(path) -> dict:
     require(doc, ("session", "terms", "noise"), str(path))
     require(doc["session"], ("start_attitude", "steps"), f"{path}: session")
     return doc
-
-
-# the printed table and comparison (presentation, a module of its own)
-from gyrojax.planning.triad_protocol_text import advantage, comparison_text, table_text  # noqa: E402, F401
