@@ -1,0 +1,82 @@
+"""The rotation group SO(3) in JAX: the cross-product matrix, the exponential and its right Jacobian, for stacks of
+rotation vectors (..., 3) in rad, right-hand rule (conventions §3).
+
+    exp([v×]) = I + sin θ/θ [v×] + (1 − cos θ)/θ² [v×]²                                   (Rodrigues, θ = |v|)
+    J_r(v)    = I − (1 − cos θ)/θ² [v×] + (θ − sin θ)/θ³ [v×]²,   exp([(v + δ)×]) ≈ exp([v×]) exp([(J_r δ)×])
+
+Both are written as c₀ I + c₁ [v×] + c₂ v vᵀ (using [v×]² = v vᵀ − θ² I), the coefficients by their Taylor series
+near θ = 0, where the closed forms divide zero by zero: values and derivatives of every order stay finite at v = 0,
+so a fit or a design may differentiate through an attitude that passes the identity.
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+import numpy as np
+
+EXP_SERIES_BELOW = 1e-16
+"""θ² (rad²) below which the exponential's coefficients are taken from their series (exact there to rounding)."""
+JR_SERIES_BELOW = 1e-8
+"""θ² (rad²) below which the right Jacobian's coefficients are taken from their series: the closed form
+(θ − sin θ)/θ³ loses its digits to cancellation first; both forms agree to rounding at the switch."""
+
+
+LEVI_CIVITA = np.array(
+    [[[0, 0, 0], [0, 0, 1], [0, -1, 0]], [[0, 0, -1], [0, 0, 0], [1, 0, 0]], [[0, 1, 0], [-1, 0, 0], [0, 0, 0]]],
+    dtype=float,
+)
+"""ε_ijk: [v×]_ij = −ε_ijk v_k."""
+
+
+def hat(v):
+    """[v×] of vectors ``v`` (..., 3): (..., 3, 3), so that [v×] w = v × w (each entry 0 or ±v_k, exactly)."""
+    return (-LEVI_CIVITA * v[..., None, None, :]).sum(axis=-1)
+
+
+def compose(a, b):
+    """a @ b of stacks of 3×3 matrices (..., 3, 3) as broadcast products: XLA's CPU batched dot of many small
+    matrices costs far more than their arithmetic."""
+    return (a[..., :, :, None] * b[..., None, :, :]).sum(axis=-2)
+
+
+def _combine(v, small_at: float, coefficients):
+    """c₀ I + c₁ [v×] + c₂ v vᵀ with (c₀, c₁, c₂) = ``coefficients(θ², θ, small)``, ``small`` where θ² ≤
+    ``small_at`` (θ is then 1, a placeholder the series forms do not use)."""
+    th2 = (v * v).sum(axis=-1)
+    small = th2 <= small_at
+    th = jnp.sqrt(jnp.where(small, 1.0, th2))
+    c0, c1, c2 = coefficients(th2, th, small)
+    return (
+        c0[..., None, None] * jnp.eye(3)
+        + c1[..., None, None] * hat(v)
+        + c2[..., None, None] * (v[..., :, None] * v[..., None, :])
+    )
+
+
+def _exp_coefficients(th2, th, small):
+    safe = jnp.where(small, 1.0, th2)
+    a = jnp.where(small, 1.0 - th2 / 6.0, jnp.sin(th) / th)
+    b = jnp.where(small, 0.5 - th2 / 24.0, (1.0 - jnp.cos(th)) / safe)
+    return 1.0 - b * th2, a, b
+
+
+def exp(v):
+    """The rotation exp([v×]) of rotation vectors ``v`` (..., 3) rad: (..., 3, 3) (module doc)."""
+    return _combine(v, EXP_SERIES_BELOW, _exp_coefficients)
+
+
+def _right_jacobian_coefficients(th2, th, small):
+    safe = jnp.where(small, 1.0, th2)
+    c1 = jnp.where(small, 0.5 - th2 / 24.0, (1.0 - jnp.cos(th)) / safe)
+    c2 = jnp.where(small, 1.0 / 6.0 - th2 / 120.0, (th - jnp.sin(th)) / (safe * th))
+    return 1.0 - c2 * th2, -c1, c2
+
+
+def right_jacobian(v):
+    """J_r(v) of rotation vectors ``v`` (..., 3) rad: (..., 3, 3) (module doc)."""
+    return _combine(v, JR_SERIES_BELOW, _right_jacobian_coefficients)
+
+
+def rotation(axis, angle):
+    """R(n, α) = exp([α n×]): the rotation by ``angle`` (rad, shape (...)) about the unit vector ``axis`` (..., 3)."""
+    return exp(jnp.asarray(axis) * jnp.asarray(angle)[..., None])
