@@ -211,7 +211,7 @@ def _write(records, folder: Path, start_terms) -> None:
     """The records as CSV + JSON, and the regressors of the starting model and of every candidate at θ = 0."""
     from gyrojax.data.records import save_record
     from gyrojax.inference.campaign import Campaign, linearize
-    from gyrojax.inference.diagnose import candidate_effects
+    from gyrojax.inference.turntable_diagnosis import candidate_effects
     from gyrojax.physics.model import Model
 
     for r in records:
@@ -326,7 +326,7 @@ def main(argv=None):
 
     # ---- issue 26's table -----------------------------------------------------------------------------------------
     from gyrojax.inference.campaign import linearize
-    from gyrojax.inference.diagnose import candidate_effects
+    from gyrojax.inference.turntable_diagnosis import candidate_effects
     from gyrojax.physics.model import Model
 
     model = Model(tuple(START_TERMS), camp.kind)

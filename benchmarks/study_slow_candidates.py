@@ -6,7 +6,8 @@ For each draw, the model D_F, D_I, D_O, D_S is fitted and ``bias_trend`` is test
   score   the diagnosis' test (``p_value`` of ``bias_trend`` from :func:`gyrojax.inference.diagnose.diagnose`): the
           score statistic under the diagnosis' noise model (τ capped at the record span / 8), F(1, n − p);
   wald    the trend's coefficient fitted beside the drift re-estimated with it, Wald with Satterthwaite ν
-          (:func:`gyrojax.inference.diagnose.wald_beside_drift`; ``p_value_drift_refitted`` in the diagnosis JSON);
+          (:func:`gyrojax.inference.turntable_diagnosis.wald_beside_drift`; ``p_value_drift_refitted`` in the
+          diagnosis JSON);
   lr      profile likelihood ratio, white + Gauss–Markov re-fitted by maximum likelihood under both hypotheses
           (τ up to the record span), χ²(1).
 
@@ -31,8 +32,9 @@ from scipy import stats
 from gyrojax import plans, simulate
 from gyrojax.inference import identify
 from gyrojax.inference.campaign import Campaign, linearize
-from gyrojax.inference.diagnose import diagnose, wald_beside_drift
+from gyrojax.inference.diagnose import diagnose
 from gyrojax.inference.noisefit import group_series
+from gyrojax.inference.turntable_diagnosis import wald_beside_drift
 from gyrojax.noise import reml
 from gyrojax.physics.model import Model
 
@@ -50,7 +52,7 @@ def _lr_p(lin, start) -> float:
     f = []
     for p in (len(TERMS), len(TERMS) + 1):
         s = reml.prepare(r, j[:, :p], lab, t, 1.0)
-        f.append(reml.fit(s, start, reml=False)[1])
+        f.append(reml.fit(s, start, reml=False).value)
     return float(stats.chi2.sf(max(f[0] - f[1], 0.0), 1))
 
 

@@ -18,7 +18,8 @@ import sys
 import time
 import warnings
 
-from gyrojax.inference.triad_diagnose import diagnose_triad
+from gyrojax.inference.diagnose import diagnose
+from gyrojax.report.text import diagnosis_text
 from tests.test_triad_diagnose import session
 
 
@@ -28,7 +29,7 @@ def main(draws: int = 40) -> None:
     for seed in range(draws):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            d = diagnose_triad(session(100 + seed, gm=(30.0, 20.0), move_deg=0.1, step_dph=20.0), vet=False)
+            d = diagnose(session(100 + seed, gm=(30.0, 20.0), move_deg=0.1, step_dph=20.0), vet=False)
         adequate += d.verdict == "adequate"
         proposals += d.proposal is not None
         if d.verdict != "adequate":
@@ -56,7 +57,7 @@ def xsens() -> None:
     cli(args + ["--gyro-scale", str(6258.0 * math.pi / 180.0), "--gravity", "9.81744", "--out", out])
     (rec,) = load_records(out)
     t0 = time.time()
-    print(diagnose_triad(rec).text())
+    print(diagnosis_text(diagnose(rec)))
     print(f"{time.time() - t0:.0f} s")
 
 

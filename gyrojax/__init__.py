@@ -30,6 +30,15 @@ import importlib
 import os
 import sys
 
+from gyrojax.errors import (
+    GyrojaxError,
+    ModelError,
+    PlanError,
+    RecordError,
+    TruthError,
+    UnknownNameError,
+)
+
 
 def _enable_x64() -> None:
     """float64 in JAX, the one place: drifts of 1e-4 deg/h beside rates of 1e5 deg/h. JAX itself is not imported
@@ -91,14 +100,6 @@ def _default_compilation_cache() -> None:
 
 _default_compilation_cache()
 
-from gyrojax.errors import (  # noqa: E402
-    GyrojaxError,
-    ModelError,
-    PlanError,
-    RecordError,
-    TruthError,
-    UnknownNameError,
-)
 
 __version__ = "0.2.0"
 
@@ -133,7 +134,7 @@ _FLAT = {
     "Campaign": "gyrojax.inference.campaign:Campaign",
     "FitResult": "gyrojax.inference.result:FitResult",
     "fit": "gyrojax.inference.identify:fit",
-    "Diagnosis": "gyrojax.inference.diagnose:Diagnosis",
+    "Diagnosis": "gyrojax.inference.verdict:Diagnosis",
     "diagnose": "gyrojax.inference.diagnose:diagnose",
     "add_and_refit": "gyrojax.inference.diagnose:add_and_refit",
     "fit_with": "gyrojax.inference.diagnose:fit_with",
@@ -149,51 +150,8 @@ _FLAT = {
     "run_study": "gyrojax.montecarlo.runner:run_study",
 }
 
-__all__ = [
-    "Campaign",
-    "Diagnosis",
-    "Effect",
-    "FitResult",
-    "GyrojaxError",
-    "Model",
-    "ModelError",
-    "Plan",
-    "PlanError",
-    "Record",
-    "RecordError",
-    "Study",
-    "Truth",
-    "TruthError",
-    "UnknownNameError",
-    "__version__",
-    "add_and_refit",
-    "allan",
-    "compare_plans",
-    "design",
-    "diagnose",
-    "effects",
-    "fit",
-    "fit_chunked",
-    "fit_with",
-    "frames",
-    "kinematics",
-    "load_plan",
-    "load_record",
-    "load_records",
-    "load_study",
-    "load_truth",
-    "noise",
-    "plans",
-    "predict",
-    "record_data",
-    "register",
-    "report",
-    "run_study",
-    "save_record",
-    "simulate",
-    "truth_from_dict",
-    "units",
-]
+__all__ = ["GyrojaxError", "ModelError", "PlanError", "RecordError", "TruthError", "UnknownNameError", "__version__"]
+__all__ += sorted(_FLAT)
 
 
 def __getattr__(name: str):

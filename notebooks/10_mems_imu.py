@@ -26,6 +26,7 @@ import numpy as np
 from IPython.display import Image
 
 import gyrojax
+from gyrojax import report
 from gyrojax.data.importers import import_imucal
 from gyrojax.inference.triad import fit_triad
 
@@ -51,7 +52,7 @@ print(rec.n, "samples;", [(s["name"], s["type"]) for s in rec.meta["segments"]])
 
 # %%
 res = fit_triad(rec, ["D_F", "D_I", "D_O", "D_S", "sf_error", "ia_misalignment"])
-print(res.text())
+print(report.fit_table(res))
 
 # %% [markdown]
 # ## Beside imucal
@@ -101,10 +102,8 @@ for n in res.names:
 # processes between segments, tested against this fit with one Holm family (`gyrojax diagnose RECORDS`).
 
 # %%
-from gyrojax.inference.triad_diagnose import diagnose_triad
-
-diag = diagnose_triad(rec, result=res)
-print(diag.text())
+diag = gyrojax.diagnose(rec, result=res)
+print(report.diagnosis_text(diag))
 
 # %% [markdown]
 # ## Calibrated rates

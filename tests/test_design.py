@@ -15,8 +15,9 @@ from gyrojax.data.arrays import record_data
 from gyrojax.data.planfile import load_plan
 from gyrojax.errors import ConvergenceWarning, ModelError
 from gyrojax.inference.campaign import Campaign, linearize
+from gyrojax.noise.meancov import gm_mean_factor
 from gyrojax.noise.processes import gauss_markov, random_drift, white
-from gyrojax.noise.spec import NoiseSpec, gm_mean_factor
+from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics.model import Model
 from gyrojax.planning import criteria, fisher
 from gyrojax.planning import optimal as D

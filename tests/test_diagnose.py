@@ -19,8 +19,8 @@ import pytest
 
 from gyrojax import load_record, load_records, simulate
 from gyrojax.data import plans
-from gyrojax.inference.diagnose import add_and_refit, diagnose, holm
-from gyrojax.inference.ranking import TIE_RTOL
+from gyrojax.inference.diagnose import add_and_refit, diagnose
+from gyrojax.inference.scoring import TIE_RTOL, holm_log10
 
 from . import independent_writer as iw
 from . import power as pw
@@ -172,7 +172,7 @@ def test_independent_writer_rates_derived_from_angles(tmp_path):
 def test_holm_adjustment_matches_definition():
     p = np.array([0.01, 0.04, 0.03, 0.005])
     # Holm: sorted p × (m − rank), running maximum, capped at 1
-    np.testing.assert_allclose(holm(p), [0.03, 0.06, 0.06, 0.02])
+    np.testing.assert_allclose(10.0 ** holm_log10(np.log10(p)), [0.03, 0.06, 0.06, 0.02])
 
 
 def test_json_follows_conventions(example_campaigns):
@@ -198,8 +198,8 @@ def test_exact_aliases_rank_in_the_conventions_order():
     """Two candidates whose statistics differ only in the last digits (exact aliases: what BLAS threading or a CSV
     round trip changes) rank in the order of effects.names, whichever is a hair stronger; clearly different evidence
     is never reordered."""
-    from gyrojax.inference.diagnose import Candidate
-    from gyrojax.inference.ranking import by_evidence
+    from gyrojax.inference.scoring import by_evidence
+    from gyrojax.inference.verdict import Candidate
     from gyrojax.physics import effects as fx
 
     names = fx.names("sdf-gyro")
@@ -223,8 +223,8 @@ def test_wald_beside_drift_is_the_ordinary_t_test_under_white_noise():
     from scipy import stats
 
     from gyrojax.inference.campaign import Campaign, linearize
-    from gyrojax.inference.diagnose import wald_beside_drift
     from gyrojax.inference.identify import fit
+    from gyrojax.inference.turntable_diagnosis import wald_beside_drift
     from gyrojax.physics.model import Model
 
     truth = {"coefficients": {**BASE, "D_T": 0.004}, "noise": {"white": 0.0008}}
@@ -249,7 +249,7 @@ def test_slow_drift_read_as_a_trend_is_marked_indistinguishable_from_drift():
     """Drift far slower than the record (τ = 30,000 s on a 72-min run) passes the diagnosis' capped noise model as a
     trend. Re-fitted beside the trend, the drift explains it: the candidate must then say it cannot be told from
     gauss_markov drift here, and what would tell them apart."""
-    from gyrojax.inference.diagnose import DRIFT_SEPARATION
+    from gyrojax.inference.turntable_diagnosis import DRIFT_SEPARATION
 
     noise = {"white": 0.0008, "gauss_markov": [0.1, 30000.0]}
     recs = simulate(plans.multiposition(24, minutes=3, dt_s=2), {"coefficients": BASE, "noise": noise}, seed=3)
@@ -264,19 +264,21 @@ def test_slow_drift_read_as_a_trend_is_marked_indistinguishable_from_drift():
 
 
 def test_effect_to_add_names_what_the_diagnosis_found_when_nothing_is_proposed():
-    """The add-and-refit step of both loops (turntable and triad) adds the given effect, else the proposal; with
-    neither it refuses, naming the unexplained structure (turntable ``line``, triad ``name``) or the adequacy."""
+    """The add-and-refit step of every instrument adds the given effect, else the proposal; with neither it refuses,
+    naming the unexplained structures (one type for turntable and triad shapes: their report lines) or the
+    adequacy."""
     from types import SimpleNamespace as NS
 
     from gyrojax.errors import ModelError
-    from gyrojax.inference.diagnose import effect_to_add
+    from gyrojax.inference.verdict import Structure, effect_to_add
 
+    cubic = Structure("a_I: cubic", "a_I", "cubic", 30.0, 1, 1e-8, -8.0)
+    cross = Structure("rate_cross[z]", "body-rate products (channel z)", "rate_cross", 40.0, 3, 1e-9, -9.0)
     assert effect_to_add(NS(proposal="D_SS", unexplained=[])) == "D_SS"
     assert effect_to_add(NS(proposal=None, unexplained=[]), "D_IS") == "D_IS"
-    with pytest.raises(ModelError, match="no named effect to add: residual structure vs a_I: cubic; rate_cross"):
-        effect_to_add(
-            NS(proposal=None, unexplained=[NS(line="residual structure vs a_I: cubic"), NS(name="rate_cross[z]")])
-        )
+    said = r"no named effect to add: residual structure vs a_I that no named effect explains: cubic; residual "
+    with pytest.raises(ModelError, match=said + r"structure vs body-rate products \(channel z\)"):
+        effect_to_add(NS(proposal=None, unexplained=[cubic, cross]))
     with pytest.raises(ModelError, match="the model is adequate"):
         effect_to_add(NS(proposal=None, unexplained=[]))
 

@@ -17,16 +17,8 @@ from gyrojax.montecarlo.results import summarize
 from gyrojax.montecarlo.runner import run_study
 from gyrojax.montecarlo.study import study_from_dict
 from gyrojax.noise import processes
-from gyrojax.noise.spec import (
-    BI_FACTOR,
-    NoiseModelError,
-    NoiseSpec,
-    flicker_poles,
-    flicker_spectrum,
-    gauss_markov_avar,
-    gm_mean_covariance,
-    rw_mean_covariance,
-)
+from gyrojax.noise.meancov import flicker_poles, flicker_spectrum, gm_mean_covariance, rw_mean_covariance
+from gyrojax.noise.spec import BI_FACTOR, NoiseModelError, NoiseSpec, gauss_markov_avar
 from gyrojax.physics.model import Model
 from gyrojax.planning import fisher
 

@@ -16,6 +16,7 @@ from gyrojax.inference.noisefit import group_series
 from gyrojax.noise import reml
 from gyrojax.noise.spec import NoiseSpec
 from gyrojax.noise.whiten import gm_loglik, gm_profile, gm_reml, whiten
+from gyrojax.optimize import Status
 
 
 def GMNoise(tau, gm_var, white_var, dt=1.0):  # noqa: N802 — the (τ, σ_g², σ_w²) of the filter as a NoiseSpec
@@ -99,10 +100,10 @@ def test_search_stopped_early_says_so():
     reaches the fitted NoiseSpec."""
     r, x, lab, t = _series(4, n=1500)
     s = reml.prepare(r, x, lab, t, 1.0)
-    *_, (ok, why) = reml.minimise(s, np.log([10.0, 0.2, 1.0]), True, max_iter=1)
-    assert not ok and "iteration limit" in why
-    *_, (ok, why) = reml.minimise(s, np.log([10.0, 0.2, 1.0]), True)
-    assert ok and why == ""
+    sol = reml.minimise(s, np.log([10.0, 0.2, 1.0]), True, max_iter=1)
+    assert not sol.converged and sol.status is Status.ITERATION_LIMIT and "iteration limit" in sol.reason
+    sol = reml.minimise(s, np.log([10.0, 0.2, 1.0]), True)
+    assert sol.converged and sol.reason == ""
 
 
 def test_noise_fit_stopped_early_reaches_the_fit(monkeypatch):
@@ -200,8 +201,9 @@ def test_fit_finds_the_reml_optimum():
     """The minimiser lands where the exact gradient vanishes (or a bound holds it) and beats every grid start."""
     r, x, lab, t = _series(4, n=1500)
     s = reml.prepare(r, x, lab, t, 1.0)
-    theta, f, _, (ok, why) = reml.fit(s, (10.0, 0.2, 1.0))
-    assert ok and why == ""
+    sol = reml.fit(s, (10.0, 0.2, 1.0))
+    theta, f = sol.x, sol.value
+    assert sol.converged and sol.reason == ""
     _, g = reml.value_and_grad(np.log(theta), *s.arrays, 1.0)
     assert np.abs(np.asarray(g)).max() < 1e-3
     assert f == pytest.approx(gm_reml(r, x, lab, t, GMNoise(*theta)), abs=1e-7)

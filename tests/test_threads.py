@@ -132,4 +132,4 @@ def test_noise_fits_on_workers_are_the_serial_ones(monkeypatch):
     monkeypatch.setenv(threads.WORKERS_ENV, "2")
     side = threads.parallel_map(lambda s: reml.fit(s, start), series)
     for a, b in zip(serial, side):
-        assert np.array_equal(a[0], b[0]) and a[1] == b[1] and a[2] == b[2] and a[3] == b[3]
+        assert np.array_equal(a.x, b.x) and a.value == b.value and a.steps == b.steps and a.status == b.status

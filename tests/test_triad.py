@@ -19,6 +19,7 @@ from gyrojax.inference.triad import DEFAULT_ROTATION_TERMS, fit_triad, long_run_
 from gyrojax.inference.triad_result import load_triad_fit
 from gyrojax.montecarlo.triad import mems_truth
 from gyrojax.physics import triad as tp
+from gyrojax.report.text import fit_table
 from gyrojax.simulation.triad import simulate_ferraris, simulate_multiposition
 
 from .roundtrip import assert_same, strict_json
@@ -149,10 +150,10 @@ def test_mixed_triads_and_turntable_tools_refuse():
     b.meta["instrument"]["id"] = "imu-2"
     with pytest.raises(ModelError, match="2 different instruments"):
         fit([a, b])
-    from gyrojax.inference.diagnose import diagnose
+    from gyrojax.inference.campaign import Campaign
 
-    with pytest.raises(ModelError, match="imu-triad records have no turntable"):
-        diagnose([a])
+    with pytest.raises(ModelError, match="imu-triad records have no turntable campaign"):
+        Campaign.of([a])  # the turntable tools (design, separate); fit and diagnose take them as they are
 
 
 def test_long_run_variance_of_filtered_noise():
@@ -168,6 +169,21 @@ def test_long_run_variance_of_filtered_noise():
         segs.append(x - x.mean(axis=0))
     q = long_run_variance(segs)
     assert np.allclose(q, sig**2 * (1 + rho) / (1 - rho), rtol=0.15)
+
+
+def test_session_noise_speaks_noisespec():
+    """A triad fit's noise as a SessionNoise: each channel's long-run variance q per sample at Δt is the white term
+    of ARW N = √(q Δt)/60 deg/√h (IEEE 952: a white rate of N has per-sample variance 3600 N²/Δt (deg/h)²), the
+    variance components beside; given back to the fit, it is the same fit as its q."""
+    rec = simulate_ferraris(TRUTH, seed=8, rate_hz=50.0)
+    res = fit_triad(rec)
+    noise = res.noise
+    assert res.dt_s == pytest.approx(0.02, rel=1e-9)
+    np.testing.assert_allclose([c.white for c in noise.channels], np.sqrt(res.noise_q * 0.02) / 60.0, rtol=1e-12)
+    np.testing.assert_allclose(noise.sample_variances(res.dt_s), res.noise_q, rtol=1e-12)
+    again = fit(rec, noise=noise)
+    np.testing.assert_allclose(again.theta, fit_triad(rec, noise_q=res.noise_q).theta, rtol=1e-9)
+    assert res.to_json()["noise_model"]["pose_bias_scatter_deg_per_h"] == 0.0
 
 
 @pytest.mark.slow
@@ -223,6 +239,6 @@ def test_moves_fit_that_stops_early_says_so(tmp_path):
     assert not res.converged and "Levenberg–Marquardt stopped" in res.convergence_note
     j = res.to_json()["fit"]
     assert j["converged"] is False and "evaluations" in j["reason"]
-    assert "not converged" in res.text()
+    assert "not converged" in fit_table(res)
     back = load_triad_fit(res.save(tmp_path / "stopped.json"))
     assert back.converged is False and back.convergence_note == res.convergence_note

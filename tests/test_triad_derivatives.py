@@ -50,7 +50,7 @@ def _steps(names):
 
 
 def _whitening(moves, resid):
-    return tf._move_whitening(moves, tf.long_run_variance(resid), np.eye(3))
+    return tf.move_whitening(moves, tf.long_run_variance(resid), np.eye(3))
 
 
 def _project(whitening, r):

@@ -12,7 +12,7 @@ from scipy import stats
 from gyrojax.cli.app import main
 from gyrojax.data.record import Record
 from gyrojax.data.records import save_record
-from gyrojax.inference.triad_diagnose import add_and_refit_triad, diagnose_triad
+from gyrojax.inference.diagnose import add_and_refit, diagnose
 from gyrojax.montecarlo.triad import mems_truth
 from gyrojax.physics import plausibility
 from gyrojax.simulation.triad import simulate_multiposition
@@ -70,7 +70,7 @@ def test_planted_effect_on_top(planted, top, poses, margin):
     """One channel carries a planted E_A, D_T or E_2 of MEMS size: it is the top candidate, significant (Holm over
     every channel × candidate and shape), its estimate within 30 % of the planted value."""
     rec = session(3, planted, poses=poses)
-    d = diagnose_triad(rec, vet=False)
+    d = diagnose(rec, vet=False)
     lam = tpw.noncentrality(rec, planted, NOISE_DPS)
     assert tpw.power(lam, 1, ALPHA, d.tests, margin) >= 0.999, (lam, d.tests)
     assert d.verdict == "missing-effect"
@@ -87,7 +87,7 @@ def test_noise_between_poses_is_noise(seed):
     20 deg/h at each move, 0.1° per move): no deterministic effect is proposed, the verdict is adequate, the noise
     processes between segments are named, and with their components χ² is consistent with its dof. (The rate over
     40 seeds: ``python -m benchmarks.study_triad_diagnose``.)"""
-    d = diagnose_triad(session(seed, gm=(30.0, 20.0), move_deg=0.1, step_dph=20.0), vet=False)
+    d = diagnose(session(seed, gm=(30.0, 20.0), move_deg=0.1, step_dph=20.0), vet=False)
     assert d.verdict == "adequate", [(c.name, c.p_adjusted) for c in d.candidates[:3]]
     assert d.proposal is None and not d.unexplained
     assert {c.name for c in d.noise_processes} <= {"pose_bias_scatter", "move_angle_noise"}
@@ -99,7 +99,7 @@ def test_noise_between_poses_is_noise(seed):
 def test_cross_axis_rate_product_is_unexplained_structure():
     """ω_x ω_y into z (no named effect has it): reported as unexplained structure on z (rate_cross[z]), and no
     named candidate is proposed in its place."""
-    d = diagnose_triad(session(5, cross=15.0), vet=False)
+    d = diagnose(session(5, cross=15.0), vet=False)
     assert d.verdict == "missing-effect"
     assert d.unexplained and d.unexplained[0].name == "rate_cross[z]", [s.name for s in d.unexplained]
     assert d.unexplained[0].p_adjusted < ALPHA
@@ -113,9 +113,9 @@ def test_mems_plausible_sizes():
     assert plausibility.limit("D_F_step_2", kind="imu-triad") == plausibility.MEMS_PLAUSIBLE_MAX["D_F_step"]
 
 
-def test_cli_diagnose_triad(tmp_path, capsys):
+def test_cli_diagnose(tmp_path, capsys):
     """``gyrojax diagnose`` takes imu-triad records: text and --json, exit 0; a planted E_A (a session with moves)
-    is on top in both and proposed; adding it (``add_and_refit_triad``) recovers it within 4σ and the excess goes."""
+    is on top in both and proposed; adding it (``add_and_refit``) recovers it within 4σ and the excess goes."""
     rec = session(3, {"E_A[x]": 1500.0})
     path = save_record(rec, tmp_path)
     assert main(["diagnose", str(path), "--json"]) == 0
@@ -128,7 +128,7 @@ def test_cli_diagnose_triad(tmp_path, capsys):
     assert main(["diagnose", str(path)]) == 0
     out = capsys.readouterr().out
     assert "verdict: missing-effect" in out and "sf_asymmetry[x]" in out
-    terms, fit, after, added = add_and_refit_triad(rec)
+    terms, fit, after, added = add_and_refit(rec)
     assert added == "sf_asymmetry" and "sf_asymmetry" in terms
     i = fit.names.index("E_A[x]")
     assert abs(fit.theta[i] - 1500.0) < 4.0 * fit.std[i], (fit.theta[i], fit.std[i])

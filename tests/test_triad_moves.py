@@ -16,6 +16,7 @@ from gyrojax.errors import ConvergenceWarning, ModelError
 from gyrojax.inference import triad as triad_fit
 from gyrojax.inference.triad import fit_triad
 from gyrojax.montecarlo.triad import mems_truth
+from gyrojax.optimize import Solution, Status
 from gyrojax.simulation.triad import simulate_multiposition
 
 from .triad_coverage import EARTH_MODES, multiposition_coverage
@@ -109,9 +110,10 @@ def test_cut_short_fit_is_marked_and_the_cli_fails(tmp_path, capsys, monkeypatch
     save_record(rec, tmp_path)
 
     def stop(system, theta0, max_nfev):
-        return np.asarray(theta0, dtype=float), 1, "Levenberg–Marquardt stopped after 1 evaluations: planted"
+        planted = "Levenberg–Marquardt stopped after 1 evaluations: planted"
+        return Solution(np.asarray(theta0, dtype=float), 0.0, Status.ITERATION_LIMIT, 1, planted)
 
-    monkeypatch.setattr(triad_fit, "damped_least_squares", stop)
+    monkeypatch.setattr(triad_fit, "least_squares", stop)
     assert main(["fit", str(tmp_path)]) != 0
     err = capsys.readouterr().err.strip()
     assert "did not converge" in err and len(err.splitlines()) == 1

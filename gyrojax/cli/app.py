@@ -55,6 +55,10 @@ def _command(name: str):
     """A lazy handler: imports :mod:`gyrojax.cli.commands` only when the sub-command runs."""
 
     def run(args) -> int:
+        if name == "noise":  # gyrojax noise: a module of its own
+            from gyrojax.cli.noise import cmd_noise
+
+            return cmd_noise(args)
         from gyrojax.cli import commands
 
         return getattr(commands, f"cmd_{name}")(args)
@@ -104,7 +108,7 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("diagnose", help="rank the effects the model is missing (conventions §7)")
     s.add_argument("records", nargs="+")
     s.add_argument("--terms", help="comma-separated effect names of the current model")
-    s.add_argument("--alpha", type=float, default=0.01, help="family-wise significance level (default 0.01)")
+    s.add_argument("--alpha", type=float, help="family-wise significance level (default: the library's, 0.01)")
     s.add_argument("--json", action="store_true")
     add_effect_arguments(s)
     s.set_defaults(func=_command("diagnose"))

@@ -12,8 +12,8 @@ from dataclasses import replace
 from pathlib import Path
 
 from gyrojax.cli.args import UsageError, parse_gm, parse_options, parse_terms
-from gyrojax.cli.noise import MAX_TAU_WORK, cmd_noise, parse_taus  # noqa: F401  (gyrojax noise: its own module)
 from gyrojax.errors import ConvergenceWarning, ModelError
+from gyrojax.kinds import TRIAD_KIND
 
 
 def effects_from_args(args, kind: str) -> list[str]:
@@ -85,20 +85,39 @@ def cmd_simulate(args) -> int:
     return 0
 
 
+def command_terms(args, records) -> list[str] | None:
+    """The model of ``--terms`` with the user effects (``--effect``, ``--effects-file``) appended once (default
+    terms: the fit's for the records); each channel of an imu-triad is an SDF-like gyro, whose effects these are
+    (:mod:`gyrojax.physics.triad`). Effect names only: dimensionless."""
+    from gyrojax.physics.effects import SDF
+
+    triad = records[0].kind == TRIAD_KIND
+    names = effects_from_args(args, SDF if triad else records[0].kind)
+    if not triad:
+        return terms_with_effects(parse_terms(args.terms), names, records[0].kind)
+    from gyrojax.inference.triad import default_terms
+
+    terms = parse_terms(args.terms)
+    if not names:
+        return terms or None
+    base = list(terms) if terms else list(default_terms(records))
+    return base + [n for n in names if n not in base]
+
+
+def _refuse_unconverged_triad(records, res, what: str) -> None:
+    """A triad fit cut short is not an answer: one error line, nothing reported (a turntable fit warns instead)."""
+    if records[0].kind == TRIAD_KIND and not res.converged:
+        raise ModelError(f"the triad fit did not converge ({res.convergence_note}); {what}")
+
+
 def cmd_fit(args) -> int:
     """``gyrojax fit``: fit named effects to records and print the coefficient table (report units); exit code."""
     from gyrojax.data.records import load_records
+    from gyrojax.inference.identify import fit, fit_per_instrument
+    from gyrojax.report.text import fit_table
 
     recs = load_records(args.records)
-    triad = recs[0].kind == "imu-triad"
-    if triad and not args.noise_model and not getattr(args, "per_instrument", False):
-        from gyrojax.inference.triad import fit_triad as fit  # what identify.fit runs; no turntable imports
-    else:
-        from gyrojax.inference.identify import fit
     if getattr(args, "per_instrument", False):
-        from gyrojax.inference.identify import fit_per_instrument
-        from gyrojax.report.text import fit_table
-
         if args.save:
             raise UsageError("--save takes one fit; with --per-instrument, fit each instrument's records on its own")
         results = fit_per_instrument(recs, parse_terms(args.terms) or None)
@@ -109,30 +128,21 @@ def cmd_fit(args) -> int:
                 print(f"instrument {k or '(no id)'}:")
                 print(fit_table(v))
         return 0
-    names = effects_from_args(args, recs[0].kind)
-    terms = terms_with_effects(parse_terms(args.terms), names, recs[0].kind)
-    with warnings.catch_warnings():
-        if triad:  # a triad fit cut short is not an answer (issue 24): one error line below, not a warning too
-            warnings.simplefilter("ignore", ConvergenceWarning)
-        if args.noise_model:
-            from gyrojax.noise.gmwm_model import load_noise_model
+    terms = command_terms(args, recs)
+    noise = None
+    if args.noise_model:
+        from gyrojax.noise.gmwm_model import load_noise_model
 
-            res = fit(recs, terms, noise=load_noise_model(args.noise_model))
-        else:
-            res = fit(recs, terms)
-    if triad and not res.converged:
-        raise ModelError(f"the triad fit did not converge ({res.convergence_note}); no coefficients are reported")
-    for note in getattr(res, "notes", []) if triad else []:  # beyond the MEMS limits: said on stderr too
+        noise = load_noise_model(args.noise_model)
+    with warnings.catch_warnings():
+        if recs[0].kind == TRIAD_KIND:  # refused below when cut short: one error line, not a warning too
+            warnings.simplefilter("ignore", ConvergenceWarning)
+        res = fit(recs, terms, noise=noise)
+    _refuse_unconverged_triad(recs, res, "no coefficients are reported")
+    for note in res.notes if recs[0].kind == TRIAD_KIND else []:  # beyond the MEMS limits: said on stderr too
         if note.startswith("implausible"):
             print(f"gyrojax: warning: {note}", file=sys.stderr)
-    if args.json:
-        print(json.dumps(res.to_json()))
-    elif hasattr(res, "text"):  # an imu-triad fit prints its own table
-        print(res.text())
-    else:
-        from gyrojax.report.text import fit_table
-
-        print(fit_table(res))
+    print(json.dumps(res.to_json()) if args.json else fit_table(res))
     if args.save:
         res.save(args.save, force=args.force)
     return 0
@@ -142,39 +152,20 @@ def cmd_diagnose(args) -> int:
     """``gyrojax diagnose``: fit, then test every missing effect and print the verdict; exit code."""
     from gyrojax.data.records import load_records
     from gyrojax.inference.diagnose import diagnose
+    from gyrojax.inference.scoring import ALPHA
     from gyrojax.report.text import diagnosis_text
 
-    if not 0.0 < args.alpha < 1.0:
-        raise UsageError(f"--alpha must lie in (0, 1), got {args.alpha}")
+    alpha = ALPHA if args.alpha is None else args.alpha
+    if not 0.0 < alpha < 1.0:
+        raise UsageError(f"--alpha must lie in (0, 1), got {alpha}")
     recs = load_records(args.records)
-    if recs[0].kind == "imu-triad":
-        return _diagnose_triad(args, recs)
-    names = effects_from_args(args, recs[0].kind)
-    d = diagnose(recs, terms_with_effects(parse_terms(args.terms), names, recs[0].kind), alpha=args.alpha)
-    if args.json:
-        print(json.dumps(d.to_json()))
-    else:
-        print(diagnosis_text(d))
-    return 0
-
-
-def _diagnose_triad(args, recs) -> int:
-    """``gyrojax diagnose`` on imu-triad records (:mod:`gyrojax.inference.triad_diagnose`): a user effect
-    (``--effect``, ``--effects-file``) is an SDF effect of every channel, added to the model as on a turntable."""
-    from gyrojax.inference.triad_diagnose import default_terms, diagnose_triad
-    from gyrojax.physics.effects import SDF
-
-    names = effects_from_args(args, SDF)  # each channel is an SDF-like rate gyro (gyrojax.physics.triad)
-    terms = parse_terms(args.terms)
-    if names:
-        base = list(terms) if terms else list(default_terms(recs))
-        terms = base + [n for n in names if n not in base]
+    terms = command_terms(args, recs)
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", ConvergenceWarning)
-        d = diagnose_triad(recs, terms or None, alpha=args.alpha)
-    if not d.fit.converged:
-        raise ModelError(f"the triad fit did not converge ({d.fit.convergence_note}); nothing is diagnosed")
-    print(json.dumps(d.to_json()) if args.json else d.text())
+        if recs[0].kind == TRIAD_KIND:  # refused below when cut short: one error line, not a warning too
+            warnings.simplefilter("ignore", ConvergenceWarning)
+        d = diagnose(recs, terms, alpha=alpha)
+    _refuse_unconverged_triad(recs, d.fit, "nothing is diagnosed")
+    print(json.dumps(d.to_json()) if args.json else diagnosis_text(d))
     return 0
 
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gyrojax.data.schema import _err, must_be_numeric
+from gyrojax.data.schema import err, must_be_numeric
 
 
 def read_csv_bytes(csv_path: Path) -> bytes:
@@ -20,22 +20,22 @@ def read_csv_bytes(csv_path: Path) -> bytes:
         with open(csv_path, "rb") as fh:
             raw = fh.read()
     except OSError as e:
-        raise _err(csv_path, f"cannot read: {e.strerror} (a record is NAME.csv + NAME.json, both files)") from None
+        raise err(csv_path, f"cannot read: {e.strerror} (a record is NAME.csv + NAME.json, both files)") from None
     if not raw.isascii():
         try:
             raw.decode("utf-8")
         except UnicodeDecodeError as e:
             row = raw[: e.start].count(b"\n") + 1
-            raise _err(
+            raise err(
                 csv_path, f"row {row} is not UTF-8 (byte {e.start}: 0x{raw[e.start]:02x}); save the file as UTF-8"
             ) from None
     if raw.startswith(b"\xef\xbb\xbf"):
         raw = raw[3:]  # a UTF-8 byte-order mark is fine
     if b"\x00" in raw[:65536]:
         row = raw[: raw.index(b"\x00")].count(b"\n") + 1
-        raise _err(csv_path, f"row {row} holds a NUL byte: this is not a text file; records are UTF-8 CSV")
+        raise err(csv_path, f"row {row} holds a NUL byte: this is not a text file; records are UTF-8 CSV")
     if not raw[:4096].strip() and not raw.strip():
-        raise _err(csv_path, "is empty; a header row and at least one sample are required")
+        raise err(csv_path, "is empty; a header row and at least one sample are required")
     return raw
 
 
@@ -49,23 +49,23 @@ def parse_csv_header(csv_path: Path, raw: bytes) -> list[str]:
     try:
         header = [h.strip() for h in next(csv.reader([line]))] if line.strip() else []
     except csv.Error as e:
-        raise _err(csv_path, f"row 1 (header) is not a comma-separated line ({e}); a stray carriage return?") from None
+        raise err(csv_path, f"row 1 (header) is not a comma-separated line ({e}); a stray carriage return?") from None
     if not header:
-        raise _err(csv_path, "row 1 (header) is empty; it must name the columns (time_s, angle_<axis>_deg, …)")
+        raise err(csv_path, "row 1 (header) is empty; it must name the columns (time_s, angle_<axis>_deg, …)")
     if len(header) == 1:
         for sep in (";", "\t", "|"):
             if sep in header[0]:
-                raise _err(
+                raise err(
                     csv_path,
                     f"row 1 (header) is one column {header[0][:60]!r}: the file looks {sep!r}-separated; "
                     "records must be comma separated (conventions §5)",
                 )
     for j, h in enumerate(header):
         if not h:
-            raise _err(csv_path, f"row 1 (header), column {j + 1} has no name; every column must be named")
+            raise err(csv_path, f"row 1 (header), column {j + 1} has no name; every column must be named")
         if header.count(h) > 1:
             k = header.index(h, j + 1)
-            raise _err(
+            raise err(
                 csv_path,
                 f"row 1 (header) names column {h!r} twice (columns {j + 1} and {k + 1}); column names must be unique",
             )
@@ -82,7 +82,7 @@ def _numbered_rows(csv_path, reader):
         except StopIteration:
             return
         except csv.Error as e:
-            raise _err(
+            raise err(
                 csv_path, f"row {reader.line_num} is not a valid CSV row ({e}); a stray carriage return or quote?"
             ) from None
         yield reader.line_num, row
@@ -104,13 +104,13 @@ def diagnose_csv(csv_path: Path, raw: bytes, header: list[str], strict: bool) ->
         if not row:
             continue
         if len(row) < n:
-            raise _err(
+            raise err(
                 csv_path,
                 f"row {i} has {len(row)} of {n} fields: column {header[len(row)]!r} is missing "
                 "(is the file truncated?); every row needs one value per header column",
             )
         if len(row) > n:
-            raise _err(
+            raise err(
                 csv_path,
                 f"row {i} has {len(row)} fields but the header names {n} columns; "
                 "every row needs one value per header column",
@@ -118,16 +118,16 @@ def diagnose_csv(csv_path: Path, raw: bytes, header: list[str], strict: bool) ->
         for j in check:
             v = row[j].strip()
             if v == "":
-                raise _err(csv_path, f"row {i}, column {header[j]!r} is empty; a finite number is required")
+                raise err(csv_path, f"row {i}, column {header[j]!r} is empty; a finite number is required")
             try:
                 x = float(v)
             except ValueError:
-                raise _err(
+                raise err(
                     csv_path,
                     f"row {i}, column {header[j]!r} holds {v[:40]!r}, not a number; a finite number is required",
                 ) from None
             if not math.isfinite(x):
-                raise _err(csv_path, f"row {i}, column {header[j]!r} holds {v!r}; values must be finite numbers")
+                raise err(csv_path, f"row {i}, column {header[j]!r} holds {v!r}; values must be finite numbers")
 
 
 def _mapped_plain_csv(csv_path: Path):
@@ -168,7 +168,7 @@ def _float_table(source, header: list[str]):
     return None
 
 
-def _parse_csv(csv_path: Path) -> tuple[list[str], dict[str, np.ndarray]]:
+def parse_csv(csv_path: Path) -> tuple[list[str], dict[str, np.ndarray]]:
     """Header and columns of a record CSV, naming the row and column of the first bad cell.
 
     Fast path: a plain ASCII file memory-mapped (:func:`_mapped_plain_csv`) and every cell parsed to float64
@@ -199,16 +199,16 @@ def _parse_csv(csv_path: Path) -> tuple[list[str], dict[str, np.ndarray]]:
                 io.BytesIO(raw), dtype=dtypes, keep_default_na=False, skipinitialspace=True, names=header, header=0
             )
         except (ValueError, pd.errors.ParserError) as e:
-            raise _err(csv_path, f"is not a valid comma-separated table: {str(e).strip()}") from None
+            raise err(csv_path, f"is not a valid comma-separated table: {str(e).strip()}") from None
     if len(df) == 0:
-        raise _err(csv_path, "has a header but no samples; at least one sample row is required")
+        raise err(csv_path, "has a header but no samples; at least one sample row is required")
     cols = {}
     for h in header:
         col = df[h].to_numpy()
         if col.dtype == np.float64 and must_be_numeric(h) and not np.all(np.isfinite(col)):
             diagnose_csv(csv_path, read_csv_bytes(csv_path) if raw is None else raw, header, strict=False)
             i = int(np.flatnonzero(~np.isfinite(col))[0])
-            raise _err(csv_path, f"row {i + 2}, column {h!r} holds {float(col[i])}; values must be finite numbers")
+            raise err(csv_path, f"row {i + 2}, column {h!r} holds {float(col[i])}; values must be finite numbers")
         cols[h] = col if col.dtype == np.float64 else col.astype(str)
     return header, cols
 

@@ -13,9 +13,9 @@ import json
 import os
 from pathlib import Path
 
-from gyrojax.data.csvfile import _parse_csv, record_csv_chunks
+from gyrojax.data.csvfile import parse_csv, record_csv_chunks
 from gyrojax.data.record import Record
-from gyrojax.data.schema import _err, validate_columns, validate_meta
+from gyrojax.data.schema import err, validate_columns, validate_meta
 from gyrojax.errors import RecordError
 
 
@@ -34,7 +34,7 @@ def _no_duplicate_keys(json_path):
         seen = set()
         for k, _ in pairs:
             if k in seen:
-                raise _err(json_path, f"key {k!r} appears twice in one object; each key must appear once")
+                raise err(json_path, f"key {k!r} appears twice in one object; each key must appear once")
             seen.add(k)
         return dict(pairs)
 
@@ -46,18 +46,18 @@ def read_meta(json_path: Path) -> dict:
     try:
         raw = json_path.read_bytes()
     except OSError as e:
-        raise _err(json_path, f"cannot read: {e.strerror} (a record is NAME.csv + NAME.json, both files)") from None
+        raise err(json_path, f"cannot read: {e.strerror} (a record is NAME.csv + NAME.json, both files)") from None
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as e:
         line = raw[: e.start].count(b"\n") + 1
-        raise _err(json_path, f"is not UTF-8 (line {line}, byte {e.start}); save it as UTF-8") from None
+        raise err(json_path, f"is not UTF-8 (line {line}, byte {e.start}); save it as UTF-8") from None
     if not text.strip():
-        raise _err(json_path, "is empty; a JSON object with the record's metadata (conventions §5) is required")
+        raise err(json_path, "is empty; a JSON object with the record's metadata (conventions §5) is required")
     try:
         return json.loads(text, object_pairs_hook=_no_duplicate_keys(json_path))
     except json.JSONDecodeError as e:
-        raise _err(json_path, f"is not valid JSON: {e.msg} at line {e.lineno}, column {e.colno}") from None
+        raise err(json_path, f"is not valid JSON: {e.msg} at line {e.lineno}, column {e.colno}") from None
 
 
 def load_record(path: str | os.PathLike) -> Record:
@@ -68,7 +68,7 @@ def load_record(path: str | os.PathLike) -> Record:
             raise RecordError(f"{p}: no such file (a record is NAME.csv + NAME.json side by side)")
     meta = read_meta(json_path)
     validate_meta(meta, json_path)
-    _, columns = _parse_csv(csv_path)
+    _, columns = parse_csv(csv_path)
     validate_columns(meta, columns, csv_path)
     return Record(meta, columns, str(csv_path))
 

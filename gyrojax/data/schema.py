@@ -17,108 +17,109 @@ FORMAT = "gyrojax-record-1"
 AXIS_TOL = 1e-6
 
 
-def _err(file, msg):
+def err(file, msg) -> RecordError:
+    """The error of a record file: its path, then what is wrong."""
     return RecordError(f"{file}: {msg}")
 
 
 def _unit_vector(file, key, v):
     if not isinstance(v, (list, tuple)) or len(v) != 3 or any(isinstance(x, bool) for x in v):
-        raise _err(file, f"key {key!r} must be a list of 3 numbers (a unit vector), got {v!r}")
+        raise err(file, f"key {key!r} must be a list of 3 numbers (a unit vector), got {v!r}")
     try:
         arr = np.array([float(x) for x in v])
     except (TypeError, ValueError, OverflowError):
-        raise _err(file, f"key {key!r} must hold 3 numbers, got {v!r}") from None
+        raise err(file, f"key {key!r} must hold 3 numbers, got {v!r}") from None
     if not np.all(np.isfinite(arr)):
-        raise _err(file, f"key {key!r} has a non-finite component: {v!r}")
+        raise err(file, f"key {key!r} has a non-finite component: {v!r}")
     norm = float(np.linalg.norm(arr))
     if abs(norm - 1.0) > AXIS_TOL:
-        raise _err(file, f"key {key!r} is not a unit vector (norm {norm:.9g}; tolerance {AXIS_TOL})")
+        raise err(file, f"key {key!r} is not a unit vector (norm {norm:.9g}; tolerance {AXIS_TOL})")
     return arr
 
 
 def _require(file, d, key, where=""):
     if not isinstance(d, dict) or key not in d:
-        raise _err(file, f"missing required key {where + key!r}")
+        raise err(file, f"missing required key {where + key!r}")
     return d[key]
 
 
 def _number(file, d, key, where=""):
     v = _require(file, d, key, where)
     if not is_finite_number(v):
-        raise _err(file, f"key {where + key!r} must be a finite number, got {v!r}")
+        raise err(file, f"key {where + key!r} must be a finite number, got {v!r}")
     return float(v)
 
 
 def validate_meta(meta, file="record.json") -> dict:
     """Check a record's JSON against conventions §5; returns it unchanged (unknown keys kept)."""
     if not isinstance(meta, dict):
-        raise _err(file, "the top level must be a JSON object")
+        raise err(file, "the top level must be a JSON object")
     fmt = _require(file, meta, "format")
     if fmt != FORMAT:
-        raise _err(file, f"key 'format' is {fmt!r}; this reader knows {FORMAT!r}")
+        raise err(file, f"key 'format' is {fmt!r}; this reader knows {FORMAT!r}")
     name = _require(file, meta, "name")
     if not isinstance(name, str) or not name:
-        raise _err(file, "key 'name' must be a non-empty string")
+        raise err(file, "key 'name' must be a non-empty string")
     if is_triad(meta):  # a hand-moved IMU: no table, segments instead (gyrojax.data.triad)
         return validate_triad_meta(meta, file)
     site = _require(file, meta, "site")
     lat = _number(file, site, "latitude_deg", "site.")
     if not -90.0 <= lat <= 90.0:
-        raise _err(file, f"key 'site.latitude_deg' must lie in [-90, 90], got {lat}")
+        raise err(file, f"key 'site.latitude_deg' must lie in [-90, 90], got {lat}")
     g = _number(file, site, "gravity_mps2", "site.")
     if not 9.7 <= g <= 9.9:
-        raise _err(file, f"key 'site.gravity_mps2' = {g} is not a gravity on the Earth's surface (9.7–9.9 m/s²)")
+        raise err(file, f"key 'site.gravity_mps2' = {g} is not a gravity on the Earth's surface (9.7–9.9 m/s²)")
     table = _require(file, meta, "table")
     axes = _require(file, table, "axes", "table.")
     if not isinstance(axes, list) or not axes:
-        raise _err(file, "key 'table.axes' must be a non-empty list of {name, axis_enu}")
+        raise err(file, "key 'table.axes' must be a non-empty list of {name, axis_enu}")
     seen = set()
     for i, ax in enumerate(axes):
         where = f"table.axes[{i}]."
         nm = _require(file, ax, "name", where)
         if not isinstance(nm, str) or not nm or "," in nm:
-            raise _err(file, f"key {where + 'name'!r} must be a non-empty string without commas")
+            raise err(file, f"key {where + 'name'!r} must be a non-empty string without commas")
         if nm in seen:
-            raise _err(file, f"key {where + 'name'!r}: axis name {nm!r} is used twice")
+            raise err(file, f"key {where + 'name'!r}: axis name {nm!r} is used twice")
         seen.add(nm)
         _unit_vector(file, where + "axis_enu", _require(file, ax, "axis_enu", where))
     inst = _require(file, meta, "instrument")
     kind = _require(file, inst, "kind", "instrument.")
     if kind not in INSTRUMENT_KINDS:
-        raise _err(file, f"key 'instrument.kind' is {kind!r}; valid: {', '.join(INSTRUMENT_KINDS)}")
+        raise err(file, f"key 'instrument.kind' is {kind!r}; valid: {', '.join(INSTRUMENT_KINDS)}")
     keys = TRIAD_KEYS[kind]
     vecs = [_unit_vector(file, f"instrument.{k}", _require(file, inst, k, "instrument.")) for k in keys]
     for i in range(3):
         for j in range(i + 1, 3):
             d = float(vecs[i] @ vecs[j])
             if abs(d) > AXIS_TOL:
-                raise _err(
+                raise err(
                     file,
                     f"keys 'instrument.{keys[i]}' and 'instrument.{keys[j]}' are not orthogonal (dot {d:.3g})",
                 )
     # right-handed: first × second = third (IA × OA = SA; X × Y = Z; IA × PA = OA)
     hand = float(np.cross(vecs[0], vecs[1]) @ vecs[2])
     if hand < 0:
-        raise _err(
+        raise err(
             file,
             f"key 'instrument.{keys[2]}': the triad is left-handed; "
             f"{keys[0]} × {keys[1]} must equal {keys[2]} (it equals −{keys[2]})",
         )
     mode = _require(file, meta, "mode")
     if mode not in ("rebalance", "servo"):
-        raise _err(file, f"key 'mode' is {mode!r}; valid: 'rebalance', 'servo'")
+        raise err(file, f"key 'mode' is {mode!r}; valid: 'rebalance', 'servo'")
     sf_key = "scale_factor_g_per_mA" if kind == ACCEL else "scale_factor_deg_per_h_per_mA"
     sf = _number(file, meta, sf_key)
     if sf == 0.0:
-        raise _err(file, f"key {sf_key!r} must be non-zero")
+        raise err(file, f"key {sf_key!r} must be non-zero")
     servo = meta.get("servo_axis")
     if mode == "servo":
         if servo is None:
-            raise _err(file, "key 'servo_axis' must name a table axis when mode is 'servo'")
+            raise err(file, "key 'servo_axis' must name a table axis when mode is 'servo'")
         if kind == TDF:
-            raise _err(file, "key 'mode': servo mode is supported for sdf-gyro and pendulous-accel only")
+            raise err(file, "key 'mode': servo mode is supported for sdf-gyro and pendulous-accel only")
     if servo is not None and (not isinstance(servo, str) or servo not in seen):
-        raise _err(file, f"key 'servo_axis' is {servo!r}; table axes are {sorted(seen)}")
+        raise err(file, f"key 'servo_axis' is {servo!r}; table axes are {sorted(seen)}")
     return meta
 
 
@@ -156,7 +157,7 @@ def validate_columns(meta: dict, columns: dict[str, np.ndarray], file="record.cs
     """Check the CSV columns against the metadata (conventions §5)."""
     if "time_s" not in columns:
         hint = _column_hint(columns, "time_s")
-        raise _err(file, f"missing required column 'time_s'{hint}; columns are {list(columns)}")
+        raise err(file, f"missing required column 'time_s'{hint}; columns are {list(columns)}")
     if is_triad(meta):
         _check_times(columns["time_s"], file)
         return validate_triad_columns(meta, columns, file)
@@ -165,7 +166,7 @@ def validate_columns(meta: dict, columns: dict[str, np.ndarray], file="record.cs
     for a in names:
         if f"angle_{a}_deg" not in columns:
             hint = [c for c in columns if c.startswith("angle_")]
-            raise _err(
+            raise err(
                 file,
                 f"missing required column 'angle_{a}_deg' for table axis {a!r}"
                 f"{_column_hint(columns, f'angle_{a}_deg')}; angle columns: {hint}",
@@ -175,12 +176,12 @@ def validate_columns(meta: dict, columns: dict[str, np.ndarray], file="record.cs
         need = ("current_x_mA", "current_y_mA") if kind == TDF else ("current_mA",)
         for c in need:
             if c not in columns:
-                raise _err(file, f"missing required column {c!r} (rebalance mode, {kind}){_column_hint(columns, c)}")
+                raise err(file, f"missing required column {c!r} (rebalance mode, {kind}){_column_hint(columns, c)}")
     if "segment" in columns:
         seg = columns["segment"]
         if np.any(seg != np.round(seg)):
             i = int(np.flatnonzero(seg != np.round(seg))[0])
-            raise _err(file, f"row {i + 2}, column 'segment' holds {float(seg[i])}; segment labels are integers")
+            raise err(file, f"row {i + 2}, column 'segment' holds {float(seg[i])}; segment labels are integers")
 
 
 def _check_times(t, file) -> None:
@@ -189,7 +190,7 @@ def _check_times(t, file) -> None:
         if np.any(bad):
             i = int(np.flatnonzero(bad)[0])
             what = "repeats" if t[i + 1] == t[i] else "decreases from"
-            raise _err(
+            raise err(
                 file,
                 f"row {i + 3}, column 'time_s': time {what} the previous row's {float(t[i])} (got {float(t[i + 1])}); "
                 "times must be strictly increasing",

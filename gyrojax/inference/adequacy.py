@@ -17,7 +17,8 @@ For a shape with regressors X (whitened with the noise model W of the fit, as th
 where P projects on the model's regressors **and every named candidate's** (so what is left is structure that no
 named effect explains; a shape they span is not tested) and σ̃² is the residual variance after all of them and all
 shapes (a deterministic signal cannot inflate it). p-values join those of the named candidates in one Holm
-step-down family (:func:`holm_log10`), so the family-wise error of the whole diagnosis stays at α.
+step-down family (:func:`gyrojax.inference.scoring.holm_log10`), so the family-wise error of the whole diagnosis
+stays at α.
 
 The same whitened system answers which candidates are **statistically indistinguishable** (:func:`near_aliases`):
 two candidates c, d whose joint fit is not significantly better than either alone (each one's conditional score
@@ -27,7 +28,7 @@ test given the other below its χ² critical value at α) explain the data withi
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 from functools import partial
 
 import jax
@@ -35,19 +36,17 @@ import jax.numpy as jnp
 import numpy as np
 from scipy import stats
 
-from gyrojax.inference import subspace
 from gyrojax.inference.drift_rows import rows_of, servo_state
-from gyrojax.inference.subspace import WhitenedSystem, _perp, basis, compress, perp_basis  # noqa: F401 (re-exported)
-from gyrojax.inference.tails import chi2_logsf
+from gyrojax.inference.scoring import collinear, score
+from gyrojax.inference.solver import stack_whitened
+from gyrojax.inference.subspace import UNSEEN, WhitenedSystem, basis, perp
+from gyrojax.inference.verdict import POWERS, Structure
 from gyrojax.noise.kept import Kept
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import instrument_inputs
 
 HARMONICS = 6
 """Highest harmonic of a table angle tested (cycles per revolution)."""
-POWERS = {1: "linear", 2: "quadratic", 3: "cubic", 4: "quartic"}
-UNSEEN = subspace.UNSEEN
-"""|X⊥| / |X| below which the model and the named candidates span a shape: it is not tested."""
 SAME = 0.9
 """Canonical correlation above which two unexplained shapes are the same structure seen through two inputs."""
 MIN_RATE_DEG_PER_H = 1.0
@@ -55,61 +54,6 @@ MIN_RATE_DEG_PER_H = 1.0
 
 _ACCEL_INPUTS = {fx.TDF: ("a_X", "a_Y", "a_Z"), fx.ACCEL: ("a_I", "a_P", "a_O")}
 _RATE_INPUTS = {fx.TDF: ("w_X", "w_Y"), fx.ACCEL: ()}
-
-
-@dataclass
-class Structure:
-    """Residual structure against one input that no named effect explains (one test of the family).
-
-    ``statistic`` ~ χ²(``df``) under "no such structure"; ``estimate``/``std`` (single-column shapes of an instrument
-    input) are the coefficient the shape would get if added to the model alone, in ``unit`` (output unit per unit
-    of ``expression``); ``expression`` is what to give ``--effect NAME=EXPR`` to model it.
-    """
-
-    versus: str
-    shape: str
-    statistic: float
-    df: int
-    p_value: float
-    log10_p: float
-    p_adjusted: float = 1.0
-    expression: str | None = None
-    estimate: float | None = None
-    std: float | None = None
-    unit: str | None = None
-    same_as: list = field(default_factory=list)
-
-    def to_json(self) -> dict:
-        """One entry of ``unexplained`` in the diagnosis JSON."""
-        out = {
-            "versus": self.versus,
-            "shape": self.shape,
-            "statistic": float(self.statistic),
-            "df": int(self.df),
-            "p_value": float(self.p_value),
-            "p_adjusted": float(self.p_adjusted),
-            "log10_p": float(self.log10_p),
-            "same_as": list(self.same_as),
-        }
-        if self.expression is not None:
-            out["expression"] = self.expression
-            out["effect_option"] = f"--effect '{suggest_name(self)}={self.expression}'"
-        if self.estimate is not None:
-            out["estimate"] = {"value": float(self.estimate), "std": float(self.std), "unit": self.unit}
-        return out
-
-    @property
-    def line(self) -> str:
-        """The report line: "residual structure vs a_I that no named effect explains: cubic"."""
-        extra = f" (also seen vs {', '.join(self.same_as)})" if self.same_as else ""
-        return f"residual structure vs {self.versus} that no named effect explains: {self.shape}{extra}"
-
-
-def suggest_name(s: Structure) -> str:
-    """A coefficient name for an ``--effect`` modelling ``s`` (``U_a_I_3`` for a_I³)."""
-    base = s.versus.replace(" ", "_")
-    power = {v: k for k, v in POWERS.items()}.get(s.shape)
-    return f"U_{base}_{power}" if power else f"U_{base}_{s.shape.replace(' ', '_').replace('|', 'abs')}"
 
 
 # ---- the shapes -------------------------------------------------------------------------------------------------
@@ -170,97 +114,61 @@ def shapes(campaign, result=None) -> list[tuple]:
         return [p["rows"](np.asarray(fn(p), dtype=float)).reshape(p["m"], -1) for p in per_rec]
 
     out = []
+
+    def add(versus, shape, expr, unit, fn):  # one shape: its regressors in every record's rows
+        out.append((versus, shape, expr, unit, blocks(fn)))
+
+    def per(unit, k):  # the unit of a k-th power's coefficient
+        return unit + (f"^{k}" if k > 1 else "")
+
     # table angles: harmonics
     axes = sorted({a for p in per_rec for a in p["angle"]})
     for a in axes:
         allv = np.concatenate([p["angle"].get(a, np.zeros(0)) for p in per_rec])
-        if allv.size == 0 or np.ptp(allv) < np.deg2rad(1.0):
-            continue
-        for k in range(1, HARMONICS + 1):
-            out.append(
-                (f"table angle {a}", f"{k}θ harmonic", None, None, blocks(lambda p, k=k, a=a: _harmonic(p, a, k)))
-            )
+        if allv.size and np.ptp(allv) >= np.deg2rad(1.0):
+            for k in range(1, HARMONICS + 1):
+                add(f"table angle {a}", f"{k}θ harmonic", None, None, lambda p, k=k, a=a: _harmonic(p, a, k))
     # specific force: powers
     for key in _ACCEL_INPUTS.get(kind, ("a_I", "a_O", "a_S")):
         allv = stacked(lambda p, key=key: p["x"][key])
-        if allv.size == 0 or np.ptp(allv) < 1e-3:
-            continue
-        for k, name in POWERS.items():
-            out.append(
-                (
-                    key,
-                    name,
-                    key if k == 1 else f"{key}**{k}",
-                    f"{out_unit}/g" + (f"^{k}" if k > 1 else ""),
-                    blocks(lambda p, key=key, k=k: p["x"][key] ** k),
-                )
-            )
+        if allv.size and np.ptp(allv) >= 1e-3:
+            for k, name in POWERS.items():
+                ex = key if k == 1 else f"{key}**{k}"
+                add(key, name, ex, per(f"{out_unit}/g", k), lambda p, key=key, k=k: p["x"][key] ** k)
     # rates: the instrument's input-axis rate, and each turning table axis
     rate_shapes = (
-        ("linear", lambda w: w, "{}"),
-        ("|ω|", np.abs, "abs({})"),
-        ("quadratic", lambda w: w * w, "{}**2"),
-        ("cubic", lambda w: w**3, "{}**3"),
-        ("sign", np.sign, "sign({})"),
+        ("linear", lambda w: w, "{}", f"{out_unit} per deg/h"),
+        ("|ω|", np.abs, "abs({})", f"{out_unit} per deg/h"),
+        ("quadratic", lambda w: w * w, "{}**2", f"{out_unit} per (deg/h)^2"),
+        ("cubic", lambda w: w**3, "{}**3", f"{out_unit} per (deg/h)^3"),
+        ("sign", np.sign, "sign({})", out_unit),
     )
-    units_of = {
-        "linear": f"{out_unit} per deg/h",
-        "|ω|": f"{out_unit} per deg/h",
-        "sign": out_unit,
-        "quadratic": f"{out_unit} per (deg/h)^2",
-        "cubic": f"{out_unit} per (deg/h)^3",
-    }
     for key in _RATE_INPUTS.get(kind, ("w_I",)):
         allv = stacked(lambda p, key=key: p["x"][key])
-        if allv.size == 0 or np.ptp(allv) < MIN_RATE_DEG_PER_H:
-            continue
-        for name, f, ex in rate_shapes:
-            out.append((key, name, ex.format(key), units_of[name], blocks(lambda p, key=key, f=f: f(p["x"][key]))))
+        if allv.size and np.ptp(allv) >= MIN_RATE_DEG_PER_H:
+            for name, f, ex, unit in rate_shapes:
+                add(key, name, ex.format(key), unit, lambda p, key=key, f=f: f(p["x"][key]))
     for a in axes:
         allv = np.concatenate([p["rate"].get(a, np.zeros(0)) for p in per_rec])
-        if allv.size == 0 or np.ptp(allv) < MIN_RATE_DEG_PER_H:
-            continue
-        scale = float(np.max(np.abs(allv))) or 1.0
-        for name, f, _ in rate_shapes:
-            out.append(
-                (
-                    f"table rate {a}",
-                    name,
-                    None,
-                    None,
-                    blocks(lambda p, a=a, f=f, s=scale: f(p["rate"].get(a, np.zeros_like(p["ones"])) / s)),
-                )
-            )
+        if allv.size and np.ptp(allv) >= MIN_RATE_DEG_PER_H:
+            scale = float(np.max(np.abs(allv))) or 1.0
+            for name, f, _, _ in rate_shapes:
+                fn = lambda p, a=a, f=f, s=scale: f(p["rate"].get(a, np.zeros_like(p["ones"])) / s)  # noqa: E731
+                add(f"table rate {a}", name, None, None, fn)
     # time on the campaign clock
     t_all = stacked(lambda p: p["x"]["t_h"])
     if t_all.size and np.ptp(t_all) > 0:
         mid = round(0.5 * (t_all.max() + t_all.min()), 3)
         for k in (1, 2, 3):
             ex = "t_h" if k == 1 else f"(t_h-{mid:g})**{k}"
-            out.append(
-                (
-                    "time",
-                    POWERS[k],
-                    ex,
-                    f"{out_unit}/h" + (f"^{k}" if k > 1 else ""),
-                    blocks(lambda p, k=k: (p["x"]["t_h"] - mid) ** k),
-                )
-            )
+            add("time", POWERS[k], ex, per(f"{out_unit}/h", k), lambda p, k=k: (p["x"]["t_h"] - mid) ** k)
     # temperature
     if all(p["temp"] is not None for p in per_rec):
         tc = stacked(lambda p: p["temp"])
         if tc.size and np.ptp(tc) > 1e-6:
             for k in (1, 2, 3):
                 ex = "(temperature_C-20)" + (f"**{k}" if k > 1 else "")
-                out.append(
-                    (
-                        "temperature_C",
-                        POWERS[k],
-                        ex,
-                        f"{out_unit}/°C" + (f"^{k}" if k > 1 else ""),
-                        blocks(lambda p, k=k: (p["temp"] - 20.0) ** k),
-                    )
-                )
+                add("temperature_C", POWERS[k], ex, per(f"{out_unit}/°C", k), lambda p, k=k: (p["temp"] - 20.0) ** k)
     # position index: one offset per (record, position)
     keys = sorted({(i, s) for i, p in enumerate(per_rec) for s in np.unique(p["seg"])})
     if len(keys) > 1:
@@ -274,6 +182,22 @@ def shapes(campaign, result=None) -> list[tuple]:
         multi = any(len(np.unique(p["seg"])) > 1 for p in per_rec)
         out.append(("position", "offset per position" if multi else "offset per record", None, None, bl))
     return out
+
+
+def whitened_system(lin, noises, blocks_per_shape, p0: int) -> WhitenedSystem:
+    """The records' residual, regressors and shape blocks (``blocks_per_shape[k][i]``: shape k's regressors in record
+    i's rows) whitened together by each record's noise model (:func:`gyrojax.inference.solver.stack_whitened`) and
+    held as a :class:`~gyrojax.inference.subspace.WhitenedSystem`."""
+    widths = [b[0].shape[1] for b in blocks_per_shape]
+    p = lin[0].jacobian.shape[1] if lin else 0
+    aug = [
+        rec._replace(jacobian=np.column_stack([rec.jacobian] + [b[i] for b in blocks_per_shape]))
+        for i, rec in enumerate(lin)
+    ]
+    rw, jall = stack_whitened(aug, noises)
+    edges = p + np.cumsum([0] + widths)
+    cols = [np.arange(a, b) - p for a, b in zip(edges[:-1], edges[1:])]
+    return WhitenedSystem.of(rw, jall[:, :p], jall[:, p:], cols, p0)
 
 
 @dataclass
@@ -291,9 +215,9 @@ class ShapeSystem:
     def build(cls, campaign, lin, noises, p0: int, result=None) -> "ShapeSystem":
         """As the arguments of :func:`residual_structure`."""
         lib = shapes(campaign, result)
-        ws = WhitenedSystem.build(lin, noises, [s[4] for s in lib], p0)
+        ws = whitened_system(lin, noises, [s[4] for s in lib], p0)
         u0 = basis(ws.j[:, :p0])
-        return cls(lib, ws, u0, _perp(u0, ws.r))
+        return cls(lib, ws, u0, perp(u0, ws.r))
 
 
 def residual_structure(
@@ -325,59 +249,41 @@ def residual_structure(
     n = ws.n
     dof = n - u_all.shape[1]
     if dof >= max(10, n // 10):
-        e = _perp(u_all, ws.r)
+        e = perp(u_all, ws.r)
     else:
-        e, dof = _perp(u_named, ws.r), max(n - u_named.shape[1], 1)
+        e, dof = perp(u_named, ws.r), max(n - u_named.shape[1], 1)
     sigma2 = float(e @ e) / dof
     if not sigma2 > 0:
         return []
     out, perps = [], []
     for (versus, shape, expr, unit, _), c in zip(lib, ws.shape_cols):
         x = ws.x[:, c]
-        xn = float(np.sqrt((x * x).sum()))
-        if xn == 0.0:
+        if float(np.sqrt((x * x).sum())) == 0.0:
             continue
-        uc = perp_basis(u_named, x)
-        if uc.shape[1] == 0:
+        sc = score(u_named, r0, x, sigma2, tol=UNSEEN)  # σ̃² from beyond every shape: the χ² law
+        if sc is None:
             continue
-        proj = uc.T @ r0
-        stat = float(proj @ proj) / sigma2
-        df = uc.shape[1]
-        logp = float(chi2_logsf(stat, df))
-        s = Structure(versus, shape, stat, df, math.exp(logp), logp / math.log(10), expression=expr)
+        fitted = {}
         if expr is not None and x.shape[1] == 1:
-            x0 = _perp(u0, x[:, 0])
+            x0 = perp(u0, x[:, 0])
             nn = float(x0 @ x0)
             if nn > 0:
-                s.estimate, s.std, s.unit = float(x0 @ r0) / nn, math.sqrt(sigma2 / nn), unit
-        out.append(s)
-        perps.append(uc)
+                fitted = {"estimate": float(x0 @ r0) / nn, "std": math.sqrt(sigma2 / nn), "unit": unit}
+        name = f"{versus}: {shape}"
+        out.append(
+            Structure(name, versus, shape, sc.statistic, sc.df, sc.p_value, sc.log10_p, expression=expr, **fitted)
+        )
+        perps.append(sc.basis)
     order = np.argsort([s.log10_p for s in out], kind="stable")
     out = [out[i] for i in order]
     perps = [perps[i] for i in order]
+    same: list = [[] for _ in out]
     for i, a in enumerate(out):
         for j in range(i):
-            b = out[j]
-            sv = np.linalg.svd(perps[i].T @ perps[j], compute_uv=False)
-            if sv.size and sv[0] > SAME:
-                a.same_as.append(b.versus)
-                b.same_as.append(a.versus)
-    for s in out:
-        s.same_as = list(dict.fromkeys(v for v in s.same_as if v != s.versus))
-    return out
-
-
-def holm_log10(log10_p) -> np.ndarray:
-    """Holm step-down adjusted p-values, as log10 (so that p-values below the float range still order and adjust):
-    adj_(i) = max_{j ≤ i} min(1, (m − j + 1) p_(j))."""
-    lp = np.asarray(log10_p, dtype=float)
-    m = len(lp)
-    adj = np.empty(m)
-    running = -np.inf
-    for rank, i in enumerate(np.argsort(lp, kind="stable")):
-        running = max(running, min(0.0, math.log10(m - rank) + lp[i]))
-        adj[i] = running
-    return adj
+            if collinear(perps[i], perps[j], SAME):
+                same[i].append(out[j].versus)
+                same[j].append(a.versus)
+    return [replace(s, same_as=list(dict.fromkeys(v for v in sm if v != s.versus))) for s, sm in zip(out, same)]
 
 
 # ---- near-aliases -----------------------------------------------------------------------------------------------
@@ -393,36 +299,36 @@ def near_aliases(lin, noises, p0: int, slices: dict, names, alpha: float, system
     ``system``: the :class:`WhitenedSystem` of ``lin`` whitened by ``noises``, if already built (the diagnosis'
     score tests build it).
     """
-    ws = system or WhitenedSystem.build(lin, noises, [], p0)
+    ws = system or whitened_system(lin, noises, [], p0)
     u0 = basis(ws.j[:, :p0])
-    r0 = _perp(u0, ws.r)
+    r0 = perp(u0, ws.r)
     sigma2 = float(r0 @ r0) / max(ws.n - u0.shape[1], 1)
     if not sigma2 > 0:
         return {}
-    perp = {}
+    perps = {}
     for c, sl in slices.items():
-        xp = _perp(u0, ws.j[:, sl])
+        xp = perp(u0, ws.j[:, sl])
         if xp.size and float(np.abs(xp).max()) > 0:
             uc = basis(xp)
             if uc.shape[1]:
-                perp[c] = uc
+                perps[c] = uc
 
-    def score(u):
+    def statistic(u):
         pr = u.T @ r0
         return float(pr @ pr) / sigma2
 
-    single = {c: score(u) for c, u in perp.items()}
+    single = {c: statistic(u) for c, u in perps.items()}
     out = {}
     for c in names:
-        if c not in perp or single[c] < stats.chi2.isf(alpha, perp[c].shape[1]):
+        if c not in perps or single[c] < stats.chi2.isf(alpha, perps[c].shape[1]):
             continue  # (a slow candidate judged by its likelihood ratio, not by this score)
         found = []
-        for d, ud in perp.items():
+        for d, ud in perps.items():
             if d == c:
                 continue
-            uj = basis(np.column_stack([perp[c], ud]))
-            s_joint = score(uj)
-            add_c, add_d = uj.shape[1] - ud.shape[1], uj.shape[1] - perp[c].shape[1]
+            uj = basis(np.column_stack([perps[c], ud]))
+            s_joint = statistic(uj)
+            add_c, add_d = uj.shape[1] - ud.shape[1], uj.shape[1] - perps[c].shape[1]
             if add_c == 0 and add_d == 0:
                 continue  # an exact alias
             ok = True
@@ -433,86 +339,3 @@ def near_aliases(lin, noises, p0: int, slices: dict, names, alpha: float, system
                 found.append(d)
         out[c] = found
     return out
-
-
-# ---- what the diagnosis may propose -----------------------------------------------------------------------------
-
-SETUP_MEASUREMENTS = {
-    "table_tilt": "level the table base with a precision level or inclinometer (fixes table_tilt)",
-    "table_azimuth": "survey the table's azimuth with a theodolite or north-finder (fixes table_azimuth)",
-    "encoder_harmonic": "calibrate the angle readout against a polygon and autocollimator (fixes encoder_harmonic)",
-}
-"""Measurements outside any rate test that pin a set-up effect down: a tilt about North and an azimuth error turn
-the Earth rate the same way in every table test (both move only its East component in the base), and only the
-g-sensitivity times the tilted gravity — far below the noise of any practical test — tells them apart."""
-
-
-def setup_measurements(group) -> list[str]:
-    """Independent measurements that would separate the set-up effects (arcsec-size table errors) of ``group`` when
-    no rate test can."""
-    return [SETUP_MEASUREMENTS[g] for g in group if g in SETUP_MEASUREMENTS]
-
-
-MAX_REFITS = 3
-"""Significant candidates refitted per diagnosis at most (in rank order, until one is accepted and plausible)."""
-
-
-def vet(
-    tested,
-    significant,
-    campaign,
-    result,
-    lin,
-    noises,
-    p0: int,
-    slices: dict,
-    alpha: float,
-    plausible: dict | None = None,
-    memo: dict | None = None,
-    system: WhitenedSystem | None = None,
-) -> str | None:
-    """Decide what the diagnosis may propose; returns the name of the effect to add (None: no named effect).
-
-    For the significant candidates, in rank order: their near-aliases (:func:`near_aliases`, into
-    ``indistinguishable``); a refit with the candidate added, exactly as ``gyrojax fit`` would do it, so that a
-    candidate ``fit`` refuses is marked ``refused`` with fit's reason and ``rms_after`` is fit's own residual RMS
-    (``rms_after_refit``); and the refitted sizes against :mod:`gyrojax.physics.plausibility` (``implausible``).
-    The first candidate that passes is the proposal. Candidates that are not refitted keep their one-step estimates,
-    checked for plausibility too. ``memo``: a dict kept across the rounds of one diagnosis (same ``tested``, ``lin``
-    and ``noises``), where each candidate's near-aliases are computed once. ``system``: ``lin`` whitened by
-    ``noises`` (:class:`WhitenedSystem`), if already built.
-    """
-    from gyrojax.errors import ModelError
-    from gyrojax.inference.identify import fit
-    from gyrojax.physics import plausibility
-
-    live = {c.name: slices[c.name] for c in tested if c.df > 0 and c.name in slices}
-    memo = {} if memo is None else memo
-    todo = [c.name for c in significant if c.name in live and c.name not in memo]
-    if todo:
-        memo.update(near_aliases(lin, noises, p0, live, todo, alpha, system))
-    near = memo
-    proposal = None
-    refits = sum(1 for c in significant if c.rms_after_refit or c.refused)  # one budget across the diagnosis' rounds
-    for c in significant:
-        c.indistinguishable = [d for d in near.get(c.name, []) if d not in c.aliases]
-        if proposal is None and refits < MAX_REFITS and not c.rms_after_refit and c.refused is None:
-            refits += 1
-            try:
-                f = fit(campaign.records, tuple(result.model.terms) + (c.name,), campaign=campaign)
-            except ModelError as e:
-                c.refused = f"fit refuses it on these records: {e}"
-            else:
-                c.rms_after, c.rms_after_refit = f.residual_rms, True
-                c.refit = (tuple(campaign.records), f)  # the next step's fit when this is added (diagnose.fit_with)
-                units = f.units()
-                c.estimate = {
-                    k: {"value": f.values[k], "std": f.stds[k], "unit": units[k]} for k in fx.get(c.name).coefficients
-                }
-        c.implausible = plausibility.implausible(c.estimate, plausible)
-        if proposal is None and c.refused is None and c.implausible is None and c.rms_after_refit:
-            proposal = c.name
-    for c in tested:
-        if c not in significant and c.df > 0:
-            c.implausible = plausibility.implausible(c.estimate, plausible)
-    return proposal

@@ -36,6 +36,7 @@ from gyrojax.inference.identifiability import ALIAS_TOL, IdentifiabilityError, a
 from gyrojax.inference.identify import DEFAULT_TERMS
 from gyrojax.inference.lstsq import lstsq_normal
 from gyrojax.inference.result import Estimates
+from gyrojax.inference.solver import solve
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model, jacobian_jit, predict_jit
 
@@ -170,7 +171,7 @@ def fit_chunked(path, terms=None, chunk_rows: int = 200_000, allow_aliases: bool
             jac = np.asarray(jacobian_jit(model, zeros, data)) if p else np.zeros((len(y), 0))
             r = y - np.asarray(predict_jit(model, zeros, data))
             if theta0 is None:
-                theta0 = np.linalg.lstsq(jac, r, rcond=None)[0] if p else np.zeros(0)
+                theta0 = solve(jac, r)[0] if p else np.zeros(0)
             r = r - jac @ theta0
             jtj += jac.T @ jac
             jtr += jac.T @ r

@@ -6,6 +6,7 @@ from __future__ import annotations
 import hashlib
 import json
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import jax.numpy as jnp
 import numpy as np
@@ -108,8 +109,8 @@ class Campaign:
         kinds = {r.kind for r in records}
         if TRIAD_KIND in kinds:
             raise ModelError(
-                "imu-triad records have no turntable: they are fitted per channel by fit() "
-                "(gyrojax.inference.triad.fit_triad); diagnose and the turntable tools do not take them"
+                "imu-triad records have no turntable campaign: gyrojax.fit, gyrojax.diagnose and "
+                "gyrojax.add_and_refit take them as they are; the turntable tools (design, separate) do not"
             )
         if len(kinds) > 1:
             raise ModelError(f"records of different instrument kinds cannot be fitted together: {sorted(kinds)}")
@@ -148,10 +149,19 @@ def check_terms(model: Model, campaign: Campaign) -> None:
             )
 
 
-def linearize(model: Model, theta, campaign: Campaign):
-    """Per record (r, J, labels, times): residuals r = y − predict (output units: deg/h for gyros, g for
-    accelerometers), Jacobians J = ∂predict/∂θ (output units per report unit), segment labels and measurement
-    times (s); measurement rows only. ``theta`` in report units."""
+class Linearized(NamedTuple):
+    """One record's measurement rows at θ: the ``residual`` r = y − predict (output units: deg/h for gyros, g for
+    accelerometers), the ``jacobian`` J = ∂predict/∂θ (output units per report unit), the continuous-segment
+    ``labels`` and the measurement ``times`` (s)."""
+
+    residual: np.ndarray
+    jacobian: np.ndarray
+    labels: np.ndarray
+    times: np.ndarray
+
+
+def linearize(model: Model, theta, campaign: Campaign) -> list[Linearized]:
+    """The :class:`Linearized` rows of every record at ``theta`` (report units); measurement rows only."""
     out = []
     th = jnp.asarray(theta, dtype=jnp.float64)
     for d, lab, t in zip(campaign.data, campaign.labels, campaign.times):
@@ -163,7 +173,7 @@ def linearize(model: Model, theta, campaign: Campaign):
         else:
             y, jac = kept_predict(model, th, d), np.zeros((int(ok.sum()), 0))
         r = (np.asarray(d.y) - np.asarray(y))[ok]
-        out.append((r, jac, lab[ok], t[ok]))
+        out.append(Linearized(r, jac, lab[ok], t[ok]))
     return out
 
 

@@ -36,8 +36,6 @@ from dataclasses import replace
 
 import numpy as np
 
-from gyrojax.data.record import Record
-from gyrojax.data.triad import TRIAD_KIND
 from gyrojax.errors import ConvergenceWarning, ModelError
 from gyrojax.inference.campaign import Campaign, check_terms, input_hashes, linearize, split_by_instrument
 from gyrojax.inference.identifiability import IdentifiabilityError, alias_message, identifiability
@@ -51,7 +49,8 @@ from gyrojax.inference.noisefit import (
 )
 from gyrojax.inference.result import FitResult
 from gyrojax.inference.solver import solve, stack_whitened, weighted_least_squares
-from gyrojax.inference.triad import fit_triad
+from gyrojax.inference.triad import fit_triad, is_triad_input
+from gyrojax.kinds import TRIAD_KIND
 from gyrojax.noise import reml
 from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics import effects as fx
@@ -65,11 +64,6 @@ DEFAULT_TERMS = {
     fx.FOG: ("D_F", "sf_error"),
     fx.RLG: ("D_F", "sf_error"),
 }
-
-
-def _is_triad(records) -> bool:
-    recs = [records] if isinstance(records, Record) else records
-    return isinstance(recs, (list, tuple)) and any(isinstance(r, Record) and r.kind == TRIAD_KIND for r in recs)
 
 
 @narrow_blas
@@ -97,7 +91,7 @@ def fit(
 
     Returns: a :class:`~gyrojax.inference.result.FitResult`, or a :class:`~gyrojax.inference.triad_result.TriadFit`.
     """
-    if campaign is None and _is_triad(records):
+    if campaign is None and is_triad_input(records):
         refused = []
         if kind not in (None, TRIAD_KIND):
             refused.append(f"kind={kind!r}")
@@ -105,7 +99,8 @@ def fit(
             refused.append("theta0 (every triad coefficient is linear: there is no start to give)")
         if isinstance(noise, (str, NoiseSpec)):
             refused.append(
-                f"noise={noise!r} (a triad's noise is the long-run variance of each channel: None, or three variances)"
+                f"noise={noise!r} (a triad's noise is the long-run variance of each channel: None, three variances "
+                "or a SessionNoise)"
             )
         if refused:
             raise ModelError(f"the fit of imu-triad records cannot honour {'; '.join(refused)}")

@@ -47,7 +47,8 @@ def _unseen_to_nan(xp, cov, vt, keep):
 
 
 def lstsq(j, r, method: str = "svd", rank_tol: float = 0.0):
-    """Least squares J x ≈ r: (x, (JᵀJ)⁻¹) by ``method`` (module doc); ``j`` (m, p), ``r`` (m,).
+    """Least squares J x ≈ r: (x, (JᵀJ)⁻¹) by ``method`` (module doc); ``j`` (m, p), ``r`` (m,) or (m, k) for k
+    right-hand sides at once (x then (p, k)).
 
     Units: x in r's units per unit of J's columns; (JᵀJ)⁻¹ in the square of (1 / J's column units).
     ``rank_tol`` (dimensionless) applies to ``"svd"`` only.
@@ -57,14 +58,15 @@ def lstsq(j, r, method: str = "svd", rank_tol: float = 0.0):
     xp, sla = _libs(j, r)
     p = j.shape[1]
     if p == 0:
-        return xp.zeros(0), xp.zeros((0, 0))
+        return xp.zeros((0,) + r.shape[1:]), xp.zeros((0, 0))
     sc = column_scale(j)
     z = j / sc
+    sx = sc if r.ndim == 1 else sc[:, None]
     if method == "svd":
         u, s, vt = xp.linalg.svd(z, full_matrices=False)
         keep = s >= rank_tol * s[0]
         sinv = xp.where(keep, 1.0 / xp.where(keep, s, 1.0), 0.0)
-        x = (vt.T * sinv) @ (u.T @ r) / sc
+        x = (vt.T * sinv) @ (u.T @ r) / sx
         inv = ((vt.T * sinv**2) @ vt) / xp.outer(sc, sc)
         if rank_tol > 0:
             inv = _unseen_to_nan(xp, inv, vt, keep)
@@ -73,13 +75,13 @@ def lstsq(j, r, method: str = "svd", rank_tol: float = 0.0):
         q, rr = xp.linalg.qr(z)
         x = sla.solve_triangular(rr, q.T @ r)
         rinv = sla.solve_triangular(rr, xp.eye(p))
-        return x / sc, (rinv @ rinv.T) / xp.outer(sc, sc)
+        return x / sx, (rinv @ rinv.T) / xp.outer(sc, sc)
     c = sla.cho_factor(z.T @ z)
-    return sla.cho_solve(c, z.T @ r) / sc, sla.cho_solve(c, xp.eye(p)) / xp.outer(sc, sc)
+    return sla.cho_solve(c, z.T @ r) / sx, sla.cho_solve(c, xp.eye(p)) / xp.outer(sc, sc)
 
 
 def lstsq_normal(gram, rhs, method: str = "eigh", rank_tol: float = 0.0):
-    """Least squares from its normal equations JᵀJ x = Jᵀr: (x, (JᵀJ)⁻¹), ``gram`` (p, p), ``rhs`` (p,).
+    """Least squares from its normal equations JᵀJ x = Jᵀr: (x, (JᵀJ)⁻¹), ``gram`` (p, p), ``rhs`` (p,) or (p, k).
 
     Column-normalised like :func:`lstsq` (S² = diag JᵀJ). ``"eigh"``: eigenvalues of the normalised JᵀJ below
     ``rank_tol``² × the largest (singular values of J below ``rank_tol`` × the largest) are dropped, with the NaN rule
@@ -90,14 +92,15 @@ def lstsq_normal(gram, rhs, method: str = "eigh", rank_tol: float = 0.0):
     xp, sla = _libs(gram, rhs)
     p = gram.shape[0]
     if p == 0:
-        return xp.zeros(0), xp.zeros((0, 0))
+        return xp.zeros((0,) + rhs.shape[1:]), xp.zeros((0, 0))
     norms = xp.sqrt(xp.clip(xp.diagonal(gram), 0.0, None))
     sc = xp.where(norms > 0, norms, 1.0)
+    sx = sc if rhs.ndim == 1 else sc[:, None]
     a = gram / xp.outer(sc, sc)
-    b = rhs / sc
+    b = rhs / sx
     if method == "cholesky":
         c = sla.cho_factor(a)
-        return sla.cho_solve(c, b) / sc, sla.cho_solve(c, xp.eye(p)) / xp.outer(sc, sc)
+        return sla.cho_solve(c, b) / sx, sla.cho_solve(c, xp.eye(p)) / xp.outer(sc, sc)
     lam, v = xp.linalg.eigh(a)
     lam = xp.clip(lam, 0.0, None)
     keep = lam > rank_tol**2 * xp.max(lam)
@@ -106,7 +109,7 @@ def lstsq_normal(gram, rhs, method: str = "eigh", rank_tol: float = 0.0):
     inv = inv_n / xp.outer(sc, sc)
     if rank_tol > 0:
         inv = _unseen_to_nan(xp, inv, v.T, keep)
-    return inv_n @ b / sc, inv
+    return inv_n @ b / sx, inv
 
 
 __all__ = ["METHODS", "NORMAL_METHODS", "UNSEEN_WEIGHT", "column_scale", "lstsq", "lstsq_normal"]

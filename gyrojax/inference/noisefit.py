@@ -9,7 +9,7 @@ import numpy as np
 
 from gyrojax.data.timebase import interval_key
 from gyrojax.errors import ConvergenceWarning
-from gyrojax.inference.campaign import Campaign
+from gyrojax.inference.campaign import Campaign, Linearized
 from gyrojax.inference.solver import solve, stack_whitened
 from gyrojax.noise import reml
 from gyrojax.noise.readout import record_readout_variance, white_beside_readout
@@ -126,9 +126,9 @@ def _white_unless_drift(r, j, lab, t, gm: NoiseSpec):
     return white.with_status(gm.converged, gm.reason)
 
 
-def group_series(lin, idx):
-    """(r, J, labels, times) of the records ``idx`` of ``lin`` stacked as independent series: labels kept apart,
-    each record's clock (s) restarted at 0, so that the noise model restarts at each record."""
+def group_series(lin, idx) -> Linearized:
+    """The rows of the records ``idx`` of ``lin`` stacked as independent series: labels kept apart, each record's
+    clock (s) restarted at 0, so that the noise model restarts at each record."""
     rs, js, labs, ts, off = [], [], [], [], 0
     for i in idx:
         r, j, lab, t = lin[i]
@@ -137,7 +137,7 @@ def group_series(lin, idx):
         labs.append(lab + off)
         ts.append(t - t[0] if len(t) else t)
         off += int(lab.max()) + 1 if len(lab) else 0
-    return tuple(np.concatenate(v) for v in (rs, js, labs, ts))
+    return Linearized(*(np.concatenate(v) for v in (rs, js, labs, ts)))
 
 
 # ---- small-sample correction ------------------------------------------------------------------------------------
@@ -161,8 +161,8 @@ def satterthwaite_dof(lin, campaign: Campaign, noises, scales, gls_cov=None) -> 
     handful of such degrees of freedom, and a plug-in σ̂ then covers ±2σ in ~0.88 of the cases, not 0.954.
     A τ at its cap is held fixed. Records with an AR or white model add nothing (their ν is large). A servo
     readout's known noise (``readout_var``) is in the likelihood and the Gram matrix as in the fit: without it the
-    curvature is that of another likelihood, away from its optimum (white-noise polar servo campaigns that kept
-    a short-τ drift got ν ≈ 1 and standard errors 7–8 × too wide, issue 28).
+    curvature is that of another likelihood, away from its optimum, where ν collapses towards 1 and the widened
+    standard errors are several times too wide.
     ``gls_cov``: (J̃ᵀJ̃)⁻¹ of ``lin`` whitened by ``noises`` (:func:`gyrojax.inference.solver.solve`, unscaled), when
     the caller has it (the fit does), else computed here.
     Returns ν (dimensionless, ≥ 1; ``inf`` where no noise parameter was estimated).

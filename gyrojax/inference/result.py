@@ -16,6 +16,7 @@ from gyrojax.data.record import Record
 from gyrojax.errors import FormatError, ModelError
 from gyrojax.inference.formats import LEGACY_FORMAT, RESULT_FORMAT, RESULT_VERSION, fit_kind
 from gyrojax.inference.noisefit import small_sample_factor
+from gyrojax.inference.scoring import ALPHA
 from gyrojax.noise.spec import NoiseSpec
 from gyrojax.noise.whiten import first_difference_std
 from gyrojax.physics import effects as fx
@@ -142,7 +143,7 @@ class FitResult(Estimates):
                 "unit": u,
                 "t": _num(t),
                 "p_value": _num(p),
-                "significant": bool(p < 0.05) if np.isfinite(p) else False,
+                "significant": bool(p < ALPHA) if np.isfinite(p) else False,
             }
         if self.dof_eff is not None:
             for c, nu in zip(self.coefficient_names, self.dof_eff):
@@ -174,6 +175,7 @@ class FitResult(Estimates):
                 "dof": self.dof,
                 "chi2_whitened": _num(self.chi2_whitened),
             },
+            "alpha": ALPHA,
             "gyrojax_version": __version__,
             "inputs": self.inputs,
         }

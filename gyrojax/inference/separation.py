@@ -16,7 +16,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyrojax.data.arrays import record_data
+from gyrojax.inference.identifiability import ALIAS_TOL
 from gyrojax.inference.kept_model import keepable, model_name
+from gyrojax.inference.lstsq import lstsq_normal
+from gyrojax.inference.scoring import ALPHA
 from gyrojax.noise.kept import Kept, kept_arrays
 from gyrojax.physics import effects as fx
 from gyrojax.physics import registry
@@ -91,6 +94,22 @@ def _compute_plan_jacobians(model: Model) -> dict:
     for name, n, j in zip(owner, lengths, np.asarray(jac)):
         out.setdefault(name, []).append(j[:n])
     return {k: np.concatenate(v, axis=0) for k, v in out.items()}
+
+
+SETUP_MEASUREMENTS = {
+    "table_tilt": "level the table base with a precision level or inclinometer (fixes table_tilt)",
+    "table_azimuth": "survey the table's azimuth with a theodolite or north-finder (fixes table_azimuth)",
+    "encoder_harmonic": "calibrate the angle readout against a polygon and autocollimator (fixes encoder_harmonic)",
+}
+"""Measurements outside any rate test that pin a set-up effect down: a tilt about North and an azimuth error turn
+the Earth rate the same way in every table test (both move only its East component in the base), and only the
+g-sensitivity times the tilted gravity — far below the noise of any practical test — tells them apart."""
+
+
+def setup_measurements(group) -> list[str]:
+    """Independent measurements that would separate the set-up effects (arcsec-size table errors) of ``group`` when
+    no rate test can."""
+    return [SETUP_MEASUREMENTS[g] for g in group if g in SETUP_MEASUREMENTS]
 
 
 def separating_plans(kind: str, effects: tuple, context=None) -> list:
@@ -178,7 +197,7 @@ def _rows_jit(model: Model):
 def schur_noncentrality(f: np.ndarray, test: np.ndarray, rest: np.ndarray, delta: np.ndarray) -> float:
     """δᵀ (F_tt − F_tr F_rr⁻¹ F_rt) δ: the score-test noncentrality of the coefficients ``test`` beside ``rest``."""
     ftr = f[np.ix_(test, rest)]
-    s = f[np.ix_(test, test)] - ftr @ np.linalg.lstsq(f[np.ix_(rest, rest)], ftr.T, rcond=None)[0]
+    s = f[np.ix_(test, test)] - ftr @ lstsq_normal(f[np.ix_(rest, rest)], ftr.T, rank_tol=ALIAS_TOL)[0]
     return float(delta @ s @ delta)
 
 
@@ -229,7 +248,7 @@ def designed_entry(a: str, b: str, campaign, lin, full: Model, result, candidate
         lam_a = schur_noncentrality(f, ia, np.concatenate([bi, ib]), sizes[a])
         best = max(best, min(lam_a, schur_noncentrality(f, ib, np.concatenate([bi, ia]), sizes[b])))
     q = max(sizes[a].size, sizes[b].size)
-    pw = float(stats.ncx2.sf(stats.chi2.isf(0.01, q), q, max(best, 1e-300)))
+    pw = float(stats.ncx2.sf(stats.chi2.isf(ALPHA, q), q, max(best, 1e-300)))
     if pw < ENTRY_MIN_POWER:  # not worth naming: the set-up measurements or built-in plans speak instead
         return ""
     return (

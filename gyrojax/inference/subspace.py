@@ -8,10 +8,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gyrojax.noise.whiten import whiten
-
 UNSEEN = 1e-6
-"""|X⊥| / |X| below which a span holds a column: no direction of it is left (:func:`perp_basis`)."""
+"""|X⊥| / |X| below which a span holds a set of columns: no direction of it is left (:func:`perp_basis`); a
+candidate or shape the model spans that closely is not tested, it is indistinguishable from the model."""
 
 
 def basis(a: np.ndarray, tol: float = 1e-7) -> np.ndarray:
@@ -46,7 +45,8 @@ def _cholqr(u: np.ndarray) -> np.ndarray:
     return u @ np.linalg.inv(ch).T
 
 
-def _perp(u: np.ndarray, x: np.ndarray) -> np.ndarray:
+def perp(u: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``x`` less its projection on the orthonormal columns ``u``."""
     return x - u @ (u.T @ x) if u.shape[1] else x
 
 
@@ -64,12 +64,12 @@ def perp_basis(u: np.ndarray, x: np.ndarray, tol: float = UNSEEN) -> np.ndarray:
     live = norms > 0
     if not live.any():
         return np.zeros((x.shape[0], 0))
-    z = _perp(u, x[:, live] / norms[live])
+    z = perp(u, x[:, live] / norms[live])
     ev, vec = np.linalg.eigh(z.T @ z)
     keep = ev > tol**2
     if not keep.any():
         return np.zeros((x.shape[0], 0))
-    b = _perp(u, z @ (vec[:, keep] / np.sqrt(ev[keep])))  # a second projection: orthogonal to u to rounding
+    b = perp(u, z @ (vec[:, keep] / np.sqrt(ev[keep])))  # a second projection: orthogonal to u to rounding
     return _cholqr(b)
 
 
@@ -102,21 +102,3 @@ class WhitenedSystem:
         p = jw.shape[1]
         rr = compress(np.column_stack([rw, jw, xw]))
         return cls(rr[:, 0], rr[:, 1 : 1 + p], rr[:, 1 + p :], shape_cols, p0, len(rw))
-
-    @classmethod
-    def build(cls, lin, noises, blocks_per_shape, p0: int) -> "WhitenedSystem":
-        """Whiten each record's residual (output unit: deg/h or g), regressors and shape blocks together with its
-        noise model (dimensionless afterwards) and stack the records."""
-        rows_r, rows_j, rows_x = [], [], []
-        widths = [b[0].shape[1] for b in blocks_per_shape]
-        for i, ((r, j, lab, t), nz) in enumerate(zip(lin, noises)):
-            xs = [b[i] for b in blocks_per_shape]
-            both = np.column_stack([r, j] + xs) if xs else np.column_stack([r, j])
-            w, _ = whiten(both, lab, nz, t)
-            rows_r.append(w[:, 0])
-            rows_j.append(w[:, 1 : 1 + j.shape[1]])
-            rows_x.append(w[:, 1 + j.shape[1] :])
-        edges = np.cumsum([0] + widths)
-        cols = [np.arange(a, b) for a, b in zip(edges[:-1], edges[1:])]
-        tall = (np.concatenate(rows_r), np.concatenate(rows_j, axis=0), np.concatenate(rows_x, axis=0))
-        return cls.of(*tall, cols, p0)

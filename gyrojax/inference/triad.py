@@ -51,29 +51,16 @@ from gyrojax.data.triad_segments import triad_segments
 from gyrojax.errors import ConvergenceWarning, ModelError
 from gyrojax.inference.campaign import check_one_instrument
 from gyrojax.inference.identifiability import IdentifiabilityError, alias_analysis, alias_message, residue_columns
-from gyrojax.inference.solver import damped_least_squares, solve
+from gyrojax.inference.scoring import ALPHA
+from gyrojax.inference.solver import solve
 from gyrojax.inference.triad_accel import accelerometer_json, fit_accelerometer, needs_calibration
 from gyrojax.inference.triad_checks import divergence_hint, plausibility_notes, terms_for_force
 from gyrojax.inference.triad_components import Group, estimate_components
 from gyrojax.inference.triad_result import TriadFit
-from gyrojax.inference.triad_rows import (  # noqa: F401  (the rows' functions, named here as before)
-    _expm_so3,
-    _moves_residual,
-    linear_matrices,
-    linear_matrices_jit,
-    move_residual,
-    move_rows,
-    moves_jacobian_jit,
-    moves_residual_jit,
-    pack_moves,
-    pack_segments,
-    scale_matrix,
-    segment_jacobian_jit,
-    segment_means,
-    segment_means_jit,
-    segment_rows,
-)
+from gyrojax.inference.triad_rows import move_rows, pack_moves, pack_segments, scale_matrix, segment_rows
+from gyrojax.noise.spec import SessionNoise
 from gyrojax.noise.whiten import pooled_autocovariance
+from gyrojax.optimize import least_squares
 from gyrojax.physics import triad as tp
 from gyrojax.threads import narrow_blas
 
@@ -112,15 +99,19 @@ def long_run_variance(resid: list[np.ndarray], max_lag: int = NW_MAX_LAG) -> np.
     return q
 
 
+def default_terms(records) -> tuple:
+    """The terms :func:`fit_triad` takes by default for ``records``: the linear model with scale factor and
+    misalignment when a rotation or move segment is there, else bias and g-terms."""
+    recs = [records] if isinstance(records, Record) else list(records)
+    moving = any(s["type"] in ("rotation", "move") for r in recs for s in r.meta["segments"])
+    return DEFAULT_ROTATION_TERMS if moving else DEFAULT_STATIC_TERMS
+
+
 def is_triad_input(records) -> bool:
-    """True when ``records`` (a record or a list) are ``imu-triad`` records."""
-    if isinstance(records, Record):
-        return records.kind == TRIAD_KIND
-    try:
-        recs = list(records)
-    except TypeError:
-        return False
-    return bool(recs) and all(isinstance(r, Record) and r.kind == TRIAD_KIND for r in recs)
+    """True when ``records`` (a record or a list) hold an ``imu-triad`` record: the triad fit answers for them (and
+    refuses any other record among them)."""
+    recs = [records] if isinstance(records, Record) else records
+    return isinstance(recs, (list, tuple)) and any(isinstance(r, Record) and r.kind == TRIAD_KIND for r in recs)
 
 
 class TriadDivergence(ModelError):
@@ -164,7 +155,9 @@ def fit_triad_unchecked(
         ia_misalignment when there are rotations).
       earth_rate: override the records' ``earth_rate`` (False: no Earth rate in the model or the covariance).
       allow_aliases: return a minimum-norm fit instead of raising when the segments cannot separate some effects.
-      noise_q: per-channel long-run noise variance (deg/h)² per sample, instead of estimating it.
+      noise_q: per-channel long-run noise variance (deg/h)² per sample, or a
+        :class:`~gyrojax.noise.spec.SessionNoise` (its channels at the records' sample interval), instead of
+        estimating it.
       max_iter: iterations of the fit of gravity-to-gravity moves (the only nonlinear part): at most this many
         evaluations of the moves' residual by Levenberg–Marquardt (about one per iteration; 5 to 10 suffice).
       components: in a session with moves, estimate a per-pose bias scatter and a per-move angle noise by REML
@@ -176,7 +169,7 @@ def fit_triad_unchecked(
     recs = [records] if isinstance(records, Record) else list(records)
     if not recs:
         raise ModelError("no records to fit")
-    if not is_triad_input(recs):
+    if not all(isinstance(r, Record) and r.kind == TRIAD_KIND for r in recs):
         raise ModelError("fit_triad takes imu-triad records only")
     check_one_instrument(recs)
     acc_fit = fit_accelerometer(recs)
@@ -199,13 +192,14 @@ def fit_triad_unchecked(
     terms, force_notes = terms_for_force(terms, segments, default)
     model = tp.channel_model(terms)
     names = [tp.channel_name(c, ch) for ch in tp.CHANNELS for c in model.coefficient_names]
-    q = long_run_variance(resid) if noise_q is None else _channel_variances(noise_q)
+    dt_s = float(np.median([np.median(np.diff(s.t_h)) for s in segments if len(s.t_h) > 1] or [0.0])) * 3600.0
+    q = long_run_variance(resid) if noise_q is None else _channel_variances(noise_q, dt_s)
 
     # one compiled call each for the segment means and the moves (triad_rows), at shapes bucketed across sessions
     base, jac = segment_rows(model, np.zeros(3 * model.size), pack_segments(segments, bucketed=True), len(segments))
     y = np.concatenate([s.y for s in segments])
     packed = pack_moves(moves, bucketed=True) if moves else None
-    # the noise of every row in indicated units at the fitted S (whiten_segments, _move_whitening): the model is
+    # the noise of every row in indicated units at the fitted S (whiten_segments, move_whitening): the model is
     # linear in S, so a record whose nominal scale is off by k gives the same fit with S, b, G times k, the same χ²
     theta = np.zeros(3 * model.size)
     if moves and not any(s.kind == "rotation" for s in segments):
@@ -227,13 +221,10 @@ def fit_triad_unchecked(
         s_prev = s_mat
         lin_r, lin_j = whiten_segments(segments, y - base, jac, q, s_mat)
         if moves:  # Levenberg–Marquardt on the linear rows and the moves' direction residuals (2 rows per move)
-            move_w = _move_whitening(moves, q, s_mat)
-
-            def system(th, lin_r=lin_r, lin_j=lin_j, move_w=move_w):
-                mr, mj = _move_rows(model, th, packed, move_w)
-                return np.concatenate([lin_r - lin_j @ th, mr]), np.concatenate([lin_j, mj])
-
-            theta, n_eval, why = damped_least_squares(system, theta, max_iter)
+            move_w = move_whitening(moves, q, s_mat)
+            system = _moves_system(model, packed, lin_r, lin_j, move_w)
+            sol = least_squares(system, theta, max_iter)
+            theta, n_eval, why = sol.x, sol.steps, sol.reason
             iterations += n_eval
             if why:
                 break
@@ -247,17 +238,15 @@ def fit_triad_unchecked(
     if moves:
         base_w = (lin_r, lin_j, move_w)  # the white-noise model's rows: its χ² says how poor that model is
         if components and not why:
-            groups = _component_groups(model, segments, y - base, jac, q, s_mat, theta, packed, move_w)
+            moves_at = move_rows(model, theta, packed, move_w)[1:]
+            groups = component_groups(segments, y - base - jac @ theta, jac, q, s_mat, moves_at, move_w)
             tau2, why_components = estimate_components(groups)
         if any(v > 0 for v in tau2.values()):  # refit with the components in the covariance
             lin_r, lin_j = whiten_segments(segments, y - base, jac, q, s_mat, tau2.get("pose", 0.0))
-            move_w = _move_whitening(moves, q, s_mat, tau2.get("move", 0.0))
-
-            def system(th, lin_r=lin_r, lin_j=lin_j, move_w=move_w):
-                mr, mj = _move_rows(model, th, packed, move_w)
-                return np.concatenate([lin_r - lin_j @ th, mr]), np.concatenate([lin_j, mj])
-
-            theta, n_eval, why = damped_least_squares(system, theta, max_iter)
+            move_w = move_whitening(moves, q, s_mat, tau2.get("move", 0.0))
+            system = _moves_system(model, packed, lin_r, lin_j, move_w)
+            sol = least_squares(system, theta, max_iter)
+            theta, n_eval, why = sol.x, sol.steps, sol.reason
             iterations += n_eval
         rw, jw = system(theta)
         why = why or why_components
@@ -293,7 +282,7 @@ def fit_triad_unchecked(
             "also M_O, M_S times it in D_O, D_S); the horizontal Earth rate (unknown heading) is marginalised with "
             "its mean square over the sites of the sphere, (2/3) (15.04 deg/h)^2"
         )
-    if dof > 0 and special.chdtrc(dof, chi2) < 0.01:  # the χ² tail (scipy.stats.chi2.sf), without scipy.stats
+    if dof > 0 and special.chdtrc(dof, chi2) < ALPHA:  # the χ² tail (scipy.stats.chi2.sf), without scipy.stats
         comp = components_report(tau2, s_fit)
         if any(v > 0 for v in comp.values()):
             tail = "the standard errors include the variance components estimated by REML: " + ", ".join(
@@ -334,6 +323,7 @@ def fit_triad_unchecked(
         variance_components=components_report(tau2, s_fit),
         segment_residuals=seg_rows,
         accelerometer=accelerometer_json(acc_fit),
+        dt_s=dt_s,
     )
 
 
@@ -348,8 +338,11 @@ def with_calibrated_accelerometer(record: Record, acc_fit: dict) -> Record:
     return Record(record.meta, cols)
 
 
-def _channel_variances(noise_q) -> np.ndarray:
-    """A given long-run noise variance of each channel, (deg/h)² per sample, checked: three finite values > 0."""
+def _channel_variances(noise_q, dt_s: float) -> np.ndarray:
+    """A given long-run noise variance of each channel, (deg/h)² per sample, checked: three finite values > 0;
+    from a :class:`~gyrojax.noise.spec.SessionNoise`, its channels' at the records' sample interval ``dt_s``."""
+    if isinstance(noise_q, SessionNoise):
+        noise_q = noise_q.sample_variances(dt_s)
     try:
         q = np.asarray(noise_q, dtype=float)
     except (TypeError, ValueError):
@@ -365,6 +358,17 @@ def _channel_variances(noise_q) -> np.ndarray:
 def _scale_coefficient(name: str) -> bool:
     """True for the coefficients that multiply the rate (E_SF, M_O, M_S, E_A, E_2 of any channel)."""
     return tp.split_channel_name(name)[0] in ("E_SF", "M_O", "M_S", "E_A", "E_2")
+
+
+def _moves_system(model, packed, lin_r, lin_j, move_w):
+    """The whitened rows of a fit with moves and their Jacobian at θ: the linear rows, then the moves' two direction
+    rows each (:func:`gyrojax.inference.triad_rows.move_rows`)."""
+
+    def system(th):
+        _, mr, mj = move_rows(model, th, packed, move_w)
+        return np.concatenate([lin_r - lin_j @ th, mr]), np.concatenate([lin_j, mj])
+
+    return system
 
 
 def whiten_segments(segments, resid, jac, q, s_mat, pose_var: float = 0.0):
@@ -465,34 +469,33 @@ def _segment_residuals(segments, e, raw_res, moves, r_moves, move_w) -> list:
     return rows
 
 
-def _segment_cov(seg, q, s_mat) -> np.ndarray:
-    """White-noise covariance (3, 3) of a segment's mean, indicated units (:func:`whiten_segments`)."""
-    return np.diag(q / seg.n) + s_mat @ seg.extra @ s_mat.T
-
-
 def _segment_covs(segments, q, s_mat) -> np.ndarray:
-    """:func:`_segment_cov` of every segment, (m, 3, 3)."""
+    """White-noise covariance (m, 3, 3) of every segment's mean, indicated units (:func:`whiten_segments`)."""
     n = np.array([seg.n for seg in segments], dtype=float)
     extra = np.stack([seg.extra for seg in segments])
     return (q / n[:, None])[:, :, None] * np.eye(3) + s_mat @ extra @ s_mat.T
 
 
-def _component_groups(model, segments, resid, jac, q, s_mat, theta, packed, move_w) -> list:
-    """The rows of the fit at θ as :class:`~gyrojax.inference.triad_components.Group` s, natural units: each
-    segment's 3 rows (static poses carry the bias-scatter component), each move's 2 direction rows (the angle
-    noise component)."""
+def component_groups(segments, e, jac, q, s_mat, moves_at, move_w, extra=()) -> list:
+    """The rows of a fit at θ as :class:`~gyrojax.inference.triad_components.Group` s, natural units: each
+    segment's 3 rows (``e`` = y − f(θ), deg/h, and ``jac``; static poses carry the bias-scatter component), each
+    move's 2 direction rows (``moves_at``: the whitened rows and Jacobian of :func:`gyrojax.inference.triad_rows.
+    move_rows` at θ with the whitening ``move_w``, the angle noise component). ``extra``: more regressors as
+    (segment rows (3m, k), move rows (M, 3, k)) pairs, beside the Jacobian."""
     groups = []
-    covs, e = _segment_covs(segments, q, s_mat), resid - jac @ theta
+    covs = _segment_covs(segments, q, s_mat)
     for i, seg in enumerate(segments):
         sl = slice(3 * i, 3 * i + 3)
-        groups.append(Group(covs[i], e[sl], jac[sl], "pose" if seg.kind == "static" else ""))
-    _, rows, jrows = move_rows(model, theta, packed, move_w)  # whitened by σ_k: natural units are σ_k times them
-    for k, (_p, sd) in enumerate(move_w):
-        groups.append(Group(sd**2 * np.eye(2), sd * rows[2 * k : 2 * k + 2], sd * jrows[2 * k : 2 * k + 2], "move"))
+        j = np.column_stack([jac[sl]] + [sg[sl] for sg, _ in extra])
+        groups.append(Group(covs[i], e[sl], j, "pose" if seg.kind == "static" else ""))
+    rows, jrows = moves_at  # whitened by σ_k: natural units are σ_k times them
+    for k, (p, sd) in enumerate(move_w):
+        j = np.column_stack([sd * jrows[2 * k : 2 * k + 2]] + [p.T @ mv[k] for _, mv in extra])
+        groups.append(Group(sd**2 * np.eye(2), sd * rows[2 * k : 2 * k + 2], j, "move"))
     return groups
 
 
-def _move_whitening(moves, q, s_mat, angle_var_extra: float = 0.0) -> list:
+def move_whitening(moves, q, s_mat, angle_var_extra: float = 0.0) -> list:
     """Per move: (P (3, 2) basis ⟂ u_to, σ (rad) of each of the two residual components). The variance is the
     gyro noise integrated over the move — in calibrated units, S⁻¹ diag(q) S⁻ᵀ, its mean over the three axes
     (the body turns during the move) × n dt² — the noise of the two Up directions, and the Earth turning Up
@@ -509,10 +512,3 @@ def _move_whitening(moves, q, s_mat, angle_var_extra: float = 0.0) -> list:
     e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
     e2 = np.cross(u, e1)
     return [(np.column_stack([a, b]), float(np.sqrt(v))) for a, b, v in zip(e1, e2, var)]
-
-
-def _move_rows(model, theta, packed, whitening):
-    """Whitened residual rows (2 per move) and their Jacobian (2 per move, 3p columns) at θ
-    (:func:`gyrojax.inference.triad_rows.move_rows`)."""
-    _, rows, jac = move_rows(model, theta, packed, whitening)
-    return rows, jac

@@ -24,6 +24,7 @@ from gyrojax.data.segments import ellipsoid_accelerometer, imutk_acc_jacobian, i
 from gyrojax.data.triad import acc_g
 from gyrojax.data.triad_segments import label_rows
 from gyrojax.errors import ModelError
+from gyrojax.optimize import least_squares
 
 PARAMS = ("alpha_yz", "alpha_zy", "alpha_zx", "s_x", "s_y", "s_z", "b_x", "b_y", "b_z")
 PARAM_UNITS = ("rad",) * 3 + ("-",) * 3 + ("g",) * 3
@@ -77,11 +78,8 @@ def fit_accelerometer(records) -> dict | None:
     g_mean = float(np.mean(g_loc))
     params = ellipsoid_accelerometer(means, g_mean, 1.0, np.zeros(3))
     if not np.allclose(g_loc, g_mean):  # records of different sites: refine at each pose's own g
-        from scipy import optimize
-
-        params = optimize.least_squares(
-            _residual, params, jac=lambda p, m, _g: residual_jacobian(p, m), args=(means, g_loc), method="lm"
-        ).x
+        system = lambda p: (-_residual(p, means, g_loc), residual_jacobian(p, means))  # noqa: E731
+        params = least_squares(system, params, 100 * (len(params) + 1)).x
     sd = np.sqrt(np.maximum(var, 1e-30))
     r = _residual(params, means, g_loc) / sd
     jac = residual_jacobian(params, means) / sd[:, None]

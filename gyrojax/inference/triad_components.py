@@ -20,9 +20,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize
+
+from gyrojax.optimize import difference_curvature, minimize
 
 LOG_RANGE = 30.0  # log τ² searched within ± this of its natural scale (exp(−30): a component of zero)
+MAX_STEPS = 200  # iterations of each start's search at most
+FTOL = 1e-15  # predicted decrease of −2ℓ_R below which the search has converged: its rounding
 NEGLIGIBLE = 1e-3  # −2ℓ_R gain below which a component is zero (a likelihood-ratio statistic of 0.001: p ≈ 0.97)
 
 
@@ -35,13 +38,6 @@ class Group:
     r: np.ndarray
     jac: np.ndarray
     kind: str
-
-
-def whiten(groups, tau2: dict):
-    """(whitened residual, whitened Jacobian, log|V|) of the groups with the components ``tau2`` added."""
-    st = _Stacked(groups)
-    e, x, logdet, _ = st.whiten(tau2)
-    return e, x, logdet
 
 
 class _Stacked:
@@ -111,7 +107,8 @@ def reml_objective(groups, tau2: dict, col_scale: np.ndarray, rank_tol: float = 
 def estimate_components(groups, kinds=("pose", "move")) -> tuple[dict, str]:
     """REML estimates of the variance components ``kinds`` present in ``groups`` (module doc): ({kind: τ̂²}, why),
     natural units ((deg/h)² for poses, rad² for moves); a component the data cannot tell from zero comes back 0.
-    ``why`` is "" when the best start's search converged, else scipy's reason (the fit then says it did not)."""
+    ``why`` is "" when the best start's search (:func:`gyrojax.optimize.minimize`) converged, else its reason (the
+    fit then says it did not)."""
     kinds = [k for k in kinds if sum(g.kind == k for g in groups) >= 2]
     if not kinds:
         return {}, ""
@@ -126,23 +123,18 @@ def estimate_components(groups, kinds=("pose", "move")) -> tuple[dict, str]:
         return value, np.array([tau2[k] * grad[k] for k in kinds])
 
     best = None
+    lo, hi = np.full(len(kinds), -LOG_RANGE), np.full(len(kinds), 20.0)
     for start in (-LOG_RANGE, 0.0, 4.0):  # from zero, the noise's size and above: −2ℓ_R may have a boundary minimum
-        sol = optimize.minimize(
-            f,
-            np.full(len(kinds), start),
-            jac=True,
-            method="L-BFGS-B",
-            bounds=[(-LOG_RANGE, 20.0)] * len(kinds),
-            options={"ftol": 1e-15, "gtol": 1e-9, "maxiter": 500},
-        )
-        if best is None or sol.fun < best.fun:
+        u0 = np.full(len(kinds), start)
+        first = f(u0)
+        steps = np.where(u0 + 1e-3 <= hi, 1e-3, -1e-3)
+        grads = [f(u0 + steps[i] * np.eye(len(kinds))[i])[1] for i in range(len(kinds))]
+        curvature = difference_curvature(grads, u0, first[1], steps)
+        sol = minimize(f, u0, lo, hi, curvature, MAX_STEPS, FTOL, "the variance components' REML search", first)
+        if best is None or sol.value < best.value:
             best = sol
     out = {k: float(scale[k] * np.exp(ui)) for k, ui in zip(kinds, best.x)}
     for k in kinds:  # a component that lowers −2ℓ_R by less than NEGLIGIBLE is zero (the σ then do not wander)
-        if reml_objective(st, {**out, k: 0.0}, col_scale) - best.fun < NEGLIGIBLE:
+        if reml_objective(st, {**out, k: 0.0}, col_scale) - best.value < NEGLIGIBLE:
             out[k] = 0.0
-    # L-BFGS-B's status 1 is its iteration/evaluation limit: stopped short. Status 2 (ABNORMAL_TERMINATION_IN_LNSRCH)
-    # is a line search that could not lower −2ℓ_R any further at the rounding of −2ℓ_R (ftol 1e-15), which here
-    # happens at the minimum: it counts as converged.
-    why = f"the variance components' REML search stopped: {best.message}" if best.status == 1 else ""
-    return out, why
+    return out, best.reason

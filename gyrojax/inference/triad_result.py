@@ -16,6 +16,8 @@ from gyrojax.data.triad import TRIAD_KIND, acc_g, gyro_dph
 from gyrojax.errors import FormatError, ModelError
 from gyrojax.inference.formats import LEGACY_FORMAT, TRIAD_FORMAT, TRIAD_VERSION, fit_kind
 from gyrojax.inference.result import Estimates
+from gyrojax.inference.scoring import ALPHA
+from gyrojax.noise.spec import SessionNoise
 from gyrojax.physics import triad as tp
 
 
@@ -43,6 +45,7 @@ class TriadFit(Estimates):
     variance_components: dict = field(default_factory=dict)  # REML: pose bias scatter deg/h, move angle noise deg
     segment_residuals: list = field(default_factory=list)  # per pose/rotation/move: whitened, natural, chi2
     accelerometer: dict | None = None  # imu_tk's 9 parameters with σ (inference.triad_accel.accelerometer_json)
+    dt_s: float | None = None  # the records' sample interval, s (None: a file that did not keep it)
 
     def chi2_drivers(self, top: int = 3) -> list:
         """The segments with the largest share of χ² (white-noise model): [(name, share)], largest first."""
@@ -64,6 +67,26 @@ class TriadFit(Estimates):
     def residual_rms(self) -> float:
         """RMS of the segment-mean residuals, deg/h."""
         return float(np.sqrt(np.mean(self.residuals**2))) if self.residuals.size else float("nan")
+
+    @property
+    def noise_floor(self) -> float:
+        """RMS of the per-sample noise of the channels, deg/h (√ of the mean long-run variance q)."""
+        return float(np.sqrt(np.mean(self.noise_q)))
+
+    @property
+    def noise(self) -> SessionNoise | None:
+        """The session's noise (:class:`~gyrojax.noise.spec.SessionNoise`): each channel's long-run variance as its
+        white term at :attr:`dt_s`, and the variance components between segments (None without ``dt_s``)."""
+        if not self.dt_s:
+            return None
+        comp = self.variance_components
+        pose, move = comp.get("pose_bias_scatter_deg_per_h", 0.0), comp.get("move_angle_noise_deg", 0.0)
+        return SessionNoise.of_sample_variances(self.noise_q, self.dt_s, pose_bias_scatter=pose, move_angle_noise=move)
+
+    @property
+    def chi2_p_value(self) -> float:
+        """P(χ²_dof > χ²) of the white-noise model (NaN without degrees of freedom)."""
+        return float(special.chdtrc(self.dof, self.chi2)) if self.dof > 0 else float("nan")
 
     def matrices(self) -> dict:
         """b (deg/h), S, G (deg/h/g) of ω_ind = S ω + G a + b (:func:`gyrojax.physics.triad.matrices`)."""
@@ -106,7 +129,7 @@ class TriadFit(Estimates):
         k = self.counts_per_dps or 1.0
         ic = tp.imucal_form(m, k, rotation_sign=-1.0)
         kal = tp.kalibr_form(m)
-        p = float(special.chdtrc(self.dof, self.chi2)) if self.dof > 0 else float("nan")
+        p = self.chi2_p_value
         return {
             "terms": list(self.model.terms),
             "instrument": TRIAD_KIND,
@@ -143,6 +166,7 @@ class TriadFit(Estimates):
                 for s, r in zip(self.segments, self.residuals.reshape(-1, 3))
             ],
             "variance_components": dict(self.variance_components),
+            **({"noise_model": self.noise.to_json()} if self.dt_s else {}),
             "segment_residuals": [dict(r) for r in self.segment_residuals],
             "fit": {
                 "chi2": self.chi2,
@@ -153,6 +177,7 @@ class TriadFit(Estimates):
                 **({"reason": self.convergence_note} if not self.converged else {}),
             },
             "notes": list(self.notes),
+            "alpha": ALPHA,
             **({"accelerometer": self.accelerometer} if self.accelerometer else {}),
             "gyrojax_version": __version__,
         }
@@ -171,35 +196,9 @@ class TriadFit(Estimates):
             residuals=self.residuals,
             noise_q=self.noise_q,
             counts_per_dps=self.counts_per_dps,
+            dt_s=self.dt_s,
         )
         return protocol.save(path, d, TRIAD_FORMAT, TRIAD_VERSION, force=force)
-
-    def text(self) -> str:
-        """A coefficient table, one row per coefficient and channel."""
-        lines = [f"{'coefficient':14s} {'value':>14s} {'std':>12s}  unit"]
-        u = self.units()
-        for n, v, s in zip(self.names, self.theta, self.std):
-            lines.append(f"{n:14s} {v:14.6g} {s:12.4g}  {u[n]}")
-        if "ia_misalignment" in self.model.terms:
-            ang = self.misalignment_angles()
-            lines.append("misalignment as angles (arcsec; independent of the nominal scale):")
-            for ch in tp.CHANNELS:
-                cells = [(k, ang[f"{k}[{ch}]"]) for k in ("M_O", "M_S", "psi")]
-                lines.append(
-                    f"  {ch}: " + ", ".join(f"{k} {a['value']:.6g} ± {a['std'] or np.nan:.3g}" for k, a in cells)
-                )
-        lines.append(f"earth rate: {self.earth_mode}; chi2 {self.chi2:.3g} on {self.dof} dof")
-        if self.segment_residuals and self.dof > 0 and special.chdtrc(self.dof, self.chi2) < 0.01:
-            lines.append("chi2 driven by: " + ", ".join(f"{n} ({100 * f:.0f} %)" for n, f in self.chi2_drivers()))
-        if any(v > 0 for v in self.variance_components.values()):
-            lines.append(
-                "sigma include the variance components (REML): "
-                + ", ".join(f"{k} {v:.3g}" for k, v in self.variance_components.items() if "indicated" not in k)
-            )
-        if not self.converged:
-            lines.append(f"not converged: {self.convergence_note}")
-        lines.extend(f"note: {n}" for n in self.notes)
-        return "\n".join(lines)
 
 
 G_TERMS = ("D_I", "D_O", "D_S", "D_II", "D_OO", "D_SS", "D_IO", "D_IS", "D_OS")
@@ -312,4 +311,5 @@ def _triad_fit_of(d: dict) -> TriadFit:
         variance_components={k: float(v) for k, v in d.get("variance_components", {}).items()},  # version 2
         segment_residuals=[dict(r) for r in d.get("segment_residuals", [])],
         accelerometer=d.get("accelerometer"),  # absent in files before the accelerometer was fitted
+        dt_s=d.get("dt_s"),
     )

@@ -32,6 +32,7 @@ import numpy as np
 from gyrojax import units
 from gyrojax.inference.kept_model import kept_call
 from gyrojax.physics import effects as fx
+from gyrojax.physics import so3
 from gyrojax.physics import triad as tp
 from gyrojax.physics.model import indicated_output
 
@@ -128,64 +129,6 @@ def segment_rows(model, theta, arrays, n_segments: int):
 # ---- moves -----------------------------------------------------------------------------------------------------
 
 
-def _hat(v):
-    """[v×] of vectors ``v`` (..., 3): (..., 3, 3)."""
-    z = jnp.zeros_like(v[..., 0])
-    rows = (
-        jnp.stack([z, -v[..., 2], v[..., 1]], -1),
-        jnp.stack([v[..., 2], z, -v[..., 0]], -1),
-        jnp.stack([-v[..., 1], v[..., 0], z], -1),
-    )
-    return jnp.stack(rows, -2)
-
-
-def _mat3(a, b):
-    """a @ b of stacks of 3×3 matrices (..., 3, 3), as broadcast products (XLA's CPU batched dot of thousands of
-    3×3 pairs costs ~100× the arithmetic)."""
-    return (a[..., :, :, None] * b[..., None, :, :]).sum(axis=-2)
-
-
-def _so3_terms(v, small_at: float, series):
-    """c₀ I + c₁ [v×] + c₂ v vᵀ for vectors ``v`` (..., 3) with (c₀, c₁, c₂) = ``series(θ², θ, small)``, using
-    [v×]² = v vᵀ − θ² I (θ = |v|; ``small`` where θ² ≤ ``small_at``, for the series forms)."""
-    th2 = (v * v).sum(axis=-1)
-    small = th2 <= small_at
-    th = jnp.sqrt(jnp.where(small, 1.0, th2))
-    c0, c1, c2 = series(th2, th, small)
-    eye = jnp.eye(3)
-    return (
-        c0[..., None, None] * eye
-        + c1[..., None, None] * _hat(v)
-        + c2[..., None, None] * (v[..., :, None] * v[..., None, :])
-    )
-
-
-def _expm_series(th2, th, small):
-    safe = jnp.where(small, 1.0, th2)
-    a = jnp.where(small, 1.0 - th2 / 6.0, jnp.sin(th) / th)
-    b = jnp.where(small, 0.5 - th2 / 24.0, (1.0 - jnp.cos(th)) / safe)
-    return 1.0 - b * th2, a, b
-
-
-def _expm_so3(v):
-    """exp([v×]) = I + sin θ/θ [v×] + (1 − cos θ)/θ² [v×]² by Rodrigues' formula, for vectors ``v`` (..., 3) rad
-    (→ (..., 3, 3)); series below θ = 10⁻⁸, safe at v = 0."""
-    return _so3_terms(v, 1e-16, _expm_series)
-
-
-def _right_jacobian_series(th2, th, small):
-    safe = jnp.where(small, 1.0, th2)
-    c1 = jnp.where(small, 0.5 - th2 / 24.0, (1.0 - jnp.cos(th)) / safe)
-    c2 = jnp.where(small, 1.0 / 6.0 - th2 / 120.0, (th - jnp.sin(th)) / (safe * th))
-    return 1.0 - c2 * th2, -c1, c2
-
-
-def _right_jacobian_so3(v):
-    """J_r(v) = I − (1 − cos θ)/θ² [v×] + (θ − sin θ)/θ³ [v×]² (v (..., 3) in rad): exp([(v + δ)×]) = exp([v×])
-    exp([J_r δ×]) to first order in δ; series below θ = 10⁻⁴ (both forms agree there to rounding)."""
-    return _so3_terms(v, 1e-8, _right_jacobian_series)
-
-
 def _inv3(m):
     """Inverses of 3×3 matrices (..., 3, 3) by the adjugate (cofactors over the determinant): a triad's S, or
     ∂f/∂ω per sample, is near the identity, so the closed form is as accurate as an LU and one fused pass."""
@@ -208,7 +151,7 @@ def move_residual(model, theta, g, a, t_h, temp, mask, dt, u_from, u_to):
     steps = 0.5 * (w[1:] + w[:-1]) * dt * mask[:, None]
 
     def step(r, v):
-        return r @ _expm_so3(v), None
+        return r @ so3.exp(v), None
 
     r, _ = jax.lax.scan(step, jnp.eye(3), steps)
     return u_to - r.T @ u_from
@@ -265,18 +208,18 @@ def _move_rows(model, theta, g, a, t_h, temp, mask, dt, u_from, u_to, basis, inv
     v = scale[:, :, None] * (w[:, 1:] + w[:, :-1])
 
     def step(r, ek):
-        r = _mat3(r, ek)
+        r = so3.compose(r, ek)
         return r, r
 
-    rot, prefix = jax.lax.scan(step, jnp.broadcast_to(jnp.eye(3), (m, 3, 3)), jnp.swapaxes(_expm_so3(v), 0, 1))
-    a_k = _mat3(jnp.swapaxes(prefix, 0, 1), _right_jacobian_so3(v)) * scale[:, :, None, None]  # (M, L−1, 3, 3)
+    rot, prefix = jax.lax.scan(step, jnp.broadcast_to(jnp.eye(3), (m, 3, 3)), jnp.swapaxes(so3.exp(v), 0, 1))
+    a_k = so3.compose(jnp.swapaxes(prefix, 0, 1), so3.right_jacobian(v)) * scale[:, :, None, None]  # (M, L−1, 3, 3)
     k_n = k_inv if k_inv.ndim == 2 else k_inv.reshape(m, length, 3, 3)
     # X_n is block-diagonal in the channels (channel c sees its own p coefficients): X[n, j, c, q] = K[j, c] ∂f_c/∂θ_cq
     x = (k_n[..., :, :, None] * df.reshape(m, length, 1, 3, p)).reshape(m, length, 3, 3 * p)
     gsum = jnp.einsum("mkij,mkjq->miq", a_k, x[:, 1:] + x[:, :-1])  # (M, 3, 3p)
     y = jnp.einsum("mji,mj->mi", rot, u_from)
     r = u_to - y
-    jf = -jnp.einsum("mij,mkj,mkq->miq", _hat(y), rot, gsum)  # −[y×] Rᵀ Σ: −∂r/∂θ, the Jacobian of "y − f"
+    jf = -jnp.einsum("mij,mkj,mkq->miq", so3.hat(y), rot, gsum)  # −[y×] Rᵀ Σ: −∂r/∂θ, the Jacobian of "y − f"
     rows = jnp.einsum("mia,mi->ma", basis, r) * inv_sd[:, None]
     jac = jnp.einsum("mia,mip->map", basis, jf) * inv_sd[:, None, None]
     return r, rows, jac
@@ -289,7 +232,7 @@ def move_rows(model, theta, packed, whitening):
     """Per move at θ: the residual r (M, 3) (dimensionless), the whitened rows (2M,) P_kᵀ r_k / σ_k and their
     Jacobian (2M, 3p) (rows of "y − f": ∂f/∂θ = −∂r/∂θ), one compiled call. ``packed`` from :func:`pack_moves`
     (bucketed or not), ``whitening`` the list of (P (3, 2), σ rad) of
-    :func:`gyrojax.inference.triad._move_whitening`."""
+    :func:`gyrojax.inference.triad.move_whitening`."""
     m, m_pad = len(whitening), packed[0].shape[0]
     basis = np.zeros((m_pad, 3, 2))
     inv_sd = np.zeros(m_pad)

@@ -55,7 +55,7 @@ from gyrojax.data.arrays import record_data
 from gyrojax.data.record import Record
 from gyrojax.errors import GyrojaxError
 from gyrojax.inference.lstsq import lstsq, lstsq_normal
-from gyrojax.montecarlo.study import INSTRUMENTS, Study, StudyError, expand_key, parse_prior
+from gyrojax.montecarlo.study import INSTRUMENTS, Study, StudyError, expand_name, parse_prior
 from gyrojax.montecarlo.triad import build_triad_pipeline
 from gyrojax.noise.processes import random_drift
 from gyrojax.noise.spec import NoiseSpec
@@ -335,7 +335,7 @@ def build_pipeline(study: Study, plan=None, records=None):
     priors = {}
     for key, setup in (("priors", False), ("setup", True)):
         for name, v in getattr(study, key).items():
-            for c in expand_key(name, f"study: key '{key}.{name}'", setup):
+            for c in expand_name(name, f"study: key '{key}.{name}'", setup):
                 priors[c] = parse_prior(v, f"study: key '{key}.{name}'")
     names = list(fit_model.coefficient_names) + [c for c in priors if c not in fit_model.coefficient_names]
     truth_model = Model.of(names, kind)

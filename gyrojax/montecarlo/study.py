@@ -134,7 +134,7 @@ def parse_prior(v, where: str):
     return k == "uniform", a, b
 
 
-def expand_key(name: str, where: str, setup: bool) -> tuple[str, ...]:
+def expand_name(name: str, where: str, setup: bool) -> tuple[str, ...]:
     """Coefficient names of a prior key (a coefficient, or an effect = all its coefficients)."""
     idx = fx.coefficient_index()
     if name in fx.names():
@@ -188,7 +188,7 @@ def study_from_dict(d, where: str = "study") -> Study:
             raise StudyError(f"{where}: key {key!r} must be an object")
         for name, v in pr.items():
             if instrument == INSTRUMENTS[0]:
-                expand_key(name, f"{where}: key '{key}.{name}'", setup)
+                expand_name(name, f"{where}: key '{key}.{name}'", setup)
             parse_prior(v, f"{where}: key '{key}.{name}'")
     try:
         nd = d.get("noise")

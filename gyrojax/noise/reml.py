@@ -31,7 +31,7 @@ directions exactly as a QR of X̃ would.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import jax
@@ -39,6 +39,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyrojax.noise.kept import Kept
+from gyrojax.optimize import Solution, difference_curvature, minimize
 from gyrojax.threads import parallel_map
 
 RANK_TOL = 1e-7
@@ -58,8 +59,7 @@ def bucket_rows(n: int) -> int:
 
 def bucket_cols(p: int) -> int:
     """Columns padded to 4, or beyond 4 to a multiple of 8: the filter's cost grows with its columns, and a model of
-    a few terms with a per-record offset fits in 4 (a warm diagnose of the demo campaign, fit included, 8 interleaved
-    calls: median 0.56 s wall and 0.80 s CPU padded to 4, 0.69 s and 1.01 s padded to 8)."""
+    a few terms with a per-record offset fits in 4."""
     return 4 if p <= 4 else -(-int(p) // 8) * 8
 
 
@@ -437,94 +437,26 @@ def _bounds(s: Series):
     return lo, np.maximum(hi, lo)
 
 
-DECREMENT_TOL = 1e-2
-"""Largest decrease of −2 log L still predicted at the iteration limit for the search to count as converged: under
-1/200 of the smallest likelihood-ratio critical value used on it (2.71, the drift test), so no test, interval or
-degree of freedom built on the fit moves; measured on the suite's fits, the searches that reach the limit crawl
-along a flat direction (τ of a vanishing Gauss–Markov variance) with decrements of 3e-7 to 6e-4."""
-
-
-def minimise(s: Series, u0, reml: bool, max_iter: int = 80, ftol: float = 1e-10):
-    """Minimise :func:`objective` from ``u0`` within the bounds of ``s`` (τ ≤ τ_max): trust-region quasi-Newton on
-    the exact gradient (reverse mode through the filter), its curvature started from differences of the exact
-    gradient at ``u0`` (eigenvalues made positive) and updated by BFGS. A variable at a bound with the gradient
-    pushing outward is held there. Returns (u, −2 log L without the column-scaling constant, iterations, status):
-    ``status`` = (converged, reason), converged when the predicted decrease falls below ``ftol``, every variable is
-    held at a bound, or the trust region shrinks below 1e-8 without a lower value (a minimum to rounding); not
-    converged on a non-finite gradient, or at ``max_iter`` iterations unless the quasi-Newton decrement ½gᵀB⁻¹g (the
-    decrease of −2 log L a full step would still bring) is below :data:`DECREMENT_TOL` (a flat direction, such as τ
-    of a vanishing Gauss–Markov variance, crawls without changing the likelihood)."""
+def minimise(s: Series, u0, reml: bool, max_iter: int = 80, ftol: float = 1e-10) -> Solution:
+    """Minimise −2 log L (REML when ``reml``, without the column-scaling constant) from ``u0`` within the bounds of
+    ``s`` (τ ≤ τ_max), by the one minimiser (:func:`gyrojax.optimize.minimize`) on the exact gradient (reverse mode
+    through the filter), its curvature started from differences of that gradient at ``u0`` (three evaluations side
+    by side; the Hessian's own compiled function is kept for where the curvature itself is the result). Returns the
+    :class:`~gyrojax.optimize.Solution` in u = log(τ, σ_g², σ_w²)."""
     lo, hi = _bounds(s)
     arrays = s.arrays
     c = 1.0 if reml else 0.0
+
+    def vg(u):
+        return value_and_grad(u, *arrays, c, s.readout)
+
     u = np.clip(np.asarray(u0, dtype=float), lo, hi)
-    f, g = value_and_grad(u, *arrays, c, s.readout)
-    f, g = float(f), np.asarray(g)
-    # initial curvature: differences of the exact gradient (3 evaluations; the Hessian's own compiled function is
-    # kept for where the curvature itself is the result), eigenvalues made positive
+    f, g = vg(u)
+    g = np.asarray(g)
     steps = np.where(u + 1e-3 <= hi, 1e-3, -1e-3)
-    grads = parallel_map(
-        lambda k: np.asarray(value_and_grad(u + steps[k] * np.eye(3)[k], *arrays, c, s.readout)[1]), range(3)
-    )
-    h0 = np.column_stack([(gk - g) / steps[k] for k, gk in enumerate(grads)])
-    if not np.all(np.isfinite(h0)):  # a difference reached a non-finite value: start from a scaled identity
-        h0 = np.eye(3) * max(float(np.abs(np.nan_to_num(g)).max()), 1.0)
-    ev, vec = np.linalg.eigh(0.5 * (h0 + h0.T))
-    ev = np.maximum(np.abs(ev), 1e-8 * max(float(np.abs(ev).max()), 1e-300) + 1e-300)
-    b = (vec * ev) @ vec.T
-    radius, it = 2.0, 0
-    status = (False, "")
-    while it < max_iter:
-        it += 1
-        free = ~(((u >= hi - 1e-12) & (g < 0)) | ((u <= lo + 1e-12) & (g > 0)))
-        if not np.all(np.isfinite(g)):
-            status = (False, "REML search stopped at a non-finite gradient")
-            break
-        if not free.any():
-            status = (True, "")
-            break
-        gf, bf = g[free], b[np.ix_(free, free)]
-        d = -np.linalg.solve(bf, gf)
-        norm = float(np.linalg.norm(d))
-        if norm > radius:
-            d *= radius / norm
-        pred = -(gf @ d + 0.5 * d @ bf @ d)
-        if pred < ftol:
-            status = (True, "")
-            break
-        step = np.zeros(3)
-        step[free] = d
-        un = np.clip(u + step, lo, hi)
-        fn, gn = value_and_grad(un, *arrays, c, s.readout)
-        fn, gn = float(fn), np.asarray(gn)
-        if not (np.isfinite(fn) and fn < f):
-            radius = 0.25 * min(radius, norm)
-            if radius < 1e-8:
-                status = (True, "") if np.isfinite(f) else (False, "REML search found no finite likelihood")
-                break
-            continue
-        sk, yk = un - u, gn - g
-        if sk @ yk > 1e-12 * np.linalg.norm(sk) * np.linalg.norm(yk):  # BFGS update of the curvature
-            bs = b @ sk
-            b = b - np.outer(bs, bs) / (sk @ bs) + np.outer(yk, yk) / (sk @ yk)
-        ratio = (f - fn) / pred
-        if ratio > 0.75 and norm >= 0.99 * radius:
-            radius = min(2.0 * radius, 8.0)
-        elif ratio < 0.25:
-            radius = 0.5 * min(radius, norm)
-        u, f, g = un, fn, gn
-    else:  # at the iteration limit: converged when the quasi-Newton decrement says f is at its minimum to DECREMENT_TOL
-        free = ~(((u >= hi - 1e-12) & (g < 0)) | ((u <= lo + 1e-12) & (g > 0)))
-        gf = g[free]
-        dec = 0.5 * float(gf @ np.linalg.solve(b[np.ix_(free, free)], gf)) if free.any() else 0.0
-        if np.isfinite(dec) and dec < DECREMENT_TOL:
-            status = (True, "")
-        else:
-            status = (
-                False,
-                f"REML search stopped at its iteration limit ({max_iter}), −2 log L still falling ({dec:.2g})",
-            )
-    return u, f, it, status
+    grads = parallel_map(lambda k: np.asarray(vg(u + steps[k] * np.eye(3)[k])[1]), range(3))
+    curvature = difference_curvature(grads, u, g, steps)
+    return minimize(vg, u, lo, hi, curvature, max_iter, ftol, "REML search", first=(f, g))
 
 
 def grid(s: Series, start, coarse: bool):
@@ -542,7 +474,7 @@ def grid(s: Series, start, coarse: bool):
 def values(s: Series, us, reml: bool) -> np.ndarray:
     """−2 log L (without the column-scaling constant) at each row of ``us`` (k, 3), by the compiled likelihood terms
     (forward only: a quarter of the value-and-gradient's time, and the function :func:`neg2_loglik` compiles for the
-    same shapes anyway; measured faster than a vmapped batch on 2 CPU cores). Every point is dispatched before the
+    same shapes anyway; faster than a vmapped batch on a CPU). Every point is dispatched before the
     first is read back, so the device never waits for the host between them. ``us`` in the units of
     :func:`neg2_loglik`'s noise parameters."""
     c = 1.0 if reml else 0.0
@@ -555,17 +487,18 @@ def values(s: Series, us, reml: bool) -> np.ndarray:
     return np.array(parallel_map(one, us))
 
 
-def fit(s: Series, start, reml: bool = True, coarse: bool = False):
+def fit(s: Series, start, reml: bool = True, coarse: bool = False) -> Solution:
     """Maximum (restricted) likelihood white + Gauss–Markov parameters of a series: :func:`minimise` from the best
     point of :func:`grid` (the likelihood in τ has local minima on short records), which includes
-    ``start`` = (τ s, σ_g², σ_w²) (a moment estimate or a previous fit). Returns (τ, σ_g², σ_w²), −2 log L (with the
-    column-scaling constant under REML), the iterations and the status (converged, reason) of :func:`minimise`."""
+    ``start`` = (τ s, σ_g², σ_w²) (a moment estimate or a previous fit). Returns the search's
+    :class:`~gyrojax.optimize.Solution` with ``x`` = (τ, σ_g², σ_w²) and ``value`` −2 log L (with the column-scaling
+    constant under REML)."""
     lo, hi = _bounds(s)
     cands = np.clip(grid(s, start, coarse), lo, hi)
     vals = values(s, cands, reml)
     vals = np.where(np.isfinite(vals), vals, np.inf)
-    u, f, it, status = minimise(s, cands[int(np.argmin(vals))], reml)
-    return np.exp(u), f + (s.logdet_const if reml else 0.0), it, status
+    sol = minimise(s, cands[int(np.argmin(vals))], reml)
+    return replace(sol, x=np.exp(sol.x), value=sol.value + (s.logdet_const if reml else 0.0))
 
 
 def reml_hessian(s: Series, theta, step: float = HESSIAN_STEP) -> np.ndarray:

@@ -38,9 +38,8 @@ import numpy as np
 from gyrojax import protocol
 from gyrojax.errors import GyrojaxError, TruthError
 from gyrojax.noise import wavelet as wv
-from gyrojax.noise.meancov import (  # noqa: F401  (gm_mean_factor: re-exported, its old home)
+from gyrojax.noise.meancov import (
     flicker_poles,
-    flicker_spectrum,
     gm_mean_covariance,
     gm_mean_factor,
     quantization_mean_covariance,
@@ -546,3 +545,37 @@ def _with(spec: NoiseSpec, name: str, v: float) -> NoiseSpec:
     coef = list(getattr(spec, name[:2]))
     coef[int(name[2:]) - 1] = v
     return replace(spec, **{name[:2]: tuple(coef)})
+
+
+@dataclass(frozen=True)
+class SessionNoise:
+    """The noise of a hand session (``imu-triad`` records) in the vocabulary of :class:`NoiseSpec`: each gyro
+    channel's sample noise (``channels``, x y z: the long-run variance of a channel's filtered noise as the white
+    term at the session's sample interval ``dt_s``), and the random effects between the session's segments —
+    ``pose_bias_scatter`` τ_b (deg/h, calibrated: a bias step at each pose), ``move_angle_noise`` τ_m (deg: an angle
+    error of each gravity-to-gravity move) and ``bias_walk`` (deg/h per √pose: a bias that walks from pose to pose)."""
+
+    channels: tuple
+    pose_bias_scatter: float = 0.0
+    move_angle_noise: float = 0.0
+    bias_walk: float = 0.0
+
+    @classmethod
+    def of_sample_variances(cls, q, dt_s: float, **between) -> "SessionNoise":
+        """From each channel's per-sample variance ``q`` ((deg/h)²) at ``dt_s`` s and the components ``between``."""
+        return cls(tuple(NoiseSpec.from_sample_variances(float(v), dt_s) for v in q), **between)
+
+    def sample_variances(self, dt_s: float) -> np.ndarray:
+        """Each channel's per-sample variance ((deg/h)²) at ``dt_s`` s: (60 N)² / Δt."""
+        if len(self.channels) != 3:
+            raise NoiseModelError(f"a session's noise has one spec per channel x, y, z, got {len(self.channels)}")
+        return np.array([(60.0 * c.white) ** 2 / dt_s for c in self.channels])
+
+    def to_json(self) -> dict:
+        """The channels' specs and the components between segments (report units)."""
+        return {
+            "channels": [c.to_json() for c in self.channels],
+            "pose_bias_scatter_deg_per_h": self.pose_bias_scatter,
+            "move_angle_noise_deg": self.move_angle_noise,
+            "bias_walk_deg_per_h_per_sqrt_pose": self.bias_walk,
+        }

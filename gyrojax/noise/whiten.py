@@ -123,8 +123,7 @@ def whiten(x: np.ndarray, labels: np.ndarray, noise, times: np.ndarray | None = 
 def fir_past_start(b: np.ndarray, x: np.ndarray) -> np.ndarray:
     """y_t = Σ_k b_k x_{t−k} (k = 0…p) for the rows t ≥ p of ``x`` (n,) or (n, m), whose filter lies inside it: the
     rows of ``scipy.signal.lfilter(b, [1], x, axis=0)[p:]``, summed in its order (direct form II transposed:
-    b_0 x_t + (b_1 x_{t−1} + (… + b_p x_{t−p}))), so equal to its last bit (test). Plain numpy: importing
-    scipy.signal costs a diagnosis' first call 0.12 s (issue 26)."""
+    b_0 x_t + (b_1 x_{t−1} + (… + b_p x_{t−p}))), so equal to its last bit (test), without importing scipy.signal."""
     p, n = len(b) - 1, len(x)
     acc = b[p] * x[: n - p]
     for k in range(p - 1, -1, -1):
@@ -217,7 +216,8 @@ def gls_residual(rw: np.ndarray, jw: np.ndarray) -> tuple[np.ndarray, float]:
     if ev.min() > GLS_RANK_TOL * max(float(ev.max()), 1e-300):
         e = rw - z @ (vec @ ((vec.T @ (z.T @ rw)) / ev))
         return e, float(np.sum(np.log(ev)) + 2.0 * np.sum(np.log(sc[live])))
-    # collinear columns (the diagnosis' nuisance offsets): QR as before, the determinant over the independent columns
+    # collinear columns (the diagnosis' nuisance offsets): the QR's residual, the determinant over the independent
+    # columns
     q, rr = np.linalg.qr(jw)
     d = np.abs(np.diag(rr))
     keep = d > 1e-12 * max(d.max(), 1e-300)
@@ -330,11 +330,12 @@ def _gm_mle(
     (:func:`fit_gm`) is carried into the spec.
     """
     series = reml.prepare(r, design, labels, times, tau_span_fraction, readout_var=readout_var)
-    theta, _, _, (ok, why) = reml.fit(series, start, reml=design is not None, coarse=not grid)
+    sol = reml.fit(series, start, reml=design is not None, coarse=not grid)
+    theta = sol.x
     tau = min(float(theta[0]), series.tau_max)
     gm = [(float(theta[1]), tau)]
     spec = NoiseSpec.from_sample_variances(float(theta[2]), series.dt0, gm, method="reml", readout_var=readout_var)
-    return spec.with_status(ok, why)
+    return spec.with_status(sol.converged, sol.reason)
 
 
 def with_reml_covariance(nz: NoiseSpec, r, design, labels, times, tau_span_fraction: float) -> NoiseSpec:

@@ -10,15 +10,9 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 from gyrojax import units
+from gyrojax.kinds import ACCEL, FOG, INSTRUMENT_KINDS, OPTICAL, RLG, SDF, TDF
 from gyrojax.physics import registry
 from gyrojax.physics.registry import (
-    ACCEL,
-    FOG,
-    INSTRUMENT_KINDS,
-    OPTICAL,
-    RLG,
-    SDF,
-    TDF,
     Effect,
     coefficient_index,
     effect_of_coefficient,

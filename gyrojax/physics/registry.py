@@ -33,7 +33,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from gyrojax.errors import UnknownNameError
-from gyrojax.kinds import ACCEL, FOG, INSTRUMENT_KINDS, OPTICAL, RLG, SDF, TDF  # noqa: F401  (re-exported)
 
 
 @dataclass(frozen=True)

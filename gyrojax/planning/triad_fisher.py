@@ -13,7 +13,7 @@ specific force a (:func:`gyrojax.physics.triad.affine_rows`: rows(ω, a) = B₀ 
   along the mean Up, |g| × the mean of R(n, α)ᵀ u over the turn's profile); covariance ARW²/T I + σ_Θ²/T² n nᵀ +
   ½ Ω_h² |⟨e^{iα}⟩|² (I − n nᵀ), the angle error σ_Θ = √2 σ_placement;
 * **gravity-to-gravity move** (imu_tk) by Φ about n in T s: the residual u_to − Rᵀ u_from of
-  :func:`gyrojax.inference.triad.move_residual`, R = E_1 ⋯ E_K the product of the exact exponentials of the K
+  :func:`gyrojax.inference.triad_rows.move_residual`, R = E_1 ⋯ E_K the product of the exact exponentials of the K
   steps' mean rates v_k (:data:`MOVE_SAMPLES` samples of the profile ∝ sin(π t / T), at rest before and after). Its
   rows at θ = 0 are the first-order perturbation of that product (y = Rᵀ u_from, P_k = E_1 ⋯ E_k, J_r the right
   Jacobian of SO(3); ∂ω/∂θ = −rows(ω, a) at S = I):

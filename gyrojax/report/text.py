@@ -10,6 +10,10 @@ import math
 import numpy as np
 
 from gyrojax.inference.result import FitResult
+from gyrojax.inference.scoring import ALPHA
+from gyrojax.inference.triad_result import TriadFit
+from gyrojax.inference.verdict import Diagnosis
+from gyrojax.physics.triad import CHANNELS
 
 
 def _fmt(v: float, s: float | None = None) -> str:
@@ -22,14 +26,18 @@ def _fmt(v: float, s: float | None = None) -> str:
     return f"{v: .{digits}f} ± {s:.2g}"
 
 
-def fit_table(res: FitResult) -> str:
-    """Coefficient table: name, value ± std, unit, t statistic and significance (CIGTF style)."""
+def fit_table(res: FitResult | TriadFit) -> str:
+    """Coefficient table: name, value ± std, unit, t statistic and significance at α (:data:`gyrojax.inference.
+    scoring.ALPHA`; CIGTF style); a triad fit's table
+    has one row per coefficient and channel (:func:`triad_fit_table`)."""
+    if isinstance(res, TriadFit):
+        return triad_fit_table(res)
     lines = [f"fit of {', '.join(res.model.terms)} to {len(res.record_names)} record(s), {res.n_samples} samples"]
     lines.append(f"{'coefficient':14s} {'value ± std':>28s}  {'unit':12s} {'t':>9s}  significant")
     for c, v, s, u, t, p in zip(
         res.coefficient_names, res.theta, res.std, res.model.coefficient_units, res.t_statistics, res.p_values
     ):
-        sig = "yes" if np.isfinite(p) and p < 0.05 else ("—" if not np.isfinite(p) else "no")
+        sig = "yes" if np.isfinite(p) and p < ALPHA else ("—" if not np.isfinite(p) else "no")
         lines.append(f"{c:14s} {_fmt(v, s):>28s}  {u:12s} {t:9.2f}  {sig}")
     lines.append(f"residual RMS {res.residual_rms:.6g} deg/h; white-noise floor {res.noise_floor:.6g} deg/h")
     idf = res.identifiability
@@ -46,12 +54,66 @@ def fit_table(res: FitResult) -> str:
     return "\n".join(lines)
 
 
-def diagnosis_text(d, add: str | None = None) -> str:
-    """Verdict, residual against floor, and the ranked candidates with their aliases.
+def triad_fit_table(res: TriadFit) -> str:
+    """A triad fit's coefficient table, one row per coefficient and channel, with what its χ² says."""
+    lines = [f"{'coefficient':14s} {'value':>14s} {'std':>12s}  unit"]
+    u = res.units()
+    for n, v, s in zip(res.names, res.theta, res.std):
+        lines.append(f"{n:14s} {v:14.6g} {s:12.4g}  {u[n]}")
+    if "ia_misalignment" in res.model.terms:
+        ang = res.misalignment_angles()
+        lines.append("misalignment as angles (arcsec; independent of the nominal scale):")
+        for ch in CHANNELS:
+            cells = [(k, ang[f"{k}[{ch}]"]) for k in ("M_O", "M_S", "psi")]
+            lines.append(f"  {ch}: " + ", ".join(f"{k} {a['value']:.6g} ± {a['std'] or np.nan:.3g}" for k, a in cells))
+    lines.append(f"earth rate: {res.earth_mode}; chi2 {res.chi2:.3g} on {res.dof} dof")
+    if res.segment_residuals and res.dof > 0 and res.chi2_p_value < ALPHA:
+        lines.append("chi2 driven by: " + ", ".join(f"{n} ({100 * f:.0f} %)" for n, f in res.chi2_drivers()))
+    if any(v > 0 for v in res.variance_components.values()):
+        lines.append(
+            "sigma include the variance components (REML): "
+            + ", ".join(f"{k} {v:.3g}" for k, v in res.variance_components.items() if "indicated" not in k)
+        )
+    if not res.converged:
+        lines.append(f"not converged: {res.convergence_note}")
+    lines.extend(f"note: {n}" for n in res.notes)
+    return "\n".join(lines)
+
+
+def triad_diagnosis_text(d: Diagnosis) -> str:
+    """A triad diagnosis: the verdict, the candidates that matter, the noise processes and the unnamed structure."""
+    lines = [f"verdict: {d.verdict} (alpha {d.alpha:g}, {d.tests} tests, Holm)"]
+    lines.append(
+        f"fit: chi2 {d.fit.chi2:.4g} on {d.fit.dof} dof (white noise); "
+        f"{d.chi2_components:.4g} on {d.dof} with the variance components"
+    )
+    for c in d.noise_processes:
+        est = ", ".join(f"{k} {v['value']:.3g} {v['unit']}" for k, v in c.estimate.items())
+        lines.append(f"noise process {c.name}: LR {c.statistic:.3g}, p {c.p_value:.2g} ({est})")
+    for c in d.candidates[:8]:
+        if c.df == 0:
+            lines.append(f"  {c.name}: indistinguishable from {', '.join(c.aliases) or 'the model'}")
+            continue
+        est = ", ".join(f"{k} {v['value']:.4g} {v['unit']}" for k, v in c.estimate.items())
+        flag = f" [implausible: {c.implausible}]" if c.implausible else ""
+        flag += f" [refused: {c.refused}]" if c.refused else ""
+        alias = f" aliases {', '.join(c.aliases)}" if c.aliases else ""
+        lines.append(f"  {c.name}: p_adj {c.p_adjusted:.2g} ({est}){alias}{flag}")
+    for s in d.unexplained:
+        lines.append(f"unexplained structure: {s.name}: p_adj {s.p_adjusted:.2g} ({s.description})")
+    lines.append(f"proposal: {d.proposal}" if d.proposal else "proposal: none")
+    return "\n".join(lines)
+
+
+def diagnosis_text(d: Diagnosis, add: str | None = None) -> str:
+    """Verdict, residual against floor, and the ranked candidates with their aliases (a triad diagnosis:
+    :func:`triad_diagnosis_text`).
 
     ``add``: the effect the caller will add, when it picks an alias of the top candidate (the plan cannot tell them
     apart, so either explains the residual equally); default the top candidate itself.
     """
+    if isinstance(d.fit, TriadFit):
+        return triad_diagnosis_text(d)
     lines = [
         f"verdict: {d.verdict}   (family-wise α = {d.alpha})",
         f"model: {', '.join(d.fit.model.terms)}",
@@ -66,7 +128,7 @@ def diagnosis_text(d, add: str | None = None) -> str:
     if d.unexcited:
         lines.append("not excited by this plan: " + ", ".join(d.unexcited))
     lines += adequacy_lines(d)
-    top = next((c for c in d.candidates if c.name == d.proposal), None) if hasattr(d, "proposal") else d.top
+    top = next((c for c in d.candidates if c.name == d.proposal), None)
     if d.verdict == "missing-effect" and top is not None:
         name = add or top.name
         terms = ",".join(d.fit.model.terms + (name,))
@@ -85,23 +147,23 @@ def diagnosis_text(d, add: str | None = None) -> str:
 def adequacy_lines(d) -> list[str]:
     """The lines of a diagnosis about what no named effect explains, near-aliases, and candidates that cannot be
     proposed (refused by fit, or of implausible size) — each beside the unexplained structure
-    (:mod:`gyrojax.inference.adequacy`)."""
+    (:class:`gyrojax.inference.verdict.Structure`)."""
     lines = []
     for c in d.candidates:
-        if c.df > 0 and getattr(c, "indistinguishable", None) and c.p_adjusted < d.alpha:
+        if c.df > 0 and c.indistinguishable and c.p_adjusted < d.alpha:
             sep = "; ".join(c.separated_by[:3]) or "no built-in plan"
             lines.append(
                 f"{c.name} is indistinguishable in this test from {', '.join(c.indistinguishable)} "
                 f"(either explains the data within the critical difference); to separate them: {sep}"
             )
     for c in d.candidates:
-        if c.df > 0 and c.p_adjusted < d.alpha and (getattr(c, "refused", None) or getattr(c, "implausible", None)):
+        if c.df > 0 and c.p_adjusted < d.alpha and (c.refused or c.implausible):
             why = c.refused or f"implausible size: {c.implausible}"
             lines.append(f"not proposed: {c.name} — {why}")
-    for s in getattr(d, "unexplained", [])[:6]:
-        tip = f"; model it with {s.to_json()['effect_option']}" if s.expression else ""
+    for s in d.unexplained[:6]:
+        tip = f"; model it with --effect '{s.suggested_name}={s.expression}'" if s.expression else ""
         lines.append(f"{s.line} (χ² {s.statistic:.4g} on {s.df} df, p (Holm) {s.p_adjusted:.3g}){tip}")
-    if getattr(d, "unexplained", None) and getattr(d, "proposal", None) is None:
+    if d.unexplained and d.proposal is None:
         lines.append(
             "→ no named effect explains the residual: model the structure above (gyrojax fit … --effect "
             "'NAME=EXPR') or look for its physical cause"

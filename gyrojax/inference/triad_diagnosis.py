@@ -1,0 +1,522 @@
+"""The triad records' part of the diagnosis (:mod:`gyrojax.inference.diagnose`): the candidates of a hand session,
+its rows and its noise between segments.
+
+Every candidate is a set of regressors R(ω, a, t, T) (deg/h per coefficient unit) added to the indicated rate of one
+channel c — a named effect of the registry through the channel's SDF inputs (Hu 2-45; conventions §6), a MEMS
+candidate (conventions §9: ``bias_turn_on``, ``time_offset``) or a model-free shape (cross-axis rate products,
+|ω|, a bias while moving, t²). Its columns in the fit's rows:
+
+* static pose or known-angle rotation: the mean of R over the segment's samples (as the fit models a segment mean);
+* gravity-to-gravity move: the first-order change of the move's attitude residual when channel c indicates R β
+  more, ∂r/∂β = −Σ_l (∂r/∂g_{l,c}) R_l (one Jacobian of the move integration by the current linear model, at the
+  fit), so that every candidate is carried along the moves as the fit carries its own terms.
+
+Rows and columns are whitened as the fit whitens them (segment-mean covariance with the per-pose bias scatter,
+move angle noise with the per-move angle component, both REML; :mod:`gyrojax.inference.triad_components`), and the
+forward selection of the noise re-estimates those components with the candidates it takes in. The shapes compete in
+that selection with the named candidates, and are tested beside every named candidate with σ̃² after them all
+(F law). The two noise processes between segments — ``pose_bias_scatter`` (a bias step at each move) and
+``move_angle_noise`` (a per-move angle error) — are tested by the REML likelihood ratio of their variance component
+against zero (boundary: p = ½ P(χ²₁ > LR)), as ``gauss_markov`` is on a turntable; they are noise, never proposed as
+deterministic effects. Sizes are checked against the MEMS limits of :mod:`gyrojax.physics.plausibility`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from scipy import stats
+
+from gyrojax import units
+from gyrojax.data.record import Record
+from gyrojax.data.triad import gyro_dph
+from gyrojax.data.triad_segments import triad_segments
+from gyrojax.errors import ModelError
+from gyrojax.inference import triad as tf
+from gyrojax.inference.instrument import Rules, Session
+from gyrojax.inference.scoring import residual_variance, rms_after, score, score_tests
+from gyrojax.inference.subspace import basis
+from gyrojax.inference.triad_components import estimate_components, reml_objective
+from gyrojax.inference.triad_rows import (
+    linear_matrices,
+    move_residual,
+    move_rows,
+    pack_moves,
+    pack_segments,
+    segment_jacobian_jit,
+    segment_means_jit,
+)
+from gyrojax.inference.verdict import Candidate, Structure
+from gyrojax.physics import effects as fx
+from gyrojax.physics import plausibility
+from gyrojax.physics import triad as tp
+
+NOISE_PROCESSES = ("pose_bias_scatter", "move_angle_noise")
+"""Variance components between segments (:mod:`gyrojax.inference.triad_components`), tested as noise."""
+RULES = Rules(retest_shapes=False, refit_budget=None, skip_aliased=True, plausible_before_refit=True)
+"""Triad proposals: a candidate's size is judged on its one-step estimate, and an implausible or aliased candidate
+(two channels' columns collinear) is passed over before any refit; every significant candidate may be refitted in
+rank order until one is accepted; the shapes are tested once, beside every named candidate."""
+SHAPE_VERSUS = {
+    "rate_cross": "body-rate products",
+    "rate_magnitude": "|ω|",
+    "motion_bias": "motion",
+    "time_quadratic": "time",
+}
+"""The input each model-free shape is a shape of."""
+
+MEMS_CANDIDATES = ("bias_turn_on", "time_offset")
+"""Triad candidates beyond the registry (conventions §9): a bias step at each turn-on (one level per record after
+the first, per channel, deg/h) and a time offset between the gyro and accelerometer streams (one for the triad, s)."""
+
+SHAPES = ("rate_cross", "rate_magnitude", "motion_bias", "time_quadratic")
+"""Model-free residual shapes per channel: ω_I ω_O, ω_I ω_S, ω_O ω_S ((deg/s)²); |ω| (deg/s); a bias present only
+while the body moves (the residual against a move's duration); t² (h²)."""
+SHAPE_LINES = {
+    "rate_cross": "products of body rates about two axes (ω_I ω_O, ω_I ω_S, ω_O ω_S), deg/h per (deg/s)²",
+    "rate_magnitude": "the body rate's magnitude |ω| (peak rate of a move), deg/h per deg/s",
+    "motion_bias": "a bias present only while the body moves (∝ a move's duration), deg/h",
+    "time_quadratic": "a quadratic drift in time, deg/h/h²",
+}
+
+
+@dataclass(frozen=True)
+class Regressor:
+    """One candidate or shape on one channel (``channel`` None: on all three at once, as ``time_offset``)."""
+
+    name: str
+    effect: str
+    channel: int | None
+    coefficients: tuple
+    units: tuple
+    func: object  # (inputs dict of one channel or of the triad) -> (n, k) deg/h per coefficient unit
+
+
+def _named(name: str, c: int) -> Regressor:
+    eff = fx.get(name)
+
+    def func(x, eff=eff):
+        k = len(eff.coefficients)
+        return np.column_stack(
+            [np.asarray(eff.contribution(x, jnp.eye(k)[i])) * np.ones(len(x["t_h"])) for i in range(k)]
+        )
+
+    return Regressor(f"{name}[{tp.CHANNELS[c]}]", name, c, eff.coefficients, eff.units, func)
+
+
+def _shape(name: str, c: int) -> Regressor:
+    def func(x, name=name):
+        dps = 1.0 / units.SECONDS_PER_HOUR
+        wi, wo, ws = (np.asarray(x[k]) * dps for k in ("w_I", "w_O", "w_S"))
+        if name == "rate_cross":
+            return np.column_stack([wi * wo, wi * ws, wo * ws])
+        if name == "rate_magnitude":
+            return np.sqrt(wi**2 + wo**2 + ws**2)[:, None]
+        if name == "motion_bias":
+            return np.asarray(x["moving"], dtype=float)[:, None]
+        return ((np.asarray(x["t_h"]) - x["t_mid"]) ** 2 * np.ones(len(wi)))[:, None]
+
+    n_coef = 3 if name == "rate_cross" else 1
+    unit = {"rate_cross": "deg/h/(deg/s)^2", "rate_magnitude": "deg/h/(deg/s)", "motion_bias": "deg/h"}
+    return Regressor(
+        f"{name}[{tp.CHANNELS[c]}]", name, c, (name,) * n_coef, (unit.get(name, "deg/h/h^2"),) * n_coef, func
+    )
+
+
+def candidate_regressors(model, data, candidates=None) -> list:
+    """The named and MEMS candidates of every channel absent from ``model`` that the session can carry."""
+    names = candidates
+    if names is None:
+        temp = np.concatenate([x["temperature_C"] for x in data["inputs"]])
+        names = [
+            n
+            for n in fx.names(fx.SDF)
+            if n not in model.terms and n not in tp.TURNTABLE_ONLY and (n != "bias_temperature" or np.ptp(temp) > 1e-6)
+        ]
+        names += [n for n in MEMS_CANDIDATES if n != "bias_turn_on" or data["n_records"] > 1]
+    out = []
+    for n in names:
+        if n == "bias_turn_on":
+            k = data["n_records"] - 1
+            if k < 1:
+                raise ModelError("bias_turn_on needs records of two or more turn-ons")
+            for c in range(3):
+                out.append(
+                    Regressor(
+                        f"bias_turn_on[{tp.CHANNELS[c]}]",
+                        n,
+                        c,
+                        tuple(f"D_F_step_{i + 1}" for i in range(k)),
+                        ("deg/h",) * k,
+                        lambda x, k=k: np.eye(k + 1)[np.asarray(x["record"], dtype=int)][:, 1:],
+                    )
+                )
+        elif n == "time_offset":
+            out.append(Regressor("time_offset", n, None, ("dt_acc",), ("s",), lambda x: x["g_dot"][..., None]))
+        elif n in fx.names(fx.SDF) and n not in tp.TURNTABLE_ONLY:
+            out.extend(_named(n, c) for c in range(3))
+        else:
+            raise ModelError(f"unknown triad candidate {n!r} (registry effects, {', '.join(MEMS_CANDIDATES)})")
+    return out
+
+
+def shape_regressors() -> list:
+    """The model-free shapes of every channel (:data:`SHAPES`)."""
+    return [_shape(s, c) for s in SHAPES for c in range(3)]
+
+
+# ---- the rows of the fit ----------------------------------------------------------------------------------------
+
+_move_dr_dg = jax.jit(
+    jax.vmap(jax.jacrev(move_residual, argnums=2), in_axes=(None, None, 0, 0, 0, 0, 0, 0, 0, 0)), static_argnums=0
+)
+
+
+def session_data(records, fit, earth_rate=None) -> dict:
+    """The fit's rows rebuilt at its θ: segments and moves, the whitened residual and Jacobian of the current model
+    (with the fit's variance components), and each segment's and move's channel inputs for the regressors (rates
+    in deg/h, specific force in g, time in h); ``earth_rate`` as :func:`gyrojax.inference.triad.fit_triad` takes it."""
+    recs = [records] if isinstance(records, Record) else list(records)
+    model, theta = fit.model, np.asarray(fit.theta, dtype=float)
+    segments, moves, seg_rec, mv_rec, mv_times = [], [], [], [], []
+    for i, r in enumerate(recs):
+        s, _q, _mode, mv = triad_segments(r, earth_rate)
+        segments.extend(s)
+        moves.extend(mv)
+        seg_rec += [i] * len(s)
+        mv_rec += [i] * len(mv)
+        mv_times.extend((m.t_h, m.temp) for m in mv)  # the samples the fit integrates
+        gyro_dph(r)  # refuses a record without gyro columns here, by name
+    q = np.asarray(fit.noise_q, dtype=float)
+    b, s_mat, g_mat = (np.asarray(m) for m in linear_matrices(model, jnp.asarray(theta)))
+    comp = fit.variance_components or {}
+    tau2 = {
+        "pose": comp.get("pose_bias_scatter_indicated_deg_per_h", comp.get("pose_bias_scatter_deg_per_h", 0.0)) ** 2,
+        "move": math.radians(comp.get("move_angle_noise_deg", 0.0)) ** 2,
+    }
+    arrays = pack_segments(segments)
+    th = jnp.asarray(theta)
+    y = np.concatenate([sg.y for sg in segments])
+    resid = y - np.asarray(segment_means_jit(model, th, arrays))
+    jac = np.asarray(segment_jacobian_jit(model, th, arrays))
+    t_all = np.concatenate([sg.t_h for sg in segments] + [t for t, _ in mv_times])
+    t_mid = 0.5 * (t_all.min() + t_all.max())
+
+    def x(w, a, t_h, temp, record, moving, g_dot):  # one segment's or move's channel inputs, sample by sample
+        n = len(t_h)
+        keys = ("w", "a", "t_h", "temperature_C", "record", "moving", "g_dot")
+        out = dict(zip(keys, (w * np.ones((n, 3)), a * np.ones((n, 3)), t_h, temp, np.full(n, record), moving, g_dot)))
+        return {**out, "t_mid": t_mid}
+
+    inputs = [
+        x(sg.w, sg.a, sg.t_h, sg.temp, ri, np.full(len(sg.t_h), sg.kind == "rotation"), np.zeros((len(sg.t_h), 3)))
+        for sg, ri in zip(segments, seg_rec)
+    ]
+    data = {
+        "model": model,
+        "theta": theta,
+        "segments": segments,
+        "moves": moves,
+        "q": q,
+        "s_mat": s_mat,
+        "tau2": tau2,
+        "resid": resid,
+        "jac": jac,
+        "n_records": len(recs),
+        "seg_inputs": inputs,
+    }
+    data["inputs"] = list(inputs)
+    data["seg_stacked"] = _stacked(inputs)
+    if moves:
+        packed = pack_moves(moves)
+        move_w = tf.move_whitening(moves, q, s_mat, tau2["move"])
+        _, mr, mj = move_rows(model, theta, packed, move_w)
+        data.update(packed=packed, move_w=move_w, move_r=mr, move_j=mj)
+        data["dr_dg"] = np.asarray(_move_dr_dg(model, th, *packed))  # (M, 3, L, 3)
+        mv_inputs = []
+        for m, ri, (t_h, temp) in zip(moves, mv_rec, mv_times):
+            w_cal = np.linalg.solve(s_mat, (m.g - b - m.a @ g_mat.T).T).T  # deg/h, the calibrated body rate
+            a_dot = np.gradient(m.a, m.dt, axis=0) if len(m.a) > 1 else np.zeros_like(m.a)
+            n = len(m.g)
+            mv_inputs.append(x(w_cal, m.a, t_h[:n], temp[:n], ri, np.ones(n, dtype=bool), a_dot @ g_mat.T))
+        data["move_inputs"] = mv_inputs
+        data["move_stacked"] = _stacked(mv_inputs)
+        data["inputs"] += mv_inputs
+    return data
+
+
+def _channel_x(x: dict, c: int) -> dict:
+    out = tp.channel_inputs(x["w"], x["a"], x["t_h"], x["temperature_C"], c)
+    out.update({k: x[k] for k in ("record", "moving", "t_mid")})
+    out["g_dot"] = x["g_dot"][:, c]
+    return out
+
+
+def _stacked(inputs: list) -> tuple[dict, np.ndarray]:
+    """The inputs of several segments as one (one evaluation of a regressor serves them all) and their bounds."""
+    keys = ("w", "a", "t_h", "temperature_C", "record", "moving", "g_dot")
+    x = {k: np.concatenate([np.asarray(d[k]) for d in inputs]) for k in keys}
+    x["t_mid"] = inputs[0]["t_mid"]
+    return x, np.cumsum([0] + [len(d["t_h"]) for d in inputs])
+
+
+def raw_columns(reg: Regressor, data: dict) -> tuple[np.ndarray, np.ndarray]:
+    """(segment-mean rows (3m, k), move rows (M, 3, k)) of a regressor, unwhitened (deg/h and dimensionless)."""
+    chans = range(3) if reg.channel is None else (reg.channel,)
+    k = len(reg.coefficients)
+    seg = np.zeros((3 * len(data["segments"]), k))
+    x, bounds = data["seg_stacked"]
+    for c in chans:
+        f = np.asarray(reg.func(_channel_x(x, c)), dtype=float)
+        seg[c::3] = np.add.reduceat(f, bounds[:-1], axis=0) / np.diff(bounds)[:, None]
+    mv = np.zeros((len(data["moves"]), 3, k))
+    if data["moves"]:
+        x, bounds = data["move_stacked"]
+        for c in chans:
+            f = np.asarray(reg.func(_channel_x(x, c)), dtype=float)
+            for m in range(len(data["moves"])):
+                lo, hi = bounds[m], bounds[m + 1]
+                mv[m] += data["dr_dg"][m, :, : hi - lo, c] @ f[lo:hi]  # −∂r/∂β, the model indicating R β more
+    return seg, mv
+
+
+def whitened_system(data: dict, regs: list, cols: list):
+    """(r̃, J̃₀, [X̃ of each regressor], [raw segment-mean rows of each]) stacked as the fit whitens its rows
+    (segments, then 2 rows per move); ``cols`` the :func:`raw_columns` of ``regs``, in deg/h per coefficient unit."""
+    p0 = data["jac"].shape[1]
+    big = np.column_stack([data["jac"]] + [s for s, _ in cols]) if cols else data["jac"]
+    rw, jw = tf.whiten_segments(data["segments"], data["resid"], big, data["q"], data["s_mat"], data["tau2"]["pose"])
+    rw = rw - jw[:, :p0] @ np.zeros(p0)  # the rows are at θ̂ already
+    blocks_r, blocks_j = [rw], [jw]
+    if data["moves"]:
+        mx = []
+        for m, (p, sd) in enumerate(data["move_w"]):
+            mx.append(np.concatenate([p.T @ mv[m] / sd for _, mv in cols], axis=1) if cols else np.zeros((2, 0)))
+        blocks_r.append(data["move_r"])
+        blocks_j.append(np.column_stack([data["move_j"], np.concatenate(mx, axis=0)]))
+    r_all = np.concatenate(blocks_r)
+    j_all = np.concatenate(blocks_j, axis=0)
+    xs, i0 = [], p0
+    for r in regs:
+        k = len(r.coefficients)
+        xs.append(j_all[:, i0 : i0 + k])
+        i0 += k
+    return r_all, j_all[:, :p0], xs, [sg for sg, _ in cols]
+
+
+def _groups(data: dict, extra: list) -> list:
+    """The fit's rows as REML groups (:func:`gyrojax.inference.triad.component_groups`), beside the raw columns
+    ``extra`` of the candidates taken in (:func:`raw_columns`), the moves without their angle component (what is
+    estimated)."""
+    move_w, moves_at = [], (np.zeros(0), np.zeros((0, data["jac"].shape[1])))
+    if data["moves"]:
+        move_w = tf.move_whitening(data["moves"], data["q"], data["s_mat"])
+        moves_at = move_rows(data["model"], data["theta"], data["packed"], move_w)[1:]
+    return tf.component_groups(
+        data["segments"], data["resid"], data["jac"], data["q"], data["s_mat"], moves_at, move_w, extra
+    )
+
+
+def with_components(data: dict, extra: list) -> dict:
+    """``data`` whitened with the variance components re-estimated by REML with the candidates ``extra`` (raw
+    columns) among the fixed effects: a missing effect is then not taken for pose scatter (deg/h) or move angle
+    noise (rad)."""
+    tau2, _why = estimate_components(_groups(data, extra))
+    out = dict(data)
+    out["tau2"] = {"pose": tau2.get("pose", 0.0), "move": tau2.get("move", 0.0)}
+    if data["moves"]:
+        out["move_w"] = tf.move_whitening(data["moves"], data["q"], data["s_mat"], out["tau2"]["move"])
+        _, out["move_r"], out["move_j"] = move_rows(data["model"], data["theta"], data["packed"], out["move_w"])
+    return out
+
+
+def _noise_processes(data: dict, alpha: float, extra: list) -> tuple[list, dict]:
+    """REML likelihood-ratio test of each variance component between segments against zero, beside the candidates
+    ``extra`` the diagnosis took in; (candidates, τ̂²)."""
+    groups = _groups(data, extra)
+    tau2, _why = estimate_components(groups)
+    col = np.linalg.norm(np.concatenate([np.linalg.solve(np.linalg.cholesky(g.cov), g.jac) for g in groups]), axis=0)
+    col[col == 0] = 1.0
+    best = reml_objective(groups, tau2, col)
+    out = []
+    for kind, name in (("pose", "pose_bias_scatter"), ("move", "move_angle_noise")):
+        if kind not in tau2:
+            continue
+        lr = max(reml_objective(groups, {**tau2, kind: 0.0}, col) - best, 0.0)
+        p = 0.5 * float(stats.chi2.sf(lr, 1)) if lr > 0 else 1.0
+        sd = tf.components_report({kind: tau2[kind]}, data["s_mat"])  # the fit's report units (pose: calibrated)
+        if kind == "pose":
+            est = {"tau": {"value": sd["pose_bias_scatter_deg_per_h"], "unit": "deg/h"}}
+        else:
+            est = {"tau": {"value": sd["move_angle_noise_deg"], "unit": "deg"}}
+        cand = Candidate(name, lr, 1, p, p, [], math.nan, est, log10_p=math.log10(max(p, 1e-300)))
+        if p < alpha:
+            out.append(cand)
+    return out, tau2
+
+
+# ---- the session --------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Round:
+    """One round of the forward selection: the rows with the variance components re-estimated (``data``), the score
+    tests of every regressor under them (``scored``: (regressor, Candidate or None) for the named candidates, then
+    the shapes), the whitened system they were computed on (``r``, ``j0``, ``xs``) and its residual ``dof``."""
+
+    data: dict
+    scored: list
+    n_named: int
+    perps: dict
+    r: np.ndarray
+    j0: np.ndarray
+    xs: list
+    dof: int
+
+    @property
+    def candidates(self) -> list:
+        """The named candidates tested (the spanned ones with df 0)."""
+        return [c for _reg, c in self.scored[: self.n_named] if c is not None]
+
+    @property
+    def unexcited(self) -> list:
+        """The named candidates the session does not excite."""
+        return [reg.name for reg, c in self.scored[: self.n_named] if c is None]
+
+
+@dataclass(frozen=True)
+class TriadSession(Session):
+    """Triad records at a fit, as the diagnosis sees them: the records, the fit, its rows rebuilt at θ̂
+    (:func:`session_data`), the regressors of the candidates and of the shapes, and their raw columns (deg/h per
+    coefficient unit); ``earth_rate`` as the triad fit takes it."""
+
+    records: list
+    fit: object
+    data: dict
+    regressors: list
+    n_named: int
+    columns: list
+    earth_rate: bool | None = None
+    rules: Rules = RULES
+    kind: str = fx.SDF
+
+    @classmethod
+    def of(cls, records, terms=None, result=None, candidates=None, earth_rate=None, model_free=True) -> TriadSession:
+        """The session of ``records`` at ``result`` (default: the triad fit of ``terms``); ``model_free``: the shapes
+        are among the regressors."""
+        recs = [records] if isinstance(records, Record) else list(records)
+        res = result or tf.fit_triad(recs, terms, earth_rate=earth_rate)
+        data = session_data(recs, res, earth_rate)
+        regs = candidate_regressors(res.model, data, candidates)
+        allr = regs + (shape_regressors() if model_free else [])
+        return cls(recs, res, data, allr, len(regs), [raw_columns(g, data) for g in allr], earth_rate)
+
+    def _cols(self, names) -> list:
+        by = {g.name: c for g, c in zip(self.regressors, self.columns)}
+        return [by[n] for n in names]
+
+    # ---- the forward selection -------------------------------------------------------------------------------
+
+    def score(self, taken: list, previous: Round | None) -> Round:
+        """The rows whitened with the variance components re-estimated with the regressors ``taken`` among the
+        fixed effects (the fit's own components before any is taken), and the score tests of every regressor."""
+        data = with_components(self.data, self._cols(taken)) if taken else self.data
+        r, j0, xs, xr = whitened_system(data, self.regressors, self.columns)
+        raw = (data["resid"], data["jac"], xr)
+        scored, perps, dof = _score_all(r, j0, xs, self.regressors, list(self.fit.names), raw)
+        return Round(data, scored, self.n_named, perps, r, j0, xs, dof)
+
+    def selectable(self, rnd: Round) -> list:
+        """What competes to be taken into the components' fit: the named candidates and the shapes."""
+        return [c for _reg, c in rnd.scored if c is not None]
+
+    # ---- shapes, proposals ------------------------------------------------------------------------------------
+
+    def structure(self, rnd: Round, explaining: list) -> list:
+        """The shapes tested beside the model and the named candidates ``explaining``, σ̃² after them all (F law),
+        unadjusted."""
+        keep = set(explaining)
+        named = [x for (reg, c), x in zip(rnd.scored[: self.n_named], rnd.xs) if c is not None and reg.name in keep]
+        u_all = basis(np.column_stack([rnd.j0] + named))
+        r_perp, s2, dof_all = residual_variance(u_all, rnd.r)
+        out = []
+        for (reg, c), x in zip(rnd.scored[self.n_named :], rnd.xs[self.n_named :]):
+            if c is None or c.df == 0:
+                continue
+            sc = score(u_all, r_perp, x, s2, dof_all)
+            if sc is not None:
+                ch = reg.name.split("[")[1].rstrip("]")
+                versus = f"{SHAPE_VERSUS[reg.effect]} (channel {ch})"
+                out.append(
+                    Structure(
+                        reg.name,
+                        versus,
+                        reg.effect,
+                        sc.statistic,
+                        sc.df,
+                        sc.p_value,
+                        sc.log10_p,
+                        description=SHAPE_LINES[reg.effect],
+                    )
+                )
+        return out
+
+    def no_term(self, c: Candidate) -> str | None:
+        """Why the fit cannot add ``c`` (a MEMS candidate has no fit term), or None."""
+        effect = self.effect_of(c)
+        if effect in MEMS_CANDIDATES:
+            return f"{effect} is a diagnosis candidate; fit_triad has no term for it yet"
+        return None
+
+    def implausible(self, c: Candidate, overrides) -> str | None:
+        """Sizes beyond the MEMS limits (:mod:`gyrojax.physics.plausibility`), per coefficient of any channel."""
+        est = {k.split("[")[0]: v for k, v in c.estimate.items()}
+        return plausibility.implausible(est, overrides, kind="imu-triad")
+
+    def effect_of(self, c: Candidate) -> str:
+        """The effect a candidate adds on every channel (``sf_asymmetry`` for ``sf_asymmetry[x]``)."""
+        return c.name.split("[")[0]
+
+    def fit_terms(self, terms):
+        """The triad fit of ``terms`` to the session's records."""
+        return tf.fit_triad(self.records, terms, earth_rate=self.earth_rate)
+
+    # ---- what the diagnosis adds after its verdict ------------------------------------------------------------
+
+    def noise_processes(self, rnd: Round, taken: list, alpha: float) -> list:
+        """The variance components between segments that are significant at ``alpha`` (:func:`_noise_processes`),
+        beside the regressors ``taken``."""
+        return _noise_processes(rnd.data, alpha, self._cols(taken))[0]
+
+    def components_chi2(self, rnd: Round) -> tuple:
+        """χ² and degrees of freedom of the rows whitened with the variance components."""
+        return float(rnd.r @ rnd.r), rnd.dof
+
+
+def _score_all(r, j0, xs, regs, model_names, raw=None):
+    """Score statistic and F p-value of every regressor (:func:`gyrojax.inference.scoring.score_tests`); with
+    ``raw`` = (segment residual, its Jacobian, each regressor's raw segment rows) the RMS of the segment-mean
+    residuals after adding it (one step, deg/h)."""
+    tests = score_tests(r, j0, xs)
+    out, perps = [], {}
+    for i_reg, (reg, sc) in enumerate(zip(regs, tests.scores)):
+        if sc is None:
+            out.append((reg, None))
+            continue
+        if sc.df == 0:
+            aliases = sorted({model_names[i] for i in sc.spanned_by})
+            out.append((reg, Candidate(reg.name, 0.0, 0, 1.0, 1.0, aliases, math.nan)))
+            continue
+        rms = math.nan if raw is None else rms_after(raw[0], raw[1], raw[2][i_reg], sc)
+        est = {
+            (f"{n}[{reg.name.split('[')[1]}" if "[" in reg.name else n): {"value": float(v), "unit": u}
+            for n, v, u in zip(reg.coefficients, sc.coefficients, reg.units)
+        }
+        cand = Candidate(reg.name, sc.statistic, sc.df, sc.p_value, 1.0, [], rms, est, log10_p=sc.log10_p)
+        out.append((reg, cand))
+        perps[reg.name] = sc.basis
+    return out, perps, tests.dof

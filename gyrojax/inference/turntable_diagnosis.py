@@ -1,0 +1,397 @@
+"""The turntable records' part of the diagnosis (:mod:`gyrojax.inference.diagnose`): their candidates, noise and
+readings.
+
+* **Candidates**: every named effect of the registry the model lacks that the records can carry (conventions §6),
+  as columns of one Jacobian of the model extended by all of them, at (θ̂, 0); a column that is floating-point
+  residue (cos 90° = 6e-17) is not excited.
+* **Noise**: a noise model per record (AR or white + Gauss–Markov, :mod:`gyrojax.noise.whiten`) from the residual
+  projected on the model, on the candidates the forward selection took in, and on a per-record offset, so that a
+  hidden deterministic effect is not taken for colour, and colour is not taken for an effect. Its Gauss–Markov τ is
+  capped at a fraction of the record (:data:`gyrojax.noise.whiten.TAU_SPAN_FRACTION`): slower structure counts as
+  a trend. Colour that no candidate explains is reported as ``gauss_markov`` (conventions §6), never as an effect.
+* **Shapes**: the model-free shapes of :mod:`gyrojax.inference.adequacy`, whitened with the fit's noise model.
+* **Readings beside drift**: a significant slow candidate (:data:`SLOW`) is read again with the drift re-fitted
+  beside it; if it is not significant that way it is ``indistinguishable`` from ``gauss_markov``.
+* **What separates aliases**: the built-in plans (:func:`gyrojax.inference.separation.separating_plans`), a test
+  designed on the campaign's own table, or the set-up measurements.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from functools import cached_property
+
+import numpy as np
+from scipy import stats
+
+from gyrojax.errors import ModelError
+from gyrojax.inference import adequacy
+from gyrojax.inference.campaign import Campaign, linearize
+from gyrojax.inference.identifiability import residue_columns
+from gyrojax.inference.identify import fit
+from gyrojax.inference.instrument import Rules, Session
+from gyrojax.inference.noisefit import (
+    campaign_noise,
+    group_readout_variance,
+    noise_scale,
+    satterthwaite_dof,
+    small_sample_factor,
+)
+from gyrojax.inference.scoring import ALPHA, rms_after, score_tests
+from gyrojax.inference.separation import separating_plans, setup_measurements
+from gyrojax.inference.solver import solve, stack_whitened
+from gyrojax.inference.subspace import WhitenedSystem, basis
+from gyrojax.inference.tails import chi2_logsf
+from gyrojax.inference.verdict import Candidate
+from gyrojax.noise import reml
+from gyrojax.noise.readout import white_beside_readout
+from gyrojax.noise.spec import NoiseSpec
+from gyrojax.noise.whiten import fit_noise, gm_reml
+from gyrojax.physics import effects as fx
+from gyrojax.physics import plausibility
+from gyrojax.physics.model import Model
+from gyrojax.threads import parallel_map
+
+SLOW = ("bias_trend", "bias_temperature")
+"""Candidates that vary slowly in time and so compete with long-memory drift for the same residual structure. They
+get the score test of every candidate, under the diagnosis' noise model, whose Gauss–Markov τ is capped at a fraction
+of the record: structure slower than that is not taken for noise. Measured on null campaigns
+(``python -m benchmarks.study_slow_candidates``), this is the one of three tests that keeps the verdict's level under
+Gauss–Markov drift and under a rate random walk: a Wald test with the noise re-fitted beside the trend (Satterthwaite
+ν), and a profile likelihood ratio with the noise re-fitted under both hypotheses, reject well above their level under
+the random walk, whose few low-frequency degrees of freedom the white + Gauss–Markov fit cannot pin down. When the
+campaign has drift, a significant slow candidate is also read with the drift re-fitted beside it
+(:func:`wald_beside_drift`); if it is not significant that way, it is ``indistinguishable`` from ``gauss_markov`` in
+this campaign, and ``separated_by`` says what would tell them apart."""
+DRIFT_SEPARATION = (
+    "repeat the run from a fresh turn-on (a deterministic trend repeats, drift does not), or record for several of "
+    "the drift's correlation times"
+)
+"""What tells a slow candidate from long-memory drift when one campaign cannot."""
+
+RULES = Rules(retest_shapes=True, refit_budget=3, skip_aliased=False, plausible_before_refit=False)
+"""Turntable proposals: shapes a refused or implausible candidate would have hidden are tested again without it;
+at most three significant candidates are refitted (in rank order, until one is accepted and plausible); an alias of
+another candidate may be proposed (ties in the conventions' order), its size judged on the refit."""
+
+
+def candidate_effects(model: Model, campaign: Campaign) -> list[str]:
+    """Named effects absent from ``model`` that the records can carry.
+
+    ``bias_temperature`` is a candidate only when every record has ``temperature_C`` (°C) and it varies by more
+    than 1e-6 °C over the campaign; otherwise it would alias D_F.
+    """
+    out = []
+    temps = [r.temperature_C for r in campaign.records]
+    has_temp = all(t is not None for t in temps) and np.ptp(np.concatenate(temps)) > 1e-6 if temps else False
+    for name in fx.names(model.kind):
+        if name in model.terms:
+            continue
+        if name == "bias_temperature" and not has_temp:
+            continue
+        out.append(name)
+    return out
+
+
+@dataclass(frozen=True)
+class Round:
+    """One round of the forward selection: the records' noise models and the score tests of the candidates under
+    them (``candidates`` in the session's order, ``perps`` their X⊥ bases, ``whitened`` the stacked (r̃, J̃))."""
+
+    noises: list
+    candidates: list
+    unexcited: list
+    perps: dict
+    whitened: tuple
+
+
+@dataclass(frozen=True)
+class TurntableSession(Session):
+    """Turntable records at a fit, as the diagnosis sees them: the campaign, the fit, the model extended by the
+    candidates ``names`` and its linearisation at (θ̂, 0), and each record's servo readout variance."""
+
+    campaign: Campaign
+    fit: object
+    names: list
+    full: Model
+    lin: list
+    readouts: list
+    rules: Rules = RULES
+
+    @classmethod
+    def of(cls, records, terms=None, result=None, campaign=None, candidates=None) -> TurntableSession:
+        """The session of ``records`` (or of ``campaign``) at ``result`` (default: the fit of ``terms``)."""
+        camp = campaign or Campaign.of(records)
+        res = result or fit(camp.records, terms, campaign=camp)
+        model = res.model
+        names = list(candidates) if candidates is not None else candidate_effects(model, camp)
+        for c in names:
+            if c not in fx.names(model.kind):
+                raise ModelError(f"unknown candidate effect {c!r} for a {model.kind}")
+        full = Model(model.terms + tuple(c for c in names if c not in model.terms), model.kind)
+        lin = linearize(full, np.concatenate([res.theta, np.zeros(full.size - model.size)]), camp)
+        readouts = [group_readout_variance(camp, [i]) for i in range(len(camp.records))]
+        return cls(camp, res, names, full, lin, readouts)
+
+    @property
+    def kind(self) -> str:
+        """The registry's instrument kind (the order of exact aliases)."""
+        return self.fit.model.kind
+
+    @property
+    def records(self) -> list:
+        """The campaign's records."""
+        return self.campaign.records
+
+    @property
+    def p0(self) -> int:
+        """Columns of the fitted model in the extended Jacobian (the candidates' follow)."""
+        return self.fit.model.size
+
+    def columns(self, names) -> np.ndarray:
+        """The extended Jacobian's columns of the fitted model and of the candidates ``names``."""
+        sl = self.full.slices()
+        return np.concatenate([np.arange(self.p0)] + [np.arange(self.full.size)[sl[c]] for c in names]).astype(int)
+
+    # ---- the forward selection -------------------------------------------------------------------------------
+
+    def score(self, taken: list, previous: Round | None) -> Round:
+        """Noise models with the candidates ``taken`` among the fixed effects (each started from ``previous``'s),
+        and the score tests of every candidate under them."""
+        noises = _noise_models(self.lin, self.columns(taken), previous and previous.noises, self.readouts)
+        return Round(noises, *_score(self.lin, noises, self.fit, self.full, self.names))
+
+    # ---- shapes, near-aliases, proposals ------------------------------------------------------------------------
+
+    def explaining(self, live: list, alpha: float) -> list[str]:
+        """The candidates that may explain a shape. On servo records a candidate's column is its drift seen through
+        the servo, and those built on ω_I (the nulled input, ≈ −drift: sf_quadratic's ω_I² holds every harmonic the
+        fitted drift has) span slow shapes jointly with sizes no instrument has: only the candidates the data ask
+        for (significant at α, Holm) explain them."""
+        if any(d.mode == "servo" for d in self.campaign.data):
+            bar = math.log10(alpha) - math.log10(max(len(live), 1))
+            return [c.name for c in live if c.log10_p < bar]
+        return [c.name for c in live]
+
+    @cached_property
+    def shape_system(self) -> adequacy.ShapeSystem:
+        """The shapes of the records whitened with the fit's noise model (one per diagnosis)."""
+        return adequacy.ShapeSystem.build(self.campaign, self.lin, self.fit.noise, self.p0, self.fit)
+
+    def structure(self, rnd: Round, explaining: list) -> list:
+        """The shapes no candidate of ``explaining`` explains (:func:`gyrojax.inference.adequacy.residual_structure`),
+        unadjusted."""
+        cols = self.columns(explaining)[self.p0 :] if explaining else []
+        return adequacy.residual_structure(
+            self.campaign, self.lin, self.fit.noise, self.p0, cols, self.fit, self.shape_system
+        )
+
+    def near_aliases(self, rnd: Round, names: list, alpha: float) -> dict:
+        """The candidates each of ``names`` cannot be told from at level ``alpha``
+        (:func:`gyrojax.inference.adequacy.near_aliases`)."""
+        sl = self.full.slices()
+        live = {c.name: sl[c.name] for c in rnd.candidates if c.df > 0 and c.name in sl}
+        rw, jw = rnd.whitened
+        system = WhitenedSystem.of(rw, jw, np.zeros((len(rw), 0)), [], self.p0)
+        return adequacy.near_aliases(self.lin, rnd.noises, self.p0, live, names, alpha, system)
+
+    def with_refit(self, c: Candidate, f) -> Candidate:
+        """``c`` with the refit's residual RMS and estimates (they replace the one-step values)."""
+        units = f.units()
+        est = {k: {"value": f.values[k], "std": f.stds[k], "unit": units[k]} for k in fx.get(c.name).coefficients}
+        return replace(super().with_refit(c, f), rms_after=f.residual_rms, rms_after_refit=True, estimate=est)
+
+    def refusal(self, e: ModelError) -> str:
+        """Why the fit refuses a candidate."""
+        return f"fit refuses it on these records: {e}"
+
+    def implausible(self, c: Candidate, overrides) -> str | None:
+        """Sizes beyond what real instruments and test sets have (:mod:`gyrojax.physics.plausibility`)."""
+        return plausibility.implausible(c.estimate, overrides)
+
+    def fit_terms(self, terms):
+        """The fit of ``terms`` to the session's records (the next step of the main loop)."""
+        return fit(self.campaign.records, terms, campaign=self.campaign, allow_aliases=False)
+
+    # ---- what the diagnosis adds after its verdict ------------------------------------------------------------
+
+    def noise_processes(self, rnd: Round, taken: list, alpha: float) -> list:
+        """Colour that no deterministic effect explains, as ``gauss_markov`` (:func:`_colour_candidate`)."""
+        gm = _colour_candidate(rnd.noises, self.lin, alpha, self.p0)
+        return [] if gm is None else [gm]
+
+    def finish(
+        self, rnd: Round, ranked: list, significant: list, family: int, alpha: float, noise: list, suggest_tests: bool
+    ) -> list:
+        """The candidates as reported: slow ones read again beside the drift (module doc), the colour
+        ``gauss_markov`` after the significant ones (first when none is), and what would separate the aliases of
+        the first five."""
+        by = {c.name: c for c in ranked}
+        slow = [n for n in significant if n in SLOW] if any(nz.gauss_markov for nz in rnd.noises) else []
+        for n in slow:  # beside drift: is the candidate still significant with the drift re-fitted beside it?
+            p, est = _drift_reading(n, self.campaign, self.lin, self.full, self.p0)
+            near = by[n].indistinguishable + (["gauss_markov"] if p * family >= alpha else [])
+            by[n] = replace(by[n], p_drift_refitted=p, estimate=est, indistinguishable=near)
+        out = [by[c.name] for c in ranked]
+        if noise:
+            out.insert(len(significant), noise[0])
+        if suggest_tests:
+            for i, c in enumerate(out[:5]):
+                group = (c.name,) + tuple(a for a in c.aliases + c.indistinguishable if a in fx.names())
+                if len(group) > 1 and c.name in rnd.perps:
+                    context = (self.campaign, self.lin, self.full, self.fit, out)
+                    plans = separating_plans(self.kind, group, context) or setup_measurements(group)
+                    out[i] = replace(c, separated_by=plans)
+        for i, c in enumerate(out):
+            if c.name in slow and "gauss_markov" in c.indistinguishable:
+                out[i] = replace(c, separated_by=[*c.separated_by, DRIFT_SEPARATION])
+        return out
+
+
+def _nuisance(t: np.ndarray) -> np.ndarray:
+    """Per-record offset: structure that noise models must not absorb (see :func:`_noise_models`)."""
+    return np.ones((len(t), 1))
+
+
+def _noise_models(lin, cols, starts=None, readouts=None) -> list:
+    """Per-record noise model from the residual left after projecting on the regressor columns ``cols`` and on a
+    per-record offset.
+
+    A misspecified model leaves deterministic structure in its residual; the slowest kind (a record-wide offset, as
+    a flipped mounting gives an omitted D_O) would otherwise pass for long-memory noise and hide the very effect
+    under test. It is a nuisance regressor only here; REML keeps the noise estimate unbiased when it is absent.
+    Slower-than-the-record drift is kept apart from noise by the cap on τ
+    (:data:`gyrojax.noise.whiten.TAU_SPAN_FRACTION`). ``starts``: the previous round's models, whose Gauss–Markov
+    fits start this round's (one column more changes them little). ``readouts``: each record's servo readout noise
+    σ_q² ((deg/h)², :mod:`gyrojax.noise.readout`; 0 for none), beside which the rate noise is fitted, so that the
+    readout's MA(1) increments are not taken for colour.
+    """
+    starts = starts or [None] * len(lin)
+    readouts = readouts or [0.0] * len(lin)
+    scales = [max(np.sqrt(np.mean(rec.residual**2)), 1e-300) for rec in lin]
+    n_rec = len(lin)
+    blocks = []
+    for i, (rec, s) in enumerate(zip(lin, scales)):
+        nu = np.zeros((len(rec.residual), n_rec))
+        nu[:, i : i + 1] = _nuisance(rec.times)
+        blocks.append(np.column_stack([rec.jacobian[:, cols] / s, nu]))
+    r_all = np.concatenate([rec.residual / s for rec, s in zip(lin, scales)])
+    ub = basis(np.concatenate(blocks, axis=0))
+    res = r_all - ub @ (ub.T @ r_all)
+    bounds = np.cumsum([0] + [len(rec.residual) for rec in lin])
+
+    def one(i):  # the records' fits are independent: they run side by side (gyrojax.threads.parallel_map)
+        rec, s, st = lin[i], scales[i], starts[i]
+        design = np.column_stack([rec.jacobian[:, cols], _nuisance(rec.times)])
+        start = st if st is not None and st.gauss_markov else None
+        r = res[bounds[i] : bounds[i + 1]] * s
+        nz = fit_noise(r, rec.labels, rec.times, design=design, start=start, readout_var=readouts[i])
+        return nz if nz.innovation_std > 0 else NoiseSpec.from_sample_variances(s * s, reml.sample_interval(rec.times))
+
+    return parallel_map(one, range(n_rec))
+
+
+def _score(lin, noises, res, full: Model, cand) -> tuple:
+    """Score statistic, p-value, estimate and residual-after of every candidate (:func:`gyrojax.inference.scoring.
+    score_tests`), and the whitened residual and regressors they were computed on: (candidates, unexcited, X⊥ bases,
+    (r̃, J̃)).
+
+    On the tall whitened system itself, not on the triangle of its QR (:class:`gyrojax.inference.subspace.
+    WhitenedSystem`), though the statistics are the same to rounding: exact aliases (D_II and D_SS in a 1 g tumble)
+    have equal statistics to the last digits, which :func:`gyrojax.inference.scoring.by_evidence` then ranks in the
+    conventions' order."""
+    model, p0, sl = res.model, res.model.size, full.slices()
+    rw, jw = stack_whitened(lin, noises)
+    residue = residue_columns(jw)  # floating-point residue (cos 90° = 6e-17): not excited, never estimated
+    x_all = jw * ~residue
+    cols = {c: np.arange(full.size)[sl[c]] for c in cand}
+    tests = score_tests(rw, jw[:, :p0], [x_all[:, cols[c]] for c in cand])
+    r_raw = np.concatenate([rec.residual for rec in lin])
+    j_raw = np.concatenate([rec.jacobian for rec in lin], axis=0)
+    tested, perps, unexcited = [], {}, []
+    for c, sc in zip(cand, tests.scores):
+        if sc is None:
+            unexcited.append(c)
+            continue
+        if sc.df == 0:
+            names = {fx.effect_of_coefficient(model.coefficient_names[k]) for k in sc.spanned_by}
+            tested.append(Candidate(c, 0.0, 0, 1.0, 1.0, sorted(names, key=model.terms.index), res.residual_rms))
+            continue
+        xr = j_raw[:, cols[c]] * ~residue[cols[c]]
+        rms = rms_after(r_raw, j_raw[:, :p0], xr, sc)
+        eff = fx.get(c)
+        est = {n: {"value": float(v), "unit": u} for n, v, u in zip(eff.coefficients, sc.coefficients, eff.units)}
+        tested.append(Candidate(c, sc.statistic, sc.df, sc.p_value, 1.0, [], rms, est, log10_p=sc.log10_p))
+        perps[c] = sc.basis
+    return tested, unexcited, perps, (rw, jw)
+
+
+def _drift_reading(name: str, camp: Campaign, lin, full: Model, p0: int) -> tuple[float, dict]:
+    """The reading of a significant slow candidate with the drift re-fitted beside it: the p-value of its Wald test
+    and its GLS estimate ± the standard error `fit` would state."""
+    cols_c = np.arange(full.size)[full.slices()[name]]
+    p, beta, sd = wald_beside_drift(camp, lin, np.concatenate([np.arange(p0), cols_c]), p0)
+    eff = fx.get(name)
+    est = zip(eff.coefficients, beta, sd, eff.units)
+    return p, {n: {"value": float(v), "std": float(e), "unit": u} for n, v, e, u in est}
+
+
+def wald_beside_drift(camp: Campaign, lin, cols: np.ndarray, p0: int):
+    """(p-value, estimate, standard error) of the coefficients ``cols[p0:]`` by GLS with the fit's noise model
+    re-estimated with them in (:func:`gyrojax.inference.noisefit.campaign_noise`); Wald W / k ~ F(k, ν), ν the
+    smallest Satterthwaite degrees of freedom of those coefficients when the noise has a Gauss–Markov part."""
+    sub = [rec._replace(jacobian=rec.jacobian[:, cols]) for rec in lin]
+    noises = campaign_noise(sub, camp)
+    scales = [noise_scale(rec.residual, rec.labels) for rec in sub]
+    rw, jw = stack_whitened(sub, noises, scales)
+    step, cov = solve(jw, rw)
+    e = rw - jw @ step
+    diag = np.diag(cov)
+    dof = max(len(rw) - int(np.sum(np.isfinite(diag) & (diag > 0))), 1)
+    cov = cov * float(e @ e) / dof
+    idx = np.arange(p0, len(cols))
+    beta, v = step[idx], cov[np.ix_(idx, idx)]
+    sd = np.sqrt(np.where(np.diag(v) > 0, np.diag(v), np.nan))
+    ok = np.isfinite(sd)
+    if not ok.any():
+        return 1.0, beta, sd
+    stat = float(beta[ok] @ np.linalg.solve(v[np.ix_(ok, ok)], beta[ok]))
+    nus = np.full(len(idx), float(dof))
+    if any(nz.gauss_markov for nz in noises):
+        nus = satterthwaite_dof(sub, camp, noises, scales)[idx]
+    k = int(ok.sum())
+    # the standard error as `fit` states it: widened by t_ν / z (gyrojax.inference.noisefit.small_sample_factor)
+    return float(stats.f.sf(stat / k, k, float(np.min(nus[ok])))), beta, sd * small_sample_factor(nus)
+
+
+def _colour_candidate(noises, lin, alpha: float = ALPHA, p0: int = 0) -> Candidate | None:
+    """Likelihood-ratio test of the AR noise model against white noise, pooled over records.
+
+    A servo record whose readout noise is known (:mod:`gyrojax.noise.readout`) is tested by the REML likelihood
+    ratio of its white + Gauss–Markov rate noise against white rate noise, both beside the readout (the first ``p0``
+    columns of J the fitted regressors): colour is then that of the rate, never the readout's MA(1) increments."""
+    stat, df, rms_acc, n_acc = 0.0, 0, 0.0, 0
+    for nz, rec in zip(noises, lin):
+        r, lab, t = rec.residual, rec.labels, rec.times
+        n = len(r)
+        if nz.gauss_markov and nz.readout_var > 0:
+            if nz.gm_variance > 0:
+                design = np.column_stack([rec.jacobian[:, :p0], np.ones(n)])
+                white = white_beside_readout(r, design, lab, t, nz)
+                stat += max(gm_reml(r, design, lab, t, white) - gm_reml(r, design, lab, t, nz), 0.0)
+            df += 2
+        elif nz.order and nz.innovation_std > 0:
+            stat += n * math.log(max(nz.variance_ratio, 1.0))
+            df += 2 if nz.order == "gm" else nz.order
+        rms_acc += nz.innovation_std**2 * n
+        n_acc += n
+    if df == 0:
+        return None
+    logp = float(chi2_logsf(stat, df))
+    p = math.exp(logp)
+    if p >= alpha:
+        return None
+    rms = float(math.sqrt(rms_acc / max(n_acc, 1)))
+    order = {"ar_order": {"value": df, "unit": "-"}}
+    return Candidate("gauss_markov", stat, df, p, p, [], rms, order, log10_p=logp / math.log(10))
