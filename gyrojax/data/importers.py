@@ -568,6 +568,8 @@ def import_csv(
     """
     time_col, acc_keys = check_mapping(mapping, time_unit)
     gyro_only = not acc_keys
+    if gyro_only and kw.get("acc_counts_per_g") is not None:
+        raise RecordError("an accelerometer scale (--acc-scale) was given but no accelerometer is mapped (acc_<c>=COL)")
     if rotations is not None and not gyro_only:
         raise RecordError(
             "rotations (--rotations) describe a gyro-only session; this mapping has an accelerometer (acc_<c>), whose "
@@ -607,6 +609,7 @@ def import_csv(
         clock_kw.update(times=t_col, time_source=f"the time column {time_col!r} ({time_unit or 's'})")
     t, clock = log_clock(len(df), str(path), **clock_kw)
     if gyro_only and rotations is not None:
+        kw.pop("acc_counts_per_g", None)
         kw.update(name=name or file_stem(path), source=str(path), notes=notes)
         return gyro_only_record(t - t[0], gyr, rotations, gyro_unit=gyro_unit, **kw)
     return triad_from_arrays(

@@ -16,7 +16,6 @@ from pathlib import Path
 
 import numpy as np
 
-from gyrojax.data.schema import _err
 from gyrojax.data.timebase import GAP_FACTOR, JITTER_TOL
 from gyrojax.errors import RecordError
 from gyrojax.noise.chunked import OctaveAllan
@@ -90,7 +89,7 @@ def csv_chunks(csv_path: Path, columns: list[str], rows: int | None = None):
     header = pd.read_csv(csv_path, nrows=0).columns.str.strip().tolist()
     missing = [c for c in columns if c not in header]
     if missing:
-        raise _err(csv_path, f"missing columns {missing}")
+        raise RecordError(f"{csv_path}: missing columns {missing}")
 
     def reader(dtype):
         return pd.read_csv(csv_path, usecols=lambda c: c.strip() in columns, chunksize=rows, dtype=dtype)
@@ -103,7 +102,9 @@ def csv_chunks(csv_path: Path, columns: list[str], rows: int | None = None):
             for c, col in out.items():
                 if not np.all(np.isfinite(col)):
                     i = int(np.flatnonzero(~np.isfinite(col))[0])
-                    raise _err(csv_path, f"row {line + i}, column {c!r} holds {col[i]!r}; values must be finite")
+                    raise RecordError(
+                        f"{csv_path}: row {line + i}, column {c!r} holds {col[i]!r}; values must be finite"
+                    )
             yield line, out
             line += len(df)
     except ValueError as e:
@@ -112,8 +113,8 @@ def csv_chunks(csv_path: Path, columns: list[str], rows: int | None = None):
         try:
             _name_bad_cell(csv_path, columns, reader(str))
         except (UnicodeDecodeError, pd.errors.ParserError) as e2:
-            raise _err(csv_path, f"is not a readable table ({str(e2).strip()[:120]})") from None
-        raise _err(csv_path, f"is not a table of numbers ({str(e).strip()[:120]})") from None
+            raise RecordError(f"{csv_path}: is not a readable table ({str(e2).strip()[:120]})") from None
+        raise RecordError(f"{csv_path}: is not a table of numbers ({str(e).strip()[:120]})") from None
 
 
 def _name_bad_cell(csv_path, columns, frames) -> None:
@@ -127,7 +128,9 @@ def _name_bad_cell(csv_path, columns, frames) -> None:
             col = pd.to_numeric(df[c].str.strip(), errors="coerce").to_numpy(dtype=float)
             if not np.all(np.isfinite(col)):
                 i = int(np.flatnonzero(~np.isfinite(col))[0])
-                raise _err(csv_path, f"row {line + i}, column {c!r} holds {df[c].iloc[i]!r}; values must be finite")
+                raise RecordError(
+                    f"{csv_path}: row {line + i}, column {c!r} holds {df[c].iloc[i]!r}; values must be finite"
+                )
         line += len(df)
 
 
@@ -202,7 +205,7 @@ def static_pieces(record_path: Path, meta: dict, progress: Progress | None = Non
         d = np.diff(prev)
         if np.any(d <= 0):
             i = int(np.flatnonzero(d <= 0)[0]) + (0 if state["t"] is None else -1)
-            raise _err(csv_path, f"row {line + i + 1}, column 'time_s': time does not increase")
+            raise RecordError(f"{csv_path}: row {line + i + 1}, column 'time_s': time does not increase")
         if state["dt"] is None:
             state["dt"] = float(np.median(d)) if len(d) else 1.0
         if is_triad(meta):
