@@ -242,6 +242,7 @@ def gyrojax_loop(paths, terms, steps=3) -> list:
                 "rms": d["residual_rms_deg_per_h"],
                 "floor": d["noise_floor_deg_per_h"],
                 "chi2_with_components": d.get("chi2_with_components"),
+                "family_size": d.get("family_size"),
             }
         )
         if not proposal or proposal in terms:
@@ -322,9 +323,6 @@ def planted_power(case: Case, paths, families=(27, 60)) -> dict:
         df = len(planted)
     out = {"lambda": lam, "df": df} | {f"power_F{f}": ra.power(lam, df, ra.ALPHA, f) for f in families}
     if rivals:
-        out |= {
-            "rivals": rivals,
-            "lambda_beside_rivals": lam_r,
-            "power_beside_rivals_F60": ra.power(lam_r, df, ra.ALPHA, 60),
-        }
+        out |= {"rivals": rivals, "lambda_beside_rivals": lam_r}
+        out |= {f"power_beside_rivals_F{f}": ra.power(lam_r, df, ra.ALPHA, f) for f in families}
     return out
