@@ -24,7 +24,7 @@ from . import real_noise_cases as rc
 from . import reference_analysis as ra
 
 ALPHA = 0.01
-FAMILY = 60  # a bound on gyrojax's family (candidates × channels and shapes; 40–45 in these sessions)
+FAMILY = 60  # a bound on gyrojax's family (candidates × channels and shapes: 28–43 here), checked
 SMALL = {"poses": 16, "rest_s": 1.0, "move_s": 1.0, "rate_hz": 50.0}  # cheap sessions for Monte Carlo checks
 
 
@@ -198,6 +198,7 @@ def test_gyrojax_nulls_are_adequate(built, name, noise):
     long on a turntable whose temperature varies (named): adequate, nothing proposed."""
     case = rc.CASES[name]
     d = rc.gyrojax_json(built[name][0], case.terms)
+    assert d["family_size"] <= FAMILY
     assert d["verdict"] == "adequate" and d["proposal"] is None, (d["proposal"], d["candidates"][0])
     if noise:
         assert noise in rc.named_noise(d)
