@@ -3,6 +3,10 @@
 It shares no code with gyrojax (no kinematics, effects, noise or record writer of the package) so that diagnosis is
 checked on campaigns this project's simulator did not make: other table geometries, derived rates (no rate column),
 odd sample intervals, its own random numbers.
+
+Beyond the named effects of §6 a campaign may carry a bias the registry does not name (``extra``: a function of time
+and temperature, e.g. :func:`two_slope`, seed 001's hinged temperature bias) and Gauss–Markov drift (§6
+``gauss_markov``: σ deg/h, τ s, the exact first-order recursion over each sample's time step, moves included).
 """
 
 import json
@@ -25,11 +29,25 @@ def _attitude(axes, angles_rad, base=None):
     return c
 
 
-def write_campaign(folder, runs, truth, lat_deg=45.5, g_site=9.8063, noise_white=0.001, seed=0, t0=1000.0):
+def write_campaign(
+    folder,
+    runs,
+    truth,
+    lat_deg=45.5,
+    g_site=9.8063,
+    noise_white=0.001,
+    seed=0,
+    t0=1000.0,
+    extra=None,
+    gauss_markov=None,
+):
     """Write one record per run. A run: dict(name, axes=[(name, u)], ia, oa, segments=[(angles_deg0, rates_dps,
     duration_s, dt_s)], temperature=callable(t) or None). ``truth``: coefficient dict (conventions §6 names, report
-    units) with optional set-up keys delta_E, delta_N, delta_U (arcsec). Returns the list of JSON paths."""
+    units) with optional set-up keys delta_E, delta_N, delta_U (arcsec). ``extra(t_s, temperature_C)``: a further
+    bias, deg/h (temperature None without a profile); ``gauss_markov``: (σ deg/h, τ s) drift. Returns the list of
+    JSON paths."""
     rng = np.random.default_rng(seed)
+    gm_state, gm_time = None, None
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     lat = lat_deg * D2R
@@ -71,7 +89,18 @@ def write_campaign(folder, runs, truth, lat_deg=45.5, g_site=9.8063, noise_white
                 ind += truth.get("D_T", 0) * t / 3600
                 if temp is not None:
                     ind += truth.get("D_TEMP", 0) * (temp - 20)
+                if extra is not None:
+                    ind += extra(t, temp)
                 ind += rng.normal() * noise_white * 60 / np.sqrt(dt)
+                if gauss_markov is not None:
+                    sd, tau = gauss_markov
+                    if gm_state is None:
+                        gm_state = sd * rng.normal()
+                    else:
+                        rho = np.exp(-(t - gm_time) / tau)
+                        gm_state = rho * gm_state + sd * np.sqrt(1 - rho * rho) * rng.normal()
+                    gm_time = t
+                    ind += gm_state
                 rows.append((t, ang, seg_id, ind, temp))
             t_clock = rows[-1][0] + 45.0
         t_clock += 120.0
@@ -116,3 +145,35 @@ def tilted_ladder(name, ia, oa, rates=(2, 8, 25, 60), dur=40.0, dt=0.2):
     u = (np.sin(10 * D2R), 0.0, np.cos(10 * D2R))
     segs = [([0.0], [sg * r], dur, dt) for r in rates for sg in (1, -1)]
     return {"name": name, "axes": [("spin", u)], "ia": ia, "oa": oa, "segments": segs}
+
+
+def two_slope(k_hot, k_cold, knee_c=20.0):
+    """Seed 001's hinged temperature bias, deg/h (without its value e at the knee, which D_F holds): with τ = T − 20 °C
+    (001 l.73: "相对于 20℃ 的实时温度"), the bias is e + K_tx1 τ on the hot side (τ ≥ 0) and e + K_tx2 τ on the cold
+    side, K_tx1 = (k_x0_h − e_x)/t_3h, K_tx2 = (k_x0_d − e_x)/t_3d (001 §5.1 step 4, l.79–81). As a function for
+    :func:`write_campaign`'s ``extra``; ``knee_c`` moves the hinge away from the paper's 20 °C."""
+
+    def bias(t_s, temperature_c):
+        tau = temperature_c - knee_c
+        return (k_hot if tau >= 0 else k_cold) * tau
+
+    return bias
+
+
+def chamber_cycle(low_c=10.0, high_c=32.0, period_s=8000.0, start_s=1000.0):
+    """A temperature profile from ``low_c`` through ``high_c`` and back, T(t) = mid − half · cos(2π (t − start)/period),
+    °C: not monotone in time, so a temperature effect is not a trend."""
+    mid, half = 0.5 * (low_c + high_c), 0.5 * (high_c - low_c)
+    return lambda t: mid - half * np.cos(2 * np.pi * (t - start_s) / period_s)
+
+
+def twenty_four_positions(name="pos24", dwell=300.0, dt=3.0, temperature=None, order_seed=2):
+    """A 24-position static test on a two-axis table (outer axis North, inner axis normal to the platform, Up at
+    zero): outer 0, 60, …, 300° × inner 0, 90, 180, 270°, visited in a shuffled order so that no g-term follows
+    the temperature or time; a skew SDF mounting (IA (2, 1, 2)/3, OA (1, −2, 0)/√5)."""
+    grid = [(a, b) for a in range(0, 360, 60) for b in (0, 90, 180, 270)]
+    order = np.random.default_rng(order_seed).permutation(len(grid))
+    segs = [([float(grid[i][0]), float(grid[i][1])], [0, 0], dwell, dt) for i in order]
+    run = {"name": name, "axes": [("outer", (0, 1, 0)), ("inner", (0, 0, 1))], "segments": segs}
+    run |= {"ia": (2 / 3, 1 / 3, 2 / 3), "oa": (1 / np.sqrt(5), -2 / np.sqrt(5), 0.0), "temperature": temperature}
+    return run

@@ -1,0 +1,212 @@
+"""Ten campaigns of real sensors' noise and slow effects (tests/real_noise_cases.py, written by the independent
+writers): what the plain reference analysis says of them (tests/reference_analysis.py), the power of each planted
+effect's test at the truth, what gyrojax's diagnosis loop answers, and Monte Carlo null rates of both.
+
+Subcommands:
+
+* ``reference [--seeds 1,2]``: the reference's forward selection at the true noise model, and the numbers of the
+  issue's claims (the trend's LM under the independent per-rest scatter, the walk's preference in −2ℓ_R, the rest
+  means' residual lag-1 autocorrelation, the trend beside the power-up step, the temperature shapes' LM beside every
+  named candidate, the fitted knee).
+* ``power``: λ and the power at the first Holm step (families 27 and 60) of each planted effect's test.
+* ``baseline [--seeds 1,2,3,4] [--cases a,b]``: ``gyrojax diagnose --json`` followed through its proposals; a
+  markdown table of verdicts, proposals, estimates and named noise, and how many cases it answers right.
+* ``nulls [--draws 200] [--gyrojax]``: the reference's rate of any Holm-significant candidate on each null case
+  (the triads drawn in memory; the turntable null by N(0, V) draws on one campaign's regressors, the writer's drift
+  being checked against V in tests/test_real_noise.py), the rate at which the reference itself finds a trend when
+  it assumes independent scatter on a walk, and with ``--gyrojax`` the rate of deterministic proposals by gyrojax's
+  diagnosis (written records, one diagnosis per draw). Rates with Clopper–Pearson 95 % intervals.
+
+Run: python -m benchmarks.study_real_noise reference | power | baseline | nulls [options]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # the reference's small factorisations: threads only contend
+
+import tempfile  # noqa: E402
+import time  # noqa: E402
+import warnings  # noqa: E402
+
+import numpy as np  # noqa: E402
+from scipy import stats  # noqa: E402
+
+from tests import real_noise_cases as rc  # noqa: E402
+from tests import reference_analysis as ra  # noqa: E402
+
+TRIAD_NULLS = ("walk-steps", "walk-rrw", "pose-scatter", "power-up-null")
+
+
+def _seeds(text):
+    return [int(s) for s in text.split(",")]
+
+
+def interval(k: int, n: int) -> str:
+    """k/n with its Clopper–Pearson 95 % interval."""
+    ci = stats.binomtest(k, n).proportion_ci(0.95)
+    return f"{k}/{n} = {k / n:.3f} [{ci.low:.3f}, {ci.high:.3f}]"
+
+
+def _fmt(x):
+    if isinstance(x, float | np.floating):
+        return f"{x:.3g}"
+    if isinstance(x, dict):
+        return "{" + ", ".join(f"{k}: {_fmt(v)}" for k, v in x.items()) + "}"
+    if isinstance(x, list | tuple):
+        return "[" + ", ".join(_fmt(v) for v in x) + "]"
+    return str(x)
+
+
+def reference(seeds) -> None:
+    for name, case in rc.CASES.items():
+        for seed in seeds:
+            paths, _ = case.build(tempfile.mkdtemp(), seed)
+            out = rc.reference(case, paths)
+            print(f"## {name}, seed {seed}")
+            for k, v in out.items():
+                print(f"  {k}: {_fmt(v)}")
+
+
+def _pw(p: float) -> str:
+    return f"{p:.6f} ({1 - p:.1e})"
+
+
+def power() -> None:
+    print("power at the first Holm step at α = 0.01 (1 − power in brackets)")
+    print("| case | planted | λ | power, family 27 | power, family 60 | beside | λ | power, family 60 |")
+    print("|---|---|---|---|---|---|---|---|")
+    for name, case in rc.CASES.items():
+        if case.planted:
+            paths, _ = case.build(tempfile.mkdtemp(), 1)
+            p = rc.planted_power(case, paths)
+            planted = ", ".join(f"{k} = {v:g}" for k, v in case.planted.items())
+            row = f"| {name} | {planted} | {p['lambda']:.1f} | {_pw(p['power_F27'])} | {_pw(p['power_F60'])} |"
+            if "rivals" in p:
+                lam_r, pow_r = p["lambda_beside_rivals"], p["power_beside_rivals_F60"]
+                row += f" {', '.join(p['rivals'])} | {lam_r:.1f} | {_pw(pow_r)} |"
+            else:
+                row += " — | | |"
+            print(row)
+
+
+def baseline(seeds, names) -> None:
+    rows, right = [], {}
+    for name in names:
+        case = rc.CASES[name]
+        for seed in seeds:
+            paths, _ = case.build(tempfile.mkdtemp(), seed)
+            t0 = time.time()
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                chain = rc.gyrojax_loop(paths, case.terms)
+            ok = rc.judged(case, chain)
+            right.setdefault(seed, []).append(ok)
+            steps = []
+            for c in chain:
+                est = f" {_fmt(c['estimate'])}" if c["estimate"] else ""
+                extra = f", unexplained {', '.join(c['unexplained'])}" if c["unexplained"] else ""
+                steps.append(
+                    f"+{','.join(c['terms'][len(case.terms) :]) or '∅'}: {c['verdict']}, proposes {c['proposal']}"
+                    f" (top {c['top']}{est}); noise {', '.join(c['noise']) or '—'}{extra}"
+                )
+            rows.append(f"| {name} | {seed} | {'right' if ok else '**miss**'} | {' → '.join(steps)} |")
+            print(rows[-1], f"({time.time() - t0:.0f} s)", flush=True)
+    print("\n| case | seed | answer | gyrojax's loop |\n|---|---|---|---|")
+    print("\n".join(rows))
+    for seed, oks in right.items():
+        print(f"seed {seed}: {sum(oks)} of {len(oks)} right")
+
+
+def _triad_null_rates(draws) -> None:
+    for name in TRIAD_NULLS:
+        case = rc.CASES[name]
+        hits, trend_under_scatter = 0, 0
+        for i in range(draws):
+            recs, _ = case.build.records(10_000 + i)
+            taken, _ = ra.triad_select(recs, rc.TRIAD_NOISE_DPS, case.noise)
+            hits += bool(taken)
+            if case.noise != "scatter":
+                sc = ra.triad_reference(recs, rc.TRIAD_NOISE_DPS, "scatter")
+                trend_under_scatter += min(sc.p_holm[f"bias_trend[{c}]"] for c in "xyz") < ra.ALPHA
+        print(f"reference, {name} ({case.noise} at REML): any Holm-significant candidate {interval(hits, draws)}")
+        if case.noise != "scatter":
+            print(f"  under the independent scatter instead: a trend found {interval(trend_under_scatter, draws)}")
+
+
+def _turntable_null_rate(draws) -> None:
+    case = rc.CASES["slow-drift-null"]
+    paths, _ = case.build(tempfile.mkdtemp(), 1)
+    tt = ra.turntable(paths)
+    v = ra.turntable_covariance(tt, rc.ARW, case.noise)
+    chol = np.linalg.cholesky(v)
+    wh = ra.whitener(v)
+    model = list(case.terms)
+    named = [n for n in ra.TURNTABLE_NAMED if n not in model]
+    cand = {n: wh(ra.turntable_columns(tt, [n])) for n in named + list(ra.SHAPES)}
+    x0w = wh(ra.turntable_columns(tt, model))
+    rng = np.random.default_rng(7)
+    hits, smallest = 0, []
+    for _ in range(draws):
+        yw = wh(chol @ rng.standard_normal(len(tt.y)))
+        p = [ra.score_test(yw, x0w, h)[2] for h in cand.values()]
+        adj = ra.holm(p)
+        smallest.append(adj.min())
+        hits += adj.min() < ra.ALPHA
+    print(f"reference, slow-drift-null (V known): any Holm-significant candidate {interval(hits, draws)}")
+
+
+def _gyrojax_null_rates(draws) -> None:
+    for name in TRIAD_NULLS + ("slow-drift-null",):
+        case = rc.CASES[name]
+        proposals, named = 0, []
+        t0 = time.time()
+        for i in range(draws):
+            paths, _ = case.build(tempfile.mkdtemp(), 20_000 + i)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                d = rc.gyrojax_json(paths, case.terms)
+            if d.get("proposal"):
+                proposals += 1
+                named.append(d["proposal"])
+        found = f" ({', '.join(sorted(set(named)))})" if named else ""
+        rate = interval(proposals, draws)
+        print(f"gyrojax, {name}: a deterministic proposal {rate}{found}, {time.time() - t0:.0f} s")
+
+
+def nulls(draws, with_gyrojax) -> None:
+    t0 = time.time()
+    _triad_null_rates(draws)
+    _turntable_null_rate(draws)
+    print(f"reference: {time.time() - t0:.0f} s")
+    if with_gyrojax:
+        _gyrojax_null_rates(draws)
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(prog="python -m benchmarks.study_real_noise", description=__doc__.split("\n")[0])
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("reference")
+    r.add_argument("--seeds", type=_seeds, default=[1, 2])
+    sub.add_parser("power")
+    b = sub.add_parser("baseline")
+    b.add_argument("--seeds", type=_seeds, default=[1, 2, 3, 4])
+    b.add_argument("--cases", type=lambda s: s.split(","), default=list(rc.CASES))
+    n = sub.add_parser("nulls")
+    n.add_argument("--draws", type=int, default=200)
+    n.add_argument("--gyrojax", action="store_true", help="also gyrojax's proposal rate (slow: a diagnosis a draw)")
+    args = ap.parse_args(argv)
+    if args.cmd == "reference":
+        reference(args.seeds)
+    elif args.cmd == "power":
+        power()
+    elif args.cmd == "baseline":
+        baseline(args.seeds, args.cases)
+    else:
+        nulls(args.draws, args.gyrojax)
+
+
+if __name__ == "__main__":
+    main()
