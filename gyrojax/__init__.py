@@ -13,6 +13,7 @@ The package is a tree that follows the data flow::
     inference/   fit (GLS, honest σ), big records, diagnosis of missing effects
     planning/    test-plan design by Fisher information
     montecarlo/  studies over many simulated gyros
+    adaptive/    the test campaign as a loop: the next test from the records so far, until the goal is met
     dynamics/    ZOH discretisation, rebalance / servo / TDF loops, loop-aware fits
     seeds/       the source books' closed forms and systems
     report/      tables, text and figures (the only library package that draws)
@@ -22,7 +23,8 @@ and below them the modules every package may import: ``errors``, ``units``, ``ki
 ``protocol`` (files and the result protocol). Imports point down a declared layer order (tests/test_layers.py).
 
 ``import gyrojax as gj`` gives the flat API: ``gj.simulate``, ``gj.load_records``, ``gj.fit``,
-``gj.diagnose``, ``gj.add_and_refit``, ``gj.design``, ``gj.run_study`` … (loaded on first use, so that
+``gj.diagnose``, ``gj.add_and_refit``, ``gj.design``, ``gj.next_test``, ``gj.run_campaign``, ``gj.run_study`` …
+(loaded on first use, so that
 ``import gyrojax`` stays fast).
 """
 
@@ -143,6 +145,11 @@ _FLAT = {
     # planning
     "design": "gyrojax.planning.optimal:design",
     "compare_plans": "gyrojax.planning.baselines:compare",
+    # the campaign loop
+    "Goal": "gyrojax.adaptive.goal:Goal",
+    "Lab": "gyrojax.adaptive.lab:Lab",
+    "next_test": "gyrojax.adaptive.step:next_test",
+    "run_campaign": "gyrojax.adaptive.simulated:run_campaign",
     # Monte Carlo
     "Study": "gyrojax.montecarlo.study:Study",
     "load_study": "gyrojax.montecarlo.study:load_study",
@@ -154,7 +161,9 @@ __all__ = [
     "Diagnosis",
     "Effect",
     "FitResult",
+    "Goal",
     "GyrojaxError",
+    "Lab",
     "Model",
     "ModelError",
     "Plan",
@@ -182,12 +191,14 @@ __all__ = [
     "load_records",
     "load_study",
     "load_truth",
+    "next_test",
     "noise",
     "plans",
     "predict",
     "record_data",
     "register",
     "report",
+    "run_campaign",
     "run_study",
     "save_record",
     "simulate",
