@@ -31,7 +31,6 @@ from dataclasses import dataclass, field
 import jax
 import numpy as np
 
-from gyrojax.adaptive.design import white_equivalent
 from gyrojax.data import plans
 from gyrojax.errors import ModelError
 from gyrojax.inference.identify import fit
@@ -45,6 +44,12 @@ CHECKS = 3
 """Simulated checks of the scale (each one a simulation and a fit of the whole sequence)."""
 SAMPLES = {"position": 20, "tumble": 720, "servo": 1440, "head": 30}
 """Samples per static position, per tumble run, per servo run and per dividing-head position, at every scale."""
+
+
+def white_equivalent(noise) -> float:
+    """N_eff (deg/√h): √(N² + Σ 2σ²τ/3600), the noise's long-run white equivalent (each Gauss–Markov term's
+    variance of a mean over T ≫ τ is 2σ²τ/T): the sequence's runs are long against the drift's τ."""
+    return math.sqrt(noise.white**2 + sum(2.0 * s * s * tau / 3600.0 for s, tau in noise.gauss_markov))
 
 
 def sequence(kind: str, scale: float, latitude_deg: float = plans.DEFAULT_LATITUDE) -> list:
@@ -199,8 +204,9 @@ def classical_hours(truth, terms, goal, kind: str, seed: int = 0, latitude_deg: 
     else:
         tests = sequence(kind, scale, latitude_deg)
         recs = simulate(joined(tests), truth, key=key)
-        sigma = fit(recs, list(model.terms)).stds
-    path = _path(recs, tests, model)
+        res = fit(recs, list(model.terms))
+        sigma = res.stds
+    path = _path(recs, tests, model, res)
     return ClassicalResult(scale, _hours(tests), sigma, path, best_split)
 
 
@@ -214,18 +220,15 @@ def _between_runs_hours(tests) -> float:
     return joined(tests).gap_between_runs_s * (len(tests) - 1) / 3600.0
 
 
-def _path(recs, tests, model: Model) -> list:
+def _path(recs, tests, model: Model, last) -> list:
     """After each test of the sequence: cumulative table hours, fitted σ (report units; null where the records so far
-    do not identify a coefficient), residual RMS and noise floor (output units)."""
-    out, used, n = [], [], 0
-    clock = 0.0
-    for name, p in tests:
-        k = len(p.runs)
-        used = recs[: n + k]
-        n += k
-        clock = float(joined(tests[: len(out) + 1]).duration_s) / 3600.0
+    do not identify a coefficient), residual RMS and noise floor (output units); ``last`` the fit of every record."""
+    out, n = [], 0
+    for i, (name, p) in enumerate(tests):
+        n += len(p.runs)
+        clock = float(joined(tests[: i + 1]).duration_s) / 3600.0
         try:
-            res = fit(used, list(model.terms), allow_aliases=True)
+            res = last if i == len(tests) - 1 else fit(recs[:n], list(model.terms), allow_aliases=True)
         except ModelError:
             out.append({"test": name, "hours": clock, "sigma": {}, "residual_rms": None, "noise_floor": None})
             continue

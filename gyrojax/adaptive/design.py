@@ -16,9 +16,10 @@ count.
 τ falls over the iterations (:data:`TEMPERATURES`): the design lowers the worst ratio, whichever kind of requirement
 it is. E_θ is the mean over posterior draws of θ (the current fit's estimate and covariance) when the universe has
 nonlinear effects (set-up terms), so the design is for what the data say, not for one point estimate; for linear
-effects F_new does not depend on θ and one draw is exact. The new test's noise is the fitted white noise with each
-Gauss–Markov term taken as its long-run white equivalent, N² + 2σ²τ/3600 (deg²/h): exact for dwells long against
-τ, conservative for shorter ones.
+effects F_new does not depend on θ and one draw is exact. Each position mean's variance is that of the fitted noise
+over its dwell T, 3600N²/T + Σ σ²·f(T/τ) over the Gauss–Markov terms (f of :func:`gyrojax.noise.meancov.
+gm_mean_factor`); the covariance between positions is left out of the search (the prediction after the design,
+:func:`gyrojax.adaptive.information.test_information`, holds it).
 
 **Hours.** For each design, the shortest total dwell H* at which every ratio is at most 1 (bisection on the design
 scaled in time: every ratio falls as H grows), capped by the hours the lab allows one test; the design of fewest
@@ -40,6 +41,8 @@ import optax
 
 from gyrojax.adaptive.information import rows
 from gyrojax.adaptive.requirements import variances
+from gyrojax.errors import ModelError
+from gyrojax.noise.meancov import gm_mean_factor
 from gyrojax.planning import search
 from gyrojax.planning.fisher import Table
 from gyrojax.planning.optimal import dwell_from_logits
@@ -83,9 +86,8 @@ def _pad(n: int) -> int:
     return max(8, -(-n // 8) * 8)
 
 
-def white_equivalent(noise) -> float:
-    """N_eff (deg/√h): √(N² + Σ 2σ²τ/3600) over the noise's Gauss–Markov terms (module doc)."""
-    return math.sqrt(noise.white**2 + sum(2.0 * s * s * tau / 3600.0 for s, tau in noise.gauss_markov))
+GM_TERMS = 2
+"""Gauss–Markov terms of the noise a search takes (fixed, so that one compiled search serves every noise)."""
 
 
 class _Problem:
@@ -110,11 +112,16 @@ class _Problem:
             times = a["start"] + jnp.cumsum(flat + a["gap"]) - a["gap"] - 0.5 * flat
             times = times.reshape(runs, n) + a["remount"] * jnp.arange(runs)[:, None]
 
+            # variance of each position mean: white over its dwell and every Gauss–Markov term (module doc)
+            var = a["white_var"] / dwell + jnp.sum(
+                a["gm_var"] * gm_mean_factor(dwell[..., None] / a["gm_tau"]), axis=-1
+            )
+
             def at(theta):
                 f = 0.0
                 for j in range(runs):
                     h = rows(uni, table, triads[j], ang[j], times[j], theta)
-                    f = f + jnp.einsum("cnp,n,cnq->pq", h, dwell[j] * a["inv_var"], h)
+                    f = f + jnp.einsum("cnp,n,cnq->pq", h, 1.0 / var[j], h)
                 return f
 
             return jnp.mean(jax.vmap(at)(a["thetas"]), axis=0)
@@ -178,13 +185,20 @@ def _arrays(reqs_arrays, f_rec, lab, noise, start_s, margin, thetas) -> dict:
     r, p = masks.shape
     rp = _pad(r)
     k = len(lab.axes)
+    gm = np.array(list(noise.gauss_markov)[:GM_TERMS] + [(0.0, 1.0)] * GM_TERMS)[:GM_TERMS]
+    if len(noise.gauss_markov) > GM_TERMS:
+        raise ModelError(
+            f"the design search takes at most {GM_TERMS} Gauss–Markov terms; the noise has {len(noise.gauss_markov)}"
+        )
     return {
         "f_rec": jnp.asarray(f_rec),
         "masks": jnp.asarray(np.vstack([masks, np.zeros((rp - r, p))])),
         "index": jnp.asarray(np.concatenate([index, np.zeros(rp - r, int)])),
         "target": jnp.asarray(np.concatenate([np.asarray(target) * margin, np.ones(rp - r)])),
         "weight": jnp.asarray(np.concatenate([np.ones(r), np.zeros(rp - r)])),
-        "inv_var": jnp.asarray(1.0 / (3600.0 * white_equivalent(noise) ** 2)),
+        "white_var": jnp.asarray(3600.0 * noise.white**2),
+        "gm_var": jnp.asarray(gm[:, 0] ** 2),
+        "gm_tau": jnp.asarray(gm[:, 1]),
         "thetas": jnp.zeros((1, p)) if thetas is None else jnp.atleast_2d(jnp.asarray(thetas)),
         "start": jnp.asarray(float(start_s)),
         "gap": jnp.asarray(float(lab.gap_s([[0.0] * k, [180.0] * k]))),
@@ -230,8 +244,14 @@ def design_test(
             u[..., i] = rng.uniform(0.0, 2 * math.pi, shape) if lim is None else rng.normal(0.0, 1.5, shape)
         return u
 
+    batch = n_m * starts  # every search runs this many starts, so that each configuration compiles once
+
     def optimise(runs, u0, z0, mi, total_h):
         prob = _problem(uni, runs, n, limits, steps, learning_rate)
+        k0 = len(u0)
+        take = np.arange(batch) % k0  # the starts repeated and perturbed: a local multi-start, and no new shape
+        u0, z0, mi = np.array(u0)[take], np.asarray(z0)[take], np.asarray(mi)[take]
+        u0[k0:] += rng.normal(0.0, 0.3, u0[k0:].shape)
         tri = jnp.asarray(mounts[mi])
         (u, z), hist, vals = prob.search((jnp.asarray(u0), jnp.asarray(z0)), tri, template, total_h * 3600.0, a)
         vals = np.where(np.isfinite(np.asarray(vals)), np.asarray(vals), np.inf)

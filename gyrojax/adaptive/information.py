@@ -4,11 +4,12 @@ The universe U holds the current model, the watched candidates and any alias gro
 (:mod:`gyrojax.adaptive.requirements`) is a σ read in a sub-model of U, so one information matrix serves them all.
 
 *The records.* F_rec = Σ_r J_rᵀ J_r Δt/(60 N_r)² / κ (:func:`gyrojax.planning.fisher.record_fisher`, record by
-record), J_r the Jacobian of the measurement model on U, N_r the record's white noise as a fit of the whole universe
-estimated it (deg/√h; that fit's residual holds no effect the model misses, so its noise is the instrument's). A
-fit's standard errors are honest under coloured drift (GLS, Student-t widening); the white-noise information is
-not, so it is divided by κ ≥ 1, the median over that fit's coefficients of (σ_fit/σ_F)², σ_F the standard error
-the white-noise information predicts for the same model: the prediction then agrees with what the fit states.
+record), J_r the Jacobian of the measurement model on U, N_r the record's white noise as the fit estimated it
+(deg/√h; the current fit, or the fit of the whole universe when the current one finds colour that may be a missing
+effect's misfit: :func:`gyrojax.adaptive.step.next_test`). A fit's standard errors are honest under coloured drift
+(GLS, Student-t widening); the white-noise information is not, so it is divided by κ ≥ 1, the median over that
+fit's coefficients of (σ_fit/σ_F)², σ_F the standard error the white-noise information predicts for the same
+model: the prediction then agrees with what the fit states.
 
 *A candidate test.* Static positions held T_k seconds, the k-th starting at the campaign time of the test's start
 plus its predecessors and gaps: F_new = Σ_channels Hᵀ Σ⁻¹ H, H the regressor rows of the positions at the
@@ -68,7 +69,7 @@ def record_information(universe: Model, records, fit=None, theta=None) -> tuple[
 
 def test_noise(fit, records) -> NoiseSpec:
     """The noise of a new static test: the fitted white noise (rms over the records) and the first Gauss–Markov
-    term the fit found, if any."""
+    term the fit found, if any (in deg/√h and (deg/h, s))."""
     if fit is None:
         return NoiseSpec(white=float(np.sqrt(np.mean([record_white(r) ** 2 for r in records]))))
     whites = [float(nz.white) for nz in fit.noise if nz.white > 0] or [record_white(r) for r in records]

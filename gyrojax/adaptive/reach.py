@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from functools import lru_cache
 
 import jax
 import jax.numpy as jnp
@@ -42,11 +43,23 @@ def reachable_information(uni, lab, samples: int = SAMPLES, seed: int = 0) -> np
         lo, hi = (0.0, 360.0) if lim is None else lim
         ang[:, i] = rng.uniform(lo, hi, samples)
     table = lab.table()
-    theta = jnp.zeros(uni.size)
-    fn = jax.jit(jax.vmap(lambda t: rows(uni, table, t, jnp.deg2rad(jnp.asarray(ang)), jnp.zeros(samples), theta)))
-    h = np.asarray(fn(jnp.asarray(lab.mountings()))).reshape(-1, uni.size)
+    h = np.asarray(_rows_fn(uni)(table.template, jnp.asarray(lab.mountings()), jnp.deg2rad(jnp.asarray(ang))))
+    h = h.reshape(-1, uni.size)
     f = h.T @ h
     return f / max(np.abs(f).max(), 1e-300)
+
+
+@lru_cache(maxsize=16)
+def _rows_fn(uni):
+    """Rows of every mounting at a set of angles, compiled once per universe: f(template, triads, angles rad)."""
+    from gyrojax.planning.fisher import Table
+
+    def at(template, triads, ang):
+        table = Table(template, (), (), {}, 0.0)
+        times = jnp.zeros(ang.shape[0])
+        return jax.vmap(lambda t: rows(uni, table, t, ang, times, jnp.zeros(uni.size)))(triads)
+
+    return jax.jit(at)
 
 
 def _normalised(f: np.ndarray) -> np.ndarray:

@@ -199,7 +199,7 @@ def _assess(records, terms, goal, kind, alias, res, alpha_next):
     model's coefficients)."""
     reqs = rq.build(terms, goal, kind, alpha_next, alias)
     uni = rq.universe(terms, goal, kind, alias)
-    sat = _saturated(records, uni, res)
+    sat = _noise_fit(records, uni, res)
     f_rec, kappa = record_information(uni, records, sat, _theta(uni, res))
     sigma_now = rq.sigmas(f_rec, reqs, uni)
     if res is not None:
@@ -208,9 +208,14 @@ def _assess(records, terms, goal, kind, alias, res, alpha_next):
     return reqs, uni, f_rec, kappa, sat, sigma_now
 
 
-def _saturated(records, uni: Model, res):
-    """The fit of the whole universe (minimum-norm where the records alias its effects): its residual holds no
-    effect the model misses, so its noise is the instrument's, not the misfit's. The current fit when it fails."""
+def _noise_fit(records, uni: Model, res):
+    """The fit whose noise the records' information and the next test take: the current fit when its noise has no
+    Gauss–Markov colour; else — the colour may be a missing effect's misfit — the fit of the whole universe
+    (minimum-norm where the records alias its effects), whose residual holds no effect the model misses. Not that
+    one first: fitted to few records, the universe's many terms leave chance structure a white + Gauss–Markov noise
+    fit can take for colour."""
+    if res is not None and not any(nz.gauss_markov for nz in res.noise):
+        return res
     try:
         return fit(records, list(uni.terms), allow_aliases=True)
     except ModelError:
