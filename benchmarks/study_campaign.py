@@ -14,8 +14,8 @@ anisoelastic terms to ~0.1 deg/h/g², unbalances to ~1 deg/h/g; far below the pl
 N = 0.005 deg/√h. The goal is σ ≤ 0.003 (in each coefficient's unit) for every coefficient of the final model,
 with a campaign-wide false-effect rate α = 0.05. Every coefficient starts far from its target (D_F's σ is ~10× it
 after the first test). The loop designs its tests on a two-axis table (trunnion East, platform Up), one mounting,
-12 positions, at most 8 h a test and 100 h in all; each designed run is simulated as 240 samples (the sample interval
-scales with the dwell: white-noise information depends only on the time).
+12 positions, at most 8 h a test and 100 h in all, sampled every 30 s as the first test (coarse samples keep each
+step cheap; white-noise information depends on the time, not the interval).
 
 Per truth: whether the goal was met, the loop's table hours and those of Hu's classical sequence scaled to the same
 σ on the same truth (:mod:`gyrojax.adaptive.classical`), effects added that the truth does not hold (false
@@ -68,7 +68,7 @@ def one(truth: dict, seed: int) -> dict:
         list(BASE),
         Goal(sigma=TARGET),
         seed=seed,
-        lab_options={"axes": plans.TWO_AXIS, "turn_case": False, "mountings_per_test": 1, "samples": 240},
+        lab_options={"axes": plans.TWO_AXIS, "turn_case": False, "mountings_per_test": 1},
     )
     wall = time.perf_counter() - t0
     true = set(truth["coefficients"])

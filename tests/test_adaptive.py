@@ -28,7 +28,7 @@ from gyrojax.simulation.simulator import simulate
 
 TRUTH = {"coefficients": {"D_F": 0.4, "D_I": 0.6, "D_S": -0.3, "D_O": 0.2}, "noise": {"white": 0.005}}
 TARGET = 0.02
-FAST = ["--table", "two-axis", "--no-turn", "--mountings", "1", "--samples", "96", "--positions", "8"]
+FAST = ["--table", "two-axis", "--no-turn", "--mountings", "1", "--positions", "8"]
 SEARCH = ["--starts", "1", "--steps", "120"]
 
 

@@ -45,7 +45,6 @@ class Lab:
     mountings_per_test: int = 3
     remount_s: float = 900.0
     dt_s: float = 1.0
-    samples: int | None = None
     scale_factor: float = 17.171
 
     def __post_init__(self):
@@ -64,11 +63,6 @@ class Lab:
             raise ModelError(f"lab: key 'mountings_per_test' must be 1, 2 or 3, got {self.mountings_per_test!r}")
         if not (isinstance(self.positions, int) and self.positions >= 2):
             raise ModelError(f"lab: key 'positions' must be an integer >= 2, got {self.positions!r}")
-        if self.samples is not None and not (isinstance(self.samples, int) and self.samples >= 4 * self.positions):
-            raise ModelError(
-                f"lab: key 'samples' must be null or an integer >= 4 per position ({4 * self.positions}), "
-                f"got {self.samples!r}"
-            )
         if self.angle_limits_deg and len(self.angle_limits_deg) != k:
             raise ModelError(
                 f"lab: key 'angle_limits_deg' needs one entry per table axis ({k}), got {len(self.angle_limits_deg)}"
@@ -169,19 +163,10 @@ class Lab:
             left.remove(j)
         return np.asarray(angles_deg)[path], np.asarray(dwell_s)[path]
 
-    def sample_counts(self, dwell_s) -> tuple[np.ndarray, float]:
-        """Whole samples per position and the sample interval (s): ``dt_s`` with each dwell rounded (at least 4
-        samples), or with ``samples`` set, that many samples in all, shared by largest remainder, at dwell/samples."""
-        dwell = np.asarray(dwell_s, dtype=float)
-        if self.samples is None:
-            return np.maximum(4, np.round(dwell / self.dt_s)).astype(int), self.dt_s
-        dt = float(dwell.sum()) / self.samples
-        exact = dwell / dt
-        counts = np.maximum(4, np.floor(exact)).astype(int)
-        short = self.samples - counts.sum()
-        if short > 0:
-            counts[np.argsort(counts - exact)[:short]] += 1
-        return counts, dt
+    def sample_counts(self, dwell_s) -> np.ndarray:
+        """Whole samples of ``dt_s`` per position: each dwell (s) rounded, at least 4. Every designed test samples at
+        the one interval, so that the fit pools their noise into one model (records of one mode and interval)."""
+        return np.maximum(4, np.round(np.asarray(dwell_s, dtype=float) / self.dt_s)).astype(int)
 
     def plan(self, name: str, triads, angles_deg, dwell_s, description: str):
         """The designed test as a plan: one rebalance run of static positions per mounting ``triads[j]`` (rows: the
@@ -194,7 +179,7 @@ class Lab:
                     if lim is not None and not lim[0] - 1e-6 <= x <= lim[1] + 1e-6:
                         raise ModelError(f"designed angle {x:.3f} deg of axis {self.axes[i][0]!r} outside {lim}")
             ang, dwell = self.order(np.asarray(a_deg, float), np.asarray(d_s, float))
-            counts, dt = self.sample_counts(dwell)
+            counts, dt = self.sample_counts(dwell), self.dt_s
             segs = tuple(
                 plans.Segment(tuple(round(float(x), 6) for x in a), float(c) * dt, dt, label=i)
                 for i, (a, c) in enumerate(zip(ang, counts))
@@ -236,5 +221,4 @@ class Lab:
             "mountings_per_test": self.mountings_per_test,
             "remount_s": self.remount_s,
             "dt_s": self.dt_s,
-            "samples": self.samples,
         }

@@ -32,7 +32,7 @@ def add_lab_arguments(s) -> None:
     s.add_argument("--no-turn", action="store_true", help="keep the records' mounting (the case is not turned)")
     s.add_argument("--mountings", type=int, default=3, help="mountings per designed test, 1 to 3 (default 3)")
     s.add_argument("--remount", type=float, default=900.0, help="time to remount the instrument, s (default 900)")
-    s.add_argument("--samples", type=int, help="samples per run of a designed test (default: the records' dt)")
+    s.add_argument("--dt", type=float, help="sample interval of the designed tests, s (default: the records')")
     s.add_argument("--starts", type=int, default=3, help="random starts of the design search per mounting")
     s.add_argument("--steps", type=int, default=300, help="Adam iterations of the design search")
 
@@ -70,8 +70,9 @@ def lab_from_args(args, records):
         "turn_case": not args.no_turn,
         "mountings_per_test": args.mountings,
         "remount_s": args.remount,
-        "samples": args.samples,
     }
+    if args.dt is not None:
+        over["dt_s"] = args.dt
     if args.table == "two-axis":
         over["axes"] = plans.TWO_AXIS
     axes = over.get("axes") or tuple((a["name"], tuple(a["axis_enu"])) for a in records[0].meta["table"]["axes"])
