@@ -406,8 +406,9 @@ def campaign_figure(result, title: str | None = None):
         ys = [_excess(p["residual_rms"], p.get("noise_floor")) for p in cl.path]
         ar.plot([p["hours"] for p in cl.path], ys, "^--", color="C0", label="classical")
     ar.set_xlabel("table hours (h)")
-    ar.set_ylabel("residual beyond the noise floor, √(RMS² − floor²) (deg/h)")
-    ar.set_title(title or f"verdict: {result.last.diagnosis.verdict if result.last.diagnosis else '—'}", fontsize=9)
+    ar.set_ylabel("residual beyond the noise (deg/h)")
+    verdict = result.last.diagnosis.verdict if result.last.diagnosis else "—"
+    ar.set_title(title or f"√(RMS² − floor²) of the model after each test; final verdict: {verdict}", fontsize=9)
     ar.legend(fontsize=7)
     fig.tight_layout()
     return fig
