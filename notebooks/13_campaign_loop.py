@@ -73,9 +73,8 @@ print(f"(its best split of time among its three tests, Fisher only: {cl.best_spl
 fit = result.last.fit
 for c in fit.coefficient_names:
     t = truth["coefficients"].get(c, 0.0)
-    print(
-        f"  {c:5s} {fit.values[c]:+.4f} ± {fit.stds[c]:.4f}   truth {t:+.4f}   ({(fit.values[c] - t) / fit.stds[c]:+.1f} σ)"
-    )
+    z = (fit.values[c] - t) / fit.stds[c]
+    print(f"  {c:5s} {fit.values[c]:+.4f} ± {fit.stds[c]:.4f}   truth {t:+.4f}   ({z:+.1f} σ)")
 
 # %%
 fig = gj.report.campaign_figure(result)
