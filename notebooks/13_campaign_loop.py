@@ -54,7 +54,9 @@ def show(nt):
     print(f"  [{nt.status}] {nt.reason[:420]}{' …' if len(nt.reason) > 420 else ''}")
 
 
-result = gj.run_campaign(truth, first, ["D_F", "D_I", "D_S"], goal, seed=3, lab_options=lab, on_step=show, steps=150)
+result = gj.run_campaign(
+    truth, first, ["D_F", "D_I", "D_S"], goal, seed=3, lab_options=lab, on_step=show, starts=1, steps=120
+)
 
 # %% [markdown]
 # ## The tests it chose, the σ after each, and the classical sequence for the same σ
