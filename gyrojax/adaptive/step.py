@@ -76,9 +76,11 @@ class NextTest:
         return self.status == "goal-met"
 
     def requirement_rows(self) -> list:
-        """Per requirement: kind, coefficient, target, unit, σ now and after, met now, and for candidates the power
-        of the next look at the smallest size that matters."""
+        """Per requirement: kind, coefficient, target, unit, σ now and after, met now, and for candidates the size
+        that matters, the power of the next look at it and the size above which it would be detected (power
+        ``goal.power``), now and after the test."""
         out = []
+        root = math.sqrt(self.lam)
         for i, r in enumerate(self.requirements):
             row = {**r.to_json(), "sigma_now": _num(self.sigma_now[i]), "met": bool(self.sigma_now[i] <= r.target)}
             if self.sigma_after is not None:
@@ -87,10 +89,10 @@ class NextTest:
                 size = self.goal.detect_size(r.coefficient, self.kind)
                 row["size_that_matters"] = size
                 row["power_now"] = detection_power(size, self.sigma_now[i], self.alpha_next)
-                row["detected_above_now"] = _num(self.sigma_now[i] * math.sqrt(self.lam))
+                row["detected_above_now"] = _num(self.sigma_now[i] * root)
                 if self.sigma_after is not None:
                     row["power_after"] = detection_power(size, self.sigma_after[i], self.alpha_next)
-                    row["detected_above_after"] = _num(self.sigma_after[i] * math.sqrt(self.lam))
+                    row["detected_above_after"] = _num(self.sigma_after[i] * root)
             out.append(row)
         return out
 

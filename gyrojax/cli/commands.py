@@ -47,6 +47,8 @@ def cmd_plans(args) -> int:
 
 
 def plan_from_arg(arg: str, options: dict):
+    """The plan a command names: a built-in plan built with ``options`` (``-o NAME=VALUE``), or a plan file (options
+    refused); a :class:`UsageError` naming both kinds when ``arg`` is neither."""
     from gyrojax.data import plans
     from gyrojax.data.planfile import load_plan
 
