@@ -34,8 +34,8 @@ G_TERMS = {"D_I", "D_O", "D_S", "D_II", "D_OO", "D_SS", "D_IO", "D_IS", "D_OS", 
 
 
 def reachable_information(uni, lab, samples: int = SAMPLES, seed: int = 0) -> np.ndarray:
-    """Σ over the lab's mountings and ``samples`` random angle sets of the rows' outer products (unit weights),
-    normalised to its largest entry."""
+    """Σ over the lab's mountings and ``samples`` random angle sets (deg, uniform within each axis' limits, else on
+    [0, 360)) of the rows' outer products (unit weights), normalised to its largest entry (dimensionless)."""
     rng = np.random.default_rng(seed)
     k = len(lab.axes)
     ang = np.empty((samples, k))
