@@ -1,6 +1,7 @@
 """Monte Carlo study of the campaign loop (:mod:`gyrojax.adaptive`) on simulated laboratories with hidden effects.
 
-``python -m benchmarks.study_campaign [--truths 50] [--seed 0] [--out study_campaign.json]``
+``python -m benchmarks.study_campaign [--truths 50] [--seed 0] [--out study_campaign.json] [--per-process 5]``
+(worker processes of a few truths each, resumable from ``--out``)
 
 Each truth is an SDF gyro whose lab knows D_F, D_I, D_S (each drawn uniformly in ±[0.1, 1] deg/h or deg/h/g) and
 whose truth holds two effects hidden from the lab's first test, a single-mount polar tumble (2 revolutions at 20
@@ -164,22 +165,36 @@ def summary(rows: list) -> dict:
     }
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--truths", type=int, default=50)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--out", default="study_campaign.json")
-    args = ap.parse_args(argv)
+def _load(path) -> list:
+    try:
+        with open(path, encoding="utf-8") as f:
+            return json.load(f)["rows"]
+    except (OSError, ValueError, KeyError):
+        return []
+
+
+def _save(path, rows, extra=None) -> None:
+    s = summary(rows)
+    s.update(extra or {})
+    tmp = f"{path}.tmp"
+    with open(tmp, "w", encoding="utf-8") as f:
+        json.dump({"rows": rows, "summary": s}, f, indent=1)
+    import os
+
+    os.replace(tmp, path)
+
+
+def worker(args) -> int:
+    """Run the next ``--per-process`` truths not yet in ``--out`` (truth i drawn from the seed sequence (seed, i),
+    so a study split over processes draws the same truths)."""
     import warnings
 
     from gyrojax.errors import ConvergenceWarning
 
     warnings.simplefilter("ignore", ConvergenceWarning)
-    rng = np.random.default_rng(args.seed)
-    rows = []
-    t0 = time.perf_counter()
-    for i in range(args.truths):
-        truth = draw_truth(rng)
+    rows = _load(args.out)
+    for i in range(len(rows), min(args.truths, len(rows) + args.per_process)):
+        truth = draw_truth(np.random.default_rng([args.seed, i]))
         row = one(truth, args.seed * 1000 + i)
         rows.append(row)
         print(
@@ -190,13 +205,39 @@ def main(argv=None) -> int:
             f"covered={sum(row['covered'].values())}/{len(row['covered'])} ({row['wall_s']:.0f} s)",
             flush=True,
         )
-        with open(args.out, "w", encoding="utf-8") as f:
-            json.dump({"rows": rows, "summary": summary(rows)}, f, indent=1)
-    s = summary(rows)
-    s["wall_s_process"] = time.perf_counter() - t0
-    with open(args.out, "w", encoding="utf-8") as f:
-        json.dump({"rows": rows, "summary": s}, f, indent=1)
-    print(json.dumps(s, indent=1))
+        _save(args.out, rows)
+    return 0
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--truths", type=int, default=50)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", default="study_campaign.json")
+    ap.add_argument("--per-process", type=int, default=5, help="truths per worker process (bounds its memory)")
+    ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    if args.worker:
+        return worker(args)
+    import subprocess
+    import sys
+
+    # worker processes of a few truths each: a process that compiles for every new record length grows; the
+    # persistent compilation cache carries the compiled code from one worker to the next; a study stopped part-way
+    # resumes from --out
+    t0 = time.perf_counter()
+    while len(_load(args.out)) < args.truths:
+        before = len(_load(args.out))
+        cmd = [sys.executable, "-m", "benchmarks.study_campaign", "--worker", "--truths", str(args.truths)]
+        cmd += ["--seed", str(args.seed), "--out", args.out, "--per-process", str(args.per_process)]
+        subprocess.run(cmd, check=False)
+        if len(_load(args.out)) == before:
+            print("a worker made no progress; stopping", file=sys.stderr)
+            return 1
+    rows = _load(args.out)
+    _save(args.out, rows, {"wall_s_this_run": time.perf_counter() - t0})
+    with open(args.out, encoding="utf-8") as f:
+        print(json.dumps(json.load(f)["summary"], indent=1))
     return 0
 
 
