@@ -13,6 +13,7 @@ The package is a tree that follows the data flow::
     inference/   fit (GLS, honest σ), big records, diagnosis of missing effects
     planning/    test-plan design by Fisher information
     montecarlo/  studies over many simulated gyros
+    adaptive/    the test campaign as a loop: the next test from the records so far, until the goal is met
     dynamics/    ZOH discretisation, rebalance / servo / TDF loops, loop-aware fits
     seeds/       the source books' closed forms and systems
     report/      tables, text and figures (the only library package that draws)
@@ -22,7 +23,8 @@ and below them the modules every package may import: ``errors``, ``units``, ``ki
 ``protocol`` (files and the result protocol). Imports point down a declared layer order (tests/test_layers.py).
 
 ``import gyrojax as gj`` gives the flat API: ``gj.simulate``, ``gj.load_records``, ``gj.fit``,
-``gj.diagnose``, ``gj.add_and_refit``, ``gj.design``, ``gj.run_study`` … (loaded on first use, so that
+``gj.diagnose``, ``gj.add_and_refit``, ``gj.design``, ``gj.next_test``, ``gj.run_campaign``, ``gj.run_study`` …
+(loaded on first use, so that
 ``import gyrojax`` stays fast).
 """
 
@@ -144,6 +146,11 @@ _FLAT = {
     # planning
     "design": "gyrojax.planning.design:design",
     "compare_plans": "gyrojax.planning.baselines:compare",
+    # the campaign loop
+    "Goal": "gyrojax.adaptive.goal:Goal",
+    "Lab": "gyrojax.adaptive.lab:Lab",
+    "next_test": "gyrojax.adaptive.step:next_test",
+    "run_campaign": "gyrojax.adaptive.simulated:run_campaign",
     # Monte Carlo
     "Study": "gyrojax.montecarlo.study:Study",
     "load_study": "gyrojax.montecarlo.study:load_study",

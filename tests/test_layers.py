@@ -11,6 +11,8 @@ The layers, bottom first (a unit may import only from tiers below its own; units
     simulation                              records from a plan and a truth (quasi-static or through the loops)
     inference                               fit, diagnosis, adequacy
     planning, montecarlo                    test-plan design; studies over many simulated gyros
+    adaptive                                the campaign loop: the next test from the records so far (designs by
+                                            the Fisher core, simulates, diagnoses)
     report                                  tables, text and figures (the only library package that draws)
     cli                                     the ``gyrojax`` command
     __main__                                ``python -m gyrojax``
@@ -45,6 +47,7 @@ LAYERS = (
     ("simulation",),
     ("inference",),
     ("planning", "montecarlo"),
+    ("adaptive",),
     ("report",),
     ("cli",),
     ("__main__",),

@@ -51,6 +51,15 @@ def add_effect_arguments(parser) -> None:
     )
 
 
+def _add_campaign_arguments(parser) -> None:
+    """The goal and lab options of ``next`` and ``campaign`` (:mod:`gyrojax.cli.campaign`, imported only here, where
+    its module has no import of the library)."""
+    from gyrojax.cli.campaign import add_goal_arguments, add_lab_arguments
+
+    add_goal_arguments(parser)
+    add_lab_arguments(parser)
+
+
 def _command(name: str):
     """A lazy handler: imports :mod:`gyrojax.cli.commands` only when the sub-command runs."""
 
@@ -62,6 +71,17 @@ def _command(name: str):
         from gyrojax.cli import commands
 
         return getattr(commands, f"cmd_{name}")(args)
+
+    return run
+
+
+def _campaign_command(name: str):
+    """A lazy handler of :mod:`gyrojax.cli.campaign` (``next``, ``campaign``): the library is imported when it runs."""
+
+    def run(args) -> int:
+        from gyrojax.cli import campaign
+
+        return getattr(campaign, f"cmd_{name}")(args)
 
     return run
 
@@ -153,6 +173,29 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--minutes", type=float, help="imu-triad: total time of rests and turns (default 10)")
     s.add_argument("--placement-deg", type=float, help="imu-triad: hand placement error per axis, deg (default 0)")
     s.set_defaults(func=_command("design"))
+
+    s = sub.add_parser("next", help="the next test: diagnose the records, design the test that nears the goal most")
+    s.add_argument("records", nargs="+", help="the campaign's records so far (files or directories)")
+    s.add_argument("--out", required=True, help="the plan JSON of the next test to write")
+    s.add_argument("--looks", type=int, default=0, help="diagnoses the campaign has already made (default 0)")
+    s.add_argument("--hours-spent", type=float, default=0.0, help="table hours the campaign has already used")
+    s.add_argument("--seed", type=int, default=0, help="seed of the design search's random starts")
+    s.add_argument("--force", action="store_true", help="overwrite an existing plan file")
+    s.add_argument("--json", action="store_true")
+    _add_campaign_arguments(s)
+    s.set_defaults(func=_campaign_command("next"))
+
+    s = sub.add_parser("campaign", help="the test campaign loop on a laboratory simulated from a truth file")
+    s.add_argument("--simulate", metavar="TRUTH.json", help="the truth of the simulated laboratory (conventions §8)")
+    s.add_argument("--first", required=True, help="the lab's first test: a built-in plan name or a plan file")
+    s.add_argument("--option", "-o", action="append", metavar="NAME=VALUE", help="option of the first plan's builder")
+    s.add_argument("--seed", type=int, default=0, help="noise seed of the campaign")
+    s.add_argument("--max-tests", type=int, default=8, help="designed tests at most (default 8)")
+    s.add_argument("--out", help="directory for the plans, records, campaign.json and campaign.png")
+    s.add_argument("--force", action="store_true", help="write into a non-empty --out")
+    s.add_argument("--json", action="store_true")
+    _add_campaign_arguments(s)
+    s.set_defaults(func=_campaign_command("campaign"))
 
     s = sub.add_parser("mc", help="Monte Carlo study: simulate and fit many gyros (docs/montecarlo.md)")
     s.add_argument("study", help="study JSON (gyrojax.montecarlo.study.Study)")

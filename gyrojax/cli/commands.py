@@ -46,7 +46,9 @@ def cmd_plans(args) -> int:
     return 0
 
 
-def _plan_from_arg(arg: str, options: dict):
+def plan_from_arg(arg: str, options: dict):
+    """The plan a command names: a built-in plan built with ``options`` (``-o NAME=VALUE``), or a plan file (options
+    refused); a :class:`UsageError` naming both kinds when ``arg`` is neither."""
     from gyrojax.data import plans
     from gyrojax.data.planfile import load_plan
 
@@ -66,7 +68,7 @@ def cmd_simulate(args) -> int:
     from gyrojax.data.truth import Truth, load_truth
     from gyrojax.simulation.simulator import simulate
 
-    plan = _plan_from_arg(args.plan, parse_options(args.option))
+    plan = plan_from_arg(args.plan, parse_options(args.option))
     effects_from_args(args, plan.runs[0].instrument.get("kind", "sdf-gyro") if plan.runs else "sdf-gyro")
     truth = load_truth(args.truth) if args.truth else Truth()
     out = Path(args.out)

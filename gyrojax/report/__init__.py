@@ -12,6 +12,7 @@ _WHERE = {
     "diagnosis_text": "text",
     "adequacy_lines": "text",
     "allan_figure": "figures",
+    "campaign_figure": "figures",
     "candidates_figure": "figures",
     "design_figure": "figures",
     "error_falling_figure": "figures",

@@ -7,6 +7,8 @@ through Agg. Nothing here changes a result.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
@@ -353,3 +355,88 @@ def montecarlo_figure(res, summary):
     fig.suptitle(f"{res.study.plan}: {len(res.draw)} draws")
     fig.tight_layout()
     return fig
+
+
+def campaign_figure(result, title: str | None = None):
+    """Two panels against cumulative table hours (h): left, the fitted σ of every coefficient of the final model
+    (report units, log scale) after each test of the loop (solid, markers) and of the classical sequence (dashed), the
+    target σ as a dotted line; right, the residual the noise does not explain, √(RMS² − floor²) (output units; the
+    floor from successive differences, so it does not depend on the sample interval), of the loop's model after each
+    test (the effects it added marked) and of the final model fitted to the classical sequence."""
+    fig, (ax, ar) = _figure(1, 2, figsize=(11.0, 4.0))
+    names = list(result.last.terms)
+    hours = [s.cumulative_hours for s in result.steps]
+    colours = {}
+    for eff in names:
+        coeffs = [c for c in result.last.fit.coefficient_names if _effect(c) == eff] if result.last.fit else [eff]
+        for c in coeffs:
+            ys = [_state_sigma(s.state, c) for s in result.steps]
+            line = ax.plot(hours, ys, "o-", lw=1.4, ms=4, label=c)[0]
+            colours[c] = line.get_color()
+    cl = result.classical
+    if cl is not None and cl.path:
+        ch = [0.0] + [p["hours"] for p in cl.path]
+        for c, col in colours.items():
+            ys = [math.nan] + [_finite(p["sigma"].get(c)) for p in cl.path]
+            ax.plot(ch, ys, "--", color=col, lw=1.0, alpha=0.8)
+        ax.plot([], [], "k--", lw=1.0, label=f"classical ({cl.hours:.3g} h)")
+    for c in colours:
+        t = result.goal.target(c)
+        if t is not None:
+            ax.axhline(t, color="0.4", ls=":", lw=1.0)
+            break
+    for x in hours:
+        ax.axvline(x, color="0.85", lw=0.6, zorder=0)
+    ax.set_yscale("log")
+    ax.set_xlabel("table hours (h)")
+    ax.set_ylabel("fitted σ (report units: deg/h, deg/h/g, deg/h/g²)")
+    ax.set_title(
+        f"σ against table hours: loop {result.table_hours:.3g} h"
+        + (f", classical {cl.hours:.3g} h" if cl and cl.hours else ""),
+        fontsize=9,
+    )
+    ax.legend(fontsize=7, ncol=2)
+    excess = [_excess(s.state.get("residual_rms"), s.state.get("noise_floor")) for s in result.steps]
+    ar.plot(hours, excess, "o-", color="C3", label="loop")
+    for x, y, s in zip(hours, excess, result.steps):
+        added = s.state.get("added") or []
+        if added:
+            ar.annotate("+" + ",".join(added), (x, y), fontsize=7, xytext=(4, 4), textcoords="offset points")
+    if cl is not None and cl.path:
+        ys = [_excess(p["residual_rms"], p.get("noise_floor")) for p in cl.path]
+        ar.plot([p["hours"] for p in cl.path], ys, "^--", color="C0", label="classical")
+    ar.set_xlabel("table hours (h)")
+    ar.set_ylabel("residual beyond the noise (deg/h)")
+    verdict = result.last.diagnosis.verdict if result.last.diagnosis else "—"
+    ar.set_title(title or f"√(RMS² − floor²) of the model after each test; final verdict: {verdict}", fontsize=9)
+    ar.legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+def _effect(coefficient: str) -> str:
+    """The effect that carries ``coefficient`` (conventions §6)."""
+    from gyrojax.physics import effects as fx
+
+    return fx.effect_of_coefficient(coefficient)
+
+
+def _state_sigma(state: dict, coefficient: str) -> float:
+    """σ of ``coefficient`` in a campaign step's state (report unit), NaN when that step's model lacks it."""
+    c = (state.get("coefficients") or {}).get(coefficient)
+    return _finite(c["std"]) if c else math.nan
+
+
+def _excess(rms, floor) -> float:
+    """√(rms² − floor²), 0 when the residual is at the floor, NaN when either is unknown."""
+    r, f = _finite(rms), _finite(floor)
+    return math.sqrt(max(r * r - f * f, 0.0)) if math.isfinite(r) and math.isfinite(f) else math.nan
+
+
+def _finite(x) -> float:
+    """``x`` as a float, NaN when it is None, not a number or not finite (a gap in a plotted line)."""
+    try:
+        x = float(x)
+    except (TypeError, ValueError):
+        return math.nan
+    return x if np.isfinite(x) else math.nan

@@ -361,12 +361,15 @@ def quantise_angles(records, q_arcsec: float) -> list[Record]:
     return out
 
 
-def simulate(plan: Plan, truth, key=None, seed: int = 0, dynamics: str = "quasi-static", loop=None) -> list[Record]:
+def simulate(
+    plan: Plan, truth, key=None, seed: int = 0, dynamics: str = "quasi-static", loop=None, start_s: float = 0.0
+) -> list[Record]:
     """Simulate every run of ``plan`` with ``truth`` (a :class:`Truth` or a truth dict) into records.
 
-    Runs follow each other on one campaign clock. Each run draws its noise from ``fold_in(key, run index)``,
-    so a run's noise does not depend on the others. Records carry conventions §5 units: time in s, angles in deg,
-    rates in deg/s, current in mA.
+    Runs follow each other on one campaign clock, the first starting at ``start_s`` (s; a later test of a campaign
+    starts after the earlier ones, so that a trend in time is continuous). Each run draws its noise from
+    ``fold_in(key, run index)``, so a run's noise does not depend on the others. Records carry conventions §5 units:
+    time in s, angles in deg, rates in deg/s, current in mA.
 
     ``dynamics="quasi-static"`` (default) writes the balance equation sample by sample. ``dynamics="loop"`` passes
     what the instrument senses through its capture loop, continuous segment by segment (each sample held for its
@@ -396,7 +399,7 @@ def simulate(plan: Plan, truth, key=None, seed: int = 0, dynamics: str = "quasi-
         truth = truth_from_dict(truth)
     if key is None:
         key = jax.random.PRNGKey(seed)
-    out, t0 = [], 0.0
+    out, t0 = [], float(start_s)
     for i, run in enumerate(plan.runs):
         out.append(simulate_run(plan, run, truth, jax.random.fold_in(key, i), t0, dynamics, loop))
         t0 += run.duration_s + plan.gap_between_runs_s

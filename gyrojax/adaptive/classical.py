@@ -1,0 +1,245 @@
+"""The table hours Hu's classical sequence needs to reach the same σ, on the same truth, by the same simulation.
+
+**The sequence** (Hu ch. 3), as the plan builders of :mod:`gyrojax.data.plans` make them, in their default
+proportions: for an SDF gyro the 24-position static test on the two-axis table (``multiposition``, 10 min a
+position), then the polar tumble (``tumble``: 2 revolutions at 10 Earth rates, CCW and CW, upright and flipped),
+then the polar servo test (``servo``, 24 h); for a TDF gyro the eight-position test (``eight_position``, 10 min)
+then its polar tumble (``tdf_tumble``, 2 revolutions); for a pendulous accelerometer the dividing-head tumble
+(``accel_tumble``, 36 positions of 60 s).
+
+**Scaled to reach the σ.** Every measuring time of the sequence — the dwell of each position, the revolutions of
+each tumble, the hours of the servo run — is multiplied by one scale s (the settling and remounting gaps are not);
+its table hours are the scaled plan's duration (runs, gaps, remounts). The sequence *reaches* the goal at the
+smallest s at which the fit of the campaign's final model to the sequence's records, simulated from the truth, has
+every coefficient's σ at or below its target. s is found from the Fisher information of the noise-free sequence at
+s = 1 (σ² ∝ 1/s: every measuring time scaled alike; the truth's noise, its Gauss–Markov terms as their long-run
+white equivalent), then checked by simulating the sequence at s from the truth (the campaign's seed) and fitting:
+while a fitted σ exceeds its target, s grows by the squared ratio (at most :data:`CHECKS` times). The sample
+interval scales with s, so every run keeps its number of samples: white-noise information depends on the measuring
+time, not the interval.
+
+**The best split.** Beside the sequence in its own proportions, the hours of the most favourable split of time
+among its tests (the scale of each test chosen apart, minimising the total measuring time under the σ targets;
+Fisher information only): a lower bound on what any lab would spend on that sequence.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import jax
+import numpy as np
+
+from gyrojax.data import plans
+from gyrojax.errors import ModelError
+from gyrojax.inference.identify import fit
+from gyrojax.noise.spec import NoiseSpec
+from gyrojax.physics import effects as fx
+from gyrojax.physics.model import Model
+from gyrojax.planning.fisher import record_fisher
+from gyrojax.simulation.simulator import simulate
+
+CHECKS = 3
+"""Simulated checks of the scale (each one a simulation and a fit of the whole sequence)."""
+SAMPLES = {"position": 20, "tumble": 720, "servo": 1440, "head": 30}
+"""Samples per static position, per tumble run, per servo run and per dividing-head position, at every scale."""
+
+
+def white_equivalent(noise) -> float:
+    """N_eff (deg/√h): √(N² + Σ 2σ²τ/3600), the noise's long-run white equivalent (each Gauss–Markov term's
+    variance of a mean over T ≫ τ is 2σ²τ/T): the sequence's runs are long against the drift's τ."""
+    return math.sqrt(noise.white**2 + sum(2.0 * s * s * tau / 3600.0 for s, tau in noise.gauss_markov))
+
+
+def sequence(kind: str, scale: float, latitude_deg: float = plans.DEFAULT_LATITUDE) -> list:
+    """The classical sequence of ``kind`` at ``scale`` as a list of (test name, plan)."""
+    s = float(scale)
+    if kind in (fx.SDF, fx.FOG, fx.RLG):
+        mp = plans.multiposition(24, minutes=10.0 * s, dt_s=600.0 * s / SAMPLES["position"], latitude_deg=latitude_deg)
+        rev = 2.0 * s
+        turn_s = 360.0 / (10.0 * 15.04107 / 3600.0)
+        tb = plans.tumble(revolutions=rev, dt_s=rev * turn_s / SAMPLES["tumble"], latitude_deg=latitude_deg)
+        sv = plans.servo("polar", hours=24.0 * s, dt_s=24.0 * 3600.0 * s / SAMPLES["servo"], latitude_deg=latitude_deg)
+        out = [("multi-position", mp), ("tumble", tb), ("servo", sv)]
+        if kind != fx.SDF:
+            out = [(n, _with_kind(p, kind)) for n, p in out]
+        return out
+    if kind == fx.TDF:
+        ep = plans.eight_position(
+            10.0 * s, dt_s=600.0 * s / SAMPLES["position"], kind=fx.TDF, latitude_deg=latitude_deg
+        )
+        rev = 2.0 * s
+        turn_s = 360.0 / (10.0 * 15.04107 / 3600.0)
+        tb = plans.tdf_tumble(rev, dt_s=rev * turn_s / SAMPLES["tumble"], latitude_deg=latitude_deg)
+        return [("eight-position", ep), ("tumble", tb)]
+    if kind == fx.ACCEL:
+        return [("dividing-head tumble", plans.accel_tumble(36, 60.0 * s, 60.0 * s / SAMPLES["head"], latitude_deg))]
+    raise ModelError(f"no classical sequence for a {kind}")
+
+
+def _with_kind(plan, kind):
+    from dataclasses import replace
+
+    runs = tuple(replace(r, instrument={**r.instrument, "kind": kind}) for r in plan.runs)
+    return replace(plan, runs=runs)
+
+
+def joined(tests) -> plans.Plan:
+    """The tests of a sequence as one plan, in order, on one clock."""
+    runs = tuple(r for _, p in tests for r in p.runs)
+    first = tests[0][1]
+    return plans.Plan(
+        "classical", runs, first.latitude_deg, description="Hu's classical sequence", reference="Hu ch. 3"
+    )
+
+
+def _hours(tests) -> float:
+    return float(joined(tests).duration_s) / 3600.0
+
+
+@dataclass
+class ClassicalResult:
+    """The classical sequence that reaches the goal: its scale, hours, and the fit after each of its tests."""
+
+    scale: float | None
+    hours: float | None
+    sigma: dict  # fitted σ of every coefficient of the final model (report units) at that scale
+    path: list = field(default_factory=list)  # per test: cumulative hours, σ, residual RMS
+    best_split_hours: float | None = None
+    reason: str = ""
+
+    def to_json(self) -> dict:
+        """JSON: scale, hours, σ, the path through the sequence, the best split and why (when not reached)."""
+        return {
+            "scale": self.scale,
+            "hours": self.hours,
+            "sigma": self.sigma,
+            "path": self.path,
+            "best_split_hours": self.best_split_hours,
+            "reason": self.reason,
+        }
+
+
+def _information(model: Model, tests, noise: NoiseSpec):
+    out = []
+    for _, p in tests:
+        recs = simulate(p, {"coefficients": {}})
+        out.append(record_fisher(model, recs, noise))
+    return out
+
+
+def _variances(f, idx) -> np.ndarray:
+    d = np.sqrt(np.maximum(np.diag(f), 1e-300))
+    try:
+        inv = np.linalg.inv(f / np.outer(d, d)) / np.outer(d, d)
+    except np.linalg.LinAlgError:
+        return np.full(len(idx), np.inf)
+    v = np.diag(inv)[idx]
+    return np.where(v > 0, v, np.inf)
+
+
+def _best_split(infos, base_hours, targets, idx) -> float | None:
+    """Fewest measuring hours Σ s_k·H_k with every σ² of Σ s_k F_k ≤ target² (Fisher only), plus the gaps."""
+    from scipy import optimize
+
+    h = np.asarray(base_hours)
+
+    def worst(x):
+        f = sum(math.exp(v) * fk for v, fk in zip(x, infos))
+        return float(np.max(_variances(f, idx) / targets**2))
+
+    def objective(x):
+        return float(np.exp(x) @ h)
+
+    x0 = np.zeros(len(infos))
+    w0 = worst(x0)
+    if not math.isfinite(w0):
+        return None
+    x0 = x0 + math.log(w0)
+    res = optimize.minimize(
+        objective,
+        x0,
+        method="SLSQP",
+        constraints=[{"type": "ineq", "fun": lambda x: 1.0 - worst(x)}],
+        bounds=[(x0[0] - 25.0, x0[0] + 10.0)] * len(infos),
+    )
+    x = res.x if res.success and worst(res.x) <= 1.0 + 1e-6 else x0
+    return float(np.exp(x) @ h)
+
+
+def classical_hours(truth, terms, goal, kind: str, seed: int = 0, latitude_deg: float = plans.DEFAULT_LATITUDE):
+    """The :class:`ClassicalResult` of ``kind``'s classical sequence for the model ``terms`` and ``goal``'s σ
+    targets on ``truth`` (module doc)."""
+    from gyrojax.data.truth import Truth, truth_from_dict
+
+    truth = truth if isinstance(truth, Truth) else truth_from_dict(truth)
+    model = Model.of(terms, kind)
+    names = model.coefficient_names
+    targets = np.array([goal.target(c) or math.inf for c in names])
+    idx = np.arange(model.size)
+    noise = NoiseSpec(white=white_equivalent(truth.noise) or 1e-6)
+    base = sequence(kind, 1.0, latitude_deg)
+    infos = _information(model, base, noise)
+    measure = [_hours([t]) - _gap_hours(t[1]) for t in base]
+    v1 = _variances(sum(infos), idx)
+    if not np.all(np.isfinite(v1)):
+        bad = [c for c, v in zip(names, v1) if not math.isfinite(v)]
+        return ClassicalResult(None, None, {}, reason=f"the classical sequence does not identify {', '.join(bad)}")
+    scale = float(np.max(v1 / targets**2))
+    best_split = _best_split(infos, measure, targets, idx)
+    if best_split is not None:
+        best_split += sum(_gap_hours(p) for _, p in base) + _between_runs_hours(base)
+    key = jax.random.fold_in(jax.random.PRNGKey(seed), 7919)
+    sigma = {}
+    for _ in range(CHECKS):
+        tests = sequence(kind, scale, latitude_deg)
+        recs = simulate(joined(tests), truth, key=key)
+        res = fit(recs, list(model.terms))
+        sigma = res.stds
+        ratio = max(sigma[c] / t for c, t in zip(names, targets))
+        if ratio <= 1.0:
+            break
+        scale *= ratio**2 * 1.001
+    else:
+        tests = sequence(kind, scale, latitude_deg)
+        recs = simulate(joined(tests), truth, key=key)
+        res = fit(recs, list(model.terms))
+        sigma = res.stds
+    path = _path(recs, tests, model, res)
+    return ClassicalResult(scale, _hours(tests), sigma, path, best_split)
+
+
+def _gap_hours(plan) -> float:
+    """Unscaled gaps of a plan: between positions and between its runs (h)."""
+    gaps = sum(r.gap_s * (len(r.segments) - 1) for r in plan.runs) + plan.gap_between_runs_s * (len(plan.runs) - 1)
+    return gaps / 3600.0
+
+
+def _between_runs_hours(tests) -> float:
+    return joined(tests).gap_between_runs_s * (len(tests) - 1) / 3600.0
+
+
+def _path(recs, tests, model: Model, last) -> list:
+    """After each test of the sequence: cumulative table hours, fitted σ (report units; null where the records so far
+    do not identify a coefficient), residual RMS and noise floor (output units); ``last`` the fit of every record."""
+    out, n = [], 0
+    for i, (name, p) in enumerate(tests):
+        n += len(p.runs)
+        clock = float(joined(tests[: i + 1]).duration_s) / 3600.0
+        try:
+            res = last if i == len(tests) - 1 else fit(recs[:n], list(model.terms), allow_aliases=True)
+        except ModelError:
+            out.append({"test": name, "hours": clock, "sigma": {}, "residual_rms": None, "noise_floor": None})
+            continue
+        sig = {c: (v if math.isfinite(v) else None) for c, v in res.stds.items()}
+        out.append(
+            {
+                "test": name,
+                "hours": clock,
+                "sigma": sig,
+                "residual_rms": res.residual_rms,
+                "noise_floor": res.noise_floor,
+            }
+        )
+    return out

@@ -1,0 +1,199 @@
+"""The campaign loop end to end on a simulated laboratory (``gj.run_campaign``, ``gyrojax campaign --simulate``).
+
+The lab's first test is simulated from the truth; then, step after step, :func:`gyrojax.adaptive.step.next_test`
+diagnoses every record so far, adds what the data ask for and designs the next test on the lab's table, which is
+simulated from the same truth on the campaign's clock (test k draws its noise from ``fold_in(key(seed), k)``) and
+fitted jointly with everything before, until the goal is met, refused as unreachable, blocked, or ``max_tests`` tests
+have run. Its table hours are compared with Hu's classical sequence scaled to reach the same σ on the same truth
+(:mod:`gyrojax.adaptive.classical`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import jax
+
+from gyrojax.adaptive.classical import ClassicalResult, classical_hours
+from gyrojax.adaptive.goal import Goal
+from gyrojax.adaptive.lab import Lab
+from gyrojax.adaptive.step import NextTest, next_test
+from gyrojax.data.truth import Truth, truth_from_dict
+from gyrojax.errors import ModelError
+from gyrojax.simulation.simulator import simulate
+
+MAX_TESTS = 8
+"""Designed tests a simulated campaign runs at most."""
+
+
+@dataclass
+class CampaignStep:
+    """One test of the campaign: its plan, hours and why it was run; then the state of the fit with its records."""
+
+    plan: object
+    hours: float
+    reason: str
+    cumulative_hours: float
+    state: dict = field(default_factory=dict)  # terms, σ, residual RMS and verdict after this test's records
+    file: str | None = None
+    predicted: list = field(default_factory=list)  # σ the design predicted after it: coefficient, sub-model, σ
+
+    def to_json(self) -> dict:
+        """JSON: plan name (or file), hours, cumulative hours, reason and the state after it."""
+        return {
+            "plan": self.file or self.plan.name,
+            "hours": self.hours,
+            "cumulative_hours": self.cumulative_hours,
+            "reason": self.reason,
+            "predicted": self.predicted,
+            **self.state,
+        }
+
+
+@dataclass
+class CampaignResult:
+    """A simulated campaign: its steps, the final model, fit and diagnosis, and the classical sequence beside it."""
+
+    status: str
+    reason: str
+    steps: list
+    last: NextTest
+    records: list
+    goal: Goal
+    lab: Lab
+    classical: ClassicalResult | None = None
+
+    @property
+    def goal_met(self) -> bool:
+        """Whether the campaign met its goal."""
+        return self.status == "goal-met"
+
+    @property
+    def table_hours(self) -> float:
+        """Table hours of every test of the campaign, the first included (h)."""
+        return sum(s.hours for s in self.steps)
+
+    def to_json(self) -> dict:
+        """The campaign's JSON (the command's ``--json``): goal_met, table_hours, classical_table_hours, terms,
+        verdict, steps, and the rest."""
+        d = self.last.diagnosis
+        c = self.classical
+        ratio = None
+        if c is not None and c.hours:
+            ratio = self.table_hours / c.hours
+        return {
+            "goal_met": self.goal_met,
+            "status": self.status,
+            "reason": self.reason,
+            "table_hours": self.table_hours,
+            "classical_table_hours": c.hours if c is not None else None,
+            "hours_ratio": ratio,
+            "classical": c.to_json() if c is not None else None,
+            "terms": list(self.last.terms),
+            "verdict": d.verdict if d is not None else None,
+            "diagnosis": d.to_json() if d is not None else None,
+            "coefficients": self.last.to_json()["coefficients"],
+            "requirements": self.last.requirement_rows(),
+            "looks": self.last.looks,
+            "steps": [s.to_json() for s in self.steps],
+            "goal": self.goal.to_json(),
+            "lab": self.lab.to_json(),
+        }
+
+
+def state_of(nt: NextTest) -> dict:
+    """The fit and diagnosis a step found on the records so far: terms, σ and values (report units), residual RMS,
+    noise floor (output units), verdict, what it added."""
+    j = nt.to_json()
+    return {
+        "terms": j["terms"],
+        "added": [a["effect"] for a in nt.added],
+        "verdict": j["verdict"],
+        "residual_rms": j["residual_rms_deg_per_h"],
+        "noise_floor": j["noise_floor_deg_per_h"],
+        "coefficients": j["coefficients"],
+    }
+
+
+def run_campaign(
+    truth,
+    first,
+    terms,
+    goal: Goal,
+    lab: Lab | None = None,
+    *,
+    seed: int = 0,
+    max_tests: int = MAX_TESTS,
+    classical: bool = True,
+    lab_options: dict | None = None,
+    on_step=None,
+    **search,
+) -> CampaignResult:
+    """Run the campaign loop on a laboratory simulated from ``truth`` (module doc).
+
+    Args:
+      truth: a :class:`~gyrojax.data.truth.Truth` or truth dict (conventions §8).
+      first: the lab's first test, a :class:`~gyrojax.data.plans.Plan`.
+      terms: the lab's model before any test (effect names).
+      goal: the :class:`~gyrojax.adaptive.goal.Goal`.
+      lab: the table of the designed tests (default: the first test's, with ``lab_options``).
+      seed: noise seed of the campaign (and of the classical sequence it is compared with).
+      max_tests: designed tests at most.
+      classical: also compute the classical sequence's hours for the final model.
+      on_step: called with each :class:`NextTest` as it is made (progress).
+      search: ``starts``, ``steps`` of the design search.
+
+    Returns: a :class:`CampaignResult`.
+    """
+    truth = truth if isinstance(truth, Truth) else truth_from_dict(truth)
+    key = jax.random.PRNGKey(seed)
+    records = simulate(first, truth, key=jax.random.fold_in(key, 0))
+    lab = lab or Lab.from_records(records, **(lab_options or {}))
+    hours = float(first.duration_s) / 3600.0
+    steps = [CampaignStep(first, hours, "the lab's first test", hours)]
+    looks, current = 0, tuple(terms)
+    for k in range(1, max_tests + 2):
+        nt = next_test(
+            records,
+            current,
+            goal,
+            lab,
+            looks=looks,
+            hours_spent=sum(s.hours for s in steps),
+            name=f"test-{k + 1}",
+            seed=seed + k,
+            **search,
+        )
+        if on_step is not None:
+            on_step(nt)
+        steps[-1].state = state_of(nt)
+        looks, current = nt.looks, nt.terms
+        if nt.status != "test":
+            status, reason = nt.status, nt.reason
+            break
+        if k > max_tests:
+            status, reason = "unreachable", f"the goal is not met after {max_tests} designed tests: " + nt.reason
+            break
+        clock = max(float(r.time_s[-1]) for r in records) + lab.settle_s
+        records = records + simulate(nt.plan, truth, key=jax.random.fold_in(key, k), start_s=clock)
+        total = sum(s.hours for s in steps) + nt.hours
+        predicted = [
+            {"coefficient": r.coefficient, "sub_model": list(r.effects), "sigma": float(x)}
+            for r, x in zip(nt.requirements, nt.sigma_after)
+            if r.kind != "separate" and math.isfinite(x)
+        ]
+        steps.append(CampaignStep(nt.plan, nt.hours, nt.reason, total, predicted=predicted))
+    result = CampaignResult(status, reason, steps, nt, records, goal, lab)
+    if classical:
+        try:
+            result.classical = classical_hours(truth, nt.terms, goal, nt.kind, seed, lab.latitude_deg)
+        except ModelError as e:
+            result.classical = ClassicalResult(None, None, {}, reason=str(e))
+    return result
+
+
+def hours_ratio(result: CampaignResult) -> float:
+    """The campaign's table hours over the classical sequence's (NaN when the sequence does not reach the goal)."""
+    c = result.classical
+    return result.table_hours / c.hours if c is not None and c.hours else math.nan

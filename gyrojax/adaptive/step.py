@@ -1,0 +1,425 @@
+"""One step of the campaign: from the records so far and the current model, the next test (``gj.next_test``,
+``gyrojax next``).
+
+1. **Diagnose and add.** The records are diagnosed at the level of the campaign's next look
+   (:func:`gyrojax.adaptive.goal.look_alpha`); the effect the diagnosis proposes (significant, accepted by ``fit``,
+   plausible) is added and the records diagnosed again, until it proposes nothing. A proposal the records cannot
+   tell from other candidates (its ``aliases`` or ``indistinguishable``, plausible ones) is *not* added: naming one
+   member of an alias group would be a guess, and the next test is designed to separate the group instead.
+2. **Require.** What stands between the data and the goal (:mod:`gyrojax.adaptive.requirements`): σ of the model's
+   coefficients (the fit's own standard errors), σ of each watched candidate were it added (detection of every size
+   that matters), σ of the alias group's members in one fit.
+3. **Stop or design.** The goal is met when the diagnosis finds nothing missing and every requirement is met. A
+   requirement no orientation of the table reaches, or a goal the hours left cannot reach, is refused with the
+   reason and what would reach it (:mod:`gyrojax.adaptive.reach`). Otherwise the test is designed by gradients
+   (:mod:`gyrojax.adaptive.design`) and written as a plan on the lab's table, with the σ predicted after it and
+   why it was chosen: the requirements it was designed to meet, worst first.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gyrojax.adaptive import requirements as rq
+from gyrojax.adaptive.design import STARTS, STEPS, design_test
+from gyrojax.adaptive.goal import Goal, detection_power, look_alpha, noncentrality_for_power
+from gyrojax.adaptive.information import record_information, test_information, test_noise
+from gyrojax.adaptive.lab import Lab
+from gyrojax.adaptive.reach import out_of_reach
+from gyrojax.errors import ModelError
+from gyrojax.inference.diagnose import diagnose, fit_with
+from gyrojax.inference.identify import DEFAULT_TERMS, fit
+from gyrojax.physics import effects as fx
+from gyrojax.physics.model import Model
+
+POSTERIOR_DRAWS = 8
+"""Posterior draws of θ over which a nonlinear universe's information is averaged."""
+
+
+@dataclass
+class NextTest:
+    """The outcome of one step: ``status`` ``"goal-met"``, ``"test"`` (a test is designed: :attr:`plan`),
+    ``"unreachable"`` or ``"blocked"`` (the diagnosis finds what no named effect or test can resolve), with the
+    model, its fit and diagnosis, the requirements and their σ now and after the test (report units)."""
+
+    status: str
+    terms: tuple
+    kind: str
+    fit: object
+    diagnosis: object
+    added: list
+    alias: tuple
+    requirements: list
+    sigma_now: np.ndarray
+    alpha_next: float
+    looks: int
+    goal: Goal
+    reason: str = ""
+    design: object = None
+    plan: object = None
+    hours: float = 0.0
+    sigma_after: np.ndarray | None = None
+    kappa: float = 1.0
+    notes: list = field(default_factory=list)
+
+    @property
+    def lam(self) -> float:
+        """λ*: the noncentrality at which the next look detects with the goal's power."""
+        return noncentrality_for_power(self.alpha_next, self.goal.power)
+
+    @property
+    def goal_met(self) -> bool:
+        """Whether the goal is met on the records (then there is no next test)."""
+        return self.status == "goal-met"
+
+    def requirement_rows(self) -> list:
+        """Per requirement: kind, coefficient, target, unit, σ now and after, met now, and for candidates the size
+        that matters, the power of the next look at it and the size above which it would be detected (power
+        ``goal.power``), now and after the test."""
+        out = []
+        root = math.sqrt(self.lam)
+        for i, r in enumerate(self.requirements):
+            row = {**r.to_json(), "sigma_now": _num(self.sigma_now[i]), "met": bool(self.sigma_now[i] <= r.target)}
+            if self.sigma_after is not None:
+                row["sigma_after"] = _num(self.sigma_after[i])
+            if r.kind == "detect":
+                size = self.goal.detect_size(r.coefficient, self.kind)
+                row["size_that_matters"] = size
+                row["power_now"] = detection_power(size, self.sigma_now[i], self.alpha_next)
+                row["detected_above_now"] = _num(self.sigma_now[i] * root)
+                if self.sigma_after is not None:
+                    row["power_after"] = detection_power(size, self.sigma_after[i], self.alpha_next)
+                    row["detected_above_after"] = _num(self.sigma_after[i] * root)
+            out.append(row)
+        return out
+
+    def to_json(self) -> dict:
+        """The step as JSON: status, goal_met, model, added effects, requirements, the test (plan, hours, mounting)
+        and the reason."""
+        d = self.diagnosis
+        out = {
+            "status": self.status,
+            "goal_met": self.goal_met,
+            "terms": list(self.terms),
+            "added": self.added,
+            "alias": list(self.alias),
+            "looks": self.looks,
+            "alpha_next_look": self.alpha_next,
+            "verdict": d.verdict if d is not None else None,
+            "residual_rms_deg_per_h": d.residual_rms if d is not None else None,
+            "noise_floor_deg_per_h": d.noise_floor if d is not None else None,
+            "coefficients": _coefficients(self.fit),
+            "requirements": self.requirement_rows(),
+            "reason": self.reason,
+            "notes": list(self.notes),
+            "information_scale": self.kappa,
+        }
+        if self.plan is not None:
+            out["test"] = {
+                "plan": self.plan.name,
+                "hours": self.hours,
+                "dwell_hours": self.design.dwell_hours,
+                "runs": [
+                    {"name": r.name, "mounting": r.instrument, "positions": len(r.segments), "gap_s": r.gap_s}
+                    for r in self.plan.runs
+                ],
+                "hours_needed_for_goal": self.design.hours_needed,
+            }
+        return out
+
+
+def _num(x) -> float | None:
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def _coefficients(res) -> dict:
+    if res is None:
+        return {}
+    units = res.units()
+    return {c: {"value": res.values[c], "std": res.stds[c], "unit": units[c]} for c in res.coefficient_names}
+
+
+def _check_records(records) -> str:
+    if not records:
+        raise ModelError("next test: no records")
+    kinds = {r.kind for r in records}
+    if len(kinds) != 1:
+        raise ModelError(f"next test: the records mix instrument kinds {sorted(kinds)}")
+    kind = kinds.pop()
+    if kind == "imu-triad":
+        raise ModelError(
+            "next test: imu-triad records (a hand-held triad) are not supported yet; the loop designs turntable tests "
+            "(sdf-gyro, tdf-gyro, pendulous-accel, fog, rlg)"
+        )
+    return kind
+
+
+def _update_model(records, terms, goal: Goal, looks: int, kind: str):
+    """Diagnose, add what the data ask for, stop at an alias group (module doc). Returns (terms, fit, diagnosis,
+    added, alias group, looks, note)."""
+    terms = tuple(terms)
+    added, res = [], None
+    while True:
+        try:
+            res = res or fit(records, list(terms))
+        except ModelError as e:  # the records cannot identify the model: the next test must
+            return terms, None, None, added, (), looks, f"the records cannot identify the model: {e}"
+        look = looks + 1
+        a = look_alpha(look, goal.alpha)
+        d = diagnose(records, list(terms), alpha=a, result=res, suggest_tests=False)
+        looks = look
+        if d.proposal is None:
+            return terms, res, d, added, (), looks, ""
+        c = next(x for x in d.candidates if x.name == d.proposal)
+        plausible = {x.name for x in d.candidates if x.implausible is None and x.refused is None}
+        group = tuple(
+            g for g in dict.fromkeys(c.aliases + c.indistinguishable) if g in fx.names(kind) and g in plausible
+        )
+        group = tuple(g for g in group if g not in terms)
+        if group:
+            return terms, res, d, added, (c.name,) + group, looks, ""
+        res = fit_with(d, records, c.name)
+        terms = terms + (c.name,)
+        added.append(
+            {
+                "effect": c.name,
+                "look": look,
+                "alpha": a,
+                "p_adjusted": c.p_adjusted,
+                "estimate": c.estimate,
+            }
+        )
+
+
+def _assess(records, terms, goal, kind, alias, res, alpha_next):
+    """The requirements of the model ``terms`` and ``alias`` group, their universe, the records' information on it
+    (with its scale κ and the saturated fit it came from) and every requirement's σ now (the fit's own σ for the
+    model's coefficients)."""
+    reqs = rq.build(terms, goal, kind, alpha_next, alias)
+    uni = rq.universe(terms, goal, kind, alias)
+    sat = _noise_fit(records, uni, res)
+    f_rec, kappa = record_information(uni, records, sat, _theta(uni, res))
+    sigma_now = rq.sigmas(f_rec, reqs, uni)
+    if res is not None:
+        stds = res.stds
+        sigma_now = np.array([stds[r.coefficient] if r.kind == "sigma" else x for r, x in zip(reqs, sigma_now)])
+    return reqs, uni, f_rec, kappa, sat, sigma_now
+
+
+def _noise_fit(records, uni: Model, res):
+    """The fit whose noise the records' information and the next test take: the current fit when its noise has no
+    Gauss–Markov colour; else — the colour may be a missing effect's misfit — the fit of the whole universe
+    (minimum-norm where the records alias its effects), whose residual holds no effect the model misses. Not that
+    one first: fitted to few records, the universe's many terms leave chance structure a white + Gauss–Markov noise
+    fit can take for colour."""
+    if res is not None and not any(nz.gauss_markov for nz in res.noise):
+        return res
+    try:
+        return fit(records, list(uni.terms), allow_aliases=True)
+    except ModelError:
+        return res
+
+
+def _theta(uni: Model, res) -> np.ndarray:
+    th = np.zeros(uni.size)
+    if res is not None:
+        for c, v in res.values.items():
+            th[uni.coefficient_names.index(c)] = v
+    return th
+
+
+def _draws(uni: Model, res, n: int, seed: int):
+    """Posterior draws of θ on the universe (the fit's estimate and covariance; 0 elsewhere); None when linear."""
+    if uni.is_linear or res is None:
+        return None
+    rng = np.random.default_rng(seed)
+    idx = [uni.coefficient_names.index(c) for c in res.coefficient_names]
+    cov = np.nan_to_num(np.asarray(res.cov, dtype=float))
+    draws = np.tile(_theta(uni, res), (n, 1))
+    draws[:, idx] = rng.multivariate_normal(np.asarray(res.theta, dtype=float), cov, n, check_valid="ignore")
+    return draws
+
+
+def next_test(
+    records,
+    terms=None,
+    goal: Goal | None = None,
+    lab: Lab | None = None,
+    *,
+    looks: int = 0,
+    hours_spent: float = 0.0,
+    name: str = "next-test",
+    start_s: float | None = None,
+    seed: int = 0,
+    starts: int = STARTS,
+    steps: int = STEPS,
+) -> NextTest:
+    """One step of the campaign (module doc).
+
+    Args:
+      records: the lab's records so far (one instrument).
+      terms: the current model (effect names; default the fit's default model of the records' kind).
+      goal: the :class:`~gyrojax.adaptive.goal.Goal` (target σ in report units, watched candidates, error budget).
+      lab: the :class:`~gyrojax.adaptive.lab.Lab` (default: the first record's table and mounting, default limits).
+      looks: diagnoses the campaign has already made (their levels are spent: :func:`look_alpha`).
+      hours_spent: table hours the campaign has already used (h), against ``lab.budget_hours``.
+      name: the designed plan's name.
+      start_s: the test's start on the campaign clock (s; default: after the last record, one settle time later).
+      seed, starts, steps: the design search's random starts (per mounting), their seed and Adam iterations.
+
+    Returns: a :class:`NextTest`.
+    """
+    records = list(records)
+    kind = _check_records(records)
+    if goal is None:
+        raise ModelError("next test: give a goal (target σ)")
+    lab = lab or Lab.from_records(records)
+    if lab.kind != kind:
+        raise ModelError(f"next test: the lab's instrument is a {lab.kind}, the records' a {kind}")
+    terms = tuple(Model.of(terms if terms else DEFAULT_TERMS[kind], kind).terms)
+    terms, res, d, added, alias, looks, note = _update_model(records, terms, goal, looks, kind)
+    alpha_next = look_alpha(looks + 1, goal.alpha)
+    notes = [note] if note else []
+    reqs, uni, f_rec, kappa, sat, sigma_now = _assess(records, terms, goal, kind, alias, res, alpha_next)
+    unwatched = tuple(g for g in alias if g not in goal.watched(kind))
+    if unwatched:
+        sep = [r for r in reqs if r.kind == "separate"]
+        if out_of_reach(uni, sep, f_rec, lab):
+            # a member no test on the table separates from the model and the group (D_OO beside D_F, D_II, D_SS at
+            # 1 g) is not a name the campaign can give: the group is its watched members
+            notes.append(
+                f"left out of the alias group, as no test on this table separates them: {', '.join(unwatched)}"
+            )
+            alias = tuple(g for g in alias if g not in unwatched)
+            reqs, uni, f_rec, kappa, sat, sigma_now = _assess(records, terms, goal, kind, alias, res, alpha_next)
+    out = NextTest(
+        "test", terms, kind, res, d, added, alias, reqs, sigma_now, alpha_next, looks, goal, kappa=kappa, notes=notes
+    )
+    unmet = [i for i, (r, x) in enumerate(zip(reqs, sigma_now)) if not x <= r.target]
+    clean = d is not None and d.verdict == "adequate" and not alias
+    if clean and not unmet:
+        out.status = "goal-met"
+        out.reason = (
+            f"goal met: the diagnosis at α = {d.alpha:.2g} finds nothing missing, every coefficient of the model is "
+            "known to its target σ, and no watched candidate could hide at a size that matters"
+        )
+        return out
+    if not unmet:
+        out.status = "blocked"
+        out.reason = "the diagnosis finds what no named effect or further test of the goal resolves: " + _findings(d)
+        return out
+    missing = out_of_reach(uni, [reqs[i] for i in unmet], f_rec, lab)
+    if missing:
+        out.status = "unreachable"
+        out.reason = "; ".join(why for _, why in missing)
+        return out
+    left = lab.budget_hours - hours_spent
+    if left <= 0.0:
+        out.status = "unreachable"
+        out.reason = f"the campaign's budget of {lab.budget_hours:g} table hours is spent; " + _unmet_text(out, unmet)
+        return out
+    noise = test_noise(sat, records)
+    last_end = max(float(r.time_s[-1]) for r in records)
+    start = last_end + lab.settle_s if start_s is None else float(start_s)
+    test = design_test(
+        uni,
+        rq.arrays(reqs, uni),
+        f_rec,
+        lab,
+        noise,
+        min(lab.hours_per_test, left),
+        start,
+        goal.margin,
+        _draws(uni, res, POSTERIOR_DRAWS, seed),
+        budget_hours=left,
+        starts=starts,
+        steps=steps,
+        seed=seed,
+    )
+    if test.hours_needed is None or test.hours_needed > left:
+        factor = math.sqrt(max(test.ratio_at_budget, 0.0)) * goal.margin
+        need = "more than 1000 h" if test.hours_needed is None else f"about {test.hours_needed:.3g} h"
+        out.status = "unreachable"
+        out.reason = (
+            f"the goal needs {need} of dwell beyond the records on this table (by the best test the search finds) "
+            f"and the budget leaves {left:.3g} h: within it the worst requirement reaches {factor:.3g} × its target "
+            f"σ. A budget of {need.replace('about ', '')}, targets {factor:.3g} times larger or a quieter instrument "
+            "would reach it. Unmet: " + _unmet_text(out, unmet)
+        )
+        return out
+    if test.convergence_note:
+        out.notes.append(f"design search: {test.convergence_note}")
+    description = f"{len(test.mountings)}×{lab.positions}-position test designed by gyrojax next for {', '.join(terms)}"
+    plan = lab.plan(name, test.triads, test.angles_deg, test.dwell_s, description)
+    out.design, out.plan, out.hours = test, plan, float(plan.duration_s) / 3600.0
+    out.sigma_after = _predicted(uni, reqs, f_rec, lab, noise, plan, res, start)
+    out.reason = _why(out, unmet)
+    return out
+
+
+def _predicted(uni, reqs, f_rec, lab, noise, plan, res, start) -> np.ndarray:
+    """σ of every requirement after the plan as written (whole samples, its gaps), with the full noise model."""
+    import jax.numpy as jnp
+
+    keys = {fx.TDF: ("x", "y", "z"), fx.ACCEL: ("ia", "pa", "oa")}.get(lab.kind, ("ia", "oa", "sa"))
+    table, theta = lab.table(), jnp.asarray(_theta(uni, res))
+    f = np.array(f_rec, dtype=float)
+    t0 = start
+    for run in plan.runs:
+        ang = jnp.deg2rad(jnp.asarray([s.start_deg for s in run.segments]))
+        dwell = jnp.asarray([s.duration_s for s in run.segments])
+        triad = jnp.asarray([run.instrument[k] for k in keys], dtype=float)
+        f += np.asarray(test_information(uni, table, noise, triad, ang, dwell, t0, run.gap_s, theta))
+        t0 += run.duration_s + plan.gap_between_runs_s
+    return rq.sigmas(f, reqs, uni)
+
+
+def _unmet_text(out: NextTest, unmet) -> str:
+    order = sorted(unmet, key=lambda i: -_ratio(out.sigma_now[i], out.requirements[i].target))
+    return "; ".join(rq.describe(out.requirements[i], out.sigma_now[i], out.alpha_next, out.goal) for i in order)
+
+
+def _ratio(sigma, target) -> float:
+    return math.inf if not math.isfinite(sigma) else sigma / target
+
+
+def _why(out: NextTest, unmet) -> str:
+    """Why this test: the unmet requirements, worst first, and what the test makes of them."""
+    order = sorted(unmet, key=lambda i: -_ratio(out.sigma_now[i], out.requirements[i].target))
+    parts = []
+    for i in order[:6]:
+        r = out.requirements[i]
+        after = out.sigma_after[i]
+        parts.append(f"{rq.describe(r, out.sigma_now[i], out.alpha_next, out.goal)} → {after:.3g} after it")
+    more = f" (and {len(order) - 6} more)" if len(order) > 6 else ""
+    kinds = {out.requirements[i].kind for i in unmet}
+    head = []
+    if "separate" in kinds:
+        head.append(f"separate {' / '.join(out.alias)}")
+    if "detect" in kinds:
+        head.append("rule out the watched candidates the records cannot see")
+    if "sigma" in kinds:
+        head.append("bring the model's σ to target")
+    runs = out.plan.runs
+    mounts = " and ".join(str(np.round(t[0], 3).tolist()) for t in out.design.triads)
+    return (
+        f"to {', '.join(head)}: {sum(len(r.segments) for r in runs)} static positions in {len(runs)} run(s), "
+        f"{out.design.dwell_hours:.3g} h of dwell ({out.hours:.3g} h on the table), first instrument axis along "
+        f"{mounts} (platform coordinates); " + "; ".join(parts) + more
+    )
+
+
+def _findings(d) -> str:
+    if d is None:
+        return "no diagnosis"
+    found = [s.to_json().get("versus", "") + " " + s.to_json().get("shape", "") for s in d.unexplained[:3]]
+    sig = [
+        f"{c.name} ({c.implausible or c.refused})"
+        for c in d.candidates
+        if c.p_adjusted < d.alpha and (c.implausible or c.refused)
+    ]
+    return "; ".join(x.strip() for x in found + sig if x.strip()) or f"verdict {d.verdict}"

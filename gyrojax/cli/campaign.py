@@ -1,0 +1,223 @@
+"""``gyrojax next`` (one step of the campaign loop: the next test from the records so far) and ``gyrojax campaign``
+(the loop end to end on a laboratory simulated from a truth file): :mod:`gyrojax.adaptive`."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+from gyrojax.cli.args import UsageError, parse_options, parse_terms
+
+
+def add_goal_arguments(s) -> None:
+    """The goal's options (shared by ``next`` and ``campaign``)."""
+    s.add_argument("--terms", help="the current model: comma-separated effect names (default: the fit's default)")
+    s.add_argument("--target-sigma", type=float, help="one target σ for every coefficient, in its own report unit")
+    s.add_argument("--target", metavar="COEF=S,...", help="target σ per coefficient (report units)")
+    s.add_argument("--watch", help="the candidate effects to rule out (default: the instrument's drift model)")
+    s.add_argument("--detect", type=float, help="the size of a watched candidate that matters (default 10 × target)")
+    s.add_argument("--alpha", type=float, default=0.05, help="campaign-wide false-effect rate (default 0.05)")
+
+
+def add_lab_arguments(s) -> None:
+    """The lab's table options (shared by ``next`` and ``campaign``)."""
+    s.add_argument("--table", default="records", choices=("records", "two-axis"), help="the table of the next tests")
+    s.add_argument("--hours", type=float, default=8.0, help="table hours one test may take (default 8)")
+    s.add_argument("--budget", type=float, default=100.0, help="table hours the campaign may take (default 100)")
+    s.add_argument("--positions", type=int, default=12, help="positions per mounting of a designed test")
+    s.add_argument("--settle", type=float, default=30.0, help="settle time at each position, s (default 30)")
+    s.add_argument("--rate-limit", type=float, default=10.0, help="table rate between positions, deg/s")
+    s.add_argument("--angle-limit", action="append", metavar="AXIS=LO:HI", help="angle limits of a table axis, deg")
+    s.add_argument("--no-turn", action="store_true", help="keep the records' mounting (the case is not turned)")
+    s.add_argument("--mountings", type=int, default=3, help="mountings per designed test, 1 to 3 (default 3)")
+    s.add_argument("--remount", type=float, default=900.0, help="time to remount the instrument, s (default 900)")
+    s.add_argument("--dt", type=float, help="sample interval of the designed tests, s (default: the records')")
+    s.add_argument("--starts", type=int, default=3, help="random starts of the design search per mounting")
+    s.add_argument("--steps", type=int, default=300, help="Adam iterations of the design search")
+
+
+def goal_from_args(args):
+    """The :class:`~gyrojax.adaptive.goal.Goal` of the command's options."""
+    from gyrojax.adaptive.goal import Goal
+
+    targets = {}
+    for item in parse_terms(args.target):
+        name, _, value = item.partition("=")
+        try:
+            targets[name.strip()] = float(value)
+        except ValueError:
+            raise UsageError(f"--target {item!r}: expected COEF=SIGMA with a number") from None
+    if args.target_sigma is None and not targets:
+        raise UsageError("give the goal: --target-sigma S (every coefficient) and/or --target COEF=S,...")
+    if args.target_sigma is not None and not (math.isfinite(args.target_sigma) and args.target_sigma > 0):
+        raise UsageError(f"--target-sigma must be a finite number > 0, got {args.target_sigma}")
+    watch = tuple(parse_terms(args.watch)) if args.watch else None
+    return Goal(sigma=args.target_sigma, targets=targets, watch=watch, detect=args.detect, alpha=args.alpha)
+
+
+def lab_from_args(args, records):
+    """The :class:`~gyrojax.adaptive.lab.Lab` of the records' table (or ``--table two-axis``) and the options."""
+    from gyrojax.adaptive.lab import Lab
+    from gyrojax.data import plans
+
+    over = {
+        "hours_per_test": args.hours,
+        "budget_hours": args.budget,
+        "positions": args.positions,
+        "settle_s": args.settle,
+        "rate_limit_dps": args.rate_limit,
+        "turn_case": not args.no_turn,
+        "mountings_per_test": args.mountings,
+        "remount_s": args.remount,
+    }
+    if args.dt is not None:
+        over["dt_s"] = args.dt
+    if args.table == "two-axis":
+        over["axes"] = plans.TWO_AXIS
+    axes = over.get("axes") or tuple((a["name"], tuple(a["axis_enu"])) for a in records[0].meta["table"]["axes"])
+    if args.angle_limit:
+        names = [n for n, _ in axes]
+        limits = [None] * len(names)
+        for item in args.angle_limit:
+            name, _, rng = item.partition("=")
+            lo, _, hi = rng.partition(":")
+            if name not in names:
+                raise UsageError(f"--angle-limit {item!r}: no table axis {name!r}; axes: {', '.join(names)}")
+            try:
+                limits[names.index(name)] = (float(lo), float(hi))
+            except ValueError:
+                raise UsageError(f"--angle-limit {item!r}: expected AXIS=LOW:HIGH in deg") from None
+        over["angle_limits_deg"] = tuple(limits)
+    return Lab.from_records(records, **over)
+
+
+def _requirements_table(rows) -> list[str]:
+    out = [f"{'requirement':10s} {'coefficient':12s} {'target':>10s} {'σ now':>10s} {'σ after':>10s}  unit"]
+    for r in rows:
+        now = "∞" if r["sigma_now"] is None else f"{r['sigma_now']:.4g}"
+        after = r.get("sigma_after", "")
+        after = "∞" if after is None else (f"{after:.4g}" if after != "" else "")
+        out.append(f"{r['kind']:10s} {r['coefficient']:12s} {r['target']:10.4g} {now:>10s} {after:>10s}  {r['unit']}")
+    return out
+
+
+def cmd_next(args) -> int:
+    """``gyrojax next``: diagnose the records, then stop (goal met), refuse (unreachable: exit 2) or design and write
+    the next test's plan; exit code."""
+    from gyrojax.adaptive.step import next_test
+    from gyrojax.data.planfile import save_plan
+    from gyrojax.data.records import load_records
+    from gyrojax.errors import ModelError
+    from gyrojax.protocol import strict
+
+    goal = goal_from_args(args)
+    out = Path(args.out)
+    if out.exists() and not args.force:
+        raise UsageError(f"{out}: exists; pass --force to overwrite")
+    records = load_records(args.records)
+    lab = lab_from_args(args, records)
+    nt = next_test(
+        records,
+        parse_terms(args.terms) or None,
+        goal,
+        lab,
+        looks=args.looks,
+        hours_spent=args.hours_spent,
+        name=out.stem,
+        seed=args.seed,
+        starts=args.starts,
+        steps=args.steps,
+    )
+    if nt.status == "unreachable":
+        raise ModelError(f"next: the goal cannot be reached: {nt.reason}")
+    j = nt.to_json()
+    if nt.plan is not None:
+        save_plan(nt.plan, out, force=args.force)
+        j["plan_file"] = str(out)
+    if args.json:
+        print(json.dumps(strict(j), indent=1))
+        return 0
+    print(f"status: {nt.status}   model: {', '.join(nt.terms)}   looks: {nt.looks} (next at α = {nt.alpha_next:.2g})")
+    for a in nt.added:
+        print(f"  added {a['effect']} (look {a['look']}, Holm-adjusted p = {a['p_adjusted']:.2g} < {a['alpha']:.2g})")
+    if nt.alias:
+        print(f"  aliased in the records: {' / '.join(nt.alias)}")
+    print("\n".join("  " + line for line in _requirements_table(j["requirements"])))
+    for note in nt.notes:
+        print(f"  note: {note}")
+    print(nt.reason)
+    if nt.plan is not None:
+        print(f"plan written to {out} ({nt.hours:.3g} table hours)")
+    return 0
+
+
+def cmd_campaign(args) -> int:
+    """``gyrojax campaign --simulate TRUTH --first PLAN``: the loop on a simulated laboratory; prints the steps and the
+    comparison with the classical sequence, or ``--json``; writes the plans, records and figure into ``--out``."""
+    from gyrojax.adaptive.simulated import run_campaign
+    from gyrojax.cli.commands import plan_from_arg
+    from gyrojax.data.planfile import save_plan
+    from gyrojax.data.records import save_record
+    from gyrojax.data.truth import load_truth
+    from gyrojax.protocol import atomic_write_text, strict
+    from gyrojax.simulation.simulator import simulate
+
+    if not args.simulate:
+        raise UsageError("campaign needs --simulate TRUTH.json (the laboratory is simulated from it)")
+    goal = goal_from_args(args)
+    truth = load_truth(args.simulate)
+    first = plan_from_arg(args.first, parse_options(args.option))
+    terms = parse_terms(args.terms)
+    if not terms:
+        raise UsageError("--terms: give the lab's model before any test, e.g. --terms D_F,D_I,D_S")
+    out = Path(args.out) if args.out else None
+    if out is not None and out.exists() and any(out.iterdir()) and not args.force:
+        raise UsageError(f"{out}: exists and is not empty; pass --force to overwrite")
+    if args.max_tests < 1:
+        raise UsageError(f"--max-tests must be at least 1, got {args.max_tests}")
+    lab = lab_from_args(args, simulate(first, {"coefficients": {}}))
+
+    def progress(nt):
+        if not args.json:
+            print(f"  [{nt.status}] model {', '.join(nt.terms)}; {nt.reason[:160]}", flush=True)
+
+    res = run_campaign(
+        truth,
+        first,
+        terms,
+        goal,
+        lab,
+        seed=args.seed,
+        max_tests=args.max_tests,
+        on_step=progress,
+        starts=args.starts,
+        steps=args.steps,
+    )
+    j = res.to_json()
+    if out is not None:
+        from gyrojax.report.figures import campaign_figure, save
+
+        out.mkdir(parents=True, exist_ok=True)
+        for step in res.steps:
+            step.file = str(save_plan(step.plan, out / f"{step.plan.name}.plan.json", force=True))
+        for r in res.records:
+            save_record(r, out / "records", force=True)
+        save(campaign_figure(res), out / "campaign.png")
+        j = res.to_json()
+        atomic_write_text(out / "campaign.json", json.dumps(strict(j), indent=1))
+    if args.json:
+        print(json.dumps(strict(j), indent=1))
+        return 0
+    print(f"goal met: {res.goal_met} ({res.status}); model: {', '.join(j['terms'])}; verdict: {j['verdict']}")
+    for s in j["steps"]:
+        print(f"  {s['plan']}: {s['hours']:.3g} h (total {s['cumulative_hours']:.3g} h) — {s['reason'][:200]}")
+    c = j["classical_table_hours"]
+    ratio = j["hours_ratio"]
+    print(
+        f"table hours: loop {j['table_hours']:.3g} h; Hu's classical sequence for the same σ: "
+        + (f"{c:.3g} h (ratio {ratio:.2f})" if c else "not reached")
+    )
+    if not res.goal_met:
+        print(f"why: {res.reason}")
+    return 0

@@ -1,0 +1,236 @@
+"""The campaign loop (:mod:`gyrojax.adaptive`): its error budget, the requirements' σ, the refusals, and a short
+campaign on a simulated laboratory through the command line (``gyrojax campaign``, ``gyrojax next``).
+
+The laboratory: an SDF gyro whose lab knows D_F, D_I, D_S, with a hidden output-axis unbalance D_O. The first test is
+a single-mount polar tumble (Hu 3-12 to 3-21, OA along the polar axis, not flipped): a_O = g·sin φ is constant in it,
+so D_O reads as D_F and the tumble cannot see it (its σ, were it added, is infinite). The loop must design a test on
+the two-axis table that makes it visible, add it, and bring every σ to target.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from gyrojax.adaptive import requirements as rq
+from gyrojax.adaptive.goal import Goal, look_alpha, noncentrality_for_power
+from gyrojax.adaptive.lab import Lab
+from gyrojax.adaptive.step import next_test
+from gyrojax.cli.app import main
+from gyrojax.data import plans
+from gyrojax.data.planfile import load_plan, save_plan
+from gyrojax.inference.identify import fit
+from gyrojax.physics.model import Model
+from gyrojax.simulation.simulator import simulate
+
+TRUTH = {"coefficients": {"D_F": 0.4, "D_I": 0.6, "D_S": -0.3, "D_O": 0.2}, "noise": {"white": 0.005}}
+TARGET = 0.02
+FAST = ["--table", "two-axis", "--no-turn", "--mountings", "1", "--positions", "8"]
+SEARCH = ["--starts", "1", "--steps", "120"]
+
+
+def first_plan():
+    return plans.tumble(revolutions=2.0, earth_rates=20.0, dt_s=60.0, flip=False, both_directions=False)
+
+
+@pytest.fixture(scope="module")
+def lab_files(tmp_path_factory):
+    d = tmp_path_factory.mktemp("lab")
+    (d / "truth.json").write_text(json.dumps(TRUTH), encoding="utf-8")
+    save_plan(first_plan(), d / "first.json")
+    return d
+
+
+@pytest.fixture(scope="module")
+def campaign(lab_files):
+    """One short campaign on the command line: its JSON and the directory it wrote."""
+    import contextlib
+    import io
+
+    out = lab_files / "run"
+    argv = ["campaign", "--simulate", str(lab_files / "truth.json"), "--first", str(lab_files / "first.json")]
+    argv += ["--terms", "D_F,D_I,D_S", "--target-sigma", str(TARGET), "--seed", "4", "--json", "--out", str(out)]
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        assert main(argv + FAST + SEARCH) == 0
+    return json.loads(buf.getvalue()), out
+
+
+def test_alpha_spending_sums_to_the_campaign_rate():
+    # α/(j(j+1)) telescopes: the first J looks spend α(1 − 1/(J+1)), never more than α
+    for j in (1, 2, 5, 40):
+        assert sum(look_alpha(k, 0.05) for k in range(1, j + 1)) == pytest.approx(0.05 * (1 - 1 / (j + 1)), rel=1e-12)
+    with pytest.raises(Exception, match="from 1"):
+        look_alpha(0)
+
+
+@pytest.mark.parametrize("alpha", [0.05, 0.01, 1e-3])
+def test_noncentrality_for_power_against_the_normal_closed_form(alpha):
+    # a χ²₁ test is |Z + √λ| > z_{α/2}: its power Φ(√λ − z) + Φ(−√λ − z), no noncentral χ² involved
+    lam = noncentrality_for_power(alpha, 0.9)
+    z = stats.norm.isf(alpha / 2)
+    power = stats.norm.cdf(math.sqrt(lam) - z) + stats.norm.cdf(-math.sqrt(lam) - z)
+    assert power == pytest.approx(0.9, abs=1e-8)
+
+
+def test_sub_model_sigma_closed_form():
+    # F = [[a, c], [c, b]]: σ₁ alone 1/√a, in the pair √(b/(ab − c²)); a null direction gives ∞ in the pair only
+    a, b, c = 4.0, 9.0, 5.0
+    uni = Model(("D_F", "D_I"))
+    reqs = [
+        rq.Requirement("sigma", "D_F", ("D_F",), 1.0, "deg/h"),
+        rq.Requirement("sigma", "D_F", ("D_F", "D_I"), 1.0, ""),
+    ]
+    f = np.array([[a, c], [c, b]])
+    want = [1 / math.sqrt(a), math.sqrt(b / (a * b - c * c))]
+    assert rq.sigmas(f, reqs, uni) == pytest.approx(want, rel=1e-12)
+    masks, index, _ = rq.arrays(reqs, uni)
+    assert np.sqrt(np.asarray(rq.variances(f, masks, index))) == pytest.approx(want, rel=1e-9)
+    s = rq.sigmas(np.array([[1.0, 2.0], [2.0, 4.0]]), reqs, uni)
+    assert s[0] == pytest.approx(1.0) and math.isinf(s[1])
+
+
+@pytest.fixture(scope="module")
+def first_records():
+    return simulate(first_plan(), TRUTH, seed=1)
+
+
+def fast_lab(records, **kw):
+    return Lab.from_records(records, axes=plans.TWO_AXIS, turn_case=False, mountings_per_test=1, positions=8, **kw)
+
+
+def test_the_tumble_cannot_see_d_o_and_the_d_oo_goal_is_refused(first_records):
+    goal = Goal(sigma=TARGET)
+    # D_OO beside D_F, D_II, D_SS: a_I² + a_O² + a_S² = 1 at every orientation on the ground (Hu 2-45)
+    nt = next_test(first_records, ["D_F", "D_I", "D_S", "D_II", "D_SS", "D_OO"], goal, fast_lab(first_records))
+    assert nt.status == "unreachable"
+    assert "D_OO" in nt.reason and "centrifuge" in nt.reason
+    rows = {(r["kind"], r["coefficient"]): r for r in nt.requirement_rows()}
+    # OA along the polar axis: a_O constant, D_O reads as D_F
+    assert rows[("detect", "D_O")]["sigma_now"] is None
+
+
+def test_designed_sigma_matches_the_fit_that_follows():
+    # a model that holds every effect of the truth: the Fisher prediction of the designed test (position means,
+    # white noise) against the GLS fit of the records simulated from it — independent paths, agreeing to the σ
+    # estimate's own scatter (relative ≈ 1/√(2·dof), a few %) and the rounding of dwells to whole samples
+    truth = {"coefficients": {"D_F": 0.4, "D_I": 0.6, "D_S": -0.3}, "noise": {"white": 0.005}}
+    records = simulate(first_plan(), truth, seed=1)
+    goal = Goal(sigma=0.004)
+    nt = next_test(records, ["D_F", "D_I", "D_S"], goal, fast_lab(records), starts=1, steps=120)
+    assert nt.status == "test" and "D_O could hide" in nt.reason
+    start = float(records[0].time_s[-1]) + 30.0
+    both = records + simulate(nt.plan, truth, seed=2, start_s=start)
+    predicted = {(r.kind, r.coefficient): x for r, x in zip(nt.requirements, nt.sigma_after)}
+    model = fit(both, ["D_F", "D_I", "D_S"]).stds
+    for c in ("D_F", "D_I", "D_S"):
+        assert model[c] == pytest.approx(predicted[("sigma", c)], rel=0.15)
+    # a candidate the tumble could not see: its σ were it added, read in the fit with it
+    assert fit(both, ["D_F", "D_I", "D_S", "D_O"]).stds["D_O"] == pytest.approx(predicted[("detect", "D_O")], rel=0.15)
+
+
+def test_a_goal_beyond_the_budget_is_refused_with_the_hours_it_needs(first_records):
+    lab = fast_lab(first_records, budget_hours=3.0)
+    nt = next_test(first_records, ["D_F", "D_I", "D_S"], Goal(sigma=2e-4), lab, hours_spent=2.0, starts=1, steps=120)
+    assert nt.status == "unreachable"
+    assert "budget leaves" in nt.reason and nt.plan is None
+
+
+def test_campaign_json_keys(campaign):
+    j, _ = campaign
+    for key in ("goal_met", "table_hours", "classical_table_hours", "terms", "verdict", "steps"):
+        assert key in j
+    for step in j["steps"]:
+        assert {"plan", "hours", "reason"} <= set(step)
+    assert j["table_hours"] == pytest.approx(sum(s["hours"] for s in j["steps"]))
+    assert j["steps"][0]["reason"] == "the lab's first test"
+
+
+def test_campaign_meets_the_goal_with_the_hidden_effect_and_honest_sigma(campaign):
+    j, _ = campaign
+    assert j["goal_met"] and j["verdict"] == "adequate"
+    assert set(j["terms"]) == set(TRUTH["coefficients"])  # D_O found, nothing false added
+    for name, c in j["coefficients"].items():
+        assert c["std"] <= TARGET
+        assert abs(c["value"] - TRUTH["coefficients"][name]) <= 3 * c["std"]
+
+
+def test_classical_sequence_reaches_the_same_sigma(campaign):
+    j, _ = campaign
+    cl = j["classical"]
+    assert cl["hours"] > 0 and cl["scale"] > 0
+    assert set(cl["sigma"]) == set(j["coefficients"])
+    assert all(v <= TARGET * (1 + 1e-9) for v in cl["sigma"].values())
+    assert [p["test"] for p in cl["path"]] == ["multi-position", "tumble", "servo"]
+
+
+def test_campaign_writes_plans_records_and_figure(campaign):
+    j, out = campaign
+    assert (out / "campaign.png").stat().st_size > 1000
+    for step in j["steps"]:
+        load_plan(step["plan"])
+    assert json.loads((out / "campaign.json").read_text(encoding="utf-8"))["goal_met"] == j["goal_met"]
+
+
+def test_next_on_the_campaign_records(campaign, tmp_path, capsys):
+    j, out = campaign
+    records = out / "records"
+    first = sorted(records.glob("ccw-up.json"))
+    # the first test alone: a test is designed and written; it runs in the simulator
+    argv = ["next", str(first[0]), "--terms", "D_F,D_I,D_S", "--target-sigma", str(TARGET), "--json"]
+    assert main(argv + ["--out", str(tmp_path / "next.json")] + FAST + SEARCH) == 0
+    nt = json.loads(capsys.readouterr().out)
+    assert nt["status"] == "test" and nt["plan_file"]
+    assert any(r["coefficient"] == "D_O" and r["sigma_after"] for r in nt["requirements"])
+    assert simulate(load_plan(tmp_path / "next.json"), TRUTH, seed=2)
+    # every record: the goal is met, nothing is written
+    argv = ["next", str(records), "--terms", ",".join(j["terms"]), "--target-sigma", str(TARGET), "--json"]
+    assert main(argv + ["--looks", str(j["looks"]), "--out", str(tmp_path / "none.json")] + FAST + SEARCH) == 0
+    assert json.loads(capsys.readouterr().out)["goal_met"]
+    assert not (tmp_path / "none.json").exists()
+
+
+def _error(capsys, argv) -> str:
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err
+    return err
+
+
+@pytest.mark.parametrize(
+    "change, says",
+    [
+        (["--target-sigma", "-1"], "--target-sigma"),
+        (["--first", "no-such-plan"], "no-such-plan"),
+        (["--terms", "D_F,D_NOPE"], "D_NOPE"),
+        (["--mountings", "5"], "mountings_per_test"),
+    ],
+)
+def test_campaign_bad_input_exit_2_naming_it(lab_files, tmp_path, capsys, change, says):
+    argv = ["campaign", "--simulate", str(lab_files / "truth.json"), "--first", str(lab_files / "first.json")]
+    argv += ["--terms", "D_F,D_I,D_S", "--target-sigma", "0.02", "--json"]
+    for i in range(0, len(change), 2):
+        if change[i] in argv:
+            argv[argv.index(change[i]) + 1] = change[i + 1]
+        else:
+            argv += change[i : i + 2]
+    assert says in _error(capsys, argv)
+
+
+def test_bad_truth_file_names_the_key(tmp_path, lab_files, capsys):
+    bad = tmp_path / "truth.json"
+    bad.write_text(json.dumps({"coefficients": {"D_XX": 1.0}}), encoding="utf-8")
+    argv = ["campaign", "--simulate", str(bad), "--first", str(lab_files / "first.json"), "--terms", "D_F"]
+    assert "D_XX" in _error(capsys, argv + ["--target-sigma", "0.02"])
+
+
+def test_next_refuses_to_overwrite_and_names_a_missing_goal(tmp_path, lab_files, capsys):
+    out = tmp_path / "p.json"
+    out.write_text("{}", encoding="utf-8")
+    argv = ["next", str(lab_files), "--out", str(out), "--target-sigma", "0.01"]
+    assert "--force" in _error(capsys, argv)
+    assert "--target-sigma" in _error(capsys, ["next", str(lab_files), "--out", str(tmp_path / "q.json")])
