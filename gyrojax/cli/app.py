@@ -247,7 +247,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--angle", type=float, help="imucal: total angle of each hand rotation, deg (default 360)")
     s.add_argument("--angle-std", type=float, help="imucal: 1-sigma error of that angle, deg (default 0)")
     s.add_argument("--latitude", type=float, help="site latitude, deg (default: unknown)")
-    s.add_argument("--gravity", type=float, help="local gravity, m/s^2 (IMU default 9.81; table: normal gravity)")
+    s.add_argument(
+        "--gravity", type=float, help="local gravity, m/s^2 (default: WGS-84 normal gravity at --latitude, else g0)"
+    )
     s.add_argument("--map", help="csv: column mapping time=COL (or sample=COL),gyro_x=COL,…[,acc_x=COL,…]")
     s.add_argument(
         "--rotations", metavar="SPEC|FILE", help="csv, gyro only (no acc_<c>): the turns, x:360,y:360,z:360 or a file"

@@ -425,7 +425,7 @@ def cmd_import(args) -> int:
         gyro_unit=args.gyro_unit,
         gyro_counts_per_dps=args.gyro_scale,
         latitude_deg=args.latitude,
-        gravity_mps2=9.81 if args.gravity is None else args.gravity,
+        gravity_mps2=args.gravity,
         name=args.name,
         instrument_id=args.id,
     )

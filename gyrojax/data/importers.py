@@ -43,6 +43,7 @@ from gyrojax.data.record import Record
 from gyrojax.data.segments import MIN_REST_S
 from gyrojax.data.triad import CHANNELS, TRIAD_KIND, validate_triad_columns, validate_triad_meta
 from gyrojax.errors import RecordError
+from gyrojax.physics.frames import site_gravity
 
 FERRARIS_FACES = {
     "x_p": (0, 1.0),
@@ -81,13 +82,14 @@ def triad_meta(
     segments: list,
     *,
     latitude_deg=None,
-    gravity_mps2: float = 9.81,
+    gravity_mps2: float | None = None,
     counts_per_dps=None,
     notes: str = "",
     instrument_id: str | None = None,
     extra: dict | None = None,
 ) -> dict:
     """The JSON of a triad record (:mod:`gyrojax.data.triad`)."""
+    gravity_mps2 = site_gravity(latitude_deg) if gravity_mps2 is None else float(gravity_mps2)
     inst = {"kind": TRIAD_KIND, "channels": list(CHANNELS)}
     if instrument_id is not None:
         inst["id"] = instrument_id
@@ -96,7 +98,7 @@ def triad_meta(
     meta = {
         "format": FORMAT,
         "name": name,
-        "site": {"latitude_deg": latitude_deg, "gravity_mps2": float(gravity_mps2)},
+        "site": {"latitude_deg": latitude_deg, "gravity_mps2": gravity_mps2},
         "instrument": inst,
         "earth_rate": True,
         "segments": segments,
@@ -200,7 +202,7 @@ def import_imucal(
     angle_deg: float = 360.0,
     angle_std_deg: float = 0.0,
     latitude_deg: float | None = None,
-    gravity_mps2: float = 9.81,
+    gravity_mps2: float | None = None,
     delimiter: str | None = None,
     name: str | None = None,
     instrument_id: str | None = None,
@@ -223,6 +225,7 @@ def import_imucal(
     Returns: the record (not yet saved); accelerometer calibrated by :func:`ferraris_accelerometer` (in any unit);
     ``meta["import"]`` says what was read (sections, notes).
     """
+    gravity_mps2 = site_gravity(latitude_deg) if gravity_mps2 is None else float(gravity_mps2)
     import pandas as pd
 
     notes: list[str] = []
@@ -338,7 +341,7 @@ def triad_from_arrays(
     acc_g_per_count: float | None = None,
     acc_bias0=None,
     latitude_deg: float | None = None,
-    gravity_mps2: float = 9.81,
+    gravity_mps2: float | None = None,
     min_rest_s: float = MIN_REST_S,
     static_threshold: float | None = None,
     name: str = "imu",
@@ -358,6 +361,7 @@ def triad_from_arrays(
     checked (:func:`gyrojax.data.door.check_rest_gyro`) and ``meta["import"]`` reports the clock (``clock``, from
     :func:`gyrojax.data.logs.log_clock`), the channels' ranges, the rests found, the candidates dropped and why,
     and the notes (``notes``: earlier ones to keep)."""
+    gravity_mps2 = site_gravity(latitude_deg) if gravity_mps2 is None else float(gravity_mps2)
     from gyrojax.data import restlog
     from gyrojax.data.door import channel_ranges, check_rest_gyro
     from gyrojax.data.segments import detect_rests

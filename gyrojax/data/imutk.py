@@ -53,7 +53,7 @@ def import_imutk(
     acc_g_per_count: float | None = None,
     acc_bias0=None,
     latitude_deg: float | None = None,
-    gravity_mps2: float = 9.81,
+    gravity_mps2: float | None = None,
     min_rest_s: float = MIN_REST_S,
     static_threshold: float | None = None,
     name: str | None = None,

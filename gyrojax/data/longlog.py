@@ -25,6 +25,7 @@ from gyrojax.data.segments import WINDOW_S, default_threshold, window_samples
 from gyrojax.data.stream import CHUNK_ROWS, Progress
 from gyrojax.data.triad import CHANNELS
 from gyrojax.errors import RecordError
+from gyrojax.physics.frames import site_gravity
 
 _POW10 = 10 ** np.arange(19, dtype=np.int64)
 
@@ -162,7 +163,7 @@ def import_long_csv(
     time_unit: str | None = None,
     delimiter: str | None = None,
     latitude_deg: float | None = None,
-    gravity_mps2: float = 9.81,
+    gravity_mps2: float | None = None,
     min_rest_s: float = 0.5,
     name: str | None = None,
     instrument_id: str | None = None,
@@ -171,6 +172,7 @@ def import_long_csv(
 ) -> Path:
     """Import a rest log too long to hold (module doc) into ``out_dir``; returns the record's JSON path. Options
     as :func:`gyrojax.data.importers.import_csv`; a sample counter (``sample``) is not taken here."""
+    gravity_mps2 = site_gravity(latitude_deg) if gravity_mps2 is None else float(gravity_mps2)
     from gyrojax.data.importers import gyro_record_columns, triad_meta
     from gyrojax.data.records import record_paths
     from gyrojax.data.restlog import REST_LOG_COVERAGE, SAME_ORIENTATION_DEG, rest_accelerometer

@@ -145,7 +145,8 @@ class TriadFit(Estimates):
                 "S": m["S"].tolist(),
                 "G_deg_per_h_per_g": m["G"].tolist(),
                 "imucal": {
-                    "model": "raw = K_g R_g omega + K_ga a + b_g (omega deg/s, a m/s^2 with grav 9.81, raw counts); "
+                    "model": "raw = K_g R_g omega + K_ga a + b_g (omega deg/s, a m/s^2 with grav "
+                    f"{tp.IMUCAL_GRAVITY:g}, raw counts); "
                     "R_g for imucal's default expected_angle -360",
                     "counts_per_dps": k,
                     **{key: np.asarray(v).tolist() for key, v in ic.items() if key.startswith(("K", "R", "b"))},
