@@ -20,7 +20,7 @@ from gyrojax.data.records import load_records
 from gyrojax.data.segments import detect_rests
 from gyrojax.errors import RecordError
 from gyrojax.inference.triad import fit_triad
-from gyrojax.physics.frames import site_gravity
+from gyrojax.physics.gravity import site_gravity
 from gyrojax.simulation.triad import simulate_multiposition
 
 from .conftest import IMUCAL

@@ -43,7 +43,7 @@ from gyrojax.data.record import Record
 from gyrojax.data.segments import MIN_REST_S
 from gyrojax.data.triad import CHANNELS, TRIAD_KIND, validate_triad_columns, validate_triad_meta
 from gyrojax.errors import RecordError
-from gyrojax.physics.frames import site_gravity
+from gyrojax.physics.gravity import site_gravity
 
 FERRARIS_FACES = {
     "x_p": (0, 1.0),
@@ -524,7 +524,8 @@ six sensor channels."""
 
 def check_mapping(mapping: dict, time_unit: str | None) -> tuple[str | None, list]:
     """The column mapping of :func:`import_csv` checked (keys, the gyro's three, the accelerometer's three or none,
-    one time key, a time unit only with a time column): (the time column or None, the accelerometer keys)."""
+    one time key, a time unit — s, ms, us or ns — only with a time column): (the time column or None, the
+    accelerometer keys)."""
     unknown = sorted(set(mapping) - set(CSV_KEYS))
     if unknown:
         raise RecordError(f"column mapping: unknown keys {unknown}; valid: {', '.join(CSV_KEYS)}")

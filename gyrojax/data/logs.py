@@ -144,7 +144,7 @@ def read_mat(path) -> dict:
 def mat_table(path):
     """A MATLAB file as a table: each vector variable a column of its name, each matrix variable of k columns the
     columns ``NAME:1`` … ``NAME:k`` (samples along the longer side), all of one length; each scalar a line of the
-    preamble, ``NAME = value`` (``fs = 100`` states the rate, :func:`preamble_rate`)."""
+    preamble, ``NAME = value`` (``fs = 100`` states the rate in Hz, :func:`preamble_rate`)."""
     import pandas as pd
 
     cols, preamble = {}, []
@@ -289,8 +289,8 @@ are 32 kHz). A clock outside this range comes from a wrong unit (a time column i
 
 
 def unit_hint(ratio: float, time_column: bool) -> str:
-    """The flag a rate ``ratio`` = stated / from the clock points to: 10³, 10⁶, 10⁹ (or their inverses) a time
-    unit, anything else the stated rate."""
+    """The flag a rate ``ratio`` = stated / from the clock (Hz over Hz, dimensionless) points to: 10³, 10⁶, 10⁹ (or
+    their inverses) a time unit, anything else the stated rate."""
     for k, unit in ((1e3, "ms"), (1e6, "us"), (1e9, "ns")):
         for r, word in ((k, f"is the time column in {unit} (--time-unit {unit})?"), (1 / k, "is --time-unit right?")):
             if abs(ratio / r - 1.0) < 0.05 and time_column:

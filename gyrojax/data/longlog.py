@@ -25,7 +25,7 @@ from gyrojax.data.segments import WINDOW_S, default_threshold, window_samples
 from gyrojax.data.stream import CHUNK_ROWS, Progress
 from gyrojax.data.triad import CHANNELS
 from gyrojax.errors import RecordError
-from gyrojax.physics.frames import site_gravity
+from gyrojax.physics.gravity import site_gravity
 
 _POW10 = 10 ** np.arange(19, dtype=np.int64)
 
@@ -171,7 +171,8 @@ def import_long_csv(
     rows_hint: int = 0,
 ) -> Path:
     """Import a rest log too long to hold (module doc) into ``out_dir``; returns the record's JSON path. Options
-    as :func:`gyrojax.data.importers.import_csv`; a sample counter (``sample``) is not taken here."""
+    as :func:`gyrojax.data.importers.import_csv` (``time_unit`` s, ms, us or ns); a sample counter (``sample``) is
+    not taken here."""
     gravity_mps2 = site_gravity(latitude_deg) if gravity_mps2 is None else float(gravity_mps2)
     from gyrojax.data.importers import gyro_record_columns, triad_meta
     from gyrojax.data.records import record_paths

@@ -80,7 +80,8 @@ def count_rows(csv_path) -> int:
 
 
 def csv_chunks(csv_path: Path, columns: list[str], rows: int | None = None):
-    """(first row's file line, {column: float array}) of a record CSV, ``rows`` rows at a time (default
+    """(first row's file line, {column: float array in the record's units}) of a record CSV (times in s), ``rows``
+    rows at a time (default
     :data:`CHUNK_ROWS`): only ``columns`` parsed; a cell that is not a finite number is a :class:`RecordError` naming
     its row and column."""
     import pandas as pd
@@ -136,7 +137,8 @@ def _name_bad_cell(csv_path, columns, frames) -> None:
 
 @dataclass
 class Piece:
-    """One continuous static piece of a streamed record: its accumulator, clock and length."""
+    """One continuous static piece of a streamed record: its accumulator, clock (``t_first``, ``t_last``, the
+    smallest and largest step ``dt_min``, ``dt_max``: s) and length (samples)."""
 
     allan: OctaveAllan | None = None
     t_first: float = 0.0
@@ -148,6 +150,7 @@ class Piece:
     channels: list = field(default_factory=list)
 
     def feed(self, t: np.ndarray, y: np.ndarray, nominal_dt: float) -> None:
+        """Add the next samples of the piece (times ``t`` s, rows of ``y``; ``nominal_dt`` s, the record's step)."""
         if self.n == 0:
             self.t_first = float(t[0])
             self.allan = OctaveAllan(nominal_dt, y.shape[1])

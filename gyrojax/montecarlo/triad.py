@@ -48,7 +48,7 @@ from gyrojax.inference.triad_rows import move_residual, pack_moves, pack_segment
 from gyrojax.montecarlo.study import Study, StudyError, parse_prior
 from gyrojax.physics import effects as fx
 from gyrojax.physics import triad as tp
-from gyrojax.physics.frames import site_gravity
+from gyrojax.physics.gravity import site_gravity
 from gyrojax.simulation.triad import simulate_ferraris, simulate_multiposition
 from gyrojax.simulation.triad_session import simulate_session
 

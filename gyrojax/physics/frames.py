@@ -1,15 +1,13 @@
 """The local level frame L (ENU) at the test site: Earth rate, gravity and specific force (conventions §2).
 
-All functions but :func:`site_gravity` are pure JAX and differentiable in the latitude.
+All functions are pure JAX and differentiable in the latitude (a site's gravity as a number without JAX:
+:mod:`gyrojax.physics.gravity`).
 """
 
-import functools
-import math
-
-import jax
 import jax.numpy as jnp
 
 from gyrojax import units
+from gyrojax.physics.gravity import somigliana
 
 
 def earth_rate_enu(latitude_rad):
@@ -18,23 +16,9 @@ def earth_rate_enu(latitude_rad):
 
 
 def normal_gravity(latitude_rad):
-    """WGS-84 normal gravity on the ellipsoid (height 0), m/s², Somigliana's closed form.
-
-    γ(φ) = γ_e (1 + k sin²φ) / √(1 − e² sin²φ)   (NIMA TR8350.2 eq. 4-1).
-    """
-    s2 = jnp.sin(latitude_rad) ** 2
-    return units.WGS84_GAMMA_E * (1.0 + units.WGS84_K * s2) / jnp.sqrt(1.0 - units.WGS84_E2 * s2)
-
-
-@functools.lru_cache(maxsize=64)
-def site_gravity(latitude_deg: float | None) -> float:
-    """|g| at a site of ``latitude_deg`` (deg) where no gravity is stated, m/s²: WGS-84 normal gravity at the latitude,
-    height 0 (:func:`normal_gravity`; conventions §2); standard gravity g0 when the latitude is unknown (None), within
-    0.3 % of every site's."""
-    if latitude_deg is None:
-        return units.G0
-    with jax.ensure_compile_time_eval():  # a number, also where a caller is being traced
-        return float(normal_gravity(math.radians(latitude_deg)))
+    """WGS-84 normal gravity on the ellipsoid (height 0), m/s², at ``latitude_rad`` (rad):
+    :func:`gyrojax.physics.gravity.somigliana` of sin²φ, traced."""
+    return somigliana(jnp.sin(latitude_rad) ** 2)
 
 
 def specific_force_enu(gravity_mps2):

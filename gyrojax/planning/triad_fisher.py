@@ -44,7 +44,7 @@ from gyrojax.errors import ModelError
 from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics import so3
 from gyrojax.physics import triad as tp
-from gyrojax.physics.frames import site_gravity
+from gyrojax.physics.gravity import site_gravity
 from gyrojax.planning.fisher import information
 from gyrojax.simulation.triad import rotation_matrix
 
@@ -59,7 +59,7 @@ class TriadNoise:
     """What the design assumes about the session: the gyro's angle random walk ``arw`` (deg/√h, each channel), the
     accelerometer's white noise ``acc_noise_g`` (g per sample at ``rate_hz``), the site (``latitude_deg`` None:
     unknown to the fit, as in most hand calibrations; ``earth_rate`` False: no Earth rate; ``gravity_mps2`` None: the
-    site's, :func:`gyrojax.physics.frames.site_gravity`) and the hand's ``placement_deg`` (σ of each placement about
+    site's, :func:`gyrojax.physics.gravity.site_gravity`) and the hand's ``placement_deg`` (σ of each placement about
     each body axis, deg)."""
 
     arw: float = 1.2

@@ -21,7 +21,7 @@ from gyrojax import units
 from gyrojax.data.importers import triad_meta
 from gyrojax.data.record import Record
 from gyrojax.physics import triad as tp
-from gyrojax.physics.frames import site_gravity
+from gyrojax.physics.gravity import site_gravity
 
 FACES = (("x_p", 0, 1.0), ("x_a", 0, -1.0), ("y_p", 1, 1.0), ("y_a", 1, -1.0), ("z_p", 2, 1.0), ("z_a", 2, -1.0))
 

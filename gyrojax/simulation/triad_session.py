@@ -32,7 +32,7 @@ from gyrojax.data.importers import triad_meta
 from gyrojax.data.record import Record
 from gyrojax.errors import ModelError
 from gyrojax.physics import triad as tp
-from gyrojax.physics.frames import site_gravity
+from gyrojax.physics.gravity import site_gravity
 from gyrojax.simulation.triad import rotation_matrix, sensor_columns, turn_samples
 
 STEP_TYPES = ("rest", "move", "turn", "reorient")
