@@ -260,3 +260,17 @@ def test_power_up_step_is_proposed_and_closes(built):
     assert d["proposal"] == "bias_turn_on", d["proposal"]
     after = rc.gyrojax_json(paths, itw.MODEL + ("bias_turn_on",))
     assert after["verdict"] == "adequate" and after["proposal"] is None
+
+
+def test_a_proposal_holds_beside_the_stronger_step(built):
+    """Two power-ups with a 60 deg/h step on y: the reference finds no trend beside the step (its LM below the
+    first Holm step of the family), so no trend may be proposed; every trend gyrojax finds significant alone is
+    marked as not holding beside the stronger bias_turn_on[y]."""
+    case, paths = rc.CASES["power-up-step"], built["power-up-step"][0]
+    ref = rc.reference(case, paths)
+    assert max(ref["trend_beside_step_lm"].values()) < stats.chi2.isf(ALPHA / FAMILY, 1), ref["trend_beside_step_lm"]
+    d = rc.gyrojax_json(paths, itw.MODEL)
+    assert d["candidates"][0]["name"] == "bias_turn_on[y]"
+    assert d["proposal"] != "bias_trend", d["proposal"]
+    trends = [c for c in d["candidates"] if c["name"].startswith("bias_trend") and c["p_adjusted"] < ALPHA]
+    assert all("beside bias_turn_on[y]" in (c["refused"] or "") for c in trends), trends
