@@ -16,10 +16,10 @@ Subcommands:
   being checked against V in tests/test_real_noise.py), the rate at which the reference itself finds a trend when
   it assumes independent scatter on a walk, and with ``--gyrojax`` the rate of deterministic proposals by gyrojax's
   diagnosis (written records, one diagnosis per draw). Rates with Clopper–Pearson 95 % intervals.
-* ``walk-nulls [--draws 100] [--workers 1] [--full-size] [--drifts steps,rrw,scatter]``: gyrojax's rate of deterministic proposals on triad nulls
-  whose bias walks (steps at each move; a rate random walk) and on the independent scatter, the rate at which it
-  names the walk, and how often it says a candidate cannot be told from the walk (small sessions of 16 rests
-  unless ``--full-size``).
+* ``walk-nulls [--draws 100] [--workers 1] [--full-size] [--drifts steps,rrw,scatter]``: gyrojax's rate of
+  deterministic proposals on triad nulls whose bias walks (steps at each move; a rate random walk) and on the
+  independent scatter, the rate at which it names the walk, and how often it says a candidate cannot be told from
+  the walk (small sessions of 16 rests unless ``--full-size``).
 
 Run: python -m benchmarks.study_real_noise reference | power | baseline | nulls | walk-nulls [options]
 """
