@@ -146,15 +146,20 @@ def walk_covariance(groups, offsets) -> np.ndarray:
     return out
 
 
-def _dense_objective_and_gradient(st: _Dense, tau2: dict, col_scale, kinds=(), rank_tol: float = 1e-10):
-    """:func:`_objective_and_gradient` on the dense covariance: P = L⁻ᵀ (I − UUᵀ) L⁻¹, the same Harville (4.8)."""
-    e, x, logdet, inv = st.whiten(tau2)
+def _restricted(e, x, logdet: float, col_scale, rank_tol: float):
+    """(−2ℓ_R, the whitened residual off X's seen columns, their orthonormal basis U) from the whitened residual
+    ``e``, columns ``x`` (scaled by ``col_scale``) and log|V|: log|V| + log|XᵀV⁻¹X| + |(I − UUᵀ) e|²."""
     u, s, _ = np.linalg.svd(x / col_scale, full_matrices=False)
     keep = s > rank_tol * s[0]
     uk = u[:, keep]
     proj = uk.T @ e
-    e_perp = e - uk @ proj
-    value = logdet + 2.0 * float(np.log(s[keep]).sum()) + float(e @ e - proj @ proj)
+    return logdet + 2.0 * float(np.log(s[keep]).sum()) + float(e @ e - proj @ proj), e - uk @ proj, uk
+
+
+def _dense_objective_and_gradient(st: _Dense, tau2: dict, col_scale, kinds=(), rank_tol: float = 1e-10):
+    """:func:`_objective_and_gradient` on the dense covariance: P = L⁻ᵀ (I − UUᵀ) L⁻¹, the same Harville (4.8)."""
+    e, x, logdet, inv = st.whiten(tau2)
+    value, e_perp, uk = _restricted(e, x, logdet, col_scale, rank_tol)
     if not kinds:
         return value, {}
     pr = inv.T @ e_perp
@@ -172,12 +177,7 @@ def _objective_and_gradient(st: _Stacked, tau2: dict, col_scale, kinds=(), rank_
     P = V⁻¹ − V⁻¹X(XᵀV⁻¹X)⁺XᵀV⁻¹ (on X's seen subspace) and Z_k the rows of component k,
     ∂(−2ℓ_R)/∂τ_k² = tr(P Z_k) − rᵀ P Z_k P r (Harville 1977, eq. 4.8), summed over the groups of kind k."""
     e, x, logdet, lows = st.whiten(tau2)
-    u, s, _ = np.linalg.svd(x / col_scale, full_matrices=False)
-    keep = s > rank_tol * s[0]
-    uk = u[:, keep]
-    proj = uk.T @ e
-    e_perp = e - uk @ proj
-    value = logdet + 2.0 * float(np.log(s[keep]).sum()) + float(e @ e - proj @ proj)
+    value, e_perp, uk = _restricted(e, x, logdet, col_scale, rank_tol)
     grad = dict.fromkeys(kinds, 0.0)
     for b, low in zip(st.blocks, lows):
         inv_t = np.swapaxes(np.linalg.inv(low), 1, 2)  # L⁻ᵀ of each group
