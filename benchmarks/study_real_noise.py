@@ -16,8 +16,12 @@ Subcommands:
   being checked against V in tests/test_real_noise.py), the rate at which the reference itself finds a trend when
   it assumes independent scatter on a walk, and with ``--gyrojax`` the rate of deterministic proposals by gyrojax's
   diagnosis (written records, one diagnosis per draw). Rates with Clopper–Pearson 95 % intervals.
+* ``walk-nulls [--draws 100] [--workers 1] [--full-size] [--drifts steps,rrw,scatter]``: gyrojax's rate of
+  deterministic proposals on triad nulls whose bias walks (steps at each move; a rate random walk) and on the
+  independent scatter, the rate at which it names the walk, and how often it says a candidate cannot be told from
+  the walk (small sessions of 16 rests unless ``--full-size``).
 
-Run: python -m benchmarks.study_real_noise reference | power | baseline | nulls [options]
+Run: python -m benchmarks.study_real_noise reference | power | baseline | nulls | walk-nulls [options]
 """
 
 from __future__ import annotations
@@ -176,6 +180,52 @@ def _gyrojax_null_rates(draws) -> None:
         print(f"gyrojax, {name}: a deterministic proposal {rate}{found}, {time.time() - t0:.0f} s")
 
 
+WALK_SMALL = {"poses": 16, "rest_s": 1.0, "move_s": 1.0, "rate_hz": 50.0}  # tests/test_real_noise.py's SMALL
+WALKS = (("steps", rc.STEP_DPH), ("rrw", rc.STEP_DPH * np.sqrt(3600.0 / 2.2)), ("scatter", rc.STEP_DPH))
+
+
+def _walk_draw(job):
+    """One triad null with walking drift (in a worker; written by the writer and read as a user would): (drift, seed,
+    proposal, named noise, a candidate marked indistinguishable from the walk)."""
+    import gyrojax as gj
+    from tests import independent_triad_writer as itw
+
+    drift, size, seed, small = job
+    kw = WALK_SMALL if small else {"rest_s": rc.REST_S, "move_s": rc.MOVE_S}
+    recs, _ = itw.hand_session_records(seed, drift=drift, drift_size=size, **kw)
+    with tempfile.TemporaryDirectory() as folder, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        d = gj.diagnose(gj.load_records(itw.write(folder, recs)), itw.MODEL)
+    drifting = any("bias_random_walk" in c.indistinguishable for c in d.candidates)
+    return drift, seed, d.proposal, [c.name for c in d.noise_processes], drifting
+
+
+def walk_nulls(draws, workers, small, drifts=None) -> None:
+    """gyrojax's deterministic proposals on triad nulls whose bias walks between rests (steps at each move, a rate
+    random walk) and on the independent scatter, drawn in memory by the independent writer; bounded worker
+    processes (a few draws each, then replaced)."""
+    import multiprocessing as mp
+
+    walks = [(d, size) for d, size in WALKS if drifts is None or d in drifts]
+    jobs = [(drift, size, 30_000 + i, small) for drift, size in walks for i in range(draws)]
+    t0 = time.time()
+    with mp.get_context("spawn").Pool(workers, maxtasksperchild=10) as pool:
+        out = []
+        for o in pool.imap_unordered(_walk_draw, jobs):
+            out.append(o)
+            if len(out) % 20 == 0:
+                print(f"  {len(out)}/{len(jobs)} draws, {time.time() - t0:.0f} s", flush=True)
+    print(f"{'small' if small else 'full-size'} sessions, {draws} draws per drift, {time.time() - t0:.0f} s")
+    for drift, _size in walks:
+        rows = [o for o in out if o[0] == drift]
+        props = [o[2] for o in rows if o[2]]
+        walk = sum("bias_random_walk" in o[3] for o in rows)
+        near = sum(o[4] for o in rows)
+        found = f" ({', '.join(sorted(set(props)))})" if props else ""
+        print(f"gyrojax, {drift}: a deterministic proposal {interval(len(props), len(rows))}{found}")
+        print(f"  bias_random_walk named {interval(walk, len(rows))}; a candidate indistinguishable from it {near}")
+
+
 def nulls(draws, with_gyrojax) -> None:
     t0 = time.time()
     _triad_null_rates(draws)
@@ -197,6 +247,11 @@ def main(argv=None) -> None:
     n = sub.add_parser("nulls")
     n.add_argument("--draws", type=int, default=200)
     n.add_argument("--gyrojax", action="store_true", help="also gyrojax's proposal rate (slow: a diagnosis a draw)")
+    w = sub.add_parser("walk-nulls")
+    w.add_argument("--draws", type=int, default=100)
+    w.add_argument("--workers", type=int, default=1)
+    w.add_argument("--full-size", action="store_true", help="the cases' own rests and moves (slower)")
+    w.add_argument("--drifts", type=lambda s: s.split(","), default=None, help="steps,rrw,scatter (default: all)")
     args = ap.parse_args(argv)
     if args.cmd == "reference":
         reference(args.seeds)
@@ -204,6 +259,8 @@ def main(argv=None) -> None:
         power()
     elif args.cmd == "baseline":
         baseline(args.seeds, args.cases)
+    elif args.cmd == "walk-nulls":
+        walk_nulls(args.draws, args.workers, not args.full_size, args.drifts)
     else:
         nulls(args.draws, args.gyrojax)
 

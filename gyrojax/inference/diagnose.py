@@ -15,8 +15,10 @@ are. The loop itself is the same for all:
    (:func:`gyrojax.inference.scoring.holm_log10`); the verdict is ``missing-effect`` when any adjusted p-value is
    below α (:data:`gyrojax.inference.scoring.ALPHA` by default).
 4. **Proposal** (:func:`propose`): the significant candidates in rank order, each refitted exactly as the fit would
-   add it, the first that the fit accepts and whose size is plausible; where instruments differ in this walk, the
-   plug-in's :class:`~gyrojax.inference.instrument.Rules` say how.
+   add it, the first that the fit accepts, whose size is plausible and that holds — still significant beside every
+   stronger significant candidate (refused ones included) and every significant unexplained shape
+   (:func:`does_not_hold`); where instruments differ in this walk, the plug-in's
+   :class:`~gyrojax.inference.instrument.Rules` say how.
 5. **Noise processes** beyond the fit's noise model (colour, a bias scatter between poses …), tested by likelihood
    ratio and never proposed.
 
@@ -43,12 +45,14 @@ MAX_NOISE_ROUNDS = 4
 """Rounds of the forward selection of the noise model at most."""
 
 
-def session(records, terms=None, *, candidates=None, result=None, campaign=None, earth_rate=None, model_free=True):
+def session(
+    records, terms=None, *, candidates=None, result=None, campaign=None, earth_rate=None, model_free=True, alpha=ALPHA
+):
     """The plug-in of the records' instrument at the fit ``result`` (default: the fit of ``terms``; ``earth_rate`` as
-    the triad fit takes it, a bool: dimensionless); an option the instrument has no use for is refused, never
-    dropped."""
+    the triad fit takes it, a bool: dimensionless; ``alpha`` the level of the noise processes it whitens with); an
+    option the instrument has no use for is refused, never dropped."""
     if campaign is None and is_triad_input(records):
-        return TriadSession.of(records, terms, result, candidates, earth_rate, model_free)
+        return TriadSession.of(records, terms, result, candidates, earth_rate, model_free, alpha)
     if earth_rate is not None:
         raise ModelError(
             "earth_rate applies to imu-triad records; the Earth rate of a turntable record follows its site "
@@ -102,6 +106,7 @@ def diagnose(
         campaign=campaign,
         earth_rate=earth_rate,
         model_free=model_free,
+        alpha=alpha,
     )
     rnd, taken = select_noise(s, alpha)
 
@@ -127,14 +132,14 @@ def diagnose(
         unexplained = sorted(
             [x for x, a in zip(shapes, adj[len(live) :]) if a < math.log10(alpha)], key=lambda x: x.log10_p
         )
-        proposal, tested = propose(s, rnd, tested, significant, alpha, plausible, vet, near)
+        family = len(live) + len(shapes)
+        proposal, tested = propose(s, rnd, tested, significant, alpha, plausible, vet, near, (unexplained, family))
         barred = {n for n in significant if tested[n].refused or tested[n].implausible}
         if not barred & set(explaining):
             break
         explaining = [n for n in explaining if n not in barred]
 
     verdict = "missing-effect" if significant or unexplained else "adequate"
-    family = len(live) + len(shapes)
     noise = s.noise_processes(rnd, taken, alpha)
     ranked_c = s.finish(rnd, [tested[n] for n in ranked], significant, family, alpha, noise, suggest_tests)
     chi2, dof = s.components_chi2(rnd)
@@ -157,9 +162,14 @@ def select_noise(s, alpha: float) -> tuple:
     return rnd, taken
 
 
-def propose(s, rnd, tested: dict, significant: list, alpha: float, plausible, vet: bool, near: dict):
+def propose(s, rnd, tested: dict, significant: list, alpha: float, plausible, vet: bool, near: dict, held=((), 1)):
     """The proposal and the candidates after the walk (module doc, step 4): (effect to add or None, ``tested`` with
     each significant candidate's near-aliases, refusal, refit and plausibility set).
+
+    A proposal must hold: ``held`` = (the significant unexplained shapes, the family size); a candidate is proposed
+    only when its score test beside every stronger significant candidate (refused and implausible ones included)
+    and every such shape (:meth:`~gyrojax.inference.instrument.Session.beside`) stays significant at the family's
+    first Holm step, α / m; else it is marked ``refused`` with the names that explain it.
 
     For the significant candidates in rank order: their near-aliases (``indistinguishable``, kept in ``near`` across
     the rounds of one diagnosis); a refit with the candidate added, exactly as the fit would add it, so that a
@@ -182,7 +192,7 @@ def propose(s, rnd, tested: dict, significant: list, alpha: float, plausible, ve
         eligible = not (rules.skip_aliased and c.aliases) and not (rules.plausible_before_refit and c.implausible)
         budget = rules.refit_budget is None or refits < rules.refit_budget
         if proposal is None and eligible and c.refused is None and c.refit is None:
-            why = s.no_term(c)
+            why = s.no_term(c) or does_not_hold(s, rnd, c, significant[: significant.index(n)], held, alpha)
             if why is not None:
                 c = replace(c, refused=why)
             elif vet and budget:
@@ -201,6 +211,19 @@ def propose(s, rnd, tested: dict, significant: list, alpha: float, plausible, ve
         if n not in significant and c.df > 0:
             out[n] = replace(c, implausible=s.implausible(c, plausible))
     return proposal, out
+
+
+def does_not_hold(s, rnd, c, stronger: list, held: tuple, alpha: float) -> str | None:
+    """Why candidate ``c`` is not significant beside the ``stronger`` candidates and the unexplained shapes of
+    ``held`` (:func:`propose`), or None when it holds (or the plug-in cannot tell)."""
+    shapes, family = held
+    if not stronger and not shapes:
+        return None
+    log10_p = s.beside(rnd, c.name, stronger, list(shapes))
+    if log10_p is None or log10_p + math.log10(max(family, 1)) < math.log10(alpha):
+        return None
+    what = ", ".join([*stronger, *(x.name for x in shapes)])
+    return f"not significant beside {what} (p {10.0**log10_p:.2g} before adjustment): they explain it"
 
 
 def fit_with(d: Diagnosis, records, effect: str | None = None, campaign: Campaign | None = None, earth_rate=None):

@@ -59,6 +59,12 @@ class Session:
         """The candidates each of ``names`` cannot be told from at level ``alpha`` (none by default)."""
         return {}
 
+    def beside(self, rnd, name: str, stronger: list, shapes: list):
+        """log10 p of the score test (:func:`gyrojax.inference.scoring.score_beside`) of candidate ``name`` beside the
+        candidates ``stronger`` and the :class:`~gyrojax.inference.verdict.Structure` s ``shapes`` (0: nothing of it
+        is left beside them), or None where the instrument cannot form it (the candidate is then judged alone)."""
+        return None
+
     def no_term(self, c: Candidate) -> str | None:
         """Why the fit has no term for ``c``'s effect, or None when it has."""
         return None

@@ -143,6 +143,15 @@ def score_tests(r: np.ndarray, j0: np.ndarray, xs: list) -> ScoreTests:
     return ScoreTests(scores, sigma2, dof)
 
 
+def score_beside(r: np.ndarray, j0: np.ndarray, x: np.ndarray, others: list) -> Score | None:
+    """The score test (F law) of ``x`` beside the model's columns ``j0`` and the regressors ``others`` (stronger
+    candidates, unexplained shapes), all whitened alike, σ̃² after them all: whether a candidate still holds when
+    what explains the residual better is in the model. None when X has no direction beside them."""
+    u = basis(np.column_stack([j0, *others])) if others else basis(j0)
+    r_perp, sigma2, dof = residual_variance(u, r)
+    return score(u, r_perp, x, sigma2, dof)
+
+
 def rms_after(r_raw: np.ndarray, j0_raw: np.ndarray, x_raw: np.ndarray, s: Score) -> float:
     """The RMS of the raw residual ``r_raw`` after adding the candidate with its one-step estimate: the candidate's
     raw regressors ``x_raw`` less the model's fit to them, multiplied by β̂ (in units of the residual: deg/h for

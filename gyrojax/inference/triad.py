@@ -420,7 +420,8 @@ def components_report(tau2: dict, s_mat=None) -> dict:
     """The REML components as standard deviations in report units (empty when none were estimated). The per-pose
     bias scatter τ_b is estimated in indicated units (τ_b² I₃ on each pose's rows); reported in calibrated deg/h,
     the rms over the body axes of S⁻¹ τ_b² S⁻ᵀ (τ_b √(tr(S⁻¹ S⁻ᵀ)/3) at the fitted S: independent of the nominal
-    scale given at import), and as estimated, ``pose_bias_scatter_indicated_deg_per_h``."""
+    scale given at import), and as estimated, ``pose_bias_scatter_indicated_deg_per_h``; the bias walk τ_w likewise,
+    per √pose."""
     out = {}
     if "pose" in tau2:
         s_inv = np.linalg.inv(np.eye(3) if s_mat is None else np.asarray(s_mat))
@@ -429,6 +430,10 @@ def components_report(tau2: dict, s_mat=None) -> dict:
         out["pose_bias_scatter_indicated_deg_per_h"] = tau
     if "move" in tau2:
         out["move_angle_noise_deg"] = float(np.degrees(np.sqrt(tau2["move"])))
+    if "walk" in tau2:  # calibrated as the scatter is (SessionNoise.bias_walk)
+        s_inv = np.linalg.inv(np.eye(3) if s_mat is None else np.asarray(s_mat))
+        tau = float(np.sqrt(tau2["walk"]))
+        out["bias_walk_deg_per_h_per_sqrt_pose"] = tau * float(np.sqrt(np.trace(s_inv @ s_inv.T) / 3.0))
     return out
 
 
@@ -476,22 +481,26 @@ def _segment_covs(segments, q, s_mat) -> np.ndarray:
     return (q / n[:, None])[:, :, None] * np.eye(3) + s_mat @ extra @ s_mat.T
 
 
-def component_groups(segments, e, jac, q, s_mat, moves_at, move_w, extra=()) -> list:
+def component_groups(segments, e, jac, q, s_mat, moves_at, move_w, extra=(), walk=None) -> list:
     """The rows of a fit at θ as :class:`~gyrojax.inference.triad_components.Group` s, natural units: each
     segment's 3 rows (``e`` = y − f(θ), deg/h, and ``jac``; static poses carry the bias-scatter component), each
     move's 2 direction rows (``moves_at``: the whitened rows and Jacobian of :func:`gyrojax.inference.triad_rows.
     move_rows` at θ with the whitening ``move_w``, the angle noise component). ``extra``: more regressors as
-    (segment rows (3m, k), move rows (M, 3, k)) pairs, beside the Jacobian."""
+    (segment rows (3m, k), move rows (M, 3, k)) pairs, beside the Jacobian. ``walk``: (each segment's clock, each
+    move's clock, each move's (3, 3) change per deg/h of each channel's bias) where a bias walk is estimated."""
     groups = []
     covs = _segment_covs(segments, q, s_mat)
+    seg_clock, move_clock, move_bias = walk if walk is not None else (None, None, None)
     for i, seg in enumerate(segments):
         sl = slice(3 * i, 3 * i + 3)
         j = np.column_stack([jac[sl]] + [sg[sl] for sg, _ in extra])
-        groups.append(Group(covs[i], e[sl], j, "pose" if seg.kind == "static" else ""))
+        step = None if walk is None else float(seg_clock[i])
+        groups.append(Group(covs[i], e[sl], j, "pose" if seg.kind == "static" else "", step))
     rows, jrows = moves_at  # whitened by σ_k: natural units are σ_k times them
     for k, (p, sd) in enumerate(move_w):
         j = np.column_stack([sd * jrows[2 * k : 2 * k + 2]] + [p.T @ mv[k] for _, mv in extra])
-        groups.append(Group(sd**2 * np.eye(2), sd * rows[2 * k : 2 * k + 2], j, "move"))
+        step, bias_rows = (None, None) if walk is None else (float(move_clock[k]), p.T @ move_bias[k])
+        groups.append(Group(sd**2 * np.eye(2), sd * rows[2 * k : 2 * k + 2], j, "move", step, bias_rows))
     return groups
 
 

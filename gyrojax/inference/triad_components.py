@@ -6,7 +6,11 @@ bias of a MEMS gyro moves a little between poses (turn-on-to-turn-on and thermal
 with one variance each, added to the covariance of the segment groups:
 
 * every static pose's 3 rows: + τ_b² I₃ ((deg/h)², the per-pose bias scatter, indicated units);
-* every move's 2 direction rows: + τ_m² I₂ (rad², the per-move angle noise about each horizontal axis).
+* every move's 2 direction rows: + τ_m² I₂ (rad², the per-move angle noise about each horizontal axis);
+* a bias that walks from segment to segment (persisting steps at each move, or a rate random walk sampled at paced
+  poses): the bias of the k-th segment in time order is b₀ + Σ_{j≤k} w_j with independent steps w_j of variance
+  τ_w² per channel, so segments k and l covary by τ_w² min(k, l) I₃ ((deg/h)² per pose; b₀ is the fitted bias). Its
+  covariance couples every segment, so with it the rows are whitened as one dense matrix.
 
 They are estimated by restricted maximum likelihood (Patterson & Thompson 1971; Harville 1977) on the model
 linearised at the fit: minimising −2ℓ_R(τ) = log|V(τ)| + log|Xᵀ V⁻¹ X| + min_δ (r − X δ)ᵀ V⁻¹ (r − X δ), which,
@@ -20,6 +24,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import linalg
 
 from gyrojax.optimize import difference_curvature, minimize
 
@@ -38,6 +43,9 @@ class Group:
     r: np.ndarray
     jac: np.ndarray
     kind: str
+    step: float | None = None  # where the bias walk applies: its clock (the segment's ordinal in time order; a move
+    # between segments k and k + 1 is at k + ½); None where it does not
+    bias_rows: np.ndarray | None = None  # (d, 3) the rows' change per deg/h of each channel's bias (None: I₃)
 
 
 class _Stacked:
@@ -75,17 +83,101 @@ class _Stacked:
         return out[:, 0], out[:, 1:], logdet, lows
 
 
+class _Dense:
+    """The groups as one covariance (rows in the groups' order): the walk couples every segment (module doc)."""
+
+    def __init__(self, groups):
+        sizes = np.array([len(g.r) for g in groups])
+        self.offsets = np.concatenate([[0], np.cumsum(sizes)])
+        n = int(self.offsets[-1])
+        self.n_rows = n
+        self.base = np.zeros((n, n))
+        self.kinds = {}
+        for g, lo in zip(groups, self.offsets[:-1]):
+            sl = slice(lo, lo + len(g.r))
+            self.base[sl, sl] = g.cov
+            self.kinds.setdefault(g.kind, np.zeros(n))[sl] = 1.0
+        self.rj = np.concatenate([np.column_stack([g.r, g.jac]) for g in groups])
+        self.walk = walk_covariance(groups, self.offsets)
+
+    def covariance(self, tau2: dict) -> np.ndarray:
+        """V(τ²): the base covariance and every component."""
+        v = self.base + tau2.get("walk", 0.0) * self.walk
+        for k, rows in self.kinds.items():
+            v[np.diag_indices(self.n_rows)] += tau2.get(k, 0.0) * rows
+        return v
+
+    def whiten(self, tau2: dict):
+        """(e, x, log|V|, L⁻¹) with ``tau2`` added: L Lᵀ = V(τ²)."""
+        low = np.linalg.cholesky(self.covariance(tau2))
+        inv = linalg.solve_triangular(low, np.eye(self.n_rows), lower=True)
+        out = inv @ self.rj
+        return out[:, 0], out[:, 1:], 2.0 * float(np.log(np.diag(low)).sum()), inv
+
+    def component(self, k: str) -> np.ndarray:
+        """Z_k = ∂V/∂τ_k²."""
+        return self.walk if k == "walk" else np.diag(self.kinds.get(k, np.zeros(self.n_rows)))
+
+
+def whiten_rows(groups, tau2: dict) -> tuple[np.ndarray, np.ndarray]:
+    """(L⁻¹ r, L⁻¹ J) of all the groups at once, L Lᵀ = V(τ²) with every component, the walk included."""
+    e, x, _logdet, _inv = _Dense(groups).whiten(tau2)
+    return e, x
+
+
+def walk_covariance(groups, offsets) -> np.ndarray:
+    """∂V/∂τ_w² of the bias walk (module doc): min(k, l) G_k G_lᵀ between the rows of groups at clocks k and l, G
+    a group's change per unit of each channel's bias (I₃ for a segment mean; for a move, the change of its two
+    direction rows, carried along the move as the fit carries a bias)."""
+    n = int(offsets[-1])
+    walking = [
+        (g.step, lo, np.eye(3) if g.bias_rows is None else g.bias_rows)
+        for g, lo in zip(groups, offsets[:-1])
+        if g.step is not None
+    ]
+    if not walking:
+        return np.zeros((n, n))
+    first = min(k for k, _, _ in walking)
+    rows = np.concatenate([lo + np.arange(len(b)) for _, lo, b in walking])
+    big_g = np.concatenate([b for _, _, b in walking])  # (rows, 3)
+    clock = np.concatenate([np.full(len(b), k - first) for k, _, b in walking])
+    out = np.zeros((n, n))
+    out[np.ix_(rows, rows)] = np.minimum.outer(clock, clock) * (big_g @ big_g.T)
+    return out
+
+
+def _restricted(e, x, logdet: float, col_scale, rank_tol: float):
+    """(−2ℓ_R, the whitened residual off X's seen columns, their orthonormal basis U) from the whitened residual
+    ``e``, columns ``x`` (scaled by ``col_scale``) and log|V|: log|V| + log|XᵀV⁻¹X| + |(I − UUᵀ) e|²."""
+    u, s, _ = np.linalg.svd(x / col_scale, full_matrices=False)
+    keep = s > rank_tol * s[0]
+    uk = u[:, keep]
+    proj = uk.T @ e
+    return logdet + 2.0 * float(np.log(s[keep]).sum()) + float(e @ e - proj @ proj), e - uk @ proj, uk
+
+
+def _dense_objective_and_gradient(st: _Dense, tau2: dict, col_scale, kinds=(), rank_tol: float = 1e-10):
+    """:func:`_objective_and_gradient` on the dense covariance: P = L⁻ᵀ (I − UUᵀ) L⁻¹, the same Harville (4.8)."""
+    e, x, logdet, inv = st.whiten(tau2)
+    value, e_perp, uk = _restricted(e, x, logdet, col_scale, rank_tol)
+    if not kinds:
+        return value, {}
+    pr = inv.T @ e_perp
+    iu = inv.T @ uk
+    p_mat = inv.T @ inv - iu @ iu.T
+    grad = {}
+    for k in kinds:
+        z = st.component(k)
+        grad[k] = float((p_mat * z).sum() - pr @ z @ pr)
+    return value, grad
+
+
 def _objective_and_gradient(st: _Stacked, tau2: dict, col_scale, kinds=(), rank_tol: float = 1e-10):
     """−2 ℓ_R at ``tau2`` (:func:`reml_objective`) and its exact derivative by each τ_k² of ``kinds``: with
     P = V⁻¹ − V⁻¹X(XᵀV⁻¹X)⁺XᵀV⁻¹ (on X's seen subspace) and Z_k the rows of component k,
     ∂(−2ℓ_R)/∂τ_k² = tr(P Z_k) − rᵀ P Z_k P r (Harville 1977, eq. 4.8), summed over the groups of kind k."""
     e, x, logdet, lows = st.whiten(tau2)
-    u, s, _ = np.linalg.svd(x / col_scale, full_matrices=False)
-    keep = s > rank_tol * s[0]
-    uk = u[:, keep]
-    proj = uk.T @ e
-    e_perp = e - uk @ proj
-    value = logdet + 2.0 * float(np.log(s[keep]).sum()) + float(e @ e - proj @ proj)
+    value, e_perp, uk = _restricted(e, x, logdet, col_scale, rank_tol)
     grad = dict.fromkeys(kinds, 0.0)
     for b, low in zip(st.blocks, lows):
         inv_t = np.swapaxes(np.linalg.inv(low), 1, 2)  # L⁻ᵀ of each group
@@ -100,26 +192,39 @@ def _objective_and_gradient(st: _Stacked, tau2: dict, col_scale, kinds=(), rank_
 
 def reml_objective(groups, tau2: dict, col_scale: np.ndarray, rank_tol: float = 1e-10) -> float:
     """−2 ℓ_R (module doc, up to a constant) at ``tau2``; rank-deficient X is taken on its seen subspace."""
-    st = groups if isinstance(groups, _Stacked) else _Stacked(groups)
-    return _objective_and_gradient(st, tau2, col_scale, (), rank_tol)[0]
+    st = groups if isinstance(groups, (_Stacked, _Dense)) else _layout(groups, "walk" in tau2)
+    return _objective(st)(st, tau2, col_scale, (), rank_tol)[0]
+
+
+def _layout(groups, walk: bool):
+    """The groups stacked by size, or as one dense covariance where the walk couples them."""
+    return _Dense(groups) if walk else _Stacked(groups)
+
+
+def _objective(st):
+    return _dense_objective_and_gradient if isinstance(st, _Dense) else _objective_and_gradient
 
 
 def estimate_components(groups, kinds=("pose", "move")) -> tuple[dict, str]:
     """REML estimates of the variance components ``kinds`` present in ``groups`` (module doc): ({kind: τ̂²}, why),
-    natural units ((deg/h)² for poses, rad² for moves); a component the data cannot tell from zero comes back 0.
+    natural units ((deg/h)² for poses, rad² for moves, (deg/h)² per pose for the walk); a component the data cannot
+    tell from zero comes back 0.
     ``why`` is "" when the best start's search (:func:`gyrojax.optimize.minimize`) converged, else its reason (the
     fit then says it did not)."""
-    kinds = [k for k in kinds if sum(g.kind == k for g in groups) >= 2]
+    walking = [g for g in groups if g.step is not None and g.bias_rows is None]  # the segments it walks along
+    kinds = [k for k in kinds if sum(g.kind == k for g in groups) >= 2 or (k == "walk" and len(walking) >= 3)]
     if not kinds:
         return {}, ""
-    scale = {k: float(np.mean([np.trace(g.cov) / len(g.r) for g in groups if g.kind == k])) for k in kinds}
-    st = _Stacked(groups)
+    carrying = {k: walking if k == "walk" else [g for g in groups if g.kind == k] for k in kinds}
+    scale = {k: float(np.mean([np.trace(g.cov) / len(g.r) for g in carrying[k]])) for k in kinds}
+    st = _layout(groups, "walk" in kinds)
+    objective = _objective(st)
     col_scale = np.linalg.norm(st.whiten({})[1], axis=0)
     col_scale[col_scale == 0] = 1.0
 
     def f(u):  # −2ℓ_R and its exact gradient in u = log(τ²/scale): ∂/∂u_k = τ_k² ∂/∂τ_k²
         tau2 = {k: scale[k] * np.exp(ui) for k, ui in zip(kinds, u)}
-        value, grad = _objective_and_gradient(st, tau2, col_scale, kinds)
+        value, grad = objective(st, tau2, col_scale, kinds)
         return value, np.array([tau2[k] * grad[k] for k in kinds])
 
     best = None

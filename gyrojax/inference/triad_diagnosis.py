@@ -15,16 +15,21 @@ Rows and columns are whitened as the fit whitens them (segment-mean covariance w
 move angle noise with the per-move angle component, both REML; :mod:`gyrojax.inference.triad_components`), and the
 forward selection of the noise re-estimates those components with the candidates it takes in. The shapes compete in
 that selection with the named candidates, and are tested beside every named candidate with σ̃² after them all
-(F law). The two noise processes between segments — ``pose_bias_scatter`` (a bias step at each move) and
-``move_angle_noise`` (a per-move angle error) — are tested by the REML likelihood ratio of their variance component
-against zero (boundary: p = ½ P(χ²₁ > LR)), as ``gauss_markov`` is on a turntable; they are noise, never proposed as
-deterministic effects. Sizes are checked against the MEMS limits of :mod:`gyrojax.physics.plausibility`.
+(F law). The noise processes between segments — ``pose_bias_scatter`` (an independent bias level at each pose),
+``move_angle_noise`` (a per-move angle error) and ``bias_random_walk`` (a bias that walks from pose to pose: steps
+at each move that persist, or a rate random walk) — are tested by the REML likelihood ratio of their variance
+component against zero (boundary: p = ½ P(χ²₁ > LR); the walk's against the independent scatter alone, the other
+components re-estimated), as ``gauss_markov`` is on a turntable; they are noise, never proposed as deterministic
+effects. Where the walk is significant it whitens every test (the rows then as one dense covariance), from the first
+round of the forward selection on: a trend enters only when it beats the walk, and a candidate that the walk and it
+explain alike is said to be indistinguishable from drift. Sizes are checked against the MEMS limits of
+:mod:`gyrojax.physics.plausibility`.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import jax
 import jax.numpy as jnp
@@ -38,9 +43,9 @@ from gyrojax.data.triad_segments import triad_segments
 from gyrojax.errors import ModelError
 from gyrojax.inference import triad as tf
 from gyrojax.inference.instrument import Rules, Session
-from gyrojax.inference.scoring import residual_variance, rms_after, score, score_tests
+from gyrojax.inference.scoring import ALPHA, residual_variance, rms_after, score, score_beside, score_tests
 from gyrojax.inference.subspace import basis
-from gyrojax.inference.triad_components import estimate_components, reml_objective
+from gyrojax.inference.triad_components import estimate_components, reml_objective, whiten_rows
 from gyrojax.inference.triad_rows import (
     linear_matrices,
     move_residual,
@@ -55,8 +60,9 @@ from gyrojax.physics import effects as fx
 from gyrojax.physics import plausibility
 from gyrojax.physics import triad as tp
 
-NOISE_PROCESSES = ("pose_bias_scatter", "move_angle_noise")
-"""Variance components between segments (:mod:`gyrojax.inference.triad_components`), tested as noise."""
+NOISE_PROCESSES = {"pose": "pose_bias_scatter", "move": "move_angle_noise", "walk": "bias_random_walk"}
+"""Variance components between segments (:mod:`gyrojax.inference.triad_components`), tested as noise, by the names
+the diagnosis gives them."""
 RULES = Rules(retest_shapes=False, refit_budget=None, skip_aliased=True, plausible_before_refit=True)
 """Triad proposals: a candidate's size is judged on its one-step estimate, and an implausible or aliased candidate
 (two channels' columns collinear) is passed over before any refit; every significant candidate may be refitted in
@@ -246,6 +252,13 @@ def session_data(records, fit, earth_rate=None) -> dict:
         data["move_inputs"] = mv_inputs
         data["move_stacked"] = _stacked(mv_inputs)
         data["inputs"] += mv_inputs
+        data["move_bias"] = np.stack([data["dr_dg"][k, :, : len(m.g), :].sum(axis=1) for k, m in enumerate(moves)])
+    # the bias walk's clock (triad_components): segments by their order in time, a move between its neighbours
+    seg_mid = np.array([float(np.mean(sg.t_h)) for sg in segments])
+    clock = np.empty(len(segments))
+    clock[np.argsort(seg_mid, kind="stable")] = np.arange(len(segments))
+    move_mid = np.array([float(np.mean(t)) for t, _ in mv_times])
+    data["walk"] = (clock, np.searchsorted(np.sort(seg_mid), move_mid) - 0.5, data.get("move_bias"))
     return data
 
 
@@ -288,6 +301,10 @@ def whitened_system(data: dict, regs: list, cols: list):
     """(r̃, J̃₀, [X̃ of each regressor], [raw segment-mean rows of each]) stacked as the fit whitens its rows
     (segments, then 2 rows per move); ``cols`` the :func:`raw_columns` of ``regs``, in deg/h per coefficient unit."""
     p0 = data["jac"].shape[1]
+    if data["tau2"].get("walk", 0.0) > 0:  # the walk couples every row: whitened as one (triad_components)
+        r_all, j_all = whiten_rows(_groups(data, cols), data["tau2"])
+        bounds = np.cumsum([p0] + [len(r.coefficients) for r in regs])
+        return r_all, j_all[:, :p0], [j_all[:, a:b] for a, b in zip(bounds[:-1], bounds[1:])], [sg for sg, _ in cols]
     big = np.column_stack([data["jac"]] + [s for s, _ in cols]) if cols else data["jac"]
     rw, jw = tf.whiten_segments(data["segments"], data["resid"], big, data["q"], data["s_mat"], data["tau2"]["pose"])
     rw = rw - jw[:, :p0] @ np.zeros(p0)  # the rows are at θ̂ already
@@ -317,17 +334,43 @@ def _groups(data: dict, extra: list) -> list:
         move_w = tf.move_whitening(data["moves"], data["q"], data["s_mat"])
         moves_at = move_rows(data["model"], data["theta"], data["packed"], move_w)[1:]
     return tf.component_groups(
-        data["segments"], data["resid"], data["jac"], data["q"], data["s_mat"], moves_at, move_w, extra
+        data["segments"], data["resid"], data["jac"], data["q"], data["s_mat"], moves_at, move_w, extra, data["walk"]
     )
 
 
-def with_components(data: dict, extra: list) -> dict:
+def components(data: dict, extra: list, alpha: float) -> tuple[dict, float, list]:
+    """The variance components by REML beside the candidates ``extra`` (raw columns): (τ̂², the bias walk's
+    likelihood ratio, the REML groups). The walk is among them only where its profile likelihood ratio against no
+    walk (the other components re-estimated) is significant at ``alpha`` (boundary: p = ½ P(χ²₁ > LR)); else the
+    components are those of the independent scatter alone."""
+    groups = _groups(data, extra)
+    tau2, _why = estimate_components(groups)
+    with_walk, _why = estimate_components(groups, ("pose", "move", "walk"))
+    if with_walk.get("walk", 0.0) <= 0.0:
+        return tau2, 0.0, groups
+    col = _column_scale(groups)
+    lr = max(reml_objective(groups, tau2, col) - reml_objective(groups, with_walk, col), 0.0)
+    return (with_walk if boundary_p(lr) < alpha else tau2), lr, groups
+
+
+def boundary_p(lr: float) -> float:
+    """The p-value of a variance component's likelihood ratio against zero, on the boundary: ½ P(χ²₁ > LR)."""
+    return 0.5 * float(stats.chi2.sf(lr, 1)) if lr > 0 else 1.0
+
+
+def _column_scale(groups) -> np.ndarray:
+    col = np.linalg.norm(np.concatenate([np.linalg.solve(np.linalg.cholesky(g.cov), g.jac) for g in groups]), axis=0)
+    col[col == 0] = 1.0
+    return col
+
+
+def with_components(data: dict, extra: list, alpha: float) -> dict:
     """``data`` whitened with the variance components re-estimated by REML with the candidates ``extra`` (raw
-    columns) among the fixed effects: a missing effect is then not taken for pose scatter (deg/h) or move angle
-    noise (rad)."""
-    tau2, _why = estimate_components(_groups(data, extra))
+    columns) among the fixed effects (:func:`components`): a missing effect is then not taken for pose scatter
+    (deg/h), move angle noise (rad) or a bias walk, and a walk is not taken for a missing effect."""
+    tau2, _lr, _groups_ = components(data, extra, alpha)
     out = dict(data)
-    out["tau2"] = {"pose": tau2.get("pose", 0.0), "move": tau2.get("move", 0.0)}
+    out["tau2"] = {"pose": tau2.get("pose", 0.0), "move": tau2.get("move", 0.0), "walk": tau2.get("walk", 0.0)}
     if data["moves"]:
         out["move_w"] = tf.move_whitening(data["moves"], data["q"], data["s_mat"], out["tau2"]["move"])
         _, out["move_r"], out["move_j"] = move_rows(data["model"], data["theta"], data["packed"], out["move_w"])
@@ -336,21 +379,22 @@ def with_components(data: dict, extra: list) -> dict:
 
 def _noise_processes(data: dict, alpha: float, extra: list) -> tuple[list, dict]:
     """REML likelihood-ratio test of each variance component between segments against zero, beside the candidates
-    ``extra`` the diagnosis took in; (candidates, τ̂²)."""
-    groups = _groups(data, extra)
-    tau2, _why = estimate_components(groups)
-    col = np.linalg.norm(np.concatenate([np.linalg.solve(np.linalg.cholesky(g.cov), g.jac) for g in groups]), axis=0)
-    col[col == 0] = 1.0
+    ``extra`` the diagnosis took in (the walk's, :func:`components`, against the independent scatter alone);
+    (candidates, τ̂²)."""
+    tau2, lr_walk, groups = components(data, extra, alpha)
+    col = _column_scale(groups)
     best = reml_objective(groups, tau2, col)
     out = []
-    for kind, name in (("pose", "pose_bias_scatter"), ("move", "move_angle_noise")):
+    for kind, name in NOISE_PROCESSES.items():
         if kind not in tau2:
             continue
-        lr = max(reml_objective(groups, {**tau2, kind: 0.0}, col) - best, 0.0)
-        p = 0.5 * float(stats.chi2.sf(lr, 1)) if lr > 0 else 1.0
+        lr = lr_walk if kind == "walk" else max(reml_objective(groups, {**tau2, kind: 0.0}, col) - best, 0.0)
+        p = boundary_p(lr)
         sd = tf.components_report({kind: tau2[kind]}, data["s_mat"])  # the fit's report units (pose: calibrated)
         if kind == "pose":
             est = {"tau": {"value": sd["pose_bias_scatter_deg_per_h"], "unit": "deg/h"}}
+        elif kind == "walk":
+            est = {"tau": {"value": sd["bias_walk_deg_per_h_per_sqrt_pose"], "unit": "deg/h/sqrt(pose)"}}
         else:
             est = {"tau": {"value": sd["move_angle_noise_deg"], "unit": "deg"}}
         cand = Candidate(name, lr, 1, p, p, [], math.nan, est, log10_p=math.log10(max(p, 1e-300)))
@@ -376,6 +420,7 @@ class Round:
     j0: np.ndarray
     xs: list
     dof: int
+    under_scatter: dict | None = None  # name -> log10 p without the walk, where the walk whitens this round
 
     @property
     def candidates(self) -> list:
@@ -401,19 +446,22 @@ class TriadSession(Session):
     n_named: int
     columns: list
     earth_rate: bool | None = None
+    alpha: float = ALPHA
     rules: Rules = RULES
     kind: str = fx.SDF
 
     @classmethod
-    def of(cls, records, terms=None, result=None, candidates=None, earth_rate=None, model_free=True) -> TriadSession:
+    def of(
+        cls, records, terms=None, result=None, candidates=None, earth_rate=None, model_free=True, alpha=ALPHA
+    ) -> TriadSession:
         """The session of ``records`` at ``result`` (default: the triad fit of ``terms``); ``model_free``: the shapes
-        are among the regressors."""
+        are among the regressors; ``alpha`` the level at which a bias walk enters the noise model."""
         recs = [records] if isinstance(records, Record) else list(records)
         res = result or tf.fit_triad(recs, terms, earth_rate=earth_rate)
         data = session_data(recs, res, earth_rate)
         regs = candidate_regressors(res.model, data, candidates)
         allr = regs + (shape_regressors() if model_free else [])
-        return cls(recs, res, data, allr, len(regs), [raw_columns(g, data) for g in allr], earth_rate)
+        return cls(recs, res, data, allr, len(regs), [raw_columns(g, data) for g in allr], earth_rate, alpha)
 
     def _cols(self, names) -> list:
         by = {g.name: c for g, c in zip(self.regressors, self.columns)}
@@ -423,8 +471,22 @@ class TriadSession(Session):
 
     def score(self, taken: list, previous: Round | None) -> Round:
         """The rows whitened with the variance components re-estimated with the regressors ``taken`` among the
-        fixed effects (the fit's own components before any is taken), and the score tests of every regressor."""
-        data = with_components(self.data, self._cols(taken)) if taken else self.data
+        fixed effects, and the score tests of every regressor. Before any is taken: the fit's own components, or
+        where the poses' bias walks (:func:`components`) with the walk among them — a candidate then enters the
+        noise fit only when it beats the walk, and the tests without the walk are kept to say which candidates
+        the walk cannot be told from (:meth:`finish`)."""
+        if taken:
+            rnd = self._round(with_components(self.data, self._cols(taken), self.alpha))
+            return Round(**{**rnd.__dict__, "under_scatter": previous.under_scatter if previous else None})
+        first = self._round(self.data)
+        walking = with_components(self.data, [], self.alpha)
+        if walking["tau2"]["walk"] <= 0.0:
+            return first
+        rnd = self._round(walking)
+        scatter = {c.name: c.log10_p for _reg, c in first.scored if c is not None and c.df > 0}
+        return Round(**{**rnd.__dict__, "under_scatter": scatter})
+
+    def _round(self, data: dict) -> Round:
         r, j0, xs, xr = whitened_system(data, self.regressors, self.columns)
         raw = (data["resid"], data["jac"], xr)
         scored, perps, dof = _score_all(r, j0, xs, self.regressors, list(self.fit.names), raw)
@@ -465,6 +527,16 @@ class TriadSession(Session):
                 )
         return out
 
+    def beside(self, rnd: Round, name: str, stronger: list, shapes: list):
+        """The score test of ``name`` beside the regressors of the candidates ``stronger`` and of the shapes
+        ``shapes``, in this round's whitening."""
+        xs = {reg.name: x for (reg, _c), x in zip(rnd.scored, rnd.xs)}
+        others = [xs[n] for n in [*stronger, *(sh.name for sh in shapes)] if n in xs and n != name]
+        if name not in xs:
+            return None
+        sc = score_beside(rnd.r, rnd.j0, xs[name], others)
+        return 0.0 if sc is None else sc.log10_p
+
     def no_term(self, c: Candidate) -> str | None:
         """Why the fit cannot add ``c`` (a MEMS candidate has no fit term), or None."""
         effect = self.effect_of(c)
@@ -492,9 +564,30 @@ class TriadSession(Session):
         beside the regressors ``taken``."""
         return _noise_processes(rnd.data, alpha, self._cols(taken))[0]
 
+    def finish(
+        self, rnd: Round, ranked: list, significant: list, family: int, alpha: float, noise: list, suggest_tests: bool
+    ) -> list:
+        """The candidates as reported: where the bias walk is named, a candidate significant under the independent
+        scatter alone (first Holm step of the family) that is not beside the walk, and that does not leave the
+        walk significant beside itself, cannot be told from the walk with these poses: ``indistinguishable``
+        from ``bias_random_walk``."""
+        if not rnd.under_scatter or not any(c.name == NOISE_PROCESSES["walk"] for c in noise):
+            return ranked
+        out = []
+        for c in ranked:
+            was = rnd.under_scatter.get(c.name)
+            if c.name not in significant and was is not None and was + math.log10(family) < math.log10(alpha):
+                _tau2, lr, _g = components(self.data, self._cols([c.name]), alpha)
+                if boundary_p(lr) >= alpha:
+                    c = replace(c, indistinguishable=[*c.indistinguishable, NOISE_PROCESSES["walk"]])
+            out.append(c)
+        return out
+
     def components_chi2(self, rnd: Round) -> tuple:
-        """χ² and degrees of freedom of the rows whitened with the variance components."""
-        return float(rnd.r @ rnd.r), rnd.dof
+        """χ² and degrees of freedom of the rows whitened with the variance components, the residual projected off
+        the model's columns (the fit's θ is generalised least squares under its own components, not under a walk)."""
+        r_perp, _s2, _dof = residual_variance(basis(rnd.j0), rnd.r)
+        return float(r_perp @ r_perp), rnd.dof
 
 
 def _score_all(r, j0, xs, regs, model_names, raw=None):

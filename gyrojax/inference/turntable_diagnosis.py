@@ -38,7 +38,7 @@ from gyrojax.inference.noisefit import (
     satterthwaite_dof,
     small_sample_factor,
 )
-from gyrojax.inference.scoring import ALPHA, rms_after, score_tests
+from gyrojax.inference.scoring import ALPHA, rms_after, score_beside, score_tests
 from gyrojax.inference.separation import separating_plans, setup_measurements
 from gyrojax.inference.solver import solve, stack_whitened
 from gyrojax.inference.subspace import WhitenedSystem, basis
@@ -195,6 +195,17 @@ class TurntableSession(Session):
         rw, jw = rnd.whitened
         system = WhitenedSystem.of(rw, jw, np.zeros((len(rw), 0)), [], self.p0)
         return adequacy.near_aliases(self.lin, rnd.noises, self.p0, live, names, alpha, system)
+
+    def beside(self, rnd: Round, name: str, stronger: list, shapes: list):
+        """The score test of ``name`` beside the candidates ``stronger`` in this round's whitening (the model-free
+        shapes are columns of another system, :mod:`gyrojax.inference.adequacy`: not among them)."""
+        sl = self.full.slices()
+        if name not in sl:
+            return None
+        rw, jw = rnd.whitened
+        others = [jw[:, sl[n]] for n in stronger if n in sl and n != name]
+        sc = score_beside(rw, jw[:, : self.p0], jw[:, sl[name]], others)
+        return 0.0 if sc is None else sc.log10_p
 
     def with_refit(self, c: Candidate, f) -> Candidate:
         """``c`` with the refit's residual RMS and estimates (they replace the one-step values)."""

@@ -101,6 +101,12 @@ def triad_diagnosis_text(d: Diagnosis) -> str:
         lines.append(f"  {c.name}: p_adj {c.p_adjusted:.2g} ({est}){alias}{flag}")
     for s in d.unexplained:
         lines.append(f"unexplained structure: {s.name}: p_adj {s.p_adjusted:.2g} ({s.description})")
+    drift = [c.name for c in d.candidates if "bias_random_walk" in c.indistinguishable]
+    if drift:
+        lines.append(
+            f"indistinguishable from drift with these poses: {', '.join(drift)} or the bias random walk explain the "
+            "data alike; not proposed (more poses, or a longer session, would tell a trend from the walk)"
+        )
     lines.append(f"proposal: {d.proposal}" if d.proposal else "proposal: none")
     return "\n".join(lines)
 
