@@ -3,8 +3,9 @@
 The layers, bottom first (a unit may import only from tiers below its own; units of one tier are independent)::
 
     errors                                  the exception types
-    units, kinds, protocol, threads,        unit conversions; instrument-kind names; files and the result protocol;
-    optimize, (package root)                BLAS threads; the searches and their status; the root's constants
+    units, kinds, protocol,                 unit conversions; instrument-kind names; files and the result protocol;
+    optimize, (package root)                the searches and their status; the root's constants
+    runtime                                 how compiled code runs: the cache folder, kept executables, threads
     physics, noise                          the measurement model; noise descriptions, estimators and processes
     data                                    records, truth files, plans (data reads physics names and noise specs)
     dynamics, seeds                         ZOH and the loops; the source books' closed forms
@@ -40,7 +41,8 @@ PACKAGE = "gyrojax"
 
 LAYERS = (
     ("errors",),
-    ("units", "kinds", "protocol", "threads", "optimize", ""),  # "" is the package root (gyrojax/__init__.py)
+    ("units", "kinds", "protocol", "optimize", ""),  # "" is the package root (gyrojax/__init__.py)
+    ("runtime",),
     ("physics", "noise"),
     ("data",),
     ("dynamics", "seeds"),

@@ -1,0 +1,45 @@
+"""The folder where gyrojax keeps what it compiled, and JAX's persistent compilation cache for the command line.
+
+The command line's process is gyrojax's alone, so every function it compiles may be cached on disk
+(:func:`use_persistent_cache`); a notebook or script that imports gyrojax keeps its JAX settings, and gyrojax loads
+only its own kept executables (:mod:`gyrojax.runtime.kept`) from :func:`cache_dir`.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+JAX_SETTINGS = (
+    "jax_compilation_cache_dir",
+    "jax_persistent_cache_min_compile_time_secs",
+    "jax_persistent_cache_min_entry_size_bytes",
+)
+
+
+def cache_dir() -> str | None:
+    """Where gyrojax keeps JAX's persistent compilation cache of the command line: ``GYROJAX_CACHE_DIR``, else
+    ``$XDG_CACHE_HOME/gyrojax/jax`` or ``~/.cache/gyrojax/jax``; ``None`` when ``GYROJAX_NO_CACHE`` is set. The
+    kept executables live in a sibling folder (:func:`gyrojax.runtime.kept.folder`)."""
+    if os.environ.get("GYROJAX_NO_CACHE", "").strip() not in ("", "0"):
+        return None
+    if os.environ.get("GYROJAX_CACHE_DIR"):
+        return os.environ["GYROJAX_CACHE_DIR"]
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(base, "gyrojax", "jax")
+
+
+def use_persistent_cache() -> None:
+    """Turn on JAX's persistent compilation cache at :func:`cache_dir` (nothing when it is switched off) for every
+    compiled function however small (a diagnosis compiles dozens): for a process that is gyrojax's alone (the
+    command line, the test suite). Before JAX's import its variables are set, after it its config is updated."""
+    path = cache_dir()
+    if path is None:
+        return
+    values = (path, 0.0, 0)
+    if "jax" in sys.modules:
+        for name, value in zip(JAX_SETTINGS, values):
+            sys.modules["jax"].config.update(name, value)
+    else:  # JAX reads them when (and if) it is imported: `gyrojax plans` and `import` never do
+        for name, value in zip(JAX_SETTINGS, values):
+            os.environ[name.upper()] = str(value)
