@@ -9,9 +9,10 @@ least), this checkout (``new``) and the one in ``--baseline-dir`` (``old``):
 * ``gyrojax diagnose --json`` of a two-axis TDF campaign: the 24-position set of ``multiposition`` with a TDF gyro
   (X East-ish, Y, spin Z; two channels), 10 min per position at 1 s, simulated here; cache warm;
 * the first ``gj.diagnose`` of a script that imports gyrojax, on the demo's campaign (a polar tumble, 4 records,
-  34 464 samples), against the second call in the same process: the compilation cache (``GYROJAX_CACHE_DIR``, a
-  fresh folder) filled by a diagnosis of a campaign of another shape (the same tumble at 1 revolution, 10 s steps)
-  and nothing else, so that this campaign's shapes are new to it; also the first call with the cache empty.
+  34 464 samples), against the second call in the same process: gyrojax's cache (``GYROJAX_CACHE_DIR``, a fresh
+  folder) filled by a diagnosis of a campaign of another shape (the same tumble at 1 revolution, 10 s steps) and
+  nothing else, so that this campaign's shapes are new to it; then again, the shapes seen by the run before (a
+  notebook's second kernel); and with the cache empty.
 
 Each diagnosis' JSON of ``new`` is compared with ``old``'s: the verdicts, the candidates' order and every number,
 the largest relative change printed.
@@ -154,16 +155,20 @@ def process_row(name: str, roots: dict, args, tmp: Path, repeat: int) -> None:
         print(f"  JSON new vs old: largest relative change {worst:.2e} ({where or '-'}); differing entries {differ}")
 
 
+SAID = {"unseen": "filled by another shape", "seen": "filled by this campaign", "empty": "empty"}
+
+
 def notebook_row(roots: dict, rec: dict, tmp: Path, repeat: int) -> None:
     """The first ``gj.diagnose`` of a script on a shape new to the cache, and with the cache empty."""
     script = tmp / "notebook.py"
     script.write_text(NOTEBOOK)
-    res = {w: {"unseen": [], "empty": []} for w in roots}
+    res = {w: {"unseen": [], "empty": [], "seen": []} for w in roots}
     for i in range(repeat):
         for who, root in roots.items():
             cache = tmp / f"cache-nb-{who}-{i}"
             run_process([sys.executable, script, rec["tumble-other"]], env=env_of(root, cache), cwd=tmp)
-            for mode, c in (("unseen", cache), ("empty", tmp / f"cache-nb-empty-{who}-{i}")):
+            # the same campaign's shapes new to the cache, then seen by the run before, then no cache at all
+            for mode, c in (("unseen", cache), ("seen", cache), ("empty", tmp / f"cache-nb-empty-{who}-{i}")):
                 out = run_process([sys.executable, script, rec["tumble"]], env=env_of(root, c), cwd=tmp)[2]
                 res[who][mode].append(json.loads(out))
     for who, modes in res.items():
@@ -171,7 +176,7 @@ def notebook_row(roots: dict, rec: dict, tmp: Path, repeat: int) -> None:
             b = min(runs, key=lambda d: d["first"][1] / d["warm"][1])
             f, w = b["first"], b["warm"]
             print(
-                f"  {who}, cache {'filled by another shape' if mode == 'unseen' else 'empty'}: first {f[0]:5.2f} s "
+                f"  {who}, cache {SAID[mode]}: first {f[0]:5.2f} s "
                 f"wall {f[1]:5.2f} s CPU, warm {w[0]:5.2f} s wall {w[1]:5.2f} s CPU: first / warm {f[0] / w[0]:.2f} "
                 f"wall, {f[1] / w[1]:.2f} CPU (best of {repeat}); verdict {b['verdict']}"
             )

@@ -19,8 +19,10 @@ The package is a tree that follows the data flow::
     report/      tables, text and figures (the only library package that draws)
     cli/         the ``gyrojax`` command (the only package that parses arguments)
 
-and below them the modules every package may import: ``errors``, ``units``, ``kinds`` (the instrument kinds) and
-``protocol`` (files and the result protocol). Imports point down a declared layer order (tests/test_layers.py).
+and below them the modules every package may import: ``errors``, ``units``, ``kinds`` (the instrument kinds),
+``protocol`` (files and the result protocol) and ``runtime`` (how compiled code runs: gyrojax's cache folder, its
+kept executables, its threads). Importing the package changes no global setting but JAX's x64. Imports point
+down a declared layer order (tests/test_layers.py).
 
 ``import gyrojax as gj`` gives the flat API: ``gj.simulate``, ``gj.load_records``, ``gj.fit``,
 ``gj.diagnose``, ``gj.add_and_refit``, ``gj.design``, ``gj.next_test``, ``gj.run_campaign``, ``gj.run_study`` …

@@ -241,7 +241,11 @@ def _exported(path: Path, flat, specs):
         except Exception as e:  # a damaged or foreign file: say so, trace again and replace it
             warnings.warn(f"{path}: kept trace unreadable ({type(e).__name__}: {e}); traced again", stacklevel=4)
     exported = jax.export.export(jax.jit(flat))(*specs)
-    _save(path, exported.serialize(), "traces", stacklevel=5)
+    try:
+        data = exported.serialize()
+    except (ValueError, TypeError, NotImplementedError):  # an output tree of types export cannot name
+        return None
+    _save(path, data, "traces", stacklevel=5)
     return jax.jit(exported.call)
 
 
