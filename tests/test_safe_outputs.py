@@ -275,6 +275,7 @@ _CACHE_PROBE_JAX_FIRST = (
     "import jax; jax.config.update('jax_compilation_cache_dir', sys.argv[1]); import gyrojax; "
     "print(jax.config.jax_compilation_cache_dir)"
 )
+
 _CLI_PROBE = (
     "import jax; from gyrojax.cli.app import main; main(['plans']); print(jax.config.jax_compilation_cache_dir)"
 )
@@ -283,20 +284,20 @@ _CLI_PROBE = (
 @pytest.mark.parametrize(
     "env, code, want",
     [
-        ({"GYROJAX_CACHE_DIR": "{tmp}/here"}, _CACHE_PROBE, "None"),  # a notebook's import leaves JAX's cache off
-        ({"XDG_CACHE_HOME": "{tmp}/xdg"}, _CACHE_PROBE, "None"),
+        ({"GYROJAX_CACHE_DIR": "{tmp}/here"}, _CACHE_PROBE, "{tmp}/here"),  # a notebook's import turns it on
+        ({"XDG_CACHE_HOME": "{tmp}/xdg"}, _CACHE_PROBE, "{tmp}/xdg/gyrojax/jax"),
+        ({"GYROJAX_NO_CACHE": "1", "GYROJAX_CACHE_DIR": "{tmp}/here"}, _CACHE_PROBE, "None"),
         ({"JAX_COMPILATION_CACHE_DIR": "{tmp}/mine", "GYROJAX_CACHE_DIR": "{tmp}/here"}, _CACHE_PROBE, "{tmp}/mine"),
         ({"GYROJAX_CACHE_DIR": "{tmp}/here"}, "import sys; " + _CACHE_PROBE_JAX_FIRST, "{tmp}/own"),
-        ({"GYROJAX_CACHE_DIR": "{tmp}/here"}, _CLI_PROBE, "{tmp}/here"),  # the command's own process turns it on
-        ({"XDG_CACHE_HOME": "{tmp}/xdg"}, _CLI_PROBE, "{tmp}/xdg/gyrojax/jax"),
+        ({"GYROJAX_CACHE_DIR": "{tmp}/here"}, "import jax; " + _CACHE_PROBE, "{tmp}/here"),  # JAX first, no cache
+        ({"GYROJAX_CACHE_DIR": "{tmp}/here"}, _CLI_PROBE, "{tmp}/here"),  # the command's process
         ({"GYROJAX_NO_CACHE": "1", "GYROJAX_CACHE_DIR": "{tmp}/here"}, _CLI_PROBE, "None"),
     ],
 )
-def test_import_gyrojax_changes_no_jax_cache_setting_and_the_command_turns_it_on(tmp_path, env, code, want):
-    """``import gyrojax`` in a fresh process (a notebook's kernel) sets nothing of JAX's but x64: its compilation
-    cache stays as the process chose it (gyrojax keeps its own executables apart, gyrojax.runtime.kept); the
-    command line, whose process is gyrojax's alone, turns the persistent cache on (GYROJAX_NO_CACHE=1 keeps it
-    off)."""
+def test_import_gyrojax_turns_the_compilation_cache_on_unless_the_process_chose_one(tmp_path, env, code, want):
+    """``import gyrojax`` in a fresh process (a notebook's kernel) gets the command's persistent compilation cache,
+    so its first diagnosis loads what earlier processes compiled; a cache the process set itself (JAX's variable, or
+    JAX's config before the import) is kept, and GYROJAX_NO_CACHE=1 keeps it off."""
     base = {k: v for k, v in os.environ.items() if not k.startswith(("GYROJAX_", "JAX_COMPILATION", "XDG_CACHE"))}
     base.update({k: v.format(tmp=tmp_path) for k, v in env.items()})
     out = subprocess.run(

@@ -1,7 +1,7 @@
 """The measurement model's compiled functions kept across processes: ``predict``, and ``predict_and_jacobian`` (the
 prediction and the Jacobian in one pass: what ``linearize`` needs), of a :class:`~gyrojax.physics.model.Model` (a
-static argument: one executable per model and record shape) called through :class:`gyrojax.runtime.kept.Kept`, so
-that the first diagnosis of a fresh process neither traces nor compiles the model again.
+static argument: one trace per model and record shape) called through their ``jax.export`` modules
+(:class:`gyrojax.runtime.kept.Kept`), so that the first diagnosis of a fresh process does not trace the model again.
 
 A model is kept only when every term is a built-in effect (:data:`gyrojax.physics.registry.BUILTIN`): the trace
 of a built-in effect depends on the library source alone, which the key carries (with the model's kind and terms,

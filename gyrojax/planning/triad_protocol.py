@@ -206,7 +206,7 @@ def _search(params, pairs, total_s, basis, noise, learning_rate, *, crit, max_pa
 
         p, hist, val, _ = search.minimise(loss, p0, adam_steps, lbfgs_steps, learning_rate, grad_norm=False)
         att, parts = design_parts(p, k, total_s, max_pairs)
-        return hist, val, (att, tuple(parts))  # plain tuples out: a kept executable's output tree
+        return hist, val, (att, tuple(parts))  # plain tuples out: a kept trace's output tree
 
     return jax.vmap(one)(params, pairs)
 

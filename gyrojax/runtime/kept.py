@@ -1,20 +1,21 @@
-"""gyrojax's own compiled functions kept across processes: a function wrapped in :class:`Kept` is compiled once per
-argument shape and its executable saved (``jax.experimental.serialize_executable``) in gyrojax's cache folder
-(:func:`folder`), so a fresh process (the command line, a notebook's kernel) loads it instead of tracing, lowering
-and compiling it again, without JAX's persistent compilation cache switched on for the user's other functions.
+"""gyrojax's own compiled functions kept across processes: a function wrapped in :class:`Kept` is traced once per
+argument shape and saved as a ``jax.export`` module in gyrojax's cache folder (:func:`folder`), so a fresh process
+(the command line, a notebook's kernel) neither traces nor lowers it again; the command line's persistent compilation
+cache (:func:`gyrojax.runtime.cache.use_persistent_cache`) spares the compile there. A notebook's process gets the
+same cache when it imports gyrojax (:func:`gyrojax.runtime.cache.default_for_import`).
 
-A saved executable is keyed by the function's name, the argument tree, shapes and dtypes (the callers pad records
-to a few lengths, :func:`gyrojax.noise.reml.series`), the digest of the whole ``gyrojax`` source, the JAX and jaxlib
-versions, the backend and its platform, and the host CPU (an executable is compiled for its instruction set): any
-edit of the library makes new keys, so a stale executable is never called. The file name carries the first
-:data:`DIGEST_CHARS` hex digits of the source digest, and the first use of the folder in a process deletes the
-files of other library sources (:func:`prune`) but those of the :data:`KEEP_OTHER_SOURCES` most recently written,
-so that the folder does not grow with every edit of the library (two checkouts sharing one cache keep theirs). A
-function is compiled over the arguments' flat leaves (the tree, in the key, may hold types that cannot be pickled,
-e.g. :class:`~gyrojax.physics.model.RecordData`); a file that cannot be read, or whose inputs are not the call's, is
-compiled again with a warning and replaced, never called. Nothing is kept when the cache is off
-(``GYROJAX_NO_CACHE=1``), when the arguments are tracers (the function inside another transformation), or when the
-executable cannot be serialised (a function closing over constants): the jitted function itself runs then.
+A saved module is keyed by the function's name, the argument tree, shapes and dtypes (the callers pad records to a few
+lengths, :func:`gyrojax.noise.reml.series`), the digest of the whole ``gyrojax`` source (its version included), the JAX
+and jaxlib versions and the backend: any edit of the library makes new keys, so a stale trace is never called. The file
+name carries the first :data:`DIGEST_CHARS` hex digits of the source digest, and the first use of the folder in a
+process deletes the files of other library sources (:func:`prune`) but those of the :data:`KEEP_OTHER_SOURCES` most
+recently written, so that the folder does not grow with every edit of the library (two checkouts sharing one cache keep
+theirs). A module is exported over the arguments' flat leaves (the tree, in the key, may hold types ``jax.export``
+cannot serialise, e.g. :class:`~gyrojax.physics.model.RecordData`); a file that cannot be read, or whose module's inputs
+are not the call's, is traced again with a warning and replaced, never called. Nothing is kept when gyrojax's cache is
+off (``GYROJAX_NO_CACHE=1``), when the arguments are tracers (the function inside another transformation), when the
+outputs hold types ``jax.export`` cannot name, or without the ``flatbuffers`` package that ``jax.export`` serialises
+with: the jitted function itself runs then.
 """
 
 from __future__ import annotations
@@ -22,8 +23,6 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import io
-import pickle
-import platform
 import re
 import threading
 import warnings
@@ -32,33 +31,30 @@ from pathlib import Path
 
 import jax
 import numpy as np
-from jax.experimental import serialize_executable
 
-import gyrojax
 from gyrojax.protocol import atomic_write_bytes
 from gyrojax.runtime.cache import cache_dir
 
 SERIALIZABLE = importlib.util.find_spec("flatbuffers") is not None
-"""``jax.export`` serialises with the ``flatbuffers`` package; without it no trace is kept where JAX's persistent
-cache is on (the answers are the same, a fresh process traces again)."""
+"""``jax.export`` serialises with the ``flatbuffers`` package; without it nothing is kept (the answers are the same,
+a fresh process traces again)."""
 SUFFIX = "-exported"
-"""The folder of the kept executables is the cache folder with this suffix (a sibling of the command line's JAX
-cache, not inside it)."""
+"""The folder of the kept traces is the compilation cache's folder with this suffix (a sibling, not inside it)."""
 DIGEST_CHARS = 16
-"""Hex digits of the source digest in a kept file's name (``NAME-DIGEST-KEY.xla`` / ``.npz``)."""
+"""Hex digits of the source digest in a kept file's name (``NAME-DIGEST-KEY.bin`` / ``.npz``)."""
 KEEP_OTHER_SOURCES = 2
 """Other library sources whose kept files :func:`prune` leaves (the most recently written ones)."""
-_NAMED = re.compile(rf"^.+-(?P<digest>[0-9a-f]{{{DIGEST_CHARS}}})-[0-9a-f]{{32}}\.(bin|xla|npz)$")
-_UNNAMED = re.compile(r"^.+-[0-9a-f]{32}\.(bin|xla|npz)$")  # the names before the digest was in them
+_NAMED = re.compile(rf"^.+-(?P<digest>[0-9a-f]{{{DIGEST_CHARS}}})-[0-9a-f]{{32}}\.(bin|npz)$")
+_UNNAMED = re.compile(r"^.+-[0-9a-f]{32}\.(bin|npz)$")  # the names before the digest was in them
 _PRUNED: set = set()
 _UNWRITABLE: set = set()  # folders a kept file could not be written to (said once)
-_LOCK = threading.RLock()  # an executable loaded (and the folder pruned) by one thread at a time
+_LOCK = threading.RLock()  # a trace loaded (and the folder pruned) by one thread at a time
 
 
 @lru_cache(maxsize=1)
 def source_digest() -> str:
     """SHA-256 of every ``.py`` file of the installed ``gyrojax`` package (paths and contents)."""
-    root = Path(gyrojax.__file__).resolve().parent
+    root = Path(__file__).resolve().parents[1]
     h = hashlib.sha256()
     for p in sorted(root.rglob("*.py")):
         h.update(str(p.relative_to(root)).encode())
@@ -67,22 +63,12 @@ def source_digest() -> str:
 
 
 def folder() -> Path | None:
-    """Where kept executables live, or ``None`` when gyrojax's cache is off
-    (:func:`gyrojax.runtime.cache.cache_dir`)."""
+    """Where kept traces live (beside the command line's compilation cache), or ``None`` when gyrojax's cache is off
+    (:func:`gyrojax.runtime.cache.cache_dir`) or ``jax.export`` cannot serialise."""
     d = cache_dir()
+    if not SERIALIZABLE:
+        return None
     return Path(str(d).rstrip("/\\") + SUFFIX) if d else None
-
-
-@lru_cache(maxsize=1)
-def host() -> str:
-    """The host an executable was compiled for: the machine, and the CPU's model and flags where Linux says them."""
-    cpu = ""
-    try:
-        with open("/proc/cpuinfo") as f:
-            cpu = "".join(sorted({line for line in f if line.startswith(("model name", "flags"))}))
-    except OSError:
-        cpu = platform.processor()
-    return hashlib.sha256(f"{platform.machine()}|{cpu}".encode()).hexdigest()
 
 
 def prune(where: Path) -> list[Path]:
@@ -151,37 +137,44 @@ def _key(name: str, tree, specs) -> str:
         str(tree),
         [(s.shape, str(s.dtype)) for s in specs],
         source_digest(),
-        gyrojax.__version__,
         jax.__version__,
         jaxlib.__version__,
         jax.default_backend(),
-        jax.devices()[0].client.platform_version,
-        host(),
         bool(jax.config.jax_enable_x64),
     )
     return hashlib.sha256(repr(parts).encode()).hexdigest()[:32]
 
 
 class Kept:
-    """A jitted function ``fn`` called through its kept executable (or trace), saved and reloaded per argument
-    shape."""
+    """A jitted function ``fn`` called through its ``jax.export`` module, saved and reloaded per argument shape."""
 
     def __init__(self, name: str, fn):
         self.name, self.fn, self._calls = name, fn, {}
         self.__doc__ = getattr(fn, "__doc__", None)
 
     def _load(self, where: Path, tree, specs):
-        """The compiled function of ``fn`` at the argument tree ``tree`` and flat ``specs`` (:func:`_executable` or,
-        in a process with JAX's persistent cache on, :func:`_exported`); ``None`` when it cannot be kept."""
+        """The exported module of ``fn`` at the argument tree ``tree`` and flat ``specs``: read from its file when
+        that holds a module of this function at these shapes, else traced (and the file written or replaced)."""
+        path = _path(where, self.name, _key(self.name, tree, specs), ".bin")
+        if path.is_file():
+            try:
+                exported = jax.export.deserialize(bytearray(path.read_bytes()))
+                _check(exported, specs)
+                return exported
+            except Exception as e:  # a damaged or foreign file: say so, trace again and replace it
+                warnings.warn(f"{path}: kept trace unreadable ({type(e).__name__}: {e}); traced again", stacklevel=3)
 
-        def flat(*leaves):  # compiled over the leaves: the argument tree (in the key) may hold unpicklable types
+        def flat(*leaves):  # exported over the leaves: the argument tree (in the key) may hold unregistered types
             return self.fn(*jax.tree_util.tree_unflatten(tree, leaves))
 
         flat.__name__ = self.name
-        key = _key(self.name, tree, specs)
-        if jax.config.jax_compilation_cache_dir:
-            return _exported(_path(where, self.name, key, ".bin"), flat, specs)
-        return _executable(_path(where, self.name, key, ".xla"), flat, specs)
+        exported = jax.export.export(jax.jit(flat))(*specs)
+        try:
+            data = exported.serialize()
+        except (ValueError, TypeError, NotImplementedError):  # an output tree of types export cannot name
+            return None
+        _save(path, data, "traces", stacklevel=4)
+        return exported
 
     def __call__(self, *args):
         where = folder()
@@ -198,55 +191,11 @@ class Kept:
                 call = self._calls.get(key)
                 if call is None:
                     specs = [jax.ShapeDtypeStruct(x.shape, x.dtype) for x in leaves]
-                    call = self._calls[key] = self._load(where, tree, specs) or False
+                    exported = self._load(where, tree, specs)
+                    call = self._calls[key] = False if exported is None else jax.jit(exported.call)
         if call is False:
             return self.fn(*args)
         return call(*leaves)
-
-
-def _executable(path: Path, flat, specs):
-    """``flat`` compiled at ``specs``, its executable read from ``path`` when that holds one compiled at these
-    shapes, else compiled and saved there (a damaged or foreign file replaced with a warning); ``None`` when it
-    cannot be serialised (a function closing over constants)."""
-    want = [(tuple(s.shape), str(np.dtype(s.dtype))) for s in specs]
-    if path.is_file():
-        try:
-            got, payload, in_tree, out_tree = pickle.loads(path.read_bytes())
-            if got != want:
-                raise ValueError(f"its inputs {got} are not the call's {want}")
-            return serialize_executable.deserialize_and_load(payload, in_tree, out_tree)
-        except Exception as e:  # a damaged or foreign file: say so, compile again and replace it
-            warnings.warn(f"{path}: kept executable unreadable ({type(e).__name__}: {e}); compiled again", stacklevel=4)
-    compiled = jax.jit(flat).lower(*specs).compile()
-    try:
-        payload, in_tree, out_tree = serialize_executable.serialize(compiled)
-        data = pickle.dumps((want, payload, in_tree, out_tree))
-    except (ValueError, NotImplementedError, pickle.PicklingError, TypeError):
-        return None
-    _save(path, data, "executables", stacklevel=5)
-    return compiled
-
-
-def _exported(path: Path, flat, specs):
-    """``flat`` traced and lowered at ``specs`` (a ``jax.export`` module) read from ``path`` or saved there, compiled
-    through JAX's persistent cache: where that cache is on, an executable it loaded cannot be serialised again, and
-    the cache spares the compile. ``None`` without the ``flatbuffers`` package that ``jax.export`` serialises with."""
-    if not SERIALIZABLE:
-        return None
-    if path.is_file():
-        try:
-            exported = jax.export.deserialize(bytearray(path.read_bytes()))
-            _check(exported, specs)
-            return jax.jit(exported.call)
-        except Exception as e:  # a damaged or foreign file: say so, trace again and replace it
-            warnings.warn(f"{path}: kept trace unreadable ({type(e).__name__}: {e}); traced again", stacklevel=4)
-    exported = jax.export.export(jax.jit(flat))(*specs)
-    try:
-        data = exported.serialize()
-    except (ValueError, TypeError, NotImplementedError):  # an output tree of types export cannot name
-        return None
-    _save(path, data, "traces", stacklevel=5)
-    return jax.jit(exported.call)
 
 
 def _check(exported, specs) -> None:
