@@ -418,11 +418,11 @@ def main(argv=None):
 def _profile(call, top: int = 12) -> None:
     """cProfile of one call: the gyrojax functions with the largest cumulative time, and the device waits. The call
     runs on one worker thread (``GYROJAX_WORKERS=1``): cProfile sees only the thread it runs in, and the noise fits
-    would otherwise run on the workers (:func:`gyrojax.threads.parallel_map`)."""
+    would otherwise run on the workers (:func:`gyrojax.runtime.threads.parallel_map`)."""
     import cProfile
     import pstats
 
-    from gyrojax.threads import WORKERS_ENV
+    from gyrojax.runtime.threads import WORKERS_ENV
 
     before = os.environ.get(WORKERS_ENV)
     os.environ[WORKERS_ENV] = "1"

@@ -85,11 +85,11 @@ def main(argv=None):
 
     import allantools
 
-    from gyrojax import enable_compilation_cache
     from gyrojax.cli.app import main as cli
     from gyrojax.data.records import load_records
     from gyrojax.data.static import static_rate_segments
     from gyrojax.noise import allan, gmwm, readoff
+    from gyrojax.runtime.cache import use_persistent_cache
 
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
@@ -120,7 +120,7 @@ def main(argv=None):
             out.update(adequacy=adq, adev_model_deg_per_h=list(map(float, model_adev)), std=list(map(float, model_std)))
             return json.dumps(out)
 
-        enable_compilation_cache()  # as the command does
+        use_persistent_cache()  # as the command does
         t = time.perf_counter()
         first_out = command()
         t_first = time.perf_counter() - t

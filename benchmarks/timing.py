@@ -23,10 +23,12 @@ def run_process(cmd, env=None, ok=(0,), cwd=None) -> tuple[float, float, str]:
 
 def compile_here() -> None:
     """A benchmark process times compiling itself (cold − warm, reported apart from the run): JAX's persistent
-    compilation cache, which ``import gyrojax`` turns on, is off in it (and the traces kept beside the cache with
-    it). Child processes it starts turn the cache on for themselves, as any process does."""
+    compilation cache is off in it (as after ``import gyrojax``), and so are gyrojax's kept executables, for this
+    process only. Child processes it starts keep theirs, as any process does."""
     import jax
 
-    import gyrojax  # noqa: F401  (turns the cache on; switched off below, for this process only)
+    import gyrojax  # noqa: F401  (x64)
+    from gyrojax.runtime import kept
 
     jax.config.update("jax_compilation_cache_dir", None)
+    kept.folder = lambda: None

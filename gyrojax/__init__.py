@@ -19,8 +19,11 @@ The package is a tree that follows the data flow::
     report/      tables, text and figures (the only library package that draws)
     cli/         the ``gyrojax`` command (the only package that parses arguments)
 
-and below them the modules every package may import: ``errors``, ``units``, ``kinds`` (the instrument kinds) and
-``protocol`` (files and the result protocol). Imports point down a declared layer order (tests/test_layers.py).
+and below them the modules every package may import: ``errors``, ``units``, ``kinds`` (the instrument kinds),
+``protocol`` (files and the result protocol) and ``runtime`` (how compiled code runs: gyrojax's cache folder, its
+kept traces, its threads). Importing the package sets JAX's x64 and, unless the process chose its own, JAX's
+persistent compilation cache (:func:`gyrojax.runtime.cache.default_for_import`). Imports point down a declared
+layer order (tests/test_layers.py).
 
 ``import gyrojax as gj`` gives the flat API: ``gj.simulate``, ``gj.load_records``, ``gj.fit``,
 ``gj.diagnose``, ``gj.add_and_refit``, ``gj.design``, ``gj.next_test``, ``gj.run_campaign``, ``gj.run_study`` …
@@ -40,6 +43,7 @@ from gyrojax.errors import (
     TruthError,
     UnknownNameError,
 )
+from gyrojax.runtime.cache import default_for_import
 
 
 def _enable_x64() -> None:
@@ -54,54 +58,7 @@ def _enable_x64() -> None:
 
 _enable_x64()
 
-
-def cache_dir() -> str | None:
-    """Where gyrojax keeps JAX's persistent compilation cache: ``GYROJAX_CACHE_DIR``, else
-    ``$XDG_CACHE_HOME/gyrojax/jax`` or ``~/.cache/gyrojax/jax``; ``None`` when ``GYROJAX_NO_CACHE`` is set."""
-    if os.environ.get("GYROJAX_NO_CACHE", "").strip() not in ("", "0"):
-        return None
-    if os.environ.get("GYROJAX_CACHE_DIR"):
-        return os.environ["GYROJAX_CACHE_DIR"]
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return os.path.join(base, "gyrojax", "jax")
-
-
-def enable_compilation_cache() -> None:
-    """Turn on JAX's persistent compilation cache at :func:`cache_dir` (nothing when it is switched off), for every
-    compiled function however small (a diagnosis compiles dozens). Before JAX's import its variables are set, after
-    it its config is updated. The command line calls this; ``import gyrojax`` does it too unless the process chose
-    a cache of its own (:func:`_default_compilation_cache`)."""
-    path = cache_dir()
-    if path is None:
-        return
-    settings = {
-        "jax_compilation_cache_dir": path,
-        "jax_persistent_cache_min_compile_time_secs": 0.0,
-        "jax_persistent_cache_min_entry_size_bytes": 0,
-    }
-    if "jax" in sys.modules:
-        for name, value in settings.items():
-            sys.modules["jax"].config.update(name, value)
-    else:  # JAX reads them when (and if) it is imported: `gyrojax plans` and `import` never do
-        for name, value in settings.items():
-            os.environ[name.upper()] = str(value)
-
-
-def _default_compilation_cache() -> None:
-    """The persistent compilation cache for a notebook or script that imports gyrojax, as for the command: without
-    it each new process compiles every function of a diagnosis again (the demo campaign's first ``diagnose``: about
-    6 s, against 1.1 s with the cache warm). A cache the process chose itself (``JAX_COMPILATION_CACHE_DIR``, or
-    JAX's config set before this import) is left as it is, and ``GYROJAX_NO_CACHE=1`` turns it off."""
-    if "jax" in sys.modules:
-        if sys.modules["jax"].config.jax_compilation_cache_dir:
-            return
-    elif os.environ.get("JAX_COMPILATION_CACHE_DIR"):
-        return
-    enable_compilation_cache()
-
-
-_default_compilation_cache()
-
+default_for_import()
 
 __version__ = "0.2.0"
 

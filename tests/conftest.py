@@ -5,15 +5,15 @@ from pathlib import Path
 import pytest
 
 import gyrojax  # noqa: F401  (x64 is switched on by the package, once)
-from gyrojax import enable_compilation_cache
-from gyrojax.threads import single_threaded_blas
+from gyrojax.runtime.cache import use_persistent_cache
+from gyrojax.runtime.threads import single_threaded_blas
 
 single_threaded_blas()  # two test workers on two cores: BLAS threads would only spin against each other
 # JAX's persistent compilation cache for the whole session, kept in the repository's pytest cache (not the user's):
 # many tests compile the same computations through different function objects, and even a fresh cache pays for
 # itself within one run (the suite took 5 min 24 s with it, 5 min 58 s without, on 2 cores)
 os.environ.setdefault("GYROJAX_CACHE_DIR", str(Path(__file__).resolve().parent.parent / ".pytest_cache" / "jax"))
-enable_compilation_cache()
+use_persistent_cache()
 
 DATA = Path(__file__).resolve().parent / "data"
 EXAMPLES = DATA / "examples"

@@ -1,14 +1,17 @@
-"""Traced functions kept across processes (gyrojax.noise.kept, issue 26): a saved trace is reloaded instead of
-traced again, gives the closed-form answer, is keyed by shape, and a damaged file is replaced with a warning."""
+"""gyrojax's compiled functions kept across processes (gyrojax.runtime.kept): a saved trace is reloaded instead of
+traced again (in this process and in fresh ones, as a notebook's kernel), gives the closed-form answer, is keyed by
+shape, and a damaged or foreign file is replaced with a warning, never called."""
 
 import os
+import subprocess
+import sys
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from gyrojax.noise import kept
+from gyrojax.runtime import kept
 
 TRACES = []
 
@@ -58,7 +61,18 @@ def test_a_damaged_file_is_traced_again_with_a_warning(where):
     with pytest.warns(UserWarning, match="kept trace unreadable"):
         y, _ = _fresh()(np.full(3, 2.0), 1.0)
     assert float(y) == 12.0
-    assert jax.export.deserialize(bytearray(path.read_bytes())) is not None  # replaced
+    TRACES.clear()
+    assert float(_fresh()(np.full(3, 2.0), 1.0)[0]) == 12.0 and TRACES == []  # replaced by a good one
+
+
+def test_a_file_of_other_inputs_under_the_key_is_compiled_again(where):
+    _fresh()(np.ones(3), 1.0)
+    _fresh()(np.ones(4), 1.0)
+    three, four = (p for p in where.glob("energy-*.bin"))  # which is which does not matter: swap their contents
+    a, b = three.read_bytes(), four.read_bytes()
+    three.write_bytes(b), four.write_bytes(a)
+    with pytest.warns(UserWarning, match="are not the call's"):
+        assert float(_fresh()(np.full(3, 2.0), 1.0)[0]) == 12.0
 
 
 def test_inside_a_transformation_the_jitted_function_runs(where):
@@ -67,12 +81,13 @@ def test_inside_a_transformation_the_jitted_function_runs(where):
     assert not where.exists()
 
 
-def test_nothing_is_kept_without_flatbuffers(monkeypatch):
-    assert jax.config.jax_compilation_cache_dir  # tests/conftest.py turns the cache on
-    assert kept.SERIALIZABLE is False or kept.folder() is not None
-    monkeypatch.setattr(kept, "SERIALIZABLE", False)
+def test_nothing_is_kept_with_the_cache_off(monkeypatch, tmp_path):
+    monkeypatch.setenv("GYROJAX_CACHE_DIR", str(tmp_path / "c"))
+    assert kept.SERIALIZABLE is False or kept.folder() == tmp_path / ("c" + kept.SUFFIX)
+    monkeypatch.setenv("GYROJAX_NO_CACHE", "1")
     assert kept.folder() is None
     assert float(_fresh()(np.ones(2), 1.0)[0]) == 2.0
+    assert not (tmp_path / ("c" + kept.SUFFIX)).exists()
 
 
 def test_kept_arrays_are_computed_once_and_read_back_exactly(where):
@@ -123,9 +138,8 @@ def test_files_of_other_library_sources_are_pruned(where, monkeypatch):
 
 
 def test_a_folder_that_cannot_be_written_is_said_once(tmp_path, monkeypatch):
-    """A cache folder below a file (or read-only): the traces run all the same, and one warning names the folder
+    """A cache folder below a file (or read-only): the functions run all the same, and one warning names the folder
     and the way out, however many traces and arrays could not be kept."""
-    pytest.importorskip("flatbuffers")
     (tmp_path / "file").write_text("not a folder")
     monkeypatch.setattr(kept, "folder", lambda: tmp_path / "file" / "k")
     monkeypatch.setattr(kept, "_UNWRITABLE", set())
@@ -134,3 +148,46 @@ def test_a_folder_that_cannot_be_written_is_said_once(tmp_path, monkeypatch):
         assert float(_fresh()(np.ones(3), 1.0)[0]) == 3.0  # another shape: another trace not saved
         assert kept.kept_arrays("rows", ("x",), lambda: [np.arange(2)])[0].tolist() == [0, 1]
     assert len([w for w in said if "not saved" in str(w.message)]) == 1
+
+
+NOTEBOOK = r"""
+import sys, warnings
+import jax.numpy as jnp, numpy as np
+import gyrojax, jax
+from gyrojax.runtime import kept
+
+def energy(x, scale):
+    print("traced", x.shape)
+    return jnp.sum(scale * x**2), 2.0 * scale * x
+
+f = kept.Kept("energy", jax.jit(energy))
+with warnings.catch_warnings(record=True) as said:
+    warnings.simplefilter("always")
+    y, g = f(np.arange(float(sys.argv[1])), 3.0)
+print("value", float(y), float(np.sum(g)))
+print("warned", [str(w.message) for w in said])
+"""
+
+
+def _notebook(tmp_path, n):
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("GYROJAX_", "JAX_COMPILATION"))}
+    env["GYROJAX_CACHE_DIR"] = str(tmp_path / "c")
+    out = subprocess.run([sys.executable, "-c", NOTEBOOK, str(n)], env=env, capture_output=True, text=True, check=True)
+    return out.stdout
+
+
+def test_a_fresh_process_loads_the_trace_without_tracing(tmp_path):
+    pytest.importorskip("flatbuffers")
+    """A notebook's process: gyrojax's traces kept beside the cache its import chose; a second process loads the
+    trace (no trace, the closed-form value), another shape traces its own, and a damaged file is said,
+    traced again and replaced."""
+    first = _notebook(tmp_path, 5)
+    assert "traced (5,)" in first and "value 90.0 60.0" in first
+    (path,) = (tmp_path / ("c" + kept.SUFFIX)).glob("energy-*.bin")
+    again = _notebook(tmp_path, 5)
+    assert "traced" not in again and "value 90.0 60.0" in again and "warned []" in again
+    assert "traced (4,)" in _notebook(tmp_path, 4)
+    path.write_bytes(b"damaged")
+    said = _notebook(tmp_path, 5)
+    assert "kept trace unreadable" in said and "value 90.0 60.0" in said
+    assert "traced" not in _notebook(tmp_path, 5)

@@ -11,10 +11,10 @@ import pytest
 from gyrojax.data import plans
 from gyrojax.inference import kept_model
 from gyrojax.inference.campaign import Campaign
-from gyrojax.noise import kept
 from gyrojax.physics import expression as ex
 from gyrojax.physics.model import Model, jacobian_jit, predict_jit
 from gyrojax.report.demo import TRUTH
+from gyrojax.runtime import kept
 from gyrojax.simulation.simulator import simulate
 
 

@@ -3,8 +3,10 @@
 The layers, bottom first (a unit may import only from tiers below its own; units of one tier are independent)::
 
     errors                                  the exception types
-    units, kinds, protocol, threads,        unit conversions; instrument-kind names; files and the result protocol;
-    optimize, (package root)                BLAS threads; the searches and their status; the root's constants
+    units, kinds, protocol,                 unit conversions; instrument-kind names; files and the result protocol;
+    optimize                                the searches and their status
+    runtime                                 how compiled code runs: the cache folder, kept traces, threads
+    (package root)                          x64, the compilation cache, the flat API's table
     physics, noise                          the measurement model; noise descriptions, estimators and processes
     data                                    records, truth files, plans (data reads physics names and noise specs)
     dynamics, seeds                         ZOH and the loops; the source books' closed forms
@@ -40,7 +42,9 @@ PACKAGE = "gyrojax"
 
 LAYERS = (
     ("errors",),
-    ("units", "kinds", "protocol", "threads", "optimize", ""),  # "" is the package root (gyrojax/__init__.py)
+    ("units", "kinds", "protocol", "optimize"),
+    ("runtime",),
+    ("",),  # the package root (gyrojax/__init__.py): x64 and the compilation cache of runtime
     ("physics", "noise"),
     ("data",),
     ("dynamics", "seeds"),

@@ -1,12 +1,12 @@
-"""gyrojax.threads: the library's entry points run BLAS on the threads GYROJAX_BLAS_THREADS names (1 by default)
+"""gyrojax.runtime.threads: the library's entry points run BLAS on the threads GYROJAX_BLAS_THREADS names (1 by default)
 for the call, and give the caller's setting back after it."""
 
 import numpy as np
 import pytest
 from threadpoolctl import threadpool_info, threadpool_limits
 
-from gyrojax import threads
 from gyrojax.inference import diagnose, identify
+from gyrojax.runtime import threads
 
 
 def _blas_threads() -> set:

@@ -5,12 +5,11 @@ Every sub-command that writes files refuses to overwrite without ``--force`` and
 Start-up imports only argparse: each command imports the part of the library it needs when it runs
 (:mod:`gyrojax.cli.commands`), so ``gyrojax --help`` and bad-usage errors answer at once.
 
-Compiled XLA code is kept across processes in JAX's persistent compilation cache, under the user's cache
-directory (``$XDG_CACHE_HOME/gyrojax/jax`` or ``~/.cache/gyrojax/jax``); ``GYROJAX_NO_CACHE=1`` turns it off and
-``GYROJAX_CACHE_DIR`` moves it. Beside it (``…/jax-exported``) the traced REML functions, the measurement model's
-``predict`` and ``jacobian`` of built-in models and the triad fit's passes (:mod:`gyrojax.inference.kept_model`) and
-the built-in plans' regressors are kept (:mod:`gyrojax.noise.kept`), so a fresh process does not trace them again.
-The settings reach JAX through its environment variables when JAX is not yet imported: ``gyrojax --help``,
+The command's process is gyrojax's alone, so it turns JAX's persistent compilation cache on for every compiled
+function (:func:`gyrojax.runtime.cache.use_persistent_cache`: ``$XDG_CACHE_HOME/gyrojax/jax`` or
+``~/.cache/gyrojax/jax``; ``GYROJAX_NO_CACHE=1`` turns it off and ``GYROJAX_CACHE_DIR`` moves it); the traces of
+gyrojax's kept functions live beside it (:mod:`gyrojax.runtime.kept`), so a fresh process does not trace them
+again. The settings reach JAX through its environment variables when JAX is not yet imported: ``gyrojax --help``,
 ``plans`` and ``import`` never import it.
 """
 
@@ -22,11 +21,11 @@ import os
 import sys
 import threading
 
-from gyrojax import enable_compilation_cache
 from gyrojax.cli.args import UsageError
 from gyrojax.cli.import_table import add_table_arguments
 from gyrojax.errors import GyrojaxError
-from gyrojax.threads import POOL_PREFIX, single_threaded_blas, stop_workers
+from gyrojax.runtime.cache import use_persistent_cache
+from gyrojax.runtime.threads import POOL_PREFIX, single_threaded_blas, stop_workers
 
 
 class _Parser(argparse.ArgumentParser):
@@ -303,7 +302,7 @@ def main(argv=None) -> int:
         if not getattr(args, "command", None):
             parser.print_help()
             return 0
-        enable_compilation_cache()
+        use_persistent_cache()
         single_threaded_blas()
         return args.func(args)
     except GyrojaxError as e:

@@ -41,9 +41,9 @@ from gyrojax.inference.scoring import collinear, score
 from gyrojax.inference.solver import stack_whitened
 from gyrojax.inference.subspace import UNSEEN, WhitenedSystem, basis, perp
 from gyrojax.inference.verdict import POWERS, Structure
-from gyrojax.noise.kept import Kept
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import instrument_inputs
+from gyrojax.runtime.kept import Kept
 
 HARMONICS = 6
 """Highest harmonic of a table angle tested (cycles per revolution)."""
@@ -64,7 +64,7 @@ def _harmonic(p: dict, axis: str, k: int) -> np.ndarray:
     return np.column_stack([np.cos(k * th), np.sin(k * th)])
 
 
-@partial(Kept, "inputs_without_setup")  # kept across processes (gyrojax.noise.kept)
+@partial(Kept, "inputs_without_setup")  # kept across processes (gyrojax.runtime.kept)
 @jax.jit
 def _inputs_without_setup(d):
     """:func:`gyrojax.physics.model.instrument_inputs` of a record with no set-up error (one compiled function, not

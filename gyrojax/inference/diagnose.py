@@ -39,7 +39,7 @@ from gyrojax.inference.triad import is_triad_input
 from gyrojax.inference.triad_diagnosis import TriadSession
 from gyrojax.inference.turntable_diagnosis import TurntableSession
 from gyrojax.inference.verdict import Diagnosis, Step, effect_to_add
-from gyrojax.threads import narrow_blas
+from gyrojax.runtime.threads import narrow_blas
 
 MAX_NOISE_ROUNDS = 4
 """Rounds of the forward selection of the noise model at most."""

@@ -55,7 +55,7 @@ from gyrojax.noise import reml
 from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model
-from gyrojax.threads import narrow_blas
+from gyrojax.runtime.threads import narrow_blas
 
 DEFAULT_TERMS = {
     fx.SDF: ("D_F", "D_I", "D_O", "D_S"),

@@ -1,9 +1,7 @@
-"""The measurement model's traces kept across processes (issue 26): ``predict``, and ``predict_and_jacobian`` (the
+"""The measurement model's compiled functions kept across processes: ``predict``, and ``predict_and_jacobian`` (the
 prediction and the Jacobian in one pass: what ``linearize`` needs), of a :class:`~gyrojax.physics.model.Model` (a
 static argument: one trace per model and record shape) called through their ``jax.export`` modules
-(:class:`gyrojax.noise.kept.Kept`), so that the first diagnosis of a fresh process does not trace the model again
-(tracing ``jacobian`` of the demo's saturated model is about a second per shape; the persistent compilation cache
-spares only the compile).
+(:class:`gyrojax.runtime.kept.Kept`), so that the first diagnosis of a fresh process does not trace the model again.
 
 A model is kept only when every term is a built-in effect (:data:`gyrojax.physics.registry.BUILTIN`): the trace
 of a built-in effect depends on the library source alone, which the key carries (with the model's kind and terms,
@@ -22,7 +20,6 @@ from functools import lru_cache, partial
 
 import jax
 
-from gyrojax.noise.kept import Kept
 from gyrojax.physics import registry
 from gyrojax.physics.model import (
     Model,
@@ -31,6 +28,7 @@ from gyrojax.physics.model import (
     predict_and_jacobian_jit,
     predict_jit,
 )
+from gyrojax.runtime.kept import Kept
 
 
 def keepable(model: Model) -> bool:

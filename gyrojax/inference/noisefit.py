@@ -24,7 +24,7 @@ from gyrojax.noise.whiten import (
     reml_u_covariance,
     with_reml_covariance,
 )
-from gyrojax.threads import parallel_map
+from gyrojax.runtime.threads import parallel_map
 
 
 def noise_groups(campaign: Campaign) -> list[list[int]]:
@@ -71,7 +71,7 @@ def campaign_noise(lin, campaign: Campaign) -> list:
     AR (per-sample variances in the output unit squared, τ in s); records of one group share the same object.
     """
 
-    def one(idx):  # the groups' fits are independent: they run side by side (gyrojax.threads.parallel_map)
+    def one(idx):  # the groups' fits are independent: they run side by side (gyrojax.runtime.threads.parallel_map)
         r, j, lab, t = group_series(lin, idx)
         q = group_readout_variance(campaign, idx)
         kw = {"tau_span_fraction": FIT_TAU_SPAN_FRACTION, "neutral_start": True, "prefer_gm": True, "readout_var": q}

@@ -20,16 +20,16 @@ from gyrojax.inference.identifiability import ALIAS_TOL
 from gyrojax.inference.kept_model import keepable, model_name
 from gyrojax.inference.lstsq import lstsq_normal
 from gyrojax.inference.scoring import ALPHA
-from gyrojax.noise.kept import Kept, kept_arrays
 from gyrojax.physics import effects as fx
 from gyrojax.physics import registry
 from gyrojax.physics.model import Model, jacobian
+from gyrojax.runtime.kept import Kept, kept_arrays
 
 
 @lru_cache(maxsize=4)
 def _plan_jacobians(kind: str):
     """Regressors of every named effect in a few short built-in plans (computed once per process; with built-in
-    effects only, kept on disk across processes: :func:`gyrojax.noise.kept.kept_arrays`)."""
+    effects only, kept on disk across processes: :func:`gyrojax.runtime.kept.kept_arrays`)."""
     model = Model(tuple(n for n in fx.names(kind) if n != "bias_temperature"), kind)
     if not set(model.terms) <= registry.BUILTIN:
         return model, _compute_plan_jacobians(model)
@@ -189,7 +189,7 @@ def _vmapped_rows(model: Model, d, t, a):
 
 @lru_cache(maxsize=8)
 def _rows_jit(model: Model):
-    # kept across processes for built-in models (gyrojax.noise.kept): the first diagnosis of a process skips the trace
+    # kept across processes for built-in models (gyrojax.runtime.kept): the first diagnosis of a process skips the trace
     fn = jax.jit(partial(_vmapped_rows, model))
     return Kept(model_name("static_rows", model), fn) if keepable(model) else fn
 

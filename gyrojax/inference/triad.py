@@ -62,7 +62,7 @@ from gyrojax.noise.spec import SessionNoise
 from gyrojax.noise.whiten import pooled_autocovariance
 from gyrojax.optimize import least_squares
 from gyrojax.physics import triad as tp
-from gyrojax.threads import narrow_blas
+from gyrojax.runtime.threads import narrow_blas
 
 DEFAULT_STATIC_TERMS = ("D_F", "D_I", "D_O", "D_S")
 DEFAULT_ROTATION_TERMS = DEFAULT_STATIC_TERMS + ("sf_error", "ia_misalignment")

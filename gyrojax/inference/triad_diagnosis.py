@@ -47,7 +47,7 @@ from gyrojax.inference.scoring import ALPHA, residual_variance, rms_after, score
 from gyrojax.inference.subspace import basis
 from gyrojax.inference.triad_components import estimate_components, reml_objective, whiten_rows
 from gyrojax.inference.triad_rows import (
-    linear_matrices,
+    channel_matrices,
     move_residual,
     move_rows,
     pack_moves,
@@ -198,7 +198,7 @@ def session_data(records, fit, earth_rate=None) -> dict:
         mv_times.extend((m.t_h, m.temp) for m in mv)  # the samples the fit integrates
         gyro_dph(r)  # refuses a record without gyro columns here, by name
     q = np.asarray(fit.noise_q, dtype=float)
-    b, s_mat, g_mat = (np.asarray(m) for m in linear_matrices(model, jnp.asarray(theta)))
+    b, s_mat, g_mat = channel_matrices(model, theta)
     comp = fit.variance_components or {}
     tau2 = {
         "pose": comp.get("pose_bias_scatter_indicated_deg_per_h", comp.get("pose_bias_scatter_deg_per_h", 0.0)) ** 2,

@@ -63,10 +63,17 @@ def linear_matrices(model, theta):
 linear_matrices_jit = jax.jit(linear_matrices, static_argnums=0)
 
 
+def channel_matrices(model, theta) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """b, S and G of :func:`linear_matrices` at θ as numpy arrays, compiled and kept."""
+    th = np.asarray(theta, dtype=float)
+    return tuple(
+        np.asarray(m) for m in kept_call("triad_linear_matrices", linear_matrices, linear_matrices_jit, model, th)
+    )
+
+
 def scale_matrix(model, theta) -> np.ndarray:
     """S (3, 3) of the channel model at θ (:func:`linear_matrices`, compiled and kept)."""
-    th = np.asarray(theta, dtype=float)
-    return np.asarray(kept_call("triad_linear_matrices", linear_matrices, linear_matrices_jit, model, th)[1])
+    return channel_matrices(model, theta)[1]
 
 
 # ---- segment means ---------------------------------------------------------------------------------------------

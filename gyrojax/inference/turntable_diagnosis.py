@@ -51,7 +51,7 @@ from gyrojax.noise.whiten import fit_noise, gm_reml
 from gyrojax.physics import effects as fx
 from gyrojax.physics import plausibility
 from gyrojax.physics.model import Model
-from gyrojax.threads import parallel_map
+from gyrojax.runtime.threads import parallel_map
 
 SLOW = ("bias_trend", "bias_temperature")
 """Candidates that vary slowly in time and so compete with long-memory drift for the same residual structure. They
@@ -292,7 +292,7 @@ def _noise_models(lin, cols, starts=None, readouts=None) -> list:
     res = r_all - ub @ (ub.T @ r_all)
     bounds = np.cumsum([0] + [len(rec.residual) for rec in lin])
 
-    def one(i):  # the records' fits are independent: they run side by side (gyrojax.threads.parallel_map)
+    def one(i):  # the records' fits are independent: they run side by side (gyrojax.runtime.threads.parallel_map)
         rec, s, st = lin[i], scales[i], starts[i]
         design = np.column_stack([rec.jacobian[:, cols], _nuisance(rec.times)])
         start = st if st is not None and st.gauss_markov else None

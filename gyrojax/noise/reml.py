@@ -38,9 +38,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from gyrojax.noise.kept import Kept
 from gyrojax.optimize import Solution, difference_curvature, minimize
-from gyrojax.threads import parallel_map
+from gyrojax.runtime.kept import Kept
+from gyrojax.runtime.threads import parallel_map
 
 RANK_TOL = 1e-7
 """A regressor whose normalised component orthogonal to the previous regressors is below this is not estimated."""
@@ -409,7 +409,7 @@ def objective(u, x, dt, restart, mask, reml, readout=None):
     return logs + quad + reml * logdet
 
 
-# compiled, and kept across processes per shape (gyrojax.noise.kept: a fresh process does not trace them again)
+# compiled, and kept across processes per shape (gyrojax.runtime.kept: a fresh process does not trace them again)
 value_and_grad = Kept("value_and_grad", jax.jit(jax.value_and_grad(objective)))
 whiten_jit = Kept("whiten_scan", jax.jit(whiten_scan))
 """The compiled :func:`whiten_scan` (the one Kalman whitening filter, :func:`gyrojax.noise.whiten.kalman_whiten`)."""

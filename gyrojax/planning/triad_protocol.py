@@ -26,10 +26,11 @@ poses (N uniformly random attitudes, the mean of :data:`RANDOM_DRAWS` draws).
 
 from __future__ import annotations
 
+import hashlib
 import math
 import warnings
 from dataclasses import dataclass, field
-from functools import partial
+from functools import lru_cache, partial
 
 import jax
 import jax.numpy as jnp
@@ -53,6 +54,7 @@ from gyrojax.planning.triad_fisher import (
     rows_basis,
     steps_parts,
 )
+from gyrojax.runtime.kept import Kept
 from gyrojax.simulation.triad import face_attitude, random_attitude, relative_turn, rotation_matrix
 
 HAND_RATE_DPS = 90.0
@@ -183,7 +185,15 @@ def design_parts(params, pairs, total_s, max_pairs: int):
 # ---- the search --------------------------------------------------------------------------------------------------
 
 
-@partial(jax.jit, static_argnames=("crit", "max_pairs", "adam_steps", "lbfgs_steps"))
+@lru_cache(maxsize=16)
+def _kept_search(crit: Criterion, max_pairs: int, adam_steps: int, lbfgs_steps: int) -> Kept:
+    """The compiled search (:func:`_search`) of one criterion and configuration, kept across processes
+    (:class:`gyrojax.runtime.kept.Kept`: a fresh ``gyrojax design`` neither traces nor lowers the search again)."""
+    statics = {"crit": crit, "max_pairs": max_pairs, "adam_steps": adam_steps, "lbfgs_steps": lbfgs_steps}
+    digest = hashlib.sha256(repr(sorted(statics.items())).encode()).hexdigest()[:12]
+    return Kept(f"triad_search_{digest}", jax.jit(partial(_search, **statics)))
+
+
 def _search(params, pairs, total_s, basis, noise, learning_rate, *, crit, max_pairs, adam_steps, lbfgs_steps):
     """Every lane (a structure's ``pairs`` and a start) searched at once: the lanes' loss histories and final
     losses, and their attitudes and parts at the end. The model and the session are arguments, not constants: one
@@ -195,7 +205,8 @@ def _search(params, pairs, total_s, basis, noise, learning_rate, *, crit, max_pa
             return crit.loss(protocol_information(basis, design_parts(p, k, total_s, max_pairs)[1], noise), p_total)
 
         p, hist, val, _ = search.minimise(loss, p0, adam_steps, lbfgs_steps, learning_rate, grad_norm=False)
-        return hist, val, design_parts(p, k, total_s, max_pairs)
+        att, parts = design_parts(p, k, total_s, max_pairs)
+        return hist, val, (att, tuple(parts))  # plain tuples out: a kept trace's output tree
 
     return jax.vmap(one)(params, pairs)
 
@@ -352,8 +363,9 @@ def design_protocol(
     lanes = len(structures) * starts
     params = (np.tile(x0, (len(structures), 1)), np.tile(v0, (len(structures), 1, 1)), np.zeros((lanes, n_poses)))
     pairs = np.repeat(np.array(structures), starts)
-    kw = {"crit": crit, "max_pairs": max(structures), "adam_steps": steps, "lbfgs_steps": lbfgs_steps}
-    hist, final, (att, parts) = _search(params, pairs, total, rows_basis(model), noise.numbers(), learning_rate, **kw)
+    kept_search = _kept_search(crit, max(structures), steps, lbfgs_steps)
+    hist, final, (att, parts) = kept_search(params, pairs, total, rows_basis(model), noise.numbers(), learning_rate)
+    parts = Parts(*parts)
     final = np.where(np.isfinite(np.asarray(final)), np.asarray(final), np.inf)
     by_structure = {k: final[i * starts : (i + 1) * starts] for i, k in enumerate(structures)}
     b = search.best_start(final, "the protocol design")

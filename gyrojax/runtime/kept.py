@@ -1,19 +1,21 @@
-"""Traced functions kept across processes (issue 26): the REML search's jitted functions are traced once per shape
-and saved as ``jax.export`` modules beside JAX's persistent compilation cache, so a fresh process neither traces
-nor lowers them again (the cache already spares the compile).
+"""gyrojax's own compiled functions kept across processes: a function wrapped in :class:`Kept` is traced once per
+argument shape and saved as a ``jax.export`` module in gyrojax's cache folder (:func:`folder`), so a fresh process
+(the command line, a notebook's kernel) neither traces nor lowers it again; the command line's persistent compilation
+cache (:func:`gyrojax.runtime.cache.use_persistent_cache`) spares the compile there. A notebook's process gets the
+same cache when it imports gyrojax (:func:`gyrojax.runtime.cache.default_for_import`).
 
-A saved module is keyed by the function's name, the argument tree, shapes and dtypes (the callers pad records to a
-few lengths, :func:`gyrojax.noise.reml.series`), the digest of the whole ``gyrojax`` source, the JAX and jaxlib
-versions and the backend: any edit of the library makes new keys, so a stale trace is never called. The file name
-carries the first :data:`DIGEST_CHARS` hex digits of the source digest, and the first use of the folder in a process
-deletes the files of other library sources (:func:`prune`) but those of the :data:`KEEP_OTHER_SOURCES` most recently
-written, so that the folder does not grow with every edit of the library (two checkouts sharing one cache keep
+A saved module is keyed by the function's name, the argument tree, shapes and dtypes (the callers pad records to a few
+lengths, :func:`gyrojax.noise.reml.series`), the digest of the whole ``gyrojax`` source (its version included), the JAX
+and jaxlib versions and the backend: any edit of the library makes new keys, so a stale trace is never called. The file
+name carries the first :data:`DIGEST_CHARS` hex digits of the source digest, and the first use of the folder in a
+process deletes the files of other library sources (:func:`prune`) but those of the :data:`KEEP_OTHER_SOURCES` most
+recently written, so that the folder does not grow with every edit of the library (two checkouts sharing one cache keep
 theirs). A module is exported over the arguments' flat leaves (the tree, in the key, may hold types ``jax.export``
-cannot serialise, e.g. :class:`~gyrojax.physics.model.RecordData`); a file that cannot be read, or whose module's
-inputs are not the call's, is traced again with a warning and replaced, never called. Nothing is kept when the
-compilation cache is off (``jax_compilation_cache_dir`` unset, e.g.
-``GYROJAX_NO_CACHE=1``), or when the arguments are tracers (the function inside another transformation), or without
-the ``flatbuffers`` package that ``jax.export`` serialises with: the jitted function itself runs then.
+cannot serialise, e.g. :class:`~gyrojax.physics.model.RecordData`); a file that cannot be read, or whose module's inputs
+are not the call's, is traced again with a warning and replaced, never called. Nothing is kept when gyrojax's cache is
+off (``GYROJAX_NO_CACHE=1``), when the arguments are tracers (the function inside another transformation), when the
+outputs hold types ``jax.export`` cannot name, or without the ``flatbuffers`` package that ``jax.export`` serialises
+with: the jitted function itself runs then.
 """
 
 from __future__ import annotations
@@ -30,8 +32,8 @@ from pathlib import Path
 import jax
 import numpy as np
 
-import gyrojax
 from gyrojax.protocol import atomic_write_bytes
+from gyrojax.runtime.cache import cache_dir
 
 SERIALIZABLE = importlib.util.find_spec("flatbuffers") is not None
 """``jax.export`` serialises with the ``flatbuffers`` package; without it nothing is kept (the answers are the same,
@@ -52,7 +54,7 @@ _LOCK = threading.RLock()  # a trace loaded (and the folder pruned) by one threa
 @lru_cache(maxsize=1)
 def source_digest() -> str:
     """SHA-256 of every ``.py`` file of the installed ``gyrojax`` package (paths and contents)."""
-    root = Path(gyrojax.__file__).resolve().parent
+    root = Path(__file__).resolve().parents[1]
     h = hashlib.sha256()
     for p in sorted(root.rglob("*.py")):
         h.update(str(p.relative_to(root)).encode())
@@ -61,8 +63,9 @@ def source_digest() -> str:
 
 
 def folder() -> Path | None:
-    """Where kept traces live, or ``None`` when JAX's persistent compilation cache is off."""
-    d = jax.config.jax_compilation_cache_dir
+    """Where kept traces live (beside the command line's compilation cache), or ``None`` when gyrojax's cache is off
+    (:func:`gyrojax.runtime.cache.cache_dir`) or ``jax.export`` cannot serialise."""
+    d = cache_dir()
     if not SERIALIZABLE:
         return None
     return Path(str(d).rstrip("/\\") + SUFFIX) if d else None
@@ -134,7 +137,6 @@ def _key(name: str, tree, specs) -> str:
         str(tree),
         [(s.shape, str(s.dtype)) for s in specs],
         source_digest(),
-        gyrojax.__version__,
         jax.__version__,
         jaxlib.__version__,
         jax.default_backend(),
@@ -167,7 +169,11 @@ class Kept:
 
         flat.__name__ = self.name
         exported = jax.export.export(jax.jit(flat))(*specs)
-        _save(path, exported.serialize(), "traces", stacklevel=4)
+        try:
+            data = exported.serialize()
+        except (ValueError, TypeError, NotImplementedError):  # an output tree of types export cannot name
+            return None
+        _save(path, data, "traces", stacklevel=4)
         return exported
 
     def __call__(self, *args):
@@ -179,11 +185,16 @@ class Kept:
         key = (where, tree, tuple((x.shape, str(x.dtype)) for x in leaves))
         call = self._calls.get(key)
         if call is None:
-            with _LOCK:  # worker threads (gyrojax.threads.parallel_map) at a new shape: one loads, the others wait
+            with (
+                _LOCK
+            ):  # worker threads (gyrojax.runtime.threads.parallel_map) at a new shape: one loads, the others wait
                 call = self._calls.get(key)
                 if call is None:
                     specs = [jax.ShapeDtypeStruct(x.shape, x.dtype) for x in leaves]
-                    call = self._calls[key] = jax.jit(self._load(where, tree, specs).call)
+                    exported = self._load(where, tree, specs)
+                    call = self._calls[key] = False if exported is None else jax.jit(exported.call)
+        if call is False:
+            return self.fn(*args)
         return call(*leaves)
 
 
