@@ -17,7 +17,14 @@ Subcommands:
   it assumes independent scatter on a walk, and with ``--gyrojax`` the rate of deterministic proposals by gyrojax's
   diagnosis (written records, one diagnosis per draw). Rates with Clopper–Pearson 95 % intervals.
 
-Run: python -m benchmarks.study_real_noise reference | power | baseline | nulls [options]
+* ``colour [--draws 30] [--workers 1]``: the rule that judges colour against input-following shapes (a hinge with a
+  fitted knee, the linear temperature, the trend): gyrojax's rate of deterministic proposals on the turntable null
+  with slow Gauss–Markov drift and a temperature cycle, from D_F…D_S and from D_F…D_S + bias_temperature (the
+  hinge's own null); its rate of proposing the planted effect on the linear temperature in drift and on the two
+  slopes (with bias_temperature in the model), and how often the hinge's fitted knee lies within 2σ of 20 °C. One
+  diagnosis per draw, in bounded worker processes (a few draws each).
+
+Run: python -m benchmarks.study_real_noise reference | power | baseline | nulls | colour [options]
 """
 
 from __future__ import annotations
@@ -30,6 +37,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # the reference's small fact
 import tempfile  # noqa: E402
 import time  # noqa: E402
 import warnings  # noqa: E402
+from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 from scipy import stats  # noqa: E402
@@ -185,6 +193,55 @@ def nulls(draws, with_gyrojax) -> None:
         _gyrojax_null_rates(draws)
 
 
+COLOUR_CASES = (
+    ("slow-drift-null", (), None),
+    ("slow-drift-null", ("bias_temperature",), None),
+    ("linear-temperature-in-drift", (), "bias_temperature"),
+    ("two-slope-temperature", ("bias_temperature",), "temperature_hinge"),
+)
+"""(case, terms added to its model, the effect a diagnosis should propose: None for a null)."""
+
+
+def _colour_draw(job):
+    """One diagnosis of one drawn campaign (a worker's task): (proposal, the knee's value and σ when the proposal
+    is the hinge)."""
+    name, extra, seed = job
+    case = rc.CASES[name]
+    with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        paths, _ = case.build(Path(tmp), seed)
+        d = rc.gyrojax_json(paths, tuple(case.terms) + tuple(extra))
+    knee = None
+    if d.get("proposal") == "temperature_hinge":
+        c = next(c for c in d["candidates"] if c["name"] == "temperature_hinge")
+        knee = (c["estimate"]["T_KNEE"]["value"], c["estimate"]["T_KNEE"].get("std"))
+    return d.get("proposal"), knee
+
+
+def colour(draws: int, workers: int) -> None:
+    import multiprocessing as mp
+
+    ctx = mp.get_context("spawn")
+    for name, extra, want in COLOUR_CASES:
+        jobs = [(name, extra, 30_000 + i) for i in range(draws)]
+        t0 = time.time()
+        with ctx.Pool(workers, maxtasksperchild=4) as pool:
+            out = pool.map(_colour_draw, jobs, chunksize=1)
+        props = [p for p, _ in out]
+        label = f"{name} from {', '.join(rc.CASES[name].terms + extra)}"
+        if want is None:
+            k = sum(p is not None for p in props)
+            found = sorted({p for p in props if p})
+            print(f"{label}: a deterministic proposal {interval(k, draws)} {found or ''}, {time.time() - t0:.0f} s")
+        else:
+            k = sum(p == want for p in props)
+            print(f"{label}: {want} proposed {interval(k, draws)}, {time.time() - t0:.0f} s", flush=True)
+            knees = [kn for _, kn in out if kn is not None and kn[1]]
+            if knees:
+                inside = sum(abs(v - 20.0) < 2 * sd for v, sd in knees)
+                print(f"  knee within 2σ of 20 °C: {interval(inside, len(knees))}")
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(prog="python -m benchmarks.study_real_noise", description=__doc__.split("\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -197,6 +254,9 @@ def main(argv=None) -> None:
     n = sub.add_parser("nulls")
     n.add_argument("--draws", type=int, default=200)
     n.add_argument("--gyrojax", action="store_true", help="also gyrojax's proposal rate (slow: a diagnosis a draw)")
+    c = sub.add_parser("colour")
+    c.add_argument("--draws", type=int, default=30)
+    c.add_argument("--workers", type=int, default=1)
     args = ap.parse_args(argv)
     if args.cmd == "reference":
         reference(args.seeds)
@@ -204,6 +264,8 @@ def main(argv=None) -> None:
         power()
     elif args.cmd == "baseline":
         baseline(args.seeds, args.cases)
+    elif args.cmd == "colour":
+        colour(args.draws, args.workers)
     else:
         nulls(args.draws, args.gyrojax)
 
