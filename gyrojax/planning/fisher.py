@@ -43,7 +43,7 @@ from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model, RecordData, jacobian
 
-TIME_EFFECTS = ("bias_trend", "bias_temperature")
+TIME_EFFECTS = ("bias_trend",) + fx.TEMPERATURE_EFFECTS
 
 
 # ---- noise ----------------------------------------------------------------------------------------------------
@@ -109,7 +109,7 @@ class Table:
 
 
 def check_static(model: Model) -> None:
-    """Raise ModelError if the model has an effect of ``TIME_EFFECTS`` (``bias_trend``, ``bias_temperature``): a
+    """Raise ModelError if the model has an effect of ``TIME_EFFECTS`` (``bias_trend`` and the temperature effects): a
     static-position design has no clock."""
     bad = [t for t in model.terms if t in TIME_EFFECTS]
     if bad:
