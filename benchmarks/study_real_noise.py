@@ -16,13 +16,12 @@ Subcommands:
   being checked against V in tests/test_real_noise.py), the rate at which the reference itself finds a trend when
   it assumes independent scatter on a walk, and with ``--gyrojax`` the rate of deterministic proposals by gyrojax's
   diagnosis (written records, one diagnosis per draw). Rates with Clopper–Pearson 95 % intervals.
-
-* ``colour [--draws 30] [--workers 1]``: the rule that judges colour against input-following shapes (a hinge with a
-  fitted knee, the linear temperature, the trend): gyrojax's rate of deterministic proposals on the turntable null
-  with slow Gauss–Markov drift and a temperature cycle, from D_F…D_S and from D_F…D_S + bias_temperature (the
-  hinge's own null); its rate of proposing the planted effect on the linear temperature in drift and on the two
-  slopes (with bias_temperature in the model), and how often the hinge's fitted knee lies within 2σ of 20 °C. One
-  diagnosis per draw, in bounded worker processes (a few draws each).
+* ``colour [--draws 30] [--planted-draws 10] [--workers 1]``: the rule that judges colour against input-following
+  shapes (a hinge with a fitted knee, the linear temperature, the trend): gyrojax's rate of deterministic
+  proposals on the turntable null with slow Gauss–Markov drift and a temperature cycle, from D_F…D_S and from
+  D_F…D_S + bias_temperature (the hinge's own null); its rate of proposing the planted effect on the linear
+  temperature in drift and on the two slopes (with bias_temperature in the model), and how often the hinge's fitted
+  knee lies within 2σ of 20 °C. One diagnosis per draw, in bounded worker processes (a few draws each).
 
 Run: python -m benchmarks.study_real_noise reference | power | baseline | nulls | colour [options]
 """
@@ -218,12 +217,13 @@ def _colour_draw(job):
     return d.get("proposal"), knee
 
 
-def colour(draws: int, workers: int) -> None:
+def colour(draws: int, planted_draws: int, workers: int) -> None:
     import multiprocessing as mp
 
     ctx = mp.get_context("spawn")
     for name, extra, want in COLOUR_CASES:
-        jobs = [(name, extra, 30_000 + i) for i in range(draws)]
+        n = draws if want is None else planted_draws
+        jobs = [(name, extra, 30_000 + i) for i in range(n)]
         t0 = time.time()
         with ctx.Pool(workers, maxtasksperchild=4) as pool:
             out = pool.map(_colour_draw, jobs, chunksize=1)
@@ -232,10 +232,11 @@ def colour(draws: int, workers: int) -> None:
         if want is None:
             k = sum(p is not None for p in props)
             found = sorted({p for p in props if p})
-            print(f"{label}: a deterministic proposal {interval(k, draws)} {found or ''}, {time.time() - t0:.0f} s")
+            rate = interval(k, n)
+            print(f"{label}: a deterministic proposal {rate} {found or ''}, {time.time() - t0:.0f} s", flush=True)
         else:
             k = sum(p == want for p in props)
-            print(f"{label}: {want} proposed {interval(k, draws)}, {time.time() - t0:.0f} s", flush=True)
+            print(f"{label}: {want} proposed {interval(k, n)}, {time.time() - t0:.0f} s", flush=True)
             knees = [kn for _, kn in out if kn is not None and kn[1]]
             if knees:
                 inside = sum(abs(v - 20.0) < 2 * sd for v, sd in knees)
@@ -255,7 +256,8 @@ def main(argv=None) -> None:
     n.add_argument("--draws", type=int, default=200)
     n.add_argument("--gyrojax", action="store_true", help="also gyrojax's proposal rate (slow: a diagnosis a draw)")
     c = sub.add_parser("colour")
-    c.add_argument("--draws", type=int, default=30)
+    c.add_argument("--draws", type=int, default=30, help="draws of each null")
+    c.add_argument("--planted-draws", type=int, default=10, help="draws of each planted case")
     c.add_argument("--workers", type=int, default=1)
     args = ap.parse_args(argv)
     if args.cmd == "reference":
@@ -265,7 +267,7 @@ def main(argv=None) -> None:
     elif args.cmd == "baseline":
         baseline(args.seeds, args.cases)
     elif args.cmd == "colour":
-        colour(args.draws, args.workers)
+        colour(args.draws, args.planted_draws, args.workers)
     else:
         nulls(args.draws, args.gyrojax)
 
