@@ -223,6 +223,8 @@ def colour(draws: int, planted_draws: int, workers: int) -> None:
     ctx = mp.get_context("spawn")
     for name, extra, want in COLOUR_CASES:
         n = draws if want is None else planted_draws
+        if n == 0:
+            continue
         jobs = [(name, extra, 30_000 + i) for i in range(n)]
         t0 = time.time()
         with ctx.Pool(workers, maxtasksperchild=4) as pool:
