@@ -109,8 +109,8 @@ class Table:
 
 
 def check_static(model: Model) -> None:
-    """Raise ModelError if the model has an effect of ``TIME_EFFECTS`` (``bias_trend`` and the temperature effects): a
-    static-position design has no clock."""
+    """Raise ModelError if the model has an effect of ``TIME_EFFECTS`` (``bias_trend``, ``bias_temperature``,
+    ``temperature_hinge``): a static-position design has no clock."""
     bad = [t for t in model.terms if t in TIME_EFFECTS]
     if bad:
         raise ModelError(f"static-position design cannot use time/temperature effects {bad}: they need a clock")
