@@ -166,3 +166,15 @@ def test_colour_against_shape_is_the_dense_likelihood(planted):
     want = _dense_gain(r, d0, hinge[:, None], white_var, gm_var, tau, t, 1)
     assert gain == pytest.approx(want, rel=1e-6, abs=1e-6)
     assert (gain > 0) == bool(planted), gain
+
+
+def test_a_monte_carlo_study_refuses_a_knee():
+    """The Monte Carlo pipeline's solver starts every coefficient at zero, where a knee is not seen: a study whose
+    terms hold the hinge is refused, naming it, instead of answering from a singular start."""
+    from gyrojax.montecarlo import study as mc
+    from gyrojax.montecarlo.pipeline import build_pipeline
+
+    options = {"n": 8, "minutes": 1, "dt_s": 5}
+    st = mc.Study(plan="multiposition", plan_options=options, terms=["D_F", "temperature_hinge"])
+    with pytest.raises(mc.StudyError, match="temperature_hinge"):
+        build_pipeline(st)
