@@ -20,8 +20,14 @@ Subcommands:
   deterministic proposals on triad nulls whose bias walks (steps at each move; a rate random walk) and on the
   independent scatter, the rate at which it names the walk, and how often it says a candidate cannot be told from
   the walk (small sessions of 16 rests unless ``--full-size``).
+* ``colour [--draws 30] [--planted-draws 10] [--workers 1]``: the rule that judges colour against input-following
+  shapes (a hinge with a fitted knee, the linear temperature, the trend): gyrojax's rate of deterministic
+  proposals on the turntable null with slow Gauss–Markov drift and a temperature cycle, from D_F…D_S and from
+  D_F…D_S + bias_temperature (the hinge's own null); its rate of proposing the planted effect on the linear
+  temperature in drift and on the two slopes (with bias_temperature in the model), and how often the hinge's fitted
+  knee lies within 2σ of 20 °C. One diagnosis per draw, in bounded worker processes (a few draws each).
 
-Run: python -m benchmarks.study_real_noise reference | power | baseline | nulls | walk-nulls [options]
+Run: python -m benchmarks.study_real_noise reference | power | baseline | nulls | walk-nulls | colour [options]
 """
 
 from __future__ import annotations
@@ -34,6 +40,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # the reference's small fact
 import tempfile  # noqa: E402
 import time  # noqa: E402
 import warnings  # noqa: E402
+from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 from scipy import stats  # noqa: E402
@@ -235,6 +242,59 @@ def nulls(draws, with_gyrojax) -> None:
         _gyrojax_null_rates(draws)
 
 
+COLOUR_CASES = (
+    ("slow-drift-null", (), None),
+    ("slow-drift-null", ("bias_temperature",), None),
+    ("linear-temperature-in-drift", (), "bias_temperature"),
+    ("two-slope-temperature", ("bias_temperature",), "temperature_hinge"),
+)
+"""(case, terms added to its model, the effect a diagnosis should propose: None for a null)."""
+
+
+def _colour_draw(job):
+    """One diagnosis of one drawn campaign (a worker's task): (proposal, the knee's value and σ when the proposal
+    is the hinge)."""
+    name, extra, seed = job
+    case = rc.CASES[name]
+    with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        paths, _ = case.build(Path(tmp), seed)
+        d = rc.gyrojax_json(paths, tuple(case.terms) + tuple(extra))
+    knee = None
+    if d.get("proposal") == "temperature_hinge":
+        c = next(c for c in d["candidates"] if c["name"] == "temperature_hinge")
+        knee = (c["estimate"]["T_KNEE"]["value"], c["estimate"]["T_KNEE"].get("std"))
+    return d.get("proposal"), knee
+
+
+def colour(draws: int, planted_draws: int, workers: int) -> None:
+    import multiprocessing as mp
+
+    ctx = mp.get_context("spawn")
+    for name, extra, want in COLOUR_CASES:
+        n = draws if want is None else planted_draws
+        if n == 0:
+            continue
+        jobs = [(name, extra, 30_000 + i) for i in range(n)]
+        t0 = time.time()
+        with ctx.Pool(workers, maxtasksperchild=4) as pool:
+            out = pool.map(_colour_draw, jobs, chunksize=1)
+        props = [p for p, _ in out]
+        label = f"{name} from {', '.join(rc.CASES[name].terms + extra)}"
+        if want is None:
+            k = sum(p is not None for p in props)
+            found = sorted({p for p in props if p})
+            rate = interval(k, n)
+            print(f"{label}: a deterministic proposal {rate} {found or ''}, {time.time() - t0:.0f} s", flush=True)
+        else:
+            k = sum(p == want for p in props)
+            print(f"{label}: {want} proposed {interval(k, n)}, {time.time() - t0:.0f} s", flush=True)
+            knees = [kn for _, kn in out if kn is not None and kn[1]]
+            if knees:
+                inside = sum(abs(v - 20.0) < 2 * sd for v, sd in knees)
+                print(f"  knee within 2σ of 20 °C: {interval(inside, len(knees))}")
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(prog="python -m benchmarks.study_real_noise", description=__doc__.split("\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -252,6 +312,10 @@ def main(argv=None) -> None:
     w.add_argument("--workers", type=int, default=1)
     w.add_argument("--full-size", action="store_true", help="the cases' own rests and moves (slower)")
     w.add_argument("--drifts", type=lambda s: s.split(","), default=None, help="steps,rrw,scatter (default: all)")
+    c = sub.add_parser("colour")
+    c.add_argument("--draws", type=int, default=30, help="draws of each null")
+    c.add_argument("--planted-draws", type=int, default=10, help="draws of each planted case")
+    c.add_argument("--workers", type=int, default=1)
     args = ap.parse_args(argv)
     if args.cmd == "reference":
         reference(args.seeds)
@@ -261,6 +325,8 @@ def main(argv=None) -> None:
         baseline(args.seeds, args.cases)
     elif args.cmd == "walk-nulls":
         walk_nulls(args.draws, args.workers, not args.full_size, args.drifts)
+    elif args.cmd == "colour":
+        colour(args.draws, args.planted_draws, args.workers)
     else:
         nulls(args.draws, args.gyrojax)
 

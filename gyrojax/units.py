@@ -59,7 +59,8 @@ REPORT_UNITS = frozenset(
         "deg/h/g",  # g-sensitive drift (D_I, D_O, D_S)
         "deg/h/g²",  # g²-sensitive drift (D_II … D_OS)
         "deg/h/h",  # drift trend (D_T)
-        "deg/h/°C",  # temperature sensitivity (D_TEMP)
+        "deg/h/°C",  # temperature sensitivity (D_TEMP, D_HINGE)
+        "°C",  # a knee along the temperature (T_KNEE)
         "ppm",  # scale-factor errors (E_SF, E_A)
         "ppm/(deg/s)",  # scale-factor nonlinearity (E_2)
         "arcsec",  # small angles: misalignment, table set-up, encoder harmonics

@@ -47,6 +47,7 @@ TYPICAL = {  # a representative size of a coefficient, by report unit
     "deg/h/g²": 0.08,
     "deg/h/h": 0.2,
     "deg/h/°C": 0.05,
+    "°C": 25.0,
     "ppm": 300.0,
     "ppm/(deg/s)": 20.0,
     "arcsec": 40.0,
@@ -218,7 +219,7 @@ def _plan_for(effect):
         plan = plans.multiposition(minutes=0.5, dt_s=5.0, positions=[(45.0 * (j % 4), 15.0 * j) for j in range(24)])
     else:
         plan = plans.multiposition(24, minutes=0.5, dt_s=5.0)
-    if effect.name == "bias_temperature":  # a temperature ramp of 15 → 35 °C over the run
+    if effect.name in fx.TEMPERATURE_EFFECTS:  # a temperature ramp of 15 → 35 °C over the run
         ramp = tuple(dataclasses.replace(r, temperature_C=(15.0, 35.0)) for r in plan.runs)
         plan = dataclasses.replace(plan, runs=ramp)
     return kind, _on_kind(plan, kind)
@@ -236,6 +237,8 @@ def test_simulate_then_fit_recovers_it(name):
     value = _typical(e) * np.array([(-1.0) ** k * (1.0 - 0.15 * k) for k in range(e.size)])  # distinct, both signs
     if name == "lock_in":
         value = np.array([LOCK_IN])
+    if e.knee is not None:  # a knee inside the recorded range: 25 °C on the 15 → 35 °C ramp
+        value[-1] = TYPICAL["°C"]
     coefficients = {fx.get(t).coefficients[0]: TYPICAL[fx.get(t).units[0]] for t in base}
     truth = {"coefficients": dict(coefficients), "noise": {"white": 1e-8 if kind == fx.ACCEL else 1e-5}}
     if e.setup:
@@ -243,7 +246,8 @@ def test_simulate_then_fit_recovers_it(name):
     else:
         truth["coefficients"].update(zip(e.coefficients, value.tolist()))
     recs = simulate(plan, truth, seed=11)
-    theta0 = None if e.linear else np.concatenate([[0.0] * len(base), 0.8 * value])
+    # a hinged effect starts from its knee's profile (gyrojax.inference.knee), the set-up effects from near the truth
+    theta0 = None if e.linear or e.knee else np.concatenate([[0.0] * len(base), 0.8 * value])
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # a fit that did not converge fails the contract
         res = fit(recs, base + [name], noise="white", theta0=theta0)

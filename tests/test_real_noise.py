@@ -224,11 +224,6 @@ def test_walking_bias_is_noise_not_a_trend(built):
     assert rc.named_noise(d), "the walk is named as noise"
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="a two-slope temperature bias is swallowed as colour: after bias_temperature, today's diagnosis says "
-    "adequate with gauss_markov named; the registry has no hinged temperature effect",
-)
 def test_two_slope_temperature_found_as_a_hinge(built):
     """Seed 001's two slopes about 20 °C: with the linear temperature term in the model, the diagnosis proposes a
     hinged temperature effect; with it added the fit is adequate at the noise floor, no colour named, and its knee

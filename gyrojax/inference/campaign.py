@@ -131,20 +131,19 @@ class Campaign:
 
 
 def check_terms(model: Model, campaign: Campaign) -> None:
-    """Refuse a model whose inputs the records lack: ``bias_temperature`` needs a ``temperature_C`` column (°C) that
-    varies, or it aliases D_F. Raises :class:`ModelError`."""
-    if "bias_temperature" in model.terms:
+    """Refuse a model whose inputs the records lack: ``bias_temperature`` and ``temperature_hinge``
+    (:data:`gyrojax.physics.effects.TEMPERATURE_EFFECTS`) need a ``temperature_C`` column (°C) that varies, or they
+    alias D_F. Raises :class:`ModelError`."""
+    for name in (t for t in model.terms if t in fx.TEMPERATURE_EFFECTS):
         temps = []
         for r in campaign.records:
             if r.temperature_C is None:
-                raise ModelError(
-                    f"{r.path or r.name}: effect 'bias_temperature' needs column 'temperature_C', which is absent"
-                )
+                raise ModelError(f"{r.path or r.name}: effect {name!r} needs column 'temperature_C', which is absent")
             temps.append(r.temperature_C)
         t = np.concatenate(temps)
         if np.ptp(t) < 1e-6:
             raise ModelError(
-                "effect 'bias_temperature' cannot be fitted: column 'temperature_C' is constant "
+                f"effect {name!r} cannot be fitted: column 'temperature_C' is constant "
                 f"({t[0]} °C) in every record, so it aliases D_F"
             )
 

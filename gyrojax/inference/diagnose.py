@@ -8,7 +8,11 @@ are. The loop itself is the same for all:
    (:func:`gyrojax.inference.scoring.score_tests`) under the plug-in's noise model; the most significant one
    (Bonferroni) is taken among the fixed effects of the noise fit and the noise re-estimated, until none is
    significant or the next adds nothing new (:func:`gyrojax.inference.scoring.spanned`): a strong missing effect then
-   does not pass for coloured noise, and colour does not pass for an effect.
+   does not pass for coloured noise, and colour does not pass for an effect. When none is significant under the
+   colour, the colour is judged against the candidates that follow a slowly varying input (temperature, time) by
+   likelihood — white noise with the candidate against the colour alone (the plug-in's ``outweighs_colour``) — and
+   the one that wins is taken: a colour never hides what an input explains. Taking changes only the noise model the
+   candidates are tested under; a taken candidate is proposed only if its test then says so.
 2. **Aliases**: candidates whose projected regressors are collinear (:func:`gyrojax.inference.scoring.alias_pairs`).
 3. **One family**: the named candidates and the model-free shapes the plug-in tests beside them
    (:class:`gyrojax.inference.verdict.Structure`) are adjusted together by Holm
@@ -156,9 +160,13 @@ def select_noise(s, alpha: float) -> tuple:
         if not live:
             break
         best = by_evidence(live, s.kind)[0]
-        if best.log10_p + math.log10(len(live)) >= math.log10(alpha) or spanned(rnd.perps, best.name, taken):
+        if best.log10_p + math.log10(len(live)) < math.log10(alpha) and not spanned(rnd.perps, best.name, taken):
+            taken.append(best.name)
+            continue
+        follows = s.outweighs_colour(rnd, taken)
+        if follows is None:
             break
-        taken.append(best.name)
+        taken.append(follows)
     return rnd, taken
 
 

@@ -39,6 +39,7 @@ import numpy as np
 from gyrojax.errors import ConvergenceWarning, ModelError
 from gyrojax.inference.campaign import Campaign, check_terms, input_hashes, linearize, split_by_instrument
 from gyrojax.inference.identifiability import IdentifiabilityError, alias_message, identifiability
+from gyrojax.inference.knee import profile_start
 from gyrojax.inference.noisefit import (
     campaign_noise,
     noise_not_converged,
@@ -161,6 +162,10 @@ def fit_campaign(
     check_terms(model, camp)
     theta = np.zeros(model.size) if theta0 is None else np.asarray(theta0, dtype=float).copy()
     n_rec = len(camp.records)
+    if theta0 is None and any(e.knee is not None for e in model.effects):
+        # a hinged effect's knee is seen only once its slope change is not zero: start from the knee's profile
+        scales0 = [noise_scale(r, lab) for r, _, lab, _ in linearize(model, theta, camp)]
+        theta = profile_start(model, camp, theta, scales0)
 
     # white pass: per-record σ from the high-frequency residual; one solve, or Levenberg–Marquardt when nonlinear
     lin = linearize(model, theta, camp)

@@ -47,6 +47,12 @@ class Session:
         """What competes to be taken into the noise fit: the named candidates."""
         return rnd.candidates
 
+    def outweighs_colour(self, rnd, taken: list) -> str | None:
+        """A candidate that follows a slowly varying input and explains the records better with white noise than
+        the colour of ``rnd`` does without it, to be taken among the fixed effects of the noise fit before the colour
+        hides it; None (the default: an instrument whose noise has no colour to judge)."""
+        return None
+
     def explaining(self, live: list, alpha: float) -> list[str]:
         """The candidates that may explain a shape: every candidate tested."""
         return [c.name for c in live]

@@ -30,7 +30,7 @@ from gyrojax.runtime.kept import Kept, kept_arrays
 def _plan_jacobians(kind: str):
     """Regressors of every named effect in a few short built-in plans (computed once per process; with built-in
     effects only, kept on disk across processes: :func:`gyrojax.runtime.kept.kept_arrays`)."""
-    model = Model(tuple(n for n in fx.names(kind) if n != "bias_temperature"), kind)
+    model = Model(tuple(n for n in fx.names(kind) if n not in fx.TEMPERATURE_EFFECTS), kind)  # no plan varies it
     if not set(model.terms) <= registry.BUILTIN:
         return model, _compute_plan_jacobians(model)
     names, *arrays = kept_arrays("plan_jacobians", (kind, model.terms), lambda: _flat(_compute_plan_jacobians(model)))

@@ -141,7 +141,10 @@ def candidate_regressors(model, data, candidates=None) -> list:
         names = [
             n
             for n in fx.names(fx.SDF)
-            if n not in model.terms and n not in tp.TURNTABLE_ONLY and (n != "bias_temperature" or np.ptp(temp) > 1e-6)
+            if n not in model.terms
+            and n not in tp.TURNTABLE_ONLY
+            and fx.get(n).knee is None  # a knee is fitted on turntable records only
+            and (n != "bias_temperature" or np.ptp(temp) > 1e-6)
         ]
         names += [n for n in MEMS_CANDIDATES if n != "bias_turn_on" or data["n_records"] > 1]
     out = []

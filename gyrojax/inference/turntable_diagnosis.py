@@ -19,7 +19,7 @@ readings.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
@@ -31,6 +31,7 @@ from gyrojax.inference.campaign import Campaign, linearize
 from gyrojax.inference.identifiability import residue_columns
 from gyrojax.inference.identify import fit
 from gyrojax.inference.instrument import Rules, Session
+from gyrojax.inference.knee import grid, input_values, sup_score
 from gyrojax.inference.noisefit import (
     campaign_noise,
     group_readout_variance,
@@ -38,7 +39,7 @@ from gyrojax.inference.noisefit import (
     satterthwaite_dof,
     small_sample_factor,
 )
-from gyrojax.inference.scoring import ALPHA, rms_after, score_beside, score_tests
+from gyrojax.inference.scoring import ALPHA, residual_variance, rms_after, score_beside, score_tests
 from gyrojax.inference.separation import separating_plans, setup_measurements
 from gyrojax.inference.solver import solve, stack_whitened
 from gyrojax.inference.subspace import WhitenedSystem, basis
@@ -47,7 +48,7 @@ from gyrojax.inference.verdict import Candidate
 from gyrojax.noise import reml
 from gyrojax.noise.readout import white_beside_readout
 from gyrojax.noise.spec import NoiseSpec
-from gyrojax.noise.whiten import fit_noise, gm_reml
+from gyrojax.noise.whiten import fit_noise, gm_profile, gm_reml, whiten
 from gyrojax.physics import effects as fx
 from gyrojax.physics import plausibility
 from gyrojax.physics.model import Model
@@ -70,6 +71,11 @@ DRIFT_SEPARATION = (
 )
 """What tells a slow candidate from long-memory drift when one campaign cannot."""
 
+INPUT_FOLLOWING = SLOW + ("temperature_hinge",)
+"""Candidates that follow a slowly varying input (time, temperature) and so may be taken for colour: each is judged
+against the colour by likelihood before the colour is allowed to hide it (:meth:`TurntableSession.outweighs_colour`,
+:func:`colour_against_shape`)."""
+
 RULES = Rules(retest_shapes=True, refit_budget=3, skip_aliased=False, plausible_before_refit=False)
 """Turntable proposals: shapes a refused or implausible candidate would have hidden are tested again without it;
 at most three significant candidates are refitted (in rank order, until one is accepted and plausible); an alias of
@@ -79,8 +85,9 @@ another candidate may be proposed (ties in the conventions' order), its size jud
 def candidate_effects(model: Model, campaign: Campaign) -> list[str]:
     """Named effects absent from ``model`` that the records can carry.
 
-    ``bias_temperature`` is a candidate only when every record has ``temperature_C`` (°C) and it varies by more
-    than 1e-6 °C over the campaign; otherwise it would alias D_F.
+    The temperature effects (:data:`gyrojax.physics.effects.TEMPERATURE_EFFECTS`) are candidates only when every
+    record has ``temperature_C`` (°C) and it varies by more than 1e-6 °C over the campaign; otherwise they would
+    alias D_F.
     """
     out = []
     temps = [r.temperature_C for r in campaign.records]
@@ -88,7 +95,7 @@ def candidate_effects(model: Model, campaign: Campaign) -> list[str]:
     for name in fx.names(model.kind):
         if name in model.terms:
             continue
-        if name == "bias_temperature" and not has_temp:
+        if name in fx.TEMPERATURE_EFFECTS and not has_temp:
             continue
         out.append(name)
     return out
@@ -118,6 +125,7 @@ class TurntableSession(Session):
     lin: list
     readouts: list
     rules: Rules = RULES
+    knees: dict = field(default_factory=dict)
 
     @classmethod
     def of(cls, records, terms=None, result=None, campaign=None, candidates=None) -> TurntableSession:
@@ -132,7 +140,9 @@ class TurntableSession(Session):
         full = Model(model.terms + tuple(c for c in names if c not in model.terms), model.kind)
         lin = linearize(full, np.concatenate([res.theta, np.zeros(full.size - model.size)]), camp)
         readouts = [group_readout_variance(camp, [i]) for i in range(len(camp.records))]
-        return cls(camp, res, names, full, lin, readouts)
+        knees = {c: _knee_grid(camp, c, model.kind) for c in names if fx.get(c).knee is not None}
+        lin = _at_profile_knees(lin, full, model.size, knees)
+        return cls(camp, res, names, full, lin, readouts, knees=knees)
 
     @property
     def kind(self) -> str:
@@ -160,7 +170,24 @@ class TurntableSession(Session):
         """Noise models with the candidates ``taken`` among the fixed effects (each started from ``previous``'s),
         and the score tests of every candidate under them."""
         noises = _noise_models(self.lin, self.columns(taken), previous and previous.noises, self.readouts)
-        return Round(noises, *_score(self.lin, noises, self.fit, self.full, self.names))
+        return Round(noises, *_score(self.lin, noises, self.fit, self.full, self.names, self.knees))
+
+    def outweighs_colour(self, rnd: Round, taken: list) -> str | None:
+        """The candidate that follows a slow input (:data:`INPUT_FOLLOWING`) and explains the records better, with
+        white noise, than the colour of ``rnd`` does without it (:func:`colour_against_shape`); None when none
+        does, the noise has no colour, or a record's readout noise is known (its white alternative is not white)."""
+        if not any(nz.gauss_markov or nz.order for nz in rnd.noises) or any(self.readouts):
+            return None
+        sl = self.full.slices()
+        best = None
+        for c in rnd.candidates:
+            if c.df == 0 or c.name in taken or c.name not in INPUT_FOLLOWING:
+                continue
+            cols = np.arange(self.full.size)[sl[c.name]]
+            gain = colour_against_shape(self.lin, rnd.noises, self.columns(taken), cols, fx.get(c.name).knee)
+            if gain > 0 and (best is None or gain > best[0]):
+                best = (gain, c.name)
+        return None if best is None else best[1]
 
     # ---- shapes, near-aliases, proposals ------------------------------------------------------------------------
 
@@ -260,6 +287,84 @@ class TurntableSession(Session):
         return out
 
 
+def _knee_grid(camp: Campaign, name: str, kind: str) -> tuple:
+    """(the knee grid of the hinged effect ``name`` over its input, each record's regressors of its slope at every
+    knee of the grid and, last, at a knee below every recorded value — the input itself, the linear part a hinge is
+    tested beside: (rows, knees + 1) in the output unit per report unit), by the measurement model itself."""
+    values = input_values(camp.records, fx.get(name).knee)
+    knees = grid(values)
+    below = float(np.min(values)) - 1.0
+    one = Model((name,), kind)
+    cols = [np.empty((int((lab >= 0).sum()), len(knees) + 1)) for lab in camp.labels]
+    for j, k in enumerate([*knees, below]):
+        for i, rec in enumerate(linearize(one, np.array([0.0, k]), camp)):
+            cols[i][:, j] = rec.jacobian[:, 0]
+    return knees, cols
+
+
+def _at_profile_knees(lin, full: Model, p0: int, knees: dict) -> list:
+    """``lin`` with the slope column of each hinged candidate at the knee where its score beside the fitted model is
+    largest, each record weighted by its noise level (the knee a fit would start from,
+    :func:`gyrojax.inference.knee.profile_start`): the column the noise fit and the shapes are projected on."""
+    if not knees:
+        return lin
+    sl = full.slices()
+    scales = [noise_scale(rec.residual, rec.labels) for rec in lin]
+    rw = np.concatenate([rec.residual / s for rec, s in zip(lin, scales)])
+    j0 = np.concatenate([rec.jacobian[:, :p0] / s for rec, s in zip(lin, scales)], axis=0)
+    out = [rec._replace(jacobian=rec.jacobian.copy()) for rec in lin]
+    for name, (_, cols) in knees.items():
+        h = np.concatenate([c / s for c, s in zip(cols, scales)], axis=0)
+        u0 = basis(np.column_stack([j0, h[:, -1]]))  # beside the model and the input's linear part
+        r0 = rw - u0 @ (u0.T @ rw)
+        h = h[:, :-1]
+        hp = h - u0 @ (u0.T @ h)
+        nn = (hp * hp).sum(axis=0)
+        z2 = np.where(nn > 0, (hp.T @ r0) ** 2 / np.where(nn > 0, nn, 1.0), -1.0)
+        j = int(np.argmax(z2))
+        for rec, c in zip(out, cols):
+            rec.jacobian[:, sl[name].start] = c[:, j]
+    return out
+
+
+def _neg2_loglik(rec, design: np.ndarray, nz: NoiseSpec) -> float:
+    """Profile −2 log-likelihood (without 2π) of a record's residual under the noise model ``nz`` with the regressors
+    ``design`` estimated by GLS: exact for white + Gauss–Markov (:func:`gyrojax.noise.whiten.gm_profile`),
+    conditional on each segment's first samples for AR(p), scaled to the record's length as the AR/GM choice of
+    :func:`gyrojax.noise.whiten.fit_noise` scales it."""
+    if nz.gauss_markov:
+        return gm_profile(rec.residual, design, rec.labels, rec.times, nz)
+    w, keep = whiten(np.column_stack([rec.residual, design]), rec.labels, nz, rec.times)
+    e = w[:, 0] - w[:, 1:] @ np.linalg.lstsq(w[:, 1:], w[:, 0], rcond=None)[0]
+    n, n_ar = len(rec.residual), max(len(keep), 1)
+    return (n_ar * math.log(nz.innovation_std**2) + float(e @ e)) * (n / n_ar)
+
+
+def colour_against_shape(lin, noises, cols0, cols_c, knee: str | None) -> float:
+    """The colour judged against a shape by likelihood: BIC of the records under their coloured noise models
+    ``noises`` with the regressors ``cols0`` (and a per-record offset) less BIC under white noise with the
+    candidate's regressors ``cols_c`` added (−2 log-likelihood profiled over the regressors and, for white noise,
+    its variance: n log(|e|²/n) + n; penalties log n per colour parameter — 2 for Gauss–Markov, p for AR(p) — and
+    per shape coefficient, its knee included). Positive: white + shape explains the records better than colour
+    alone, so the colour must not hide it."""
+    m2_colour = m2_white = 0.0
+    k_colour, n_all, k_shape = 0, 0, 0
+    for rec, nz in zip(lin, noises):
+        n = len(rec.residual)
+        d0 = np.column_stack([rec.jacobian[:, cols0], _nuisance(rec.times)])
+        xc = rec.jacobian[:, cols_c]
+        xc = xc[:, np.abs(xc).max(axis=0) > 0]
+        k_shape = max(k_shape, xc.shape[1])
+        m2_colour += _neg2_loglik(rec, d0, nz)
+        k_colour += 2 if nz.gauss_markov else int(nz.order or 0)
+        d1 = np.column_stack([d0, xc])
+        e = rec.residual - d1 @ np.linalg.lstsq(d1, rec.residual, rcond=None)[0]
+        m2_white += n * math.log(max(float(e @ e) / n, 1e-300)) + n
+        n_all += n
+    k_shape += knee is not None
+    return (m2_colour + k_colour * math.log(n_all)) - (m2_white + k_shape * math.log(n_all))
+
+
 def _nuisance(t: np.ndarray) -> np.ndarray:
     """Per-record offset: structure that noise models must not absorb (see :func:`_noise_models`)."""
     return np.ones((len(t), 1))
@@ -303,7 +408,7 @@ def _noise_models(lin, cols, starts=None, readouts=None) -> list:
     return parallel_map(one, range(n_rec))
 
 
-def _score(lin, noises, res, full: Model, cand) -> tuple:
+def _score(lin, noises, res, full: Model, cand, knees=None) -> tuple:
     """Score statistic, p-value, estimate and residual-after of every candidate (:func:`gyrojax.inference.scoring.
     score_tests`), and the whitened residual and regressors they were computed on: (candidates, unexcited, X⊥ bases,
     (r̃, J̃)).
@@ -311,7 +416,12 @@ def _score(lin, noises, res, full: Model, cand) -> tuple:
     On the tall whitened system itself, not on the triangle of its QR (:class:`gyrojax.inference.subspace.
     WhitenedSystem`), though the statistics are the same to rounding: exact aliases (D_II and D_SS in a 1 g tumble)
     have equal statistics to the last digits, which :func:`gyrojax.inference.scoring.by_evidence` then ranks in the
-    conventions' order."""
+    conventions' order.
+
+    A hinged candidate (``knees``: name -> its knee grid and slope regressors, :func:`_knee_grid`) is tested by the
+    sup of its score over the knee, with that statistic's own null law (:func:`gyrojax.inference.knee.sup_score`),
+    beside the model and the input's own linear part (a hinge is a change of slope, not a slope, which
+    ``bias_temperature`` names); its one-step estimate is the slope change at the knee of the sup, and that knee."""
     model, p0, sl = res.model, res.model.size, full.slices()
     rw, jw = stack_whitened(lin, noises)
     residue = residue_columns(jw)  # floating-point residue (cos 90° = 6e-17): not excited, never estimated
@@ -335,7 +445,33 @@ def _score(lin, noises, res, full: Model, cand) -> tuple:
         est = {n: {"value": float(v), "unit": u} for n, v, u in zip(eff.coefficients, sc.coefficients, eff.units)}
         tested.append(Candidate(c, sc.statistic, sc.df, sc.p_value, 1.0, [], rms, est, log10_p=sc.log10_p))
         perps[c] = sc.basis
+    for i, c in enumerate(tested):
+        if c.df > 0 and c.name in (knees or {}):
+            tested[i], u = _sup_over_knee(c, lin, noises, rw, jw[:, :p0], knees[c.name])
+            if u is not None:
+                perps[c.name] = u
     return tested, unexcited, perps, (rw, jw)
+
+
+def _sup_over_knee(c: Candidate, lin, noises, rw, j0w, knee_grid) -> tuple:
+    """The hinged candidate ``c`` tested by the sup of its score over the knee grid (:func:`_score`): (the
+    candidate, the basis of its projected slope regressor at the knee of the sup)."""
+    knees, cols = knee_grid
+    _, hw = stack_whitened([rec._replace(jacobian=h) for rec, h in zip(lin, cols)], noises)
+    u0 = basis(np.column_stack([j0w, hw[:, -1]]))  # a change of slope: beside the model and the input's linear part
+    hw = hw[:, :-1]
+    r_perp, sigma2, _ = residual_variance(u0, rw)
+    out = sup_score(u0, r_perp, hw, sigma2)
+    if out is None:
+        return c, None
+    stat, j, lp, _ = out
+    hp = hw[:, j] - u0 @ (u0.T @ hw[:, j])
+    eff = fx.get(c.name)
+    slope = float(hp @ r_perp) / float(hp @ hp)
+    est = {eff.coefficients[0]: {"value": slope, "unit": eff.units[0]}}
+    est[eff.coefficients[1]] = {"value": float(knees[j]), "unit": eff.units[1]}
+    c = replace(c, statistic=stat, p_value=10.0**lp, log10_p=lp, estimate=est)
+    return c, (hp / math.sqrt(float(hp @ hp)))[:, None]
 
 
 def _drift_reading(name: str, camp: Campaign, lin, full: Model, p0: int) -> tuple[float, dict]:

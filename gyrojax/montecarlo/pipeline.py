@@ -332,6 +332,9 @@ def build_pipeline(study: Study, plan=None, records=None):
     recs = records if records is not None else nominal_records(plan)
     kind = study.kind
     fit_model = Model.of(study.terms, kind)
+    hinged = [e.name for e in fit_model.effects if e.knee is not None]
+    if hinged:  # its Gauss–Newton starts at zero, where a knee is not seen (gyrojax.inference.knee)
+        raise StudyError(f"study: key 'terms': {', '.join(hinged)} has a knee, which the study's solver cannot fit")
     priors = {}
     for key, setup in (("priors", False), ("setup", True)):
         for name, v in getattr(study, key).items():

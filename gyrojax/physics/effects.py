@@ -37,6 +37,7 @@ __all__ = [
     "register",
     "SDF_DRIFT_TERMS",
     "RANDOM_DRIFT",
+    "TEMPERATURE_EFFECTS",
 ]
 
 
@@ -159,6 +160,26 @@ register(
         reference="seed 001 (temperature compensation); IEEE 528 (temperature sensitivity)",
     )
 )
+
+register(
+    Effect(
+        name="temperature_hinge",
+        coefficients=("D_HINGE", "T_KNEE"),
+        units=("deg/h/°C", "°C"),
+        kinds=(SDF, TDF, FOG, RLG),
+        contribution=lambda x, c: c[0] * jnp.abs(x["temperature_C"] - c[1]),
+        description="two-slope temperature bias (a hinge): beside bias_temperature the slopes are D_TEMP + D_HINGE "
+        "above the knee T_KNEE and D_TEMP − D_HINGE below it; aliases D_F and bias_temperature when the knee lies "
+        "outside the recorded temperatures, and a temperature quadratic when they span little",
+        reference="seed 001 §5.1 steps 1)–4) (l.73–81): k = e + K_tx1 τ hot, e + K_tx2 τ cold, τ = T − 20 °C, "
+        "so D_TEMP = (K_tx1 + K_tx2)/2, D_HINGE = (K_tx1 − K_tx2)/2, T_KNEE = 20 °C; IEEE 528 (temperature "
+        "sensitivity)",
+        linear=False,
+        knee="temperature_C",
+    )
+)
+TEMPERATURE_EFFECTS = ("bias_temperature", "temperature_hinge")
+"""The effects that read ``temperature_C``: a record without a varying temperature cannot carry them."""
 
 # Setup (test-set) effects: applied to the kinematics by the measurement model.
 register(

@@ -45,6 +45,8 @@ PLAUSIBLE_MAX = {
     # time and temperature (deg/h/h, deg/h/°C)
     "D_T": 10.0,
     "D_TEMP": 10.0,
+    "D_HINGE": 10.0,  # half the change of slope at the knee: a temperature sensitivity
+    "T_KNEE": 150.0,  # °C: a knee inside the operating range of inertial instruments (−55 … 125 °C)
     # test set (arcsec): base tilt, azimuth set-up, angle readout harmonics
     "delta_E": 600.0,
     "delta_N": 600.0,
@@ -84,6 +86,8 @@ MEMS_PLAUSIBLE_MAX = {
     "M_S": 36000.0,
     "D_T": 1e5,
     "D_TEMP": 2e3,
+    "D_HINGE": 2e3,
+    "T_KNEE": 150.0,
     "D_F_step": 1e5,
     "dt_acc": 0.1,
 }

@@ -52,6 +52,10 @@ class Effect:
       linear: True when the output is linear in the coefficients (identification then needs one solve).
       linear_in_rate: False when the output is not linear in the input rate (scale-factor asymmetry or
         nonlinearity, lock-in): a servo record then needs the table rate solved for, not divided out.
+      knee: the instrument input (e.g. ``"temperature_C"``) along which the effect's last coefficient places a
+        knee: the output is linear in the other coefficients once the knee is fixed, and the knee is seen only when
+        they are not zero, so a fit starts it from a profile over the input's recorded range and a diagnosis tests
+        the effect by the supremum of its score over the knee (:mod:`gyrojax.inference.knee`); None for none.
     """
 
     name: str
@@ -64,6 +68,7 @@ class Effect:
     setup: bool = False
     linear: bool = True
     linear_in_rate: bool = True
+    knee: str | None = None
 
     @property
     def size(self) -> int:

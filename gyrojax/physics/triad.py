@@ -59,6 +59,9 @@ def channel_model(terms) -> Model:
     bad = [t for t in model.terms if t in TURNTABLE_ONLY]
     if bad:
         raise ModelError(f"effects {bad} describe a turntable; a hand-moved IMU triad has none")
+    hinged = [t for t in model.terms if fx.get(t).knee is not None]
+    if hinged:
+        raise ModelError(f"effects {hinged} have a knee to fit, which the linear triad fit does not do")
     return model
 
 

@@ -43,7 +43,7 @@ from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model, RecordData, jacobian
 
-TIME_EFFECTS = ("bias_trend", "bias_temperature")
+TIME_EFFECTS = ("bias_trend",) + fx.TEMPERATURE_EFFECTS
 
 
 # ---- noise ----------------------------------------------------------------------------------------------------
@@ -109,8 +109,8 @@ class Table:
 
 
 def check_static(model: Model) -> None:
-    """Raise ModelError if the model has an effect of ``TIME_EFFECTS`` (``bias_trend``, ``bias_temperature``): a
-    static-position design has no clock."""
+    """Raise ModelError if the model has an effect of ``TIME_EFFECTS`` (``bias_trend``, ``bias_temperature``,
+    ``temperature_hinge``): a static-position design has no clock."""
     bad = [t for t in model.terms if t in TIME_EFFECTS]
     if bad:
         raise ModelError(f"static-position design cannot use time/temperature effects {bad}: they need a clock")
