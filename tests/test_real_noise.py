@@ -3,8 +3,8 @@ session whose bias walks between rests, a two-slope temperature bias on a turnta
 the independent writers and the plain reference analysis checked against closed forms and seed 001, the power of
 every planted effect's test at the truth, and what gyrojax answers.
 
-Two answers are wrong today and are marked ``xfail(strict=True)``: a two-slope temperature bias swallowed by
-Gauss–Markov colour, a power-up step whose candidate cannot be added. Each is preceded
+One answer is wrong today and is marked ``xfail(strict=True)``: a power-up step whose candidate cannot be added
+(``bias_turn_on`` has no fit term). Each answer is preceded
 by the reference at the truth (planted effect found, nulls clean) and by its power ≥ 0.999, so a failure is the
 code's, not a draw's. The rates over many draws: ``python -m benchmarks.study_real_noise nulls --gyrojax``."""
 
