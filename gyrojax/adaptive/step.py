@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gyrojax.adaptive import requirements as rq
-from gyrojax.adaptive.design import STARTS, STEPS, design_test
+from gyrojax.adaptive.design import MAX_HOURS, STARTS, STEPS, design_test
 from gyrojax.adaptive.goal import Goal, detection_power, look_alpha, noncentrality_for_power
 from gyrojax.adaptive.information import record_information, test_information, test_noise
 from gyrojax.adaptive.lab import Lab
@@ -325,9 +325,11 @@ def next_test(
     noise = test_noise(sat, records)
     last_end = max(float(r.time_s[-1]) for r in records)
     start = last_end + lab.settle_s if start_s is None else float(start_s)
+    calib = _calibration(reqs, sigma_now, rq.sigmas(f_rec, reqs, uni))
+    masks, index, target = rq.arrays(reqs, uni)
     test = design_test(
         uni,
-        rq.arrays(reqs, uni),
+        (masks, index, target / calib),
         f_rec,
         lab,
         noise,
@@ -342,13 +344,17 @@ def next_test(
     )
     if test.hours_needed is None or test.hours_needed > left:
         factor = math.sqrt(max(test.ratio_at_budget, 0.0)) * goal.margin
-        need = "more than 1000 h" if test.hours_needed is None else f"about {test.hours_needed:.3g} h"
+        if test.hours_needed is None:
+            need, budget = f"more than {MAX_HOURS:g} h", f"more than {hours_spent + MAX_HOURS:.3g} h"
+        else:
+            need, budget = f"about {test.hours_needed:.3g} h", f"at least {hours_spent + test.hours_needed:.3g} h"
         out.status = "unreachable"
         out.reason = (
             f"the goal needs {need} of dwell beyond the records on this table (by the best test the search finds) "
             f"and the budget leaves {left:.3g} h: within it the worst requirement reaches {factor:.3g} × its target "
-            f"σ. A budget of {need.replace('about ', '')}, targets {factor:.3g} times larger or a quieter instrument "
-            "would reach it. Unmet: " + _unmet_text(out, unmet)
+            f"σ. A campaign budget of {budget} (the {hours_spent:.3g} h spent, that dwell and the moves between "
+            f"positions), targets {factor:.3g} times larger or a quieter instrument would reach it. Unmet: "
+            + _unmet_text(out, unmet)
         )
         return out
     if test.convergence_note:
@@ -356,8 +362,22 @@ def next_test(
     description = f"{len(test.mountings)}×{lab.positions}-position test designed by gyrojax next for {', '.join(terms)}"
     plan = lab.plan(name, test.triads, test.angles_deg, test.dwell_s, description)
     out.design, out.plan, out.hours = test, plan, float(plan.duration_s) / 3600.0
-    out.sigma_after = _predicted(uni, reqs, f_rec, lab, noise, plan, res, start)
+    out.sigma_after = _predicted(uni, reqs, f_rec, lab, noise, plan, res, start) * calib
     out.reason = _why(out, unmet)
+    return out
+
+
+def _calibration(reqs, sigma_now, sigma_information) -> np.ndarray:
+    """Per requirement, σ the fit states over σ the records' information predicts (≥ 1; 1 where either is not
+    finite or the requirement is not a model coefficient's). The fit's σ is the one the goal is judged on; when the
+    information is taken from another fit (the universe's: :func:`_noise_fit`), the current model's
+    misfit widens the fit's σ beyond it, and a design on the information alone would call the goal met with no
+    new dwell. The design aims at target/ratio on the information instead: the fit's σ must fall by the same
+    factor."""
+    out = np.ones(len(reqs))
+    for i, (r, now, pred) in enumerate(zip(reqs, sigma_now, sigma_information)):
+        if r.kind == "sigma" and math.isfinite(now) and math.isfinite(pred) and pred > 0:
+            out[i] = max(1.0, now / pred)
     return out
 
 
