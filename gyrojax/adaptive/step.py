@@ -325,11 +325,9 @@ def next_test(
     noise = test_noise(sat, records)
     last_end = max(float(r.time_s[-1]) for r in records)
     start = last_end + lab.settle_s if start_s is None else float(start_s)
-    calib = _calibration(reqs, sigma_now, rq.sigmas(f_rec, reqs, uni))
-    masks, index, target = rq.arrays(reqs, uni)
     test = design_test(
         uni,
-        (masks, index, target / calib),
+        rq.arrays(reqs, uni),
         f_rec,
         lab,
         noise,
@@ -362,22 +360,8 @@ def next_test(
     description = f"{len(test.mountings)}×{lab.positions}-position test designed by gyrojax next for {', '.join(terms)}"
     plan = lab.plan(name, test.triads, test.angles_deg, test.dwell_s, description)
     out.design, out.plan, out.hours = test, plan, float(plan.duration_s) / 3600.0
-    out.sigma_after = _predicted(uni, reqs, f_rec, lab, noise, plan, res, start) * calib
+    out.sigma_after = _predicted(uni, reqs, f_rec, lab, noise, plan, res, start)
     out.reason = _why(out, unmet)
-    return out
-
-
-def _calibration(reqs, sigma_now, sigma_information) -> np.ndarray:
-    """Per requirement, σ the fit states over σ the records' information predicts (≥ 1; 1 where either is not
-    finite or the requirement is not a model coefficient's). The fit's σ is the one the goal is judged on; when the
-    information is taken from another fit (the universe's: :func:`_noise_fit`), the current model's
-    misfit widens the fit's σ beyond it, and a design on the information alone would call the goal met with no
-    new dwell. The design aims at target/ratio on the information instead: the fit's σ must fall by the same
-    factor."""
-    out = np.ones(len(reqs))
-    for i, (r, now, pred) in enumerate(zip(reqs, sigma_now, sigma_information)):
-        if r.kind == "sigma" and math.isfinite(now) and math.isfinite(pred) and pred > 0:
-            out[i] = max(1.0, now / pred)
     return out
 
 
