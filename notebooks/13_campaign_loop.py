@@ -62,11 +62,14 @@ result = gj.run_campaign(
 # ## The tests it chose, the σ after each, and the classical sequence for the same σ
 
 # %%
+# the error falling: the residual RMS of the model after each test against the noise floor (deg/h; what is left
+# above the floor is effects the model still lacks), and the σ shrinking: the worst σ of the model's coefficients
 for step in result.steps:
     sig = step.state["coefficients"]
     worst = max(sig, key=lambda c: sig[c]["std"])
     print(
         f"{step.plan.name:8s} {step.hours:5.2f} h (total {step.cumulative_hours:5.2f} h)  model {', '.join(sig)}; "
+        f"residual {step.state['residual_rms']:.4f} (floor {step.state['noise_floor']:.4f}); "
         f"worst σ {worst} = {sig[worst]['std']:.4f}"
     )
 cl = result.classical

@@ -133,11 +133,36 @@ def test_designed_sigma_matches_the_fit_that_follows():
     assert fit(both, ["D_F", "D_I", "D_S", "D_O"]).stds["D_O"] == pytest.approx(predicted[("detect", "D_O")], rel=0.15)
 
 
+def test_a_pair_this_table_cannot_separate_is_refused_naming_the_table_that_would(first_records):
+    # the records' single-axis table, the case not turned: OA stays along the polar axis in every position, a_O =
+    # sin φ is constant, so D_O reads as D_F whatever the table does (Hu 3-12); a two-axis table turns OA off it
+    lab = Lab.from_records(first_records, turn_case=False, mountings_per_test=1, positions=8)
+    nt = next_test(first_records, ["D_F", "D_I", "D_S", "D_O"], Goal(sigma=TARGET), lab)
+    assert nt.status == "unreachable" and nt.plan is None
+    assert "no orientation of this table separates D_O" in nt.reason
+    assert "two-axis table" in nt.reason
+    # the invisible combination is D_F·sin φ + D_O·(−1)·…: the ratio of its coefficients is sin φ of the site
+    text = nt.reason.split("separates D_O: ")[1].split(" is invisible")[0]
+    parts = dict(reversed(t.strip().split("·")) for t in text.split(" + "))
+    lat = math.radians(first_records[0].meta["site"]["latitude_deg"])
+    assert abs(float(parts["D_F"]) / float(parts["D_O"])) == pytest.approx(math.sin(lat), abs=2e-3)
+
+
 def test_a_goal_beyond_the_budget_is_refused_with_the_hours_it_needs(first_records):
+    # 1 h left for σ = 0.0015 at N = 0.005 deg/√h. Independent bound: D_F is a constant, so whatever the other
+    # terms, 1/σ_F² ≤ (T_rec + T)/N² (the mean of white noise over T hours): the goal needs T ≥ (N/(m·S))² − T_rec
+    # of dwell, and with the 1 h left σ_F ≥ N/√(T_rec + 1) at best
+    target, white, left = 0.0015, TRUTH["noise"]["white"], 1.0
     lab = fast_lab(first_records, budget_hours=3.0)
-    nt = next_test(first_records, ["D_F", "D_I", "D_S"], Goal(sigma=2e-4), lab, hours_spent=2.0, starts=1, steps=120)
-    assert nt.status == "unreachable"
-    assert "budget leaves" in nt.reason and nt.plan is None
+    nt = next_test(first_records, ["D_F", "D_I", "D_S"], Goal(sigma=target), lab, hours_spent=2.0, starts=1, steps=120)
+    assert nt.status == "unreachable" and nt.plan is None
+    assert "budget leaves 1 h" in nt.reason
+    t_rec = float(first_records[0].time_s[-1] - first_records[0].time_s[0]) / 3600.0
+    need = float(nt.reason.split("the goal needs about ")[1].split(" h")[0])
+    assert need >= (white / (0.95 * target)) ** 2 - t_rec
+    factor = float(nt.reason.split("targets ")[1].split(" times larger")[0])
+    assert factor >= white / math.sqrt(t_rec + left) / target
+    assert f"A campaign budget of at least {2.0 + need:.3g} h" in nt.reason
 
 
 def test_campaign_json_keys(campaign):
@@ -207,7 +232,10 @@ def _error(capsys, argv) -> str:
         (["--target-sigma", "-1"], "--target-sigma"),
         (["--first", "no-such-plan"], "no-such-plan"),
         (["--terms", "D_F,D_NOPE"], "D_NOPE"),
-        (["--mountings", "5"], "mountings_per_test"),
+        (["--mountings", "5"], "--mountings: lab: key 'mountings_per_test'"),
+        (["--hours", "-1"], "--hours: lab: key 'hours_per_test'"),
+        (["--positions", "1"], "--positions"),
+        (["--table", "two-axis", "--angle-limit", "outer=10:5"], "no table axis 'outer'"),
     ],
 )
 def test_campaign_bad_input_exit_2_naming_it(lab_files, tmp_path, capsys, change, says):

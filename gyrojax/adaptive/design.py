@@ -319,7 +319,22 @@ def design_test(
         cap = max(hours, budget_hours if budget_hours is not None else hours)
         widest = candidates[-1]
         longer = optimise(widest["runs"], widest["u"][None], widest["z"][None], np.asarray(widest["mi"])[None], cap)
-        total_need = shortest(longer, cap) or shortest(longer, MAX_HOURS)
+        total_need = shortest(longer, cap)
+        if total_need is None:  # a refusal rests on it: fresh random starts too, not only the test's local optimum
+            runs = widest["runs"]
+            mi = mi1 if runs == 1 else np.tile(widest["mi"], (batch, 1))
+            fresh = optimise(runs, random_u(batch, runs), np.zeros((batch, runs * n)), mi, cap)
+            if shortest(fresh, cap) is not None or worst(fresh, cap) < worst(longer, cap):
+                longer = fresh
+            total_need = shortest(longer, cap)
+        if total_need is None:  # beyond the budget: how far, by a design made for the long run, then for its need
+            far = optimise(
+                longer["runs"], longer["u"][None], longer["z"][None], np.asarray(longer["mi"])[None], MAX_HOURS
+            )
+            total_need = shortest(far, MAX_HOURS)
+            if total_need is not None:
+                near = optimise(far["runs"], far["u"][None], far["z"][None], np.asarray(far["mi"])[None], total_need)
+                total_need = min(total_need, shortest(near, MAX_HOURS) or math.inf)
     prob = _problem(uni, d["runs"], n, limits, steps, learning_rate)
     dwell = d["frac"] * use * 3600.0
     q = np.asarray(prob.ratios(template, jnp.asarray(mounts[d["mi"]]), jnp.asarray(d["ang"]), jnp.asarray(dwell), a))

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gyrojax.adaptive import requirements as rq
-from gyrojax.adaptive.design import STARTS, STEPS, design_test
+from gyrojax.adaptive.design import MAX_HOURS, STARTS, STEPS, design_test
 from gyrojax.adaptive.goal import Goal, detection_power, look_alpha, noncentrality_for_power
 from gyrojax.adaptive.information import record_information, test_information, test_noise
 from gyrojax.adaptive.lab import Lab
@@ -342,13 +342,17 @@ def next_test(
     )
     if test.hours_needed is None or test.hours_needed > left:
         factor = math.sqrt(max(test.ratio_at_budget, 0.0)) * goal.margin
-        need = "more than 1000 h" if test.hours_needed is None else f"about {test.hours_needed:.3g} h"
+        if test.hours_needed is None:
+            need, budget = f"more than {MAX_HOURS:g} h", f"more than {hours_spent + MAX_HOURS:.3g} h"
+        else:
+            need, budget = f"about {test.hours_needed:.3g} h", f"at least {hours_spent + test.hours_needed:.3g} h"
         out.status = "unreachable"
         out.reason = (
             f"the goal needs {need} of dwell beyond the records on this table (by the best test the search finds) "
             f"and the budget leaves {left:.3g} h: within it the worst requirement reaches {factor:.3g} × its target "
-            f"σ. A budget of {need.replace('about ', '')}, targets {factor:.3g} times larger or a quieter instrument "
-            "would reach it. Unmet: " + _unmet_text(out, unmet)
+            f"σ. A campaign budget of {budget} (the {hours_spent:.3g} h spent, that dwell and the moves between "
+            f"positions), targets {factor:.3g} times larger or a quieter instrument would reach it. Unmet: "
+            + _unmet_text(out, unmet)
         )
         return out
     if test.convergence_note:

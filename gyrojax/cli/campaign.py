@@ -37,6 +37,20 @@ def add_lab_arguments(s) -> None:
     s.add_argument("--steps", type=int, default=300, help="Adam iterations of the design search")
 
 
+LAB_FLAGS = {
+    "hours_per_test": "--hours",
+    "budget_hours": "--budget",
+    "positions": "--positions",
+    "settle_s": "--settle",
+    "rate_limit_dps": "--rate-limit",
+    "angle_limits_deg": "--angle-limit",
+    "mountings_per_test": "--mountings",
+    "remount_s": "--remount",
+    "dt_s": "--dt",
+}
+"""The option that sets each field of the lab (:class:`~gyrojax.adaptive.lab.Lab`), named in its errors."""
+
+
 def goal_from_args(args):
     """The :class:`~gyrojax.adaptive.goal.Goal` of the command's options."""
     from gyrojax.adaptive.goal import Goal
@@ -60,6 +74,7 @@ def lab_from_args(args, records):
     """The :class:`~gyrojax.adaptive.lab.Lab` of the records' table (or ``--table two-axis``) and the options."""
     from gyrojax.adaptive.lab import Lab
     from gyrojax.data import plans
+    from gyrojax.errors import ModelError
 
     over = {
         "hours_per_test": args.hours,
@@ -89,7 +104,13 @@ def lab_from_args(args, records):
             except ValueError:
                 raise UsageError(f"--angle-limit {item!r}: expected AXIS=LOW:HIGH in deg") from None
         over["angle_limits_deg"] = tuple(limits)
-    return Lab.from_records(records, **over)
+    try:
+        return Lab.from_records(records, **over)
+    except ModelError as e:
+        flag = next((f for key, f in LAB_FLAGS.items() if f"'{key}" in str(e)), None)
+        if flag is None:
+            raise
+        raise UsageError(f"{flag}: {e}") from None
 
 
 def _requirements_table(rows) -> list[str]:
