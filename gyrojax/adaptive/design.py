@@ -169,17 +169,6 @@ def _problem(uni, runs, n, limits, steps, learning_rate) -> _Problem:
     return _COMPILED[key]
 
 
-def _unconstrained(ang_rad, limits) -> np.ndarray:
-    """The inverse of the angle map: rad -> the search's variables."""
-    u = np.array(ang_rad, dtype=float)
-    for i, lim in enumerate(limits):
-        if lim is not None:
-            lo, hi = math.radians(lim[0]), math.radians(lim[1])
-            x = np.clip((u[..., i] - lo) / (hi - lo), 1e-6, 1 - 1e-6)
-            u[..., i] = np.log(x / (1 - x))
-    return u
-
-
 def _arrays(reqs_arrays, f_rec, lab, noise, start_s, margin, thetas) -> dict:
     masks, index, target = reqs_arrays
     r, p = masks.shape
