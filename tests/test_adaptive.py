@@ -262,3 +262,16 @@ def test_next_refuses_to_overwrite_and_names_a_missing_goal(tmp_path, lab_files,
     argv = ["next", str(lab_files), "--out", str(out), "--target-sigma", "0.01"]
     assert "--force" in _error(capsys, argv)
     assert "--target-sigma" in _error(capsys, ["next", str(lab_files), "--out", str(tmp_path / "q.json")])
+
+
+def test_classical_hours_beyond_any_test_are_said_not_printed():
+    """A σ target the classical sequence would need more than MAX_CLASSICAL_HOURS for (here 1e-7 deg/h on D_F in
+    N = 0.005 deg/√h: σ ∝ N/√T, so T ~ (0.005/1e-7)² h beyond 1e9 h) is reported as no hours with the coefficient
+    that asks for them, never as a number; a target within reach gives hours."""
+    from gyrojax.adaptive.classical import MAX_CLASSICAL_HOURS, classical_hours
+
+    far = classical_hours(TRUTH, ["D_F", "D_I", "D_S"], Goal(targets={"D_F": 1e-7, "D_I": 1.0, "D_S": 1.0}), "sdf-gyro")
+    assert far.hours is None and far.scale is None
+    assert "D_F" in far.reason and f"{MAX_CLASSICAL_HOURS:g} h" in far.reason
+    need = float(far.reason.split("would need ")[1].split(" ")[0])
+    assert need > MAX_CLASSICAL_HOURS

@@ -41,6 +41,9 @@ from gyrojax.planning.fisher import record_fisher
 from gyrojax.simulation.simulator import simulate
 
 CHECKS = 3
+MAX_CLASSICAL_HOURS = 1.0e5
+"""Table hours (h, about 11 years) beyond which the classical sequence is reported as not a test anyone runs (its
+hours are then null, with the coefficient whose σ target asks for them), never as a number."""
 """Simulated checks of the scale (each one a simulation and a fit of the whole sequence)."""
 SAMPLES = {"position": 20, "tumble": 720, "servo": 1440, "head": 30}
 """Samples per static position, per tumble run, per servo run and per dividing-head position, at every scale."""
@@ -187,6 +190,16 @@ def classical_hours(truth, terms, goal, kind: str, seed: int = 0, latitude_deg: 
         bad = [c for c, v in zip(names, v1) if not math.isfinite(v)]
         return ClassicalResult(None, None, {}, reason=f"the classical sequence does not identify {', '.join(bad)}")
     scale = float(np.max(v1 / targets**2))
+    need = _hours(sequence(kind, scale, latitude_deg))
+    if not need <= MAX_CLASSICAL_HOURS:
+        worst = names[int(np.argmax(v1 / targets**2))]
+        return ClassicalResult(
+            None,
+            None,
+            {},
+            reason=f"the classical sequence would need {need:.3g} table hours for {worst}'s σ target "
+            f"{goal.target(worst):g} (its own unit): beyond {MAX_CLASSICAL_HOURS:g} h, no test anyone runs",
+        )
     best_split = _best_split(infos, measure, targets, idx)
     if best_split is not None:
         best_split += sum(_gap_hours(p) for _, p in base) + _between_runs_hours(base)

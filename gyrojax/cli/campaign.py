@@ -235,9 +235,10 @@ def cmd_campaign(args) -> int:
         print(f"  {s['plan']}: {s['hours']:.3g} h (total {s['cumulative_hours']:.3g} h) — {s['reason'][:200]}")
     c = j["classical_table_hours"]
     ratio = j["hours_ratio"]
+    why = (j["classical"] or {}).get("reason") or "not run"
     print(
         f"table hours: loop {j['table_hours']:.3g} h; Hu's classical sequence for the same σ: "
-        + (f"{c:.3g} h (ratio {ratio:.2f})" if c else "not reached")
+        + (f"{c:.3g} h (ratio {ratio:.2f})" if c else f"not reached ({why})")
     )
     if not res.goal_met:
         print(f"why: {res.reason}")
