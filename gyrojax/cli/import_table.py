@@ -8,9 +8,8 @@ here. Imports nothing heavy at start-up (argparse only): the command line answer
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
-from gyrojax.cli.args import UsageError
+from gyrojax.cli.args import UsageError, save_new_records
 
 TABLE_OPTIONS = {
     "setup": "--setup",
@@ -70,7 +69,6 @@ def _pairs(text: str) -> dict:
 
 def cmd_import_table(args) -> int:
     """``gyrojax import table TABLE.csv [INSTRUMENT.csv] --out DIR``: one record from a table data system's log(s)."""
-    from gyrojax.data.records import record_paths, save_record
     from gyrojax.data.tablelog import import_summary, import_table
     from gyrojax.data.tablesetup import TableSetup, apply_flags, read_setup_file, setup_from_dict
 
@@ -105,12 +103,7 @@ def cmd_import_table(args) -> int:
     setup = apply_flags(setup, flags)
     gyro_log = args.inputs[1] if len(args.inputs) == 2 else None
     rec = import_table(args.inputs[0], gyro_log, setup, delimiter=args.delimiter)
-    out = Path(args.out)
-    if not args.force:
-        for p in record_paths(out / rec.name):
-            if p.exists():
-                raise UsageError(f"{p}: exists; pass --force to overwrite")
-    path = save_record(rec, out, force=True)
+    (path,) = save_new_records([rec], args.out, args.force)
     report = rec.meta["import"]
     if args.json:
         print(json.dumps({"record": str(path), "n_samples": rec.n, "output": rec.meta["output"], "import": report}))
