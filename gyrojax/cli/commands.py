@@ -179,7 +179,7 @@ def cmd_demo(args) -> int:
 def cmd_design(args) -> int:
     """``gyrojax design``: design a static plan (ARW in deg/√h, GM as σ deg/h and τ s, total dwell in h), write
     the plan file to ``--out`` and print its comparison with the classical set; exit code."""
-    if getattr(args, "separate", None) or getattr(args, "from_records", None):  # separate two effects (#27)
+    if getattr(args, "separate", None) or getattr(args, "from_records", None):  # separate two effects
         from gyrojax.cli.design_separate import cmd_design_separate
 
         return cmd_design_separate(args)
