@@ -213,8 +213,7 @@ def import_imucal(
       session: CSV path (columns ``acc_x…gyr_z``, optionally ``part`` and ``samples``) or a pandas DataFrame.
       rate_hz: sample rate, Hz (imucal's files do not carry it; None: 204.8, NilsPod's, with a note).
       sections: a section list for sessions without a ``part`` column, as :func:`read_sections` reads it (dict or
-        file; imucal's ``{"x_p": {"start": 540, "end": 1271}, …}`` or ``{"x_p": [start, end], …}``; row positions
-        in file order, end exclusive, as imucal's ``iloc``).
+        file).
       gyro_unit: ``"counts"`` (with ``gyro_counts_per_dps``, the nominal scale), ``"dps"`` or ``"rad/s"``.
       angle_deg: the known total angle of each hand rotation (deg; its sign comes from the data).
       angle_std_deg: 1σ error of that angle (deg), for the hand's imprecision.
