@@ -50,7 +50,7 @@ def import_imutk(
 
     Static poses come from :func:`gyrojax.data.segments.detect_rests`; each pair of consecutive poses gets a
     ``move`` segment (a gravity-to-gravity move, its rotation known through the accelerometer directions before and
-    after). The accelerometer is in imu_tk's raw counts by default, the gyro too (with ``gyro_counts_per_dps``).
+    after). The accelerometer is in imu_tk's raw counts by default, the gyro too (``gyro_counts_per_dps`` per deg/s).
     """
     acc = read_imutk_ascii(acc_path)
     gyr = read_imutk_ascii(gyro_path)
