@@ -78,28 +78,10 @@ def cmd_import_table(args) -> int:
     if len(args.inputs) not in (1, 2):
         raise UsageError("import table takes the table's log and, on a clock of its own, the instrument's log")
     setup = setup_from_dict(read_setup_file(args.setup), args.setup) if args.setup else TableSetup()
-    flags = {
-        "--name": args.name,
-        "--id": args.id,
-        "--kind": args.kind,
-        "--mode": args.mode,
-        "--servo-axis": args.servo_axis,
-        "--latitude": args.latitude,
-        "--gravity": args.gravity,
-        "--axes": args.axes,
-        "--mounting": args.mounting,
-        "--scale": args.scale,
-        "--clock-offset": args.clock_offset,
-        "--keep-transitions": args.keep_transitions,
-        "--map": _pairs(args.map) if args.map else None,
-        "--time-unit": args.time_unit,
-        "--gyro-time-unit": args.gyro_time_unit,
-        "--angle-unit": args.angle_unit,
-        "--counts-per-rev": args.counts_per_rev,
-        "--rate-unit": args.rate_unit,
-        "--output-unit": args.output_unit,
-        "--temperature-unit": args.temperature_unit,
-    }
+    # the table's own options laid over the set-up file, then the import options it shares with the IMU importers
+    flags = {flag: getattr(args, dest) for dest, flag in TABLE_OPTIONS.items() if dest != "setup"}
+    flags.update({"--name": args.name, "--id": args.id, "--latitude": args.latitude, "--gravity": args.gravity})
+    flags.update({"--map": _pairs(args.map) if args.map else None, "--time-unit": args.time_unit})
     setup = apply_flags(setup, flags)
     gyro_log = args.inputs[1] if len(args.inputs) == 2 else None
     rec = import_table(args.inputs[0], gyro_log, setup, delimiter=args.delimiter)
