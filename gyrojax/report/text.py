@@ -27,9 +27,9 @@ def _fmt(v: float, s: float | None = None) -> str:
 
 
 def fit_table(res: FitResult | TriadFit) -> str:
-    """Coefficient table: name, value ± std, unit, t statistic and significance at α (:data:`gyrojax.inference.
-    scoring.ALPHA`; CIGTF style); a triad fit's table
-    has one row per coefficient and channel (:func:`triad_fit_table`)."""
+    """Coefficient table: name, value ± std, unit, t statistic and significance at α
+    (:data:`gyrojax.inference.scoring.ALPHA`; CIGTF style); for a triad fit one row per coefficient and channel
+    (:func:`triad_fit_table`)."""
     if isinstance(res, TriadFit):
         return triad_fit_table(res)
     lines = [f"fit of {', '.join(res.model.terms)} to {len(res.record_names)} record(s), {res.n_samples} samples"]
@@ -175,6 +175,3 @@ def adequacy_lines(d) -> list[str]:
             "'NAME=EXPR') or look for its physical cause"
         )
     return lines
-
-
-# ---- residual views (matplotlib) --------------------------------------------------------------------------------
