@@ -234,12 +234,16 @@ def design_test(
             u[..., i] = rng.uniform(0.0, 2 * math.pi, shape) if lim is None else rng.normal(0.0, 1.5, shape)
         return u
 
-    batch = n_m * starts  # every search runs this many starts, so that each configuration compiles once
+    def batch(runs: int) -> int:
+        """Lanes of every search of ``runs`` runs, so that each configuration compiles once: ``starts`` per mounting
+        for one run; one per mounting for more, whose earlier runs start from the previous best and whose new run
+        tries every mounting once."""
+        return n_m * starts if runs == 1 else n_m
 
     def optimise(runs, u0, z0, mi, total_h):
         prob = _problem(uni, runs, n, limits, steps, learning_rate)
         k0 = len(u0)
-        take = np.arange(batch) % k0  # the starts repeated and perturbed: a local multi-start, and no new shape
+        take = np.arange(batch(runs)) % k0  # the starts repeated and perturbed: a local multi-start, and no new shape
         u0, z0, mi = np.array(u0)[take], np.asarray(z0)[take], np.asarray(mi)[take]
         u0[k0:] += rng.normal(0.0, 0.3, u0[k0:].shape)
         tri = jnp.asarray(mounts[mi])
@@ -315,8 +319,8 @@ def design_test(
         total_need = shortest(longer, cap)
         if total_need is None:  # a refusal rests on it: fresh random starts too, not only the test's local optimum
             runs = widest["runs"]
-            mi = mi1 if runs == 1 else np.tile(widest["mi"], (batch, 1))
-            fresh = optimise(runs, random_u(batch, runs), np.zeros((batch, runs * n)), mi, cap)
+            mi = mi1 if runs == 1 else np.tile(widest["mi"], (batch(runs), 1))
+            fresh = optimise(runs, random_u(batch(runs), runs), np.zeros((batch(runs), runs * n)), mi, cap)
             if shortest(fresh, cap) is not None or worst(fresh, cap) < worst(longer, cap):
                 longer = fresh
             total_need = shortest(longer, cap)
