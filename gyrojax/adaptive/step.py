@@ -184,25 +184,19 @@ def _update_model(records, terms, goal: Goal, looks: int, kind: str):
             return terms, res, d, added, (), looks, ""
         c = next(x for x in d.candidates if x.name == d.proposal)
         plausible = {x.name for x in d.candidates if x.implausible is None and x.refused is None}
-        group = tuple(
-            g for g in dict.fromkeys(c.aliases + c.indistinguishable) if g in fx.names(kind) and g in plausible
-        )
-        group = tuple(g for g in group if g not in terms)
         rivals, preferred = _rivals(records, terms, c, d, a, goal, kind, plausible)
         if preferred:  # the records single out the watched rivals: the strongest of them is the proposal
             c = next(x for x in d.candidates if x.name in rivals)
-            group = tuple(
-                g
-                for g in dict.fromkeys(c.aliases + c.indistinguishable)
-                if g in fx.names(kind) and g in plausible and g not in terms
-            )
-        else:
-            group = tuple(dict.fromkeys(group + rivals))
+        group = _named_aliases(c, plausible, terms, kind)
+        group = group if preferred else tuple(dict.fromkeys(group + rivals))
         if group:
             return terms, res, d, added, (c.name,) + group, looks, ""
         try:
             new = fit_with(d, records, c.name)
-        except ModelError:  # a preferred rival the fit refuses: the records hold a group to separate
+        except ModelError:
+            if not preferred:
+                raise
+            # a preferred rival the fit refuses: the records hold a group to separate
             return terms, res, d, added, (d.proposal,) + rivals, looks, ""
         res, terms = new, terms + (c.name,)
         added.append(
@@ -214,6 +208,14 @@ def _update_model(records, terms, goal: Goal, looks: int, kind: str):
                 "estimate": c.estimate,
             }
         )
+
+
+def _named_aliases(c, plausible, terms, kind: str) -> tuple:
+    """The plausible named effects of ``kind`` outside ``terms`` the records cannot tell from the candidate ``c``."""
+    names = fx.names(kind)
+    return tuple(
+        g for g in dict.fromkeys(c.aliases + c.indistinguishable) if g in names and g in plausible and g not in terms
+    )
 
 
 def _rivals(records, terms, c, d, alpha: float, goal: Goal, kind: str, plausible) -> tuple[tuple, bool]:
