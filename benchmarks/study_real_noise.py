@@ -16,10 +16,11 @@ Subcommands:
   being checked against V in tests/test_real_noise.py), the rate at which the reference itself finds a trend when
   it assumes independent scatter on a walk, and with ``--gyrojax`` the rate of deterministic proposals by gyrojax's
   diagnosis (written records, one diagnosis per draw). Rates with Clopper–Pearson 95 % intervals.
-* ``walk-nulls [--draws 100] [--workers 1] [--full-size] [--drifts steps,rrw,scatter]``: gyrojax's rate of
-  deterministic proposals on triad nulls whose bias walks (steps at each move; a rate random walk) and on the
+* ``walk-nulls [--draws 100] [--workers 1] [--full-size] [--drifts steps,rrw,scatter] [--power-ups]``: gyrojax's
+  rate of deterministic proposals on triad nulls whose bias walks (steps at each move; a rate random walk) and on the
   independent scatter, the rate at which it names the walk, and how often it says a candidate cannot be told from
-  the walk (small sessions of 16 rests unless ``--full-size``).
+  the walk (small sessions of 16 rests unless ``--full-size``); with ``--power-ups``, two power-ups of one IMU and
+  no step between them, each walking from the common turn-on bias (the step must not be proposed for the walk).
 * ``colour [--draws 30] [--planted-draws 10] [--workers 1]``: the rule that judges colour against input-following
   shapes (a hinge with a fitted knee, the linear temperature, the trend): gyrojax's rate of deterministic
   proposals on the turntable null with slow Gauss–Markov drift and a temperature cycle, from D_F…D_S and from
@@ -197,9 +198,13 @@ def _walk_draw(job):
     import gyrojax as gj
     from tests import independent_triad_writer as itw
 
-    drift, size, seed, small = job
+    drift, size, seed, small, two = job
     kw = WALK_SMALL if small else {"rest_s": rc.REST_S, "move_s": rc.MOVE_S}
-    recs, _ = itw.hand_session_records(seed, drift=drift, drift_size=size, **kw)
+    if two:  # two power-ups with no step, each walking from the common turn-on bias
+        kw = kw | {"poses": kw.get("poses", rc.POWER_UP_POSES), "gap_s": rc.POWER_UP_GAP_S}
+        recs, _ = itw.power_up_records(seed, drift=drift, scatter_dph=size, **kw)
+    else:
+        recs, _ = itw.hand_session_records(seed, drift=drift, drift_size=size, **kw)
     with tempfile.TemporaryDirectory() as folder, warnings.catch_warnings():
         warnings.simplefilter("ignore")
         d = gj.diagnose(gj.load_records(itw.write(folder, recs)), itw.MODEL)
@@ -207,14 +212,15 @@ def _walk_draw(job):
     return drift, seed, d.proposal, [c.name for c in d.noise_processes], drifting
 
 
-def walk_nulls(draws, workers, small, drifts=None) -> None:
+def walk_nulls(draws, workers, small, drifts=None, power_ups=False) -> None:
     """gyrojax's deterministic proposals on triad nulls whose bias walks between rests (steps at each move, a rate
-    random walk) and on the independent scatter, drawn in memory by the independent writer; bounded worker
+    random walk) and on the independent scatter, drawn in memory by the independent writer (with ``power_ups``: two
+    power-ups of one IMU with no step between them, each walking from the common turn-on bias); bounded worker
     processes (a few draws each, then replaced)."""
     import multiprocessing as mp
 
     walks = [(d, size) for d, size in WALKS if drifts is None or d in drifts]
-    jobs = [(drift, size, 30_000 + i, small) for drift, size in walks for i in range(draws)]
+    jobs = [(drift, size, 30_000 + i, small, power_ups) for drift, size in walks for i in range(draws)]
     t0 = time.time()
     with mp.get_context("spawn").Pool(workers, maxtasksperchild=10) as pool:
         out = []
@@ -222,7 +228,8 @@ def walk_nulls(draws, workers, small, drifts=None) -> None:
             out.append(o)
             if len(out) % 20 == 0:
                 print(f"  {len(out)}/{len(jobs)} draws, {time.time() - t0:.0f} s", flush=True)
-    print(f"{'small' if small else 'full-size'} sessions, {draws} draws per drift, {time.time() - t0:.0f} s")
+    what = "two power-ups of " if power_ups else ""
+    print(f"{what}{'small' if small else 'full-size'} sessions, {draws} draws per drift, {time.time() - t0:.0f} s")
     for drift, _size in walks:
         rows = [o for o in out if o[0] == drift]
         props = [o[2] for o in rows if o[2]]
@@ -312,6 +319,7 @@ def main(argv=None) -> None:
     w.add_argument("--workers", type=int, default=1)
     w.add_argument("--full-size", action="store_true", help="the cases' own rests and moves (slower)")
     w.add_argument("--drifts", type=lambda s: s.split(","), default=None, help="steps,rrw,scatter (default: all)")
+    w.add_argument("--power-ups", action="store_true", help="two power-ups of one IMU, no step between them")
     c = sub.add_parser("colour")
     c.add_argument("--draws", type=int, default=30, help="draws of each null")
     c.add_argument("--planted-draws", type=int, default=10, help="draws of each planted case")
@@ -324,7 +332,7 @@ def main(argv=None) -> None:
     elif args.cmd == "baseline":
         baseline(args.seeds, args.cases)
     elif args.cmd == "walk-nulls":
-        walk_nulls(args.draws, args.workers, not args.full_size, args.drifts)
+        walk_nulls(args.draws, args.workers, not args.full_size, args.drifts, args.power_ups)
     elif args.cmd == "colour":
         colour(args.draws, args.planted_draws, args.workers)
     else:

@@ -57,7 +57,9 @@ from gyrojax.inference.triad_accel import accelerometer_json, fit_accelerometer,
 from gyrojax.inference.triad_checks import divergence_hint, plausibility_notes, terms_for_force
 from gyrojax.inference.triad_components import Group, estimate_components
 from gyrojax.inference.triad_result import TriadFit
-from gyrojax.inference.triad_rows import move_rows, pack_moves, pack_segments, scale_matrix, segment_rows
+from gyrojax.inference.triad_rows import pack_moves, pack_segments, scale_matrix, segment_rows
+from gyrojax.inference.triad_turn_on import check as check_turn_on
+from gyrojax.inference.triad_turn_on import move_rows_with_steps, power_ups, split_terms, step_names
 from gyrojax.noise.spec import SessionNoise
 from gyrojax.noise.whiten import pooled_autocovariance
 from gyrojax.optimize import least_squares
@@ -176,32 +178,41 @@ def fit_triad_unchecked(
     if needs_calibration(acc_fit, recs):  # off g beyond the tolerance: calibrated here, never taken on trust
         recs = [with_calibrated_accelerometer(r, acc_fit) for r in recs]
         acc_fit["applied"] = True
-    segments, resid, modes, moves = [], [], set(), []
-    for r in recs:
+    segments, resid, modes, moves, seg_rec, mv_rec = [], [], set(), [], [], []
+    for i, r in enumerate(recs):
         s, q, mode, mv = triad_segments(r, earth_rate)
         segments.extend(s)
         resid.extend(q)
         modes.add(mode)
         moves.extend(mv)
+        seg_rec += [i] * len(s)
+        mv_rec += [i] * len(mv)
     if not segments:
         raise ModelError("the records hold no static or rotation segment to fit")
     has_rot = any(s.kind == "rotation" for s in segments) or bool(moves)
     default = terms is None
     if default:
         terms = DEFAULT_ROTATION_TERMS if has_rot else DEFAULT_STATIC_TERMS
+    terms, turn_on = split_terms(terms)
     terms, force_notes = terms_for_force(terms, segments, default)
     model = tp.channel_model(terms)
-    names = [tp.channel_name(c, ch) for ch in tp.CHANNELS for c in model.coefficient_names]
+    if turn_on:
+        kinds = [[s.kind for s, i in zip(segments, seg_rec) if i == k] for k in range(len(recs))]
+        check_turn_on(model, [r.name for r in recs], kinds)
+    pu = power_ups(model, seg_rec, mv_rec, len(recs), turn_on)
+    names = [tp.channel_name(c, ch) for ch in tp.CHANNELS for c in model.coefficient_names] + step_names(pu.count)
+    n_theta = len(names)
     dt_s = float(np.median([np.median(np.diff(s.t_h)) for s in segments if len(s.t_h) > 1] or [0.0])) * 3600.0
     q = long_run_variance(resid) if noise_q is None else _channel_variances(noise_q, dt_s)
 
     # one compiled call each for the segment means and the moves (triad_rows), at shapes bucketed across sessions
     base, jac = segment_rows(model, np.zeros(3 * model.size), pack_segments(segments, bucketed=True), len(segments))
+    jac = pu.segment_jacobian(jac)  # the power-ups' bias steps beside the channel coefficients (triad_turn_on)
     y = np.concatenate([s.y for s in segments])
     packed = pack_moves(moves, bucketed=True) if moves else None
     # the noise of every row in indicated units at the fitted S (whiten_segments, move_whitening): the model is
     # linear in S, so a record whose nominal scale is off by k gives the same fit with S, b, G times k, the same χ²
-    theta = np.zeros(3 * model.size)
+    theta = np.zeros(n_theta)
     if moves and not any(s.kind == "rotation" for s in segments):
         # statics alone see S only through the vertical Earth rate (≤ 15 deg/h): the start holds S = I and fits
         # bias and g-terms, the moves then find S (a free S would split Ω sin φ into absurd scale and misalignment)
@@ -214,7 +225,7 @@ def fit_triad_unchecked(
     # S is seen by rotations or moves only; without them the body-rate covariances stay at the nominal scale
     passes = MAX_NOISE_PASSES if moves or any(s.kind == "rotation" for s in segments) else 1
     for _pass in range(passes):  # fixed noise per pass; the passes update it with the fitted S
-        s_mat = scale_matrix(model, theta) if passes > 1 else np.eye(3)
+        s_mat = scale_matrix(model, pu.split(theta)[0]) if passes > 1 else np.eye(3)
         if s_prev is not None and np.max(np.abs(s_mat - s_prev)) <= NOISE_PASS_TOL * np.max(np.abs(s_prev)):
             break
         _check_scale_matrix(s_mat)
@@ -222,14 +233,14 @@ def fit_triad_unchecked(
         lin_r, lin_j = whiten_segments(segments, y - base, jac, q, s_mat)
         if moves:  # Levenberg–Marquardt on the linear rows and the moves' direction residuals (2 rows per move)
             move_w = move_whitening(moves, q, s_mat)
-            system = _moves_system(model, packed, lin_r, lin_j, move_w)
+            system = _moves_system(model, packed, lin_r, lin_j, move_w, pu)
             sol = least_squares(system, theta, max_iter)
             theta, n_eval, why = sol.x, sol.steps, sol.reason
             iterations += n_eval
             if why:
                 break
         else:
-            theta = np.zeros(3 * model.size) + solve(lin_j, lin_r)[0]
+            theta = np.zeros(n_theta) + solve(lin_j, lin_r)[0]
             iterations += 1
     else:
         if passes > 1:
@@ -238,13 +249,13 @@ def fit_triad_unchecked(
     if moves:
         base_w = (lin_r, lin_j, move_w)  # the white-noise model's rows: its χ² says how poor that model is
         if components and not why:
-            moves_at = move_rows(model, theta, packed, move_w)[1:]
+            moves_at = move_rows_with_steps(model, theta, packed, move_w, pu)[1:]
             groups = component_groups(segments, y - base - jac @ theta, jac, q, s_mat, moves_at, move_w)
             tau2, why_components = estimate_components(groups)
         if any(v > 0 for v in tau2.values()):  # refit with the components in the covariance
             lin_r, lin_j = whiten_segments(segments, y - base, jac, q, s_mat, tau2.get("pose", 0.0))
             move_w = move_whitening(moves, q, s_mat, tau2.get("move", 0.0))
-            system = _moves_system(model, packed, lin_r, lin_j, move_w)
+            system = _moves_system(model, packed, lin_r, lin_j, move_w, pu)
             sol = least_squares(system, theta, max_iter)
             theta, n_eval, why = sol.x, sol.steps, sol.reason
             iterations += n_eval
@@ -252,7 +263,7 @@ def fit_triad_unchecked(
         why = why or why_components
     else:
         rw, jw = lin_r, lin_j
-        theta = np.zeros(3 * model.size)
+        theta = np.zeros(n_theta)
     report = alias_analysis(jw, names, names)
     not_excited = report["unexcited"]
     if (report["aliases"] or not_excited) and not allow_aliases:
@@ -260,10 +271,10 @@ def fit_triad_unchecked(
     step, cov = solve(jw, rw)  # rank-cut SVD in normalised columns; unseen coefficients get NaN rows and columns
     theta = theta + step
     bad = ~np.isfinite(np.diag(cov))
-    s_fit = scale_matrix(model, theta)
+    s_fit = scale_matrix(model, pu.split(theta)[0])
     if moves:  # one evaluation of the moves at the fitted θ: their Up residuals and rows of the white-noise model
         lr0, lj0, mw0 = base_w
-        r_moves, mr, _ = move_rows(model, theta, packed, mw0)
+        r_moves, mr, _ = move_rows_with_steps(model, theta, packed, mw0, pu)
         _check_moves_converged(s_fit, r_moves, moves)
         e = np.concatenate([lr0 - lj0 @ theta, mr])
     else:
@@ -295,6 +306,12 @@ def fit_triad_unchecked(
             f"the segment means scatter more than the sample noise explains (chi2 {chi2:.3g} on {dof} dof, "
             f"p {special.chdtrc(dof, chi2):.2g}; largest shares: {drivers}): bias shifts between poses, hand-move "
             f"errors or a missing effect; {tail}"
+        )
+    if pu.n_steps:
+        notes.append(
+            f"bias_turn_on: D_F is the bias of the first power-up ({recs[0].name}); "
+            + "; ".join(f"D_F_step_{k} that of {recs[k].name} less it" for k in range(1, len(recs)))
+            + " (apply calibrates a fitted power-up's record with its own bias, any other with the first's)"
         )
     if acc_fit is not None and acc_fit["poorly_determined"]:  # the gyro fit takes the specific force as calibrated
         notes.append(f"{acc_fit['poorly_determined']}; the gyro's standard errors do not include that error")
@@ -360,12 +377,12 @@ def _scale_coefficient(name: str) -> bool:
     return tp.split_channel_name(name)[0] in ("E_SF", "M_O", "M_S", "E_A", "E_2")
 
 
-def _moves_system(model, packed, lin_r, lin_j, move_w):
+def _moves_system(model, packed, lin_r, lin_j, move_w, pu):
     """The whitened rows of a fit with moves and their Jacobian at θ: the linear rows, then the moves' two direction
-    rows each (:func:`gyrojax.inference.triad_rows.move_rows`)."""
+    rows each (:func:`gyrojax.inference.triad_turn_on.move_rows_with_steps`: the power-ups' steps ``pu`` included)."""
 
     def system(th):
-        _, mr, mj = move_rows(model, th, packed, move_w)
+        _, mr, mj = move_rows_with_steps(model, th, packed, move_w, pu)
         return np.concatenate([lin_r - lin_j @ th, mr]), np.concatenate([lin_j, mj])
 
     return system

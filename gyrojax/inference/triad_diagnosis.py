@@ -49,12 +49,12 @@ from gyrojax.inference.triad_components import estimate_components, reml_objecti
 from gyrojax.inference.triad_rows import (
     channel_matrices,
     move_residual,
-    move_rows,
     pack_moves,
     pack_segments,
     segment_jacobian_jit,
     segment_means_jit,
 )
+from gyrojax.inference.triad_turn_on import TURN_ON, move_rows_with_steps, power_ups
 from gyrojax.inference.verdict import Candidate, Structure
 from gyrojax.physics import effects as fx
 from gyrojax.physics import plausibility
@@ -77,7 +77,8 @@ SHAPE_VERSUS = {
 
 MEMS_CANDIDATES = ("bias_turn_on", "time_offset")
 """Triad candidates beyond the registry (conventions §9): a bias step at each turn-on (one level per record after
-the first, per channel, deg/h) and a time offset between the gyro and accelerometer streams (one for the triad, s)."""
+the first, per channel, deg/h; the fit's term :mod:`gyrojax.inference.triad_turn_on`) and a time offset between the
+gyro and accelerometer streams (one for the triad, s; no fit term)."""
 
 SHAPES = ("rate_cross", "rate_magnitude", "motion_bias", "time_quadratic")
 """Model-free residual shapes per channel: ω_I ω_O, ω_I ω_S, ω_O ω_S ((deg/s)²); |ω| (deg/s); a bias present only
@@ -146,7 +147,8 @@ def candidate_regressors(model, data, candidates=None) -> list:
             and fx.get(n).knee is None  # a knee is fitted on turntable records only
             and (n != "bias_temperature" or np.ptp(temp) > 1e-6)
         ]
-        names += [n for n in MEMS_CANDIDATES if n != "bias_turn_on" or data["n_records"] > 1]
+        fitted = data["power_ups"].count > 1  # the fit has the steps: no candidate of them
+        names += [n for n in MEMS_CANDIDATES if n != TURN_ON or (data["n_records"] > 1 and not fitted)]
     out = []
     for n in names:
         if n == "bias_turn_on":
@@ -191,6 +193,8 @@ def session_data(records, fit, earth_rate=None) -> dict:
     in deg/h, specific force in g, time in h); ``earth_rate`` as :func:`gyrojax.inference.triad.fit_triad` takes it."""
     recs = [records] if isinstance(records, Record) else list(records)
     model, theta = fit.model, np.asarray(fit.theta, dtype=float)
+    if fit.power_ups > 1 and fit.power_ups != len(recs):
+        raise ModelError(f"the fit has the bias of {fit.power_ups} power-ups; {len(recs)} records are diagnosed")
     segments, moves, seg_rec, mv_rec, mv_times = [], [], [], [], []
     for i, r in enumerate(recs):
         s, _q, _mode, mv = triad_segments(r, earth_rate)
@@ -201,17 +205,19 @@ def session_data(records, fit, earth_rate=None) -> dict:
         mv_times.extend((m.t_h, m.temp) for m in mv)  # the samples the fit integrates
         gyro_dph(r)  # refuses a record without gyro columns here, by name
     q = np.asarray(fit.noise_q, dtype=float)
-    b, s_mat, g_mat = channel_matrices(model, theta)
+    pu = power_ups(model, seg_rec, mv_rec, len(recs), fit.power_ups > 1)
+    th_ch = pu.split(theta)[0]  # the channel coefficients, without the power-ups' bias steps (triad_turn_on)
+    b, s_mat, g_mat = channel_matrices(model, th_ch)
     comp = fit.variance_components or {}
     tau2 = {
         "pose": comp.get("pose_bias_scatter_indicated_deg_per_h", comp.get("pose_bias_scatter_deg_per_h", 0.0)) ** 2,
         "move": math.radians(comp.get("move_angle_noise_deg", 0.0)) ** 2,
     }
     arrays = pack_segments(segments)
-    th = jnp.asarray(theta)
+    th = jnp.asarray(th_ch)
     y = np.concatenate([sg.y for sg in segments])
-    resid = y - np.asarray(segment_means_jit(model, th, arrays))
-    jac = np.asarray(segment_jacobian_jit(model, th, arrays))
+    resid = y - np.asarray(segment_means_jit(model, th, arrays)) - pu.bias_of(theta, seg_rec).reshape(-1)
+    jac = pu.segment_jacobian(np.asarray(segment_jacobian_jit(model, th, arrays)))
     t_all = np.concatenate([sg.t_h for sg in segments] + [t for t, _ in mv_times])
     t_mid = 0.5 * (t_all.min() + t_all.max())
 
@@ -236,6 +242,7 @@ def session_data(records, fit, earth_rate=None) -> dict:
         "resid": resid,
         "jac": jac,
         "n_records": len(recs),
+        "power_ups": pu,
         "seg_inputs": inputs,
     }
     data["inputs"] = list(inputs)
@@ -243,12 +250,13 @@ def session_data(records, fit, earth_rate=None) -> dict:
     if moves:
         packed = pack_moves(moves)
         move_w = tf.move_whitening(moves, q, s_mat, tau2["move"])
-        _, mr, mj = move_rows(model, theta, packed, move_w)
+        _, mr, mj = move_rows_with_steps(model, theta, packed, move_w, pu)
         data.update(packed=packed, move_w=move_w, move_r=mr, move_j=mj)
-        data["dr_dg"] = np.asarray(_move_dr_dg(model, th, *packed))  # (M, 3, L, 3)
+        data["dr_dg"] = np.asarray(_move_dr_dg(model, th, *pu.shifted_moves(packed, theta)))  # (M, 3, L, 3)
         mv_inputs = []
         for m, ri, (t_h, temp) in zip(moves, mv_rec, mv_times):
-            w_cal = np.linalg.solve(s_mat, (m.g - b - m.a @ g_mat.T).T).T  # deg/h, the calibrated body rate
+            bias = b + pu.bias_of(theta, ri)  # the power-up's own
+            w_cal = np.linalg.solve(s_mat, (m.g - bias - m.a @ g_mat.T).T).T  # deg/h, the calibrated body rate
             a_dot = np.gradient(m.a, m.dt, axis=0) if len(m.a) > 1 else np.zeros_like(m.a)
             n = len(m.g)
             mv_inputs.append(x(w_cal, m.a, t_h[:n], temp[:n], ri, np.ones(n, dtype=bool), a_dot @ g_mat.T))
@@ -335,7 +343,7 @@ def _groups(data: dict, extra: list) -> list:
     move_w, moves_at = [], (np.zeros(0), np.zeros((0, data["jac"].shape[1])))
     if data["moves"]:
         move_w = tf.move_whitening(data["moves"], data["q"], data["s_mat"])
-        moves_at = move_rows(data["model"], data["theta"], data["packed"], move_w)[1:]
+        moves_at = move_rows_with_steps(data["model"], data["theta"], data["packed"], move_w, data["power_ups"])[1:]
     return tf.component_groups(
         data["segments"], data["resid"], data["jac"], data["q"], data["s_mat"], moves_at, move_w, extra, data["walk"]
     )
@@ -376,7 +384,8 @@ def with_components(data: dict, extra: list, alpha: float) -> dict:
     out["tau2"] = {"pose": tau2.get("pose", 0.0), "move": tau2.get("move", 0.0), "walk": tau2.get("walk", 0.0)}
     if data["moves"]:
         out["move_w"] = tf.move_whitening(data["moves"], data["q"], data["s_mat"], out["tau2"]["move"])
-        _, out["move_r"], out["move_j"] = move_rows(data["model"], data["theta"], data["packed"], out["move_w"])
+        rows = move_rows_with_steps(data["model"], data["theta"], data["packed"], out["move_w"], data["power_ups"])
+        _, out["move_r"], out["move_j"] = rows
     return out
 
 
@@ -541,9 +550,10 @@ class TriadSession(Session):
         return 0.0 if sc is None else sc.log10_p
 
     def no_term(self, c: Candidate) -> str | None:
-        """Why the fit cannot add ``c`` (a MEMS candidate has no fit term), or None."""
+        """Why the fit cannot add ``c`` (``time_offset`` has no fit term; ``bias_turn_on`` has,
+        :mod:`gyrojax.inference.triad_turn_on`), or None."""
         effect = self.effect_of(c)
-        if effect in MEMS_CANDIDATES:
+        if effect in MEMS_CANDIDATES and effect != TURN_ON:
             return f"{effect} is a diagnosis candidate; fit_triad has no term for it yet"
         return None
 
