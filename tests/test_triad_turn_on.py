@@ -6,7 +6,8 @@ move residual; the fit's invariance when a power-up's every indicated sample is 
 rounding, every other coefficient that of the two power-ups without a step); the step's size and σ on the
 independent writer's two power-ups against the planted step and the plain reference's GLS of the rests
 (tests/reference_analysis.py); refusals where it cannot be fitted; the loop (proposed, added, adequate) through
-``gj.add_and_refit`` and a saved fit read back."""
+``gj.add_and_refit`` and a saved fit read back; the bias walk restarting at each power-up, against the reference's
+covariance."""
 
 import numpy as np
 import pytest
@@ -16,6 +17,7 @@ from gyrojax.data.record import Record
 from gyrojax.data.triad_segments import triad_segments
 from gyrojax.errors import ModelError
 from gyrojax.inference import triad as tf
+from gyrojax.inference import triad_components as tc
 from gyrojax.inference.triad_result import load_triad_fit
 from gyrojax.inference.triad_rows import pack_moves
 from gyrojax.inference.triad_turn_on import check, move_rows_with_steps, power_ups
@@ -155,3 +157,21 @@ def test_single_power_up_fits_are_unchanged(step_session):
     assert fit.terms == itw.MODEL and fit.power_ups == 1 and len(fit.names) == 3 * fit.model.size
     one = gj.diagnose(recs[:1], itw.MODEL)
     assert not [c for c in one.candidates if c.name.startswith("bias_turn_on")]
+
+
+def test_the_walk_restarts_at_each_power_up():
+    """The bias walk's covariance over the rests of two power-ups (5 and 4 rests, on one clock) is the reference's
+    (tests/reference_analysis.py: min(rank k, rank l) within a record, 0 across): each power-up walks from its own
+    turn-on bias, so a walk never passes for a step between power-ups."""
+    record = np.array([0] * 5 + [1] * 4)
+    rank = np.concatenate([np.arange(5), np.arange(4)]).astype(float)
+    k = len(record)
+    rests = ra.Rests(
+        np.zeros((k, 3)), np.tile([0.0, 0.0, 1.0], (k, 1)), np.ones(k), np.arange(k, dtype=float),
+        np.zeros((k, 2)), record, rank, 45.0,
+    )  # fmt: skip
+    want = ra.triad_covariances(rests, NOISE_DPS)["steps"]
+    groups = [tc.Group(np.eye(3), np.zeros(3), np.zeros((3, 1)), "pose", float(i), power_up=int(p))
+              for i, p in enumerate(record)]  # fmt: skip
+    offsets = np.arange(0, 3 * k + 1, 3)
+    assert np.array_equal(tc.walk_covariance(groups, offsets), want)

@@ -504,20 +504,24 @@ def component_groups(segments, e, jac, q, s_mat, moves_at, move_w, extra=(), wal
     move's 2 direction rows (``moves_at``: the whitened rows and Jacobian of :func:`gyrojax.inference.triad_rows.
     move_rows` at θ with the whitening ``move_w``, the angle noise component). ``extra``: more regressors as
     (segment rows (3m, k), move rows (M, 3, k)) pairs, beside the Jacobian. ``walk``: (each segment's clock, each
-    move's clock, each move's (3, 3) change per deg/h of each channel's bias) where a bias walk is estimated."""
+    move's clock, each move's (3, 3) change per deg/h of each channel's bias, each segment's power-up, each move's)
+    where a bias walk is estimated (it restarts at each power-up: :mod:`gyrojax.inference.triad_components`)."""
     groups = []
     covs = _segment_covs(segments, q, s_mat)
-    seg_clock, move_clock, move_bias = walk if walk is not None else (None, None, None)
+    seg_clock, move_clock, move_bias, seg_power, move_power = walk if walk is not None else (None,) * 5
     for i, seg in enumerate(segments):
         sl = slice(3 * i, 3 * i + 3)
         j = np.column_stack([jac[sl]] + [sg[sl] for sg, _ in extra])
-        step = None if walk is None else float(seg_clock[i])
-        groups.append(Group(covs[i], e[sl], j, "pose" if seg.kind == "static" else "", step))
+        step, power = (None, 0) if walk is None else (float(seg_clock[i]), int(seg_power[i]))
+        groups.append(Group(covs[i], e[sl], j, "pose" if seg.kind == "static" else "", step, power_up=power))
     rows, jrows = moves_at  # whitened by σ_k: natural units are σ_k times them
     for k, (p, sd) in enumerate(move_w):
         j = np.column_stack([sd * jrows[2 * k : 2 * k + 2]] + [p.T @ mv[k] for _, mv in extra])
-        step, bias_rows = (None, None) if walk is None else (float(move_clock[k]), p.T @ move_bias[k])
-        groups.append(Group(sd**2 * np.eye(2), sd * rows[2 * k : 2 * k + 2], j, "move", step, bias_rows))
+        if walk is None:
+            step, bias_rows, power = None, None, 0
+        else:
+            step, bias_rows, power = float(move_clock[k]), p.T @ move_bias[k], int(move_power[k])
+        groups.append(Group(sd**2 * np.eye(2), sd * rows[2 * k : 2 * k + 2], j, "move", step, bias_rows, power))
     return groups
 
 

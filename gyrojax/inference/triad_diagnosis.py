@@ -17,13 +17,13 @@ forward selection of the noise re-estimates those components with the candidates
 that selection with the named candidates, and are tested beside every named candidate with σ̃² after them all
 (F law). The noise processes between segments — ``pose_bias_scatter`` (an independent bias level at each pose),
 ``move_angle_noise`` (a per-move angle error) and ``bias_random_walk`` (a bias that walks from pose to pose: steps
-at each move that persist, or a rate random walk) — are tested by the REML likelihood ratio of their variance
-component against zero (boundary: p = ½ P(χ²₁ > LR); the walk's against the independent scatter alone, the other
-components re-estimated), as ``gauss_markov`` is on a turntable; they are noise, never proposed as deterministic
-effects. Where the walk is significant it whitens every test (the rows then as one dense covariance), from the first
-round of the forward selection on: a trend enters only when it beats the walk, and a candidate that the walk and it
-explain alike is said to be indistinguishable from drift. Sizes are checked against the MEMS limits of
-:mod:`gyrojax.physics.plausibility`.
+at each move that persist, or a rate random walk; each power-up's from its own turn-on bias) — are tested by the
+REML likelihood ratio of their variance component against zero (boundary: p = ½ P(χ²₁ > LR); the walk's against
+the independent scatter alone, the other components re-estimated), as ``gauss_markov`` is on a turntable; they are
+noise, never proposed as deterministic effects. Where the walk is significant it whitens every test (the rows then
+as one dense covariance), from the first round of the forward selection on: a trend enters only when it beats the
+walk, and a candidate that the walk and it explain alike is said to be indistinguishable from drift. Sizes are
+checked against the MEMS limits of :mod:`gyrojax.physics.plausibility`.
 """
 
 from __future__ import annotations
@@ -264,12 +264,14 @@ def session_data(records, fit, earth_rate=None) -> dict:
         data["move_stacked"] = _stacked(mv_inputs)
         data["inputs"] += mv_inputs
         data["move_bias"] = np.stack([data["dr_dg"][k, :, : len(m.g), :].sum(axis=1) for k, m in enumerate(moves)])
-    # the bias walk's clock (triad_components): segments by their order in time, a move between its neighbours
+    # the bias walk's clock (triad_components): segments by their order in time, a move between its neighbours; the
+    # walk restarts at each power-up
     seg_mid = np.array([float(np.mean(sg.t_h)) for sg in segments])
     clock = np.empty(len(segments))
     clock[np.argsort(seg_mid, kind="stable")] = np.arange(len(segments))
     move_mid = np.array([float(np.mean(t)) for t, _ in mv_times])
-    data["walk"] = (clock, np.searchsorted(np.sort(seg_mid), move_mid) - 0.5, data.get("move_bias"))
+    move_clock = np.searchsorted(np.sort(seg_mid), move_mid) - 0.5
+    data["walk"] = (clock, move_clock, data.get("move_bias"), np.asarray(seg_rec), np.asarray(mv_rec))
     return data
 
 
