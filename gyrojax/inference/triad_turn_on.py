@@ -85,13 +85,7 @@ class PowerUps:
     def segment_jacobian(self, jac: np.ndarray) -> np.ndarray:
         """``jac`` (3m, 3p) of the segment means with the steps' columns after it (3m, 3p + 3 (count − 1)): D_F[c]'s
         column on the segments of each power-up after the first."""
-        if not self.n_steps:
-            return jac
-        cols = np.zeros((jac.shape[0], self.n_steps))
-        rows = np.repeat(self.segment, 3)
-        for k in range(1, self.count):
-            cols[:, 3 * (k - 1) : 3 * k] = jac[:, list(self.bias_columns)] * (rows == k)[:, None]
-        return np.hstack([jac, cols])
+        return self._with_steps(jac, self.segment, 3)
 
     def shifted_moves(self, packed: tuple, theta) -> tuple:
         """The packed moves (:func:`gyrojax.inference.triad_rows.pack_moves`) with each move's indicated samples
@@ -105,13 +99,18 @@ class PowerUps:
     def move_jacobian(self, mj: np.ndarray) -> np.ndarray:
         """The moves' Jacobian ``mj`` (2M, 3p) with the steps' columns after it: D_F[c]'s columns on the two rows of
         each move of a power-up after the first."""
+        return self._with_steps(mj, self.move, 2)
+
+    def _with_steps(self, jac: np.ndarray, power_up: np.ndarray, rows_each: int) -> np.ndarray:
+        """``jac`` with the steps' columns: D_F's columns on the rows (``rows_each`` per item) of each power-up's
+        items (``power_up``: the power-up of each), 0 on the first's."""
         if not self.n_steps:
-            return mj
-        cols = np.zeros((mj.shape[0], self.n_steps))
-        rows = np.repeat(self.move, 2)
+            return jac
+        cols = np.zeros((jac.shape[0], self.n_steps))
+        rows = np.repeat(power_up, rows_each)
         for k in range(1, self.count):
-            cols[:, 3 * (k - 1) : 3 * k] = mj[:, list(self.bias_columns)] * (rows == k)[:, None]
-        return np.hstack([mj, cols])
+            cols[:, 3 * (k - 1) : 3 * k] = jac[:, list(self.bias_columns)] * (rows == k)[:, None]
+        return np.hstack([jac, cols])
 
 
 def power_ups(model, segment_record, move_record, n_records: int, fitted: bool) -> PowerUps:
