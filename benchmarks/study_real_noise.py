@@ -21,6 +21,9 @@ Subcommands:
   independent scatter, the rate at which it names the walk, and how often it says a candidate cannot be told from
   the walk (small sessions of 16 rests unless ``--full-size``); with ``--power-ups``, two power-ups of one IMU and
   no step between them, each walking from the common turn-on bias (the step must not be proposed for the walk).
+* ``walk-coverage [--draws 40] [--step 250] [--walk 20] [--workers 1]``: ±2σ coverage of the triad fit's planted
+  power-up step, a zero step and the bias on two power-ups whose bias walks between rests (small sessions), against
+  the binomial band of 0.954: whether the fit's σ carry the walk.
 * ``colour [--draws 30] [--planted-draws 10] [--workers 1]``: the rule that judges colour against input-following
   shapes (a hinge with a fitted knee, the linear temperature, the trend): gyrojax's rate of deterministic
   proposals on the turntable null with slow Gauss–Markov drift and a temperature cycle, from D_F…D_S and from
@@ -28,7 +31,8 @@ Subcommands:
   temperature in drift and on the two slopes (with bias_temperature in the model), and how often the hinge's fitted
   knee lies within 2σ of 20 °C. One diagnosis per draw, in bounded worker processes (a few draws each).
 
-Run: python -m benchmarks.study_real_noise reference | power | baseline | nulls | walk-nulls | colour [options]
+Run: python -m benchmarks.study_real_noise reference | power | baseline | nulls | walk-nulls | walk-coverage | colour
+[options]
 """
 
 from __future__ import annotations
@@ -240,6 +244,48 @@ def walk_nulls(draws, workers, small, drifts=None, power_ups=False) -> None:
         print(f"  bias_random_walk named {interval(walk, len(rows))}; a candidate indistinguishable from it {near}")
 
 
+WALK_COVERAGE = ("D_F_step_1[y]", "D_F_step_1[x]", "D_F[x]", "D_F[y]", "D_F[z]")
+"""The coefficients whose ±2σ coverage the walk-coverage study counts: the planted power-up step, a zero step, and
+the first power-up's bias."""
+
+
+def _coverage_draw(job):
+    """One fit of two power-ups whose bias walks, with a planted step (in a worker; written by the writer and read as a
+    user would): ({coefficient: (estimate − truth) / σ}, the fit's bias walk or None)."""
+    from gyrojax.data.records import load_records
+    from gyrojax.inference.triad import fit_triad
+    from tests import independent_triad_writer as itw
+
+    seed, step, walk = job
+    kw = WALK_SMALL | {"gap_s": rc.POWER_UP_GAP_S}
+    recs, truth = itw.power_up_records(seed, step={"y": step}, drift="steps", scatter_dph=walk, **kw)
+    with tempfile.TemporaryDirectory() as folder, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fit = fit_triad(load_records(itw.write(folder, recs)), itw.MODEL + ("bias_turn_on",))
+    z = {n: (fit.values[n] - truth["coefficients"][n]) / fit.stds[n] for n in WALK_COVERAGE}
+    return z, fit.variance_components.get("bias_walk_deg_per_h_per_sqrt_pose")
+
+
+def walk_coverage(draws: int, step: float, walk: float, workers: int) -> None:
+    """±2σ coverage of the triad fit's coefficients (:data:`WALK_COVERAGE`) on two power-ups of small sessions whose
+    bias walks by ``walk`` deg/h at each move, the second's bias ``step`` deg/h higher on y: the σ are honest when
+    the coverage lies within the binomial band of 0.954 (the fraction of a normal within ±2σ)."""
+    import multiprocessing as mp
+
+    t0 = time.time()
+    jobs = [(40_000 + i, step, walk) for i in range(draws)]
+    with mp.get_context("spawn").Pool(workers, maxtasksperchild=10) as pool:
+        out = pool.map(_coverage_draw, jobs, chunksize=1)
+    lo, hi = stats.binom.ppf(0.025, draws, 0.9545), stats.binom.ppf(0.975, draws, 0.9545)
+    walks = [w for _, w in out if w]
+    print(f"{draws} draws, step {step:g} deg/h on y, walk {walk:g} deg/h per move, {time.time() - t0:.0f} s")
+    print(f"  the fit's σ carry a bias walk in {len(walks)}/{draws} (median {np.median(walks or [np.nan]):.3g})")
+    print(f"  95 % binomial band of the count within ±2σ: [{lo:g}, {hi:g}] of {draws}")
+    for n in WALK_COVERAGE:
+        z = np.array([d[n] for d, _ in out])
+        print(f"  {n}: within ±2σ {interval(int((abs(z) < 2).sum()), draws)}; rms z {np.sqrt(np.mean(z**2)):.2f}")
+
+
 def nulls(draws, with_gyrojax) -> None:
     t0 = time.time()
     _triad_null_rates(draws)
@@ -320,6 +366,11 @@ def main(argv=None) -> None:
     w.add_argument("--full-size", action="store_true", help="the cases' own rests and moves (slower)")
     w.add_argument("--drifts", type=lambda s: s.split(","), default=None, help="steps,rrw,scatter (default: all)")
     w.add_argument("--power-ups", action="store_true", help="two power-ups of one IMU, no step between them")
+    v = sub.add_parser("walk-coverage")
+    v.add_argument("--draws", type=int, default=40)
+    v.add_argument("--step", type=float, default=250.0, help="deg/h, the second power-up's bias step on y")
+    v.add_argument("--walk", type=float, default=20.0, help="deg/h, the bias step at each move")
+    v.add_argument("--workers", type=int, default=1)
     c = sub.add_parser("colour")
     c.add_argument("--draws", type=int, default=30, help="draws of each null")
     c.add_argument("--planted-draws", type=int, default=10, help="draws of each planted case")
@@ -333,6 +384,8 @@ def main(argv=None) -> None:
         baseline(args.seeds, args.cases)
     elif args.cmd == "walk-nulls":
         walk_nulls(args.draws, args.workers, not args.full_size, args.drifts, args.power_ups)
+    elif args.cmd == "walk-coverage":
+        walk_coverage(args.draws, args.step, args.walk, args.workers)
     elif args.cmd == "colour":
         colour(args.draws, args.planted_draws, args.workers)
     else:

@@ -55,11 +55,11 @@ from gyrojax.inference.scoring import ALPHA
 from gyrojax.inference.solver import solve
 from gyrojax.inference.triad_accel import accelerometer_json, fit_accelerometer, needs_calibration
 from gyrojax.inference.triad_checks import divergence_hint, plausibility_notes, terms_for_force
-from gyrojax.inference.triad_components import Group, estimate_components
+from gyrojax.inference.triad_components import Group, boundary_p, estimate_components, select_components, whiten_rows
 from gyrojax.inference.triad_result import TriadFit
 from gyrojax.inference.triad_rows import pack_moves, pack_segments, scale_matrix, segment_rows
+from gyrojax.inference.triad_turn_on import BIAS, move_rows_with_steps, power_ups, split_terms, step_names
 from gyrojax.inference.triad_turn_on import check as check_turn_on
-from gyrojax.inference.triad_turn_on import move_rows_with_steps, power_ups, split_terms, step_names
 from gyrojax.noise.spec import SessionNoise
 from gyrojax.noise.whiten import pooled_autocovariance
 from gyrojax.optimize import least_squares
@@ -71,6 +71,7 @@ DEFAULT_ROTATION_TERMS = DEFAULT_STATIC_TERMS + ("sf_error", "ia_misalignment")
 MAX_NOISE_PASSES = 8  # fits at fixed noise, the noise updated with the fitted S between them (2–3 suffice)
 NOISE_PASS_TOL = 1e-10  # relative change of S below which the noise is settled (χ² then changes by ≲ 1e-10)
 MOVE_DIVERGED_DEG = 10.0  # median angle left at the moves above which the fit of the moves has diverged
+WALK_STEPS = 5  # Gauss–Newton steps of the fit under a bias walk at most (the moves are nearly linear: 1–2 suffice)
 NW_MAX_LAG = 50  # samples: longest autocovariance lag of the long-run variance (MEMS filters span a few samples)
 
 
@@ -245,7 +246,7 @@ def fit_triad_unchecked(
     else:
         if passes > 1:
             why = why or f"the noise did not settle with the fitted scale in {MAX_NOISE_PASSES} passes"
-    tau2, why_components = {}, ""
+    tau2, why_components, walk_note = {}, "", ""
     if moves:
         base_w = (lin_r, lin_j, move_w)  # the white-noise model's rows: its χ² says how poor that model is
         if components and not why:
@@ -261,6 +262,17 @@ def fit_triad_unchecked(
             iterations += n_eval
         rw, jw = system(theta)
         why = why or why_components
+        if components and not why and BIAS in model.terms:  # a bias that walks between poses: the σ carry it
+            walk_at = _walk_groups(model, segments, moves, y - base, jac, q, s_mat, packed, pu, (seg_rec, mv_rec))
+            tau2_walk, lr_walk = select_components(walk_at(theta), ALPHA)
+            if tau2_walk.get("walk", 0.0) > 0.0:
+                tau2 = tau2_walk
+                theta, rw, jw = _fit_with_walk(walk_at, theta, tau2)
+                walk_note = (
+                    f"the bias walks between poses (REML likelihood ratio {lr_walk:.3g} against independent pose "
+                    f"scatter, p {boundary_p(lr_walk):.2g}): the coefficients are generalised least squares and their "
+                    "standard errors carry the walk, the pose scatter and the move angle noise (variance_components)"
+                )
     else:
         rw, jw = lin_r, lin_j
         theta = np.zeros(n_theta)
@@ -307,6 +319,8 @@ def fit_triad_unchecked(
             f"p {special.chdtrc(dof, chi2):.2g}; largest shares: {drivers}): bias shifts between poses, hand-move "
             f"errors or a missing effect; {tail}"
         )
+    if walk_note:
+        notes.append(walk_note)
     if pu.n_steps:
         notes.append(
             f"bias_turn_on: D_F is the bias of the first power-up ({recs[0].name}); "
@@ -451,7 +465,31 @@ def components_report(tau2: dict, s_mat=None) -> dict:
         s_inv = np.linalg.inv(np.eye(3) if s_mat is None else np.asarray(s_mat))
         tau = float(np.sqrt(tau2["walk"]))
         out["bias_walk_deg_per_h_per_sqrt_pose"] = tau * float(np.sqrt(np.trace(s_inv @ s_inv.T) / 3.0))
+        out["bias_walk_indicated_deg_per_h_per_sqrt_pose"] = tau
     return out
+
+
+def components_tau2(report: dict) -> dict:
+    """The variance components τ² (natural units, as estimated) of a :func:`components_report`."""
+    out = {}
+    if "pose_bias_scatter_deg_per_h" in report:
+        out["pose"] = report.get("pose_bias_scatter_indicated_deg_per_h", report["pose_bias_scatter_deg_per_h"]) ** 2
+    if "move_angle_noise_deg" in report:
+        out["move"] = np.radians(report["move_angle_noise_deg"]) ** 2
+    if "bias_walk_deg_per_h_per_sqrt_pose" in report:
+        walk = report.get("bias_walk_indicated_deg_per_h_per_sqrt_pose", report["bias_walk_deg_per_h_per_sqrt_pose"])
+        out["walk"] = walk**2
+    return out
+
+
+def walk_clocks(segments, moves) -> tuple[np.ndarray, np.ndarray]:
+    """The bias walk's clock (:mod:`gyrojax.inference.triad_components`) of each segment (its ordinal in time order)
+    and each move (between its neighbours: k + ½ after segment k)."""
+    seg_mid = np.array([float(np.mean(sg.t_h)) for sg in segments])
+    clock = np.empty(len(segments))
+    clock[np.argsort(seg_mid, kind="stable")] = np.arange(len(segments))
+    move_mid = np.array([float(np.mean(m.t_h)) for m in moves])
+    return clock, np.searchsorted(np.sort(seg_mid), move_mid) - 0.5
 
 
 def _segment_residuals(segments, e, raw_res, moves, r_moves, move_w) -> list:
@@ -504,7 +542,8 @@ def component_groups(segments, e, jac, q, s_mat, moves_at, move_w, extra=(), wal
     move's 2 direction rows (``moves_at``: the whitened rows and Jacobian of :func:`gyrojax.inference.triad_rows.
     move_rows` at θ with the whitening ``move_w``, the angle noise component). ``extra``: more regressors as
     (segment rows (3m, k), move rows (M, 3, k)) pairs, beside the Jacobian. ``walk``: (each segment's clock, each
-    move's clock, each move's (3, 3) change per deg/h of each channel's bias, each segment's power-up, each move's)
+    move's clock, each move's (2, 3) change of its two rows (natural units) per deg/h of each channel's bias, each
+    segment's power-up, each move's)
     where a bias walk is estimated (it restarts at each power-up: :mod:`gyrojax.inference.triad_components`)."""
     groups = []
     covs = _segment_covs(segments, q, s_mat)
@@ -520,9 +559,40 @@ def component_groups(segments, e, jac, q, s_mat, moves_at, move_w, extra=(), wal
         if walk is None:
             step, bias_rows, power = None, None, 0
         else:
-            step, bias_rows, power = float(move_clock[k]), p.T @ move_bias[k], int(move_power[k])
+            step, bias_rows, power = float(move_clock[k]), move_bias[k], int(move_power[k])
         groups.append(Group(sd**2 * np.eye(2), sd * rows[2 * k : 2 * k + 2], j, "move", step, bias_rows, power))
     return groups
+
+
+def _walk_groups(model, segments, moves, resid0, jac, q, s_mat, packed, pu, records):
+    """θ ↦ the fit's rows at θ as REML groups with the bias walk's clock (:func:`component_groups`): ``resid0`` the
+    segment means less the model at θ = 0 (linear in θ, ``jac``), the moves' rows redone at θ, each move's change per
+    deg/h of each channel's bias its D_F columns; ``records`` the power-up of each segment and each move."""
+    move_w = move_whitening(moves, q, s_mat)
+    clock, move_clock = walk_clocks(segments, moves)
+    bias = [c * model.size + model.coefficient_names.index(BIAS) for c in range(3)]
+
+    def at(theta):
+        rows, jrows = move_rows_with_steps(model, theta, packed, move_w, pu)[1:]
+        move_bias = [sd * jrows[2 * k : 2 * k + 2, bias] for k, (_p, sd) in enumerate(move_w)]
+        walk = (clock, move_clock, move_bias, np.asarray(records[0]), np.asarray(records[1]))
+        return component_groups(segments, resid0 - jac @ theta, jac, q, s_mat, (rows, jrows), move_w, (), walk)
+
+    return at
+
+
+def _fit_with_walk(groups_at, theta, tau2: dict):
+    """(θ, whitened rows, their Jacobian) of the generalised least squares under the covariance ``tau2`` with its
+    walk (:func:`gyrojax.inference.triad_components.whiten_rows`: one dense whitening), by Gauss–Newton from θ: the
+    segment means are linear in θ, the moves nearly so."""
+    for _ in range(WALK_STEPS):
+        e, x = whiten_rows(groups_at(theta), tau2)
+        step = np.nan_to_num(solve(x, e)[0])
+        theta = theta + step
+        if np.linalg.norm(x @ step) <= 1e-8 * max(1.0, float(np.linalg.norm(e))):
+            break
+    e, x = whiten_rows(groups_at(theta), tau2)
+    return theta, e, x
 
 
 def move_whitening(moves, q, s_mat, angle_var_extra: float = 0.0) -> list:

@@ -27,7 +27,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import linalg
+from scipy import linalg, special
 
 from gyrojax.optimize import difference_curvature, minimize
 
@@ -252,3 +252,31 @@ def estimate_components(groups, kinds=("pose", "move")) -> tuple[dict, str]:
         if reml_objective(st, {**out, k: 0.0}, col_scale) - best.value < NEGLIGIBLE:
             out[k] = 0.0
     return out, best.reason
+
+
+def boundary_p(lr: float) -> float:
+    """The p-value of a variance component's likelihood ratio against zero, on the boundary of its parameter space:
+    ½ P(χ²₁ > LR) (Self & Liang 1987)."""
+    return 0.5 * float(special.chdtrc(1, lr)) if lr > 0 else 1.0
+
+
+def column_scale(groups) -> np.ndarray:
+    """The norms of the columns of the groups' Jacobian whitened by their base covariance (the REML objective's
+    column scaling)."""
+    col = np.linalg.norm(np.concatenate([np.linalg.solve(np.linalg.cholesky(g.cov), g.jac) for g in groups]), axis=0)
+    col[col == 0] = 1.0
+    return col
+
+
+def select_components(groups, alpha: float) -> tuple[dict, float]:
+    """The variance components of ``groups`` by REML with the bias walk among them only where its profile likelihood
+    ratio against no walk (the independent components re-estimated) is significant at ``alpha`` (boundary:
+    :func:`boundary_p`): (τ̂², the walk's likelihood ratio, 0 where it was not estimated). The one rule by which the
+    fit's σ and the diagnosis's tests take a walk."""
+    tau2, _why = estimate_components(groups)
+    with_walk, _why = estimate_components(groups, ("pose", "move", "walk"))
+    if with_walk.get("walk", 0.0) <= 0.0:
+        return tau2, 0.0
+    col = column_scale(groups)
+    lr = max(reml_objective(groups, tau2, col) - reml_objective(groups, with_walk, col), 0.0)
+    return (with_walk if boundary_p(lr) < alpha else tau2), lr

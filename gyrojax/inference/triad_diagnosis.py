@@ -34,7 +34,6 @@ from dataclasses import dataclass, replace
 import jax
 import jax.numpy as jnp
 import numpy as np
-from scipy import stats
 
 from gyrojax import units
 from gyrojax.data.record import Record
@@ -42,10 +41,18 @@ from gyrojax.data.triad import gyro_dph
 from gyrojax.data.triad_segments import triad_segments
 from gyrojax.errors import ModelError
 from gyrojax.inference import triad as tf
+from gyrojax.inference.adequacy import near_aliases
 from gyrojax.inference.instrument import Rules, Session
 from gyrojax.inference.scoring import ALPHA, residual_variance, rms_after, score, score_beside, score_tests
-from gyrojax.inference.subspace import basis
-from gyrojax.inference.triad_components import estimate_components, reml_objective, whiten_rows
+from gyrojax.inference.subspace import WhitenedSystem, basis
+from gyrojax.inference.triad_components import (
+    boundary_p,
+    column_scale,
+    estimate_components,
+    reml_objective,
+    select_components,
+    whiten_rows,
+)
 from gyrojax.inference.triad_rows import (
     channel_matrices,
     move_residual,
@@ -209,10 +216,8 @@ def session_data(records, fit, earth_rate=None) -> dict:
     th_ch = pu.split(theta)[0]  # the channel coefficients, without the power-ups' bias steps (triad_turn_on)
     b, s_mat, g_mat = channel_matrices(model, th_ch)
     comp = fit.variance_components or {}
-    tau2 = {
-        "pose": comp.get("pose_bias_scatter_indicated_deg_per_h", comp.get("pose_bias_scatter_deg_per_h", 0.0)) ** 2,
-        "move": math.radians(comp.get("move_angle_noise_deg", 0.0)) ** 2,
-    }
+    tau2_fit = tf.components_tau2(comp)
+    tau2 = {"pose": tau2_fit.get("pose", 0.0), "move": tau2_fit.get("move", 0.0)}
     arrays = pack_segments(segments)
     th = jnp.asarray(th_ch)
     y = np.concatenate([sg.y for sg in segments])
@@ -264,14 +269,11 @@ def session_data(records, fit, earth_rate=None) -> dict:
         data["move_stacked"] = _stacked(mv_inputs)
         data["inputs"] += mv_inputs
         data["move_bias"] = np.stack([data["dr_dg"][k, :, : len(m.g), :].sum(axis=1) for k, m in enumerate(moves)])
-    # the bias walk's clock (triad_components): segments by their order in time, a move between its neighbours; the
-    # walk restarts at each power-up
-    seg_mid = np.array([float(np.mean(sg.t_h)) for sg in segments])
-    clock = np.empty(len(segments))
-    clock[np.argsort(seg_mid, kind="stable")] = np.arange(len(segments))
-    move_mid = np.array([float(np.mean(t)) for t, _ in mv_times])
-    move_clock = np.searchsorted(np.sort(seg_mid), move_mid) - 0.5
-    data["walk"] = (clock, move_clock, data.get("move_bias"), np.asarray(seg_rec), np.asarray(mv_rec))
+    clock, move_clock = tf.walk_clocks(segments, moves)  # the bias walk's (triad_components)
+    move_bias = [p.T @ g for (p, _sd), g in zip(data.get("move_w", []), data.get("move_bias", []))]
+    data["walk"] = (clock, move_clock, move_bias, np.asarray(seg_rec), np.asarray(mv_rec))
+    if "walk" in tau2_fit:  # the fit's σ carry a walk: the rows start from the independent components alone
+        data = with_tau2(data, estimate_components(_groups(data, []))[0])
     return data
 
 
@@ -353,35 +355,22 @@ def _groups(data: dict, extra: list) -> list:
 
 def components(data: dict, extra: list, alpha: float) -> tuple[dict, float, list]:
     """The variance components by REML beside the candidates ``extra`` (raw columns): (τ̂², the bias walk's
-    likelihood ratio, the REML groups). The walk is among them only where its profile likelihood ratio against no
-    walk (the other components re-estimated) is significant at ``alpha`` (boundary: p = ½ P(χ²₁ > LR)); else the
-    components are those of the independent scatter alone."""
+    likelihood ratio, the REML groups), the walk among them only where it is significant at ``alpha``
+    (:func:`gyrojax.inference.triad_components.select_components`, the rule the fit's σ follow too)."""
     groups = _groups(data, extra)
-    tau2, _why = estimate_components(groups)
-    with_walk, _why = estimate_components(groups, ("pose", "move", "walk"))
-    if with_walk.get("walk", 0.0) <= 0.0:
-        return tau2, 0.0, groups
-    col = _column_scale(groups)
-    lr = max(reml_objective(groups, tau2, col) - reml_objective(groups, with_walk, col), 0.0)
-    return (with_walk if boundary_p(lr) < alpha else tau2), lr, groups
-
-
-def boundary_p(lr: float) -> float:
-    """The p-value of a variance component's likelihood ratio against zero, on the boundary: ½ P(χ²₁ > LR)."""
-    return 0.5 * float(stats.chi2.sf(lr, 1)) if lr > 0 else 1.0
-
-
-def _column_scale(groups) -> np.ndarray:
-    col = np.linalg.norm(np.concatenate([np.linalg.solve(np.linalg.cholesky(g.cov), g.jac) for g in groups]), axis=0)
-    col[col == 0] = 1.0
-    return col
+    tau2, lr = select_components(groups, alpha)
+    return tau2, lr, groups
 
 
 def with_components(data: dict, extra: list, alpha: float) -> dict:
     """``data`` whitened with the variance components re-estimated by REML with the candidates ``extra`` (raw
     columns) among the fixed effects (:func:`components`): a missing effect is then not taken for pose scatter
     (deg/h), move angle noise (rad) or a bias walk, and a walk is not taken for a missing effect."""
-    tau2, _lr, _groups_ = components(data, extra, alpha)
+    return with_tau2(data, components(data, extra, alpha)[0])
+
+
+def with_tau2(data: dict, tau2: dict) -> dict:
+    """``data`` whitened with the variance components ``tau2`` (the moves' rows redone with their angle noise)."""
     out = dict(data)
     out["tau2"] = {"pose": tau2.get("pose", 0.0), "move": tau2.get("move", 0.0), "walk": tau2.get("walk", 0.0)}
     if data["moves"]:
@@ -396,7 +385,7 @@ def _noise_processes(data: dict, alpha: float, extra: list) -> tuple[list, dict]
     ``extra`` the diagnosis took in (the walk's, :func:`components`, against the independent scatter alone);
     (candidates, τ̂²)."""
     tau2, lr_walk, groups = components(data, extra, alpha)
-    col = _column_scale(groups)
+    col = column_scale(groups)
     best = reml_objective(groups, tau2, col)
     out = []
     for kind, name in NOISE_PROCESSES.items():
@@ -550,6 +539,19 @@ class TriadSession(Session):
             return None
         sc = score_beside(rnd.r, rnd.j0, xs[name], others)
         return 0.0 if sc is None else sc.log10_p
+
+    def near_aliases(self, rnd: Round, names: list, alpha: float) -> dict:
+        """The named candidates each of ``names`` cannot be told from at level ``alpha``, in this round's whitening
+        (:func:`gyrojax.inference.adequacy.near_aliases`, the rule every instrument follows)."""
+        live = [(c.name, x) for (_reg, c), x in zip(rnd.scored[: self.n_named], rnd.xs) if c is not None and c.df > 0]
+        if not live:
+            return {}
+        p0 = rnd.j0.shape[1]
+        bounds = np.cumsum([p0] + [x.shape[1] for _n, x in live])
+        slices = {n: slice(int(a), int(b)) for (n, _x), a, b in zip(live, bounds[:-1], bounds[1:])}
+        jw = np.column_stack([rnd.j0] + [x for _n, x in live])
+        system = WhitenedSystem.of(rnd.r, jw, np.zeros((len(rnd.r), 0)), [], p0)
+        return near_aliases(None, None, p0, slices, names, alpha, system)
 
     def no_term(self, c: Candidate) -> str | None:
         """Why the fit cannot add ``c`` (``time_offset`` has no fit term; ``bias_turn_on`` has,
