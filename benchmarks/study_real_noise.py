@@ -24,6 +24,9 @@ Subcommands:
 * ``walk-coverage [--draws 40] [--step 250] [--walk 20] [--workers 1]``: ±2σ coverage of the triad fit's planted
   power-up step, a zero step and the bias on two power-ups whose bias walks between rests (small sessions), against
   the binomial band of 0.954: whether the fit's σ carry the walk.
+* ``step-walk [--draws 20] [--step 250] [--walk 20] [--workers 1]``: gyrojax's proposals on the same two power-ups
+  (the step beside the walk): bias_turn_on proposed in n/N, what else, how often the proposal is marked
+  indistinguishable, and after adding it the verdict and the step's ±2σ coverage.
 * ``colour [--draws 30] [--planted-draws 10] [--workers 1]``: the rule that judges colour against input-following
   shapes (a hinge with a fitted knee, the linear temperature, the trend): gyrojax's rate of deterministic
   proposals on the turntable null with slow Gauss–Markov drift and a temperature cycle, from D_F…D_S and from
@@ -31,8 +34,8 @@ Subcommands:
   temperature in drift and on the two slopes (with bias_temperature in the model), and how often the hinge's fitted
   knee lies within 2σ of 20 °C. One diagnosis per draw, in bounded worker processes (a few draws each).
 
-Run: python -m benchmarks.study_real_noise reference | power | baseline | nulls | walk-nulls | walk-coverage | colour
-[options]
+Run: python -m benchmarks.study_real_noise reference | power | baseline | nulls | walk-nulls | walk-coverage |
+step-walk | colour [options]
 """
 
 from __future__ import annotations
@@ -286,6 +289,49 @@ def walk_coverage(draws: int, step: float, walk: float, workers: int) -> None:
         print(f"  {n}: within ±2σ {interval(int((abs(z) < 2).sum()), draws)}; rms z {np.sqrt(np.mean(z**2)):.2f}")
 
 
+def _step_walk_draw(job):
+    """One diagnosis of two power-ups whose bias walks, with a planted step on y (in a worker): (proposal, whether the
+    proposed candidate is marked indistinguishable from another, the verdict after adding bias_turn_on where it was
+    proposed, its step on y and σ)."""
+    import gyrojax as gj
+    from tests import independent_triad_writer as itw
+
+    seed, step, walk = job
+    kw = WALK_SMALL | {"gap_s": rc.POWER_UP_GAP_S}
+    recs, _ = itw.power_up_records(seed, step={"y": step}, drift="steps", scatter_dph=walk, **kw)
+    with tempfile.TemporaryDirectory() as folder, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        loaded = gj.load_records(itw.write(folder, recs))
+        d = gj.diagnose(loaded, itw.MODEL)
+        near = any(c.indistinguishable for c in d.candidates if d.proposal and c.name.split("[")[0] == d.proposal)
+        after, est = None, None
+        if d.proposal == "bias_turn_on":
+            a = gj.diagnose(loaded, itw.MODEL + ("bias_turn_on",))
+            after, est = a.verdict, (a.fit.values["D_F_step_1[y]"], a.fit.stds["D_F_step_1[y]"])
+    return d.proposal, near, after, est
+
+
+def step_walk(draws: int, step: float, walk: float, workers: int) -> None:
+    """gyrojax's proposals on two power-ups whose bias walks by ``walk`` deg/h at each move, the second's bias
+    ``step`` deg/h higher on y: how often bias_turn_on is proposed, what else is, how often the proposal is marked
+    indistinguishable, and after adding it the verdict and the step's coverage within ±2σ."""
+    import multiprocessing as mp
+
+    t0 = time.time()
+    jobs = [(40_000 + i, step, walk) for i in range(draws)]
+    with mp.get_context("spawn").Pool(workers, maxtasksperchild=4) as pool:
+        out = pool.map(_step_walk_draw, jobs, chunksize=1)
+    right = [o for o in out if o[0] == "bias_turn_on"]
+    other = sorted({str(o[0]) for o in out if o[0] != "bias_turn_on"})
+    print(f"{draws} draws, step {step:g} deg/h on y, walk {walk:g} deg/h per move, {time.time() - t0:.0f} s")
+    print(f"  bias_turn_on proposed {interval(len(right), draws)}; otherwise {other}")
+    print(f"  the proposal marked indistinguishable: {sum(o[1] for o in out)}/{draws}")
+    if right:
+        adequate = sum(o[2] == "adequate" for o in right)
+        inside = sum(abs(v - step) < 2 * sd for *_x, (v, sd) in right)
+        print(f"  after adding it: adequate {adequate}/{len(right)}; step within ±2σ {interval(inside, len(right))}")
+
+
 def nulls(draws, with_gyrojax) -> None:
     t0 = time.time()
     _triad_null_rates(draws)
@@ -371,6 +417,11 @@ def main(argv=None) -> None:
     v.add_argument("--step", type=float, default=250.0, help="deg/h, the second power-up's bias step on y")
     v.add_argument("--walk", type=float, default=20.0, help="deg/h, the bias step at each move")
     v.add_argument("--workers", type=int, default=1)
+    sw = sub.add_parser("step-walk")
+    sw.add_argument("--draws", type=int, default=20)
+    sw.add_argument("--step", type=float, default=250.0, help="deg/h, the second power-up's bias step on y")
+    sw.add_argument("--walk", type=float, default=20.0, help="deg/h, the bias step at each move")
+    sw.add_argument("--workers", type=int, default=1)
     c = sub.add_parser("colour")
     c.add_argument("--draws", type=int, default=30, help="draws of each null")
     c.add_argument("--planted-draws", type=int, default=10, help="draws of each planted case")
@@ -386,6 +437,8 @@ def main(argv=None) -> None:
         walk_nulls(args.draws, args.workers, not args.full_size, args.drifts, args.power_ups)
     elif args.cmd == "walk-coverage":
         walk_coverage(args.draws, args.step, args.walk, args.workers)
+    elif args.cmd == "step-walk":
+        step_walk(args.draws, args.step, args.walk, args.workers)
     elif args.cmd == "colour":
         colour(args.draws, args.planted_draws, args.workers)
     else:

@@ -27,7 +27,11 @@ derivatives by ``jax.jacfwd`` of the same measurement model), through the one ra
 * the **unknown heading** of each hand-placed pose, a nuisance marginalised with a uniform prior: the horizontal
   Earth rate of magnitude Ω cos φ adds (Ω cos φ)²/2 (I − u uᵀ) to the pose's 3×3 block (u: Up in the body
   frame, from the accelerometer);
-* the **angle error** of a hand rotation (``angle_std_deg``), σ_Θ² n nᵀ / T² on the rotation's block.
+* the **angle error** of a hand rotation (``angle_std_deg``), σ_Θ² n nᵀ / T² on the rotation's block;
+* in a session with moves, the **variance components between segments** (:mod:`gyrojax.inference.triad_components`,
+  REML): a per-pose bias scatter, a per-move angle noise, and a bias walk from pose to pose where its likelihood ratio
+  is significant — it couples every segment, so the fit is then generalised least squares under one dense
+  covariance (Gauss–Newton from the fit without it) and the notes say so.
 
 Earth rate (ω_ie = 15.04 deg/h): with the site latitude φ its vertical part Ω sin φ·u is modelled exactly; the
 horizontal part enters as above. With the latitude unknown (``null``), the vertical part cannot be told from a
@@ -164,7 +168,9 @@ def fit_triad_unchecked(
       max_iter: iterations of the fit of gravity-to-gravity moves (the only nonlinear part): at most this many
         evaluations of the moves' residual by Levenberg–Marquardt (about one per iteration; 5 to 10 suffice).
       components: in a session with moves, estimate a per-pose bias scatter and a per-move angle noise by REML
-        (:mod:`gyrojax.inference.triad_components`) and let σ carry them (False: white noise only).
+        (:mod:`gyrojax.inference.triad_components`) and let σ carry them, and a bias walk between poses where it is
+        significant (:func:`~gyrojax.inference.triad_components.select_components`; the fit is then generalised
+        least squares under its dense covariance) (False: white noise only).
 
     Returns: a :class:`TriadFit`; coefficients ``<name>[<channel>]`` in report units.
     Raises: :class:`~gyrojax.inference.identifiability.IdentifiabilityError` naming what the segments cannot separate.

@@ -18,8 +18,9 @@ with one variance each, added to the covariance of the segment groups:
 They are estimated by restricted maximum likelihood (Patterson & Thompson 1971; Harville 1977) on the model
 linearised at the fit: minimising −2ℓ_R(τ) = log|V(τ)| + log|Xᵀ V⁻¹ X| + min_δ (r − X δ)ᵀ V⁻¹ (r − X δ), which,
 unlike ML, accounts for the degrees of freedom the coefficients take (a model that fits leaves τ̂ ≈ 0 and σ as
-before). With τ̂ the fit is redone and its σ carry both components; χ² of the white-noise model is kept to say
-how poor that model is.
+before). With τ̂ the fit is redone and its σ carry the components; χ² of the white-noise model is kept to say
+how poor that model is. The walk is kept only where its likelihood ratio against the independent components is
+significant (:func:`select_components`): the one rule by which the fit's σ carry it and the diagnosis names it.
 """
 
 from __future__ import annotations
