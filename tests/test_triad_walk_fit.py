@@ -47,6 +47,7 @@ def test_walk_sigma_cover_the_step_and_the_bias():
             paths, truth = _draw(f"{folder}/{seed}", seed)
             fit = fit_triad(gj.load_records(paths), itw.MODEL + ("bias_turn_on",))
             assert fit.variance_components.get("bias_walk_deg_per_h_per_sqrt_pose", 0.0) > 0, fit.notes
+            assert fit.noise.bias_walk == fit.variance_components["bias_walk_deg_per_h_per_sqrt_pose"]
             assert any("the bias walks between poses" in n for n in fit.notes), fit.notes
             for n in inside:
                 inside[n] += abs(fit.values[n] - truth[n]) < 2 * fit.stds[n]

@@ -99,7 +99,10 @@ class TriadFit(Estimates):
             return None
         comp = self.variance_components
         pose, move = comp.get("pose_bias_scatter_deg_per_h", 0.0), comp.get("move_angle_noise_deg", 0.0)
-        return SessionNoise.of_sample_variances(self.noise_q, self.dt_s, pose_bias_scatter=pose, move_angle_noise=move)
+        walk = comp.get("bias_walk_deg_per_h_per_sqrt_pose", 0.0)  # where the fit's σ carry a walk
+        return SessionNoise.of_sample_variances(
+            self.noise_q, self.dt_s, pose_bias_scatter=pose, move_angle_noise=move, bias_walk=walk
+        )
 
     @property
     def chi2_p_value(self) -> float:
