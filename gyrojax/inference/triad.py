@@ -489,8 +489,8 @@ def components_tau2(report: dict) -> dict:
 
 
 def walk_clocks(segments, moves) -> tuple[np.ndarray, np.ndarray]:
-    """The bias walk's clock (:mod:`gyrojax.inference.triad_components`) of each segment (its ordinal in time order)
-    and each move (between its neighbours: k + ½ after segment k)."""
+    """The bias walk's clock (:mod:`gyrojax.inference.triad_components`, dimensionless: segments counted) of each
+    segment (its ordinal in order of its mid time, h) and each move (between its neighbours: k + ½ after segment k)."""
     seg_mid = np.array([float(np.mean(sg.t_h)) for sg in segments])
     clock = np.empty(len(segments))
     clock[np.argsort(seg_mid, kind="stable")] = np.arange(len(segments))

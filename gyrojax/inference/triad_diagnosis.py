@@ -370,7 +370,8 @@ def with_components(data: dict, extra: list, alpha: float) -> dict:
 
 
 def with_tau2(data: dict, tau2: dict) -> dict:
-    """``data`` whitened with the variance components ``tau2`` (the moves' rows redone with their angle noise)."""
+    """``data`` whitened with the variance components ``tau2`` ((deg/h)² per pose, rad² per move, (deg/h)² per pose
+    of the walk; the moves' rows redone with their angle noise)."""
     out = dict(data)
     out["tau2"] = {"pose": tau2.get("pose", 0.0), "move": tau2.get("move", 0.0), "walk": tau2.get("walk", 0.0)}
     if data["moves"]:
