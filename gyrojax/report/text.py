@@ -122,7 +122,7 @@ def diagnosis_text(d: Diagnosis, add: str | None = None) -> str:
         return triad_diagnosis_text(d)
     lines = [
         f"verdict: {d.verdict}   (family-wise α = {d.alpha})",
-        f"model: {', '.join(d.fit.model.terms)}",
+        f"model: {', '.join(d.fit.terms)}",
         f"residual RMS {d.residual_rms:.6g} deg/h; white-noise floor {d.noise_floor:.6g} deg/h",
     ]
     lines.append(f"{'candidate':18s} {'statistic':>12s} {'df':>3s} {'p (Holm)':>10s} {'RMS after':>12s}  aliases")
@@ -137,7 +137,7 @@ def diagnosis_text(d: Diagnosis, add: str | None = None) -> str:
     top = next((c for c in d.candidates if c.name == d.proposal), None)
     if d.verdict == "missing-effect" and top is not None:
         name = add or top.name
-        terms = ",".join(d.fit.model.terms + (name,))
+        terms = ",".join(d.fit.terms + (name,))
         if name != top.name:
             why = (
                 f"an alias of the top candidate {top.name!r}: this plan cannot tell them apart"
