@@ -258,7 +258,7 @@ class TriadProtocol:
     @property
     def convergence_note(self) -> str:
         """Why the search is not taken as converged ("" when it is; :mod:`gyrojax.planning.search`)."""
-        return search.convergence_note(self.history, self.loss, "raise --adam-steps / --lbfgs-steps")
+        return search.convergence_note(self.history, self.loss, "raise --lbfgs-steps (the L-BFGS refinement)")
 
     @property
     def converged(self) -> bool:
