@@ -201,6 +201,8 @@ def cmd_design(args) -> int:
 
     if args.lbfgs_steps is None:
         args.lbfgs_steps = 40
+    if args.adam_steps is None:
+        args.adam_steps = 600
     out = Path(args.out)
     if out.exists() and not args.force:
         raise UsageError(f"{out}: exists; pass --force to overwrite")
