@@ -24,8 +24,9 @@ import numpy as np
 
 from gyrojax.inference.triad import fit_triad
 from gyrojax.montecarlo.triad import mems_truth
+from gyrojax.physics.triad import channel_names
 from gyrojax.planning import triad_protocol as tpr
-from gyrojax.planning.triad_fisher import TriadNoise, coefficient_names
+from gyrojax.planning.triad_fisher import TriadNoise
 from gyrojax.report.protocol_text import comparison_text, table_text
 from gyrojax.simulation.triad_session import simulate_session
 
@@ -55,7 +56,7 @@ def monte_carlo(proto, seeds: int, earth_rate: bool) -> np.ndarray:
             warnings.simplefilter("ignore")
             est.append(fit_triad(rec, list(TERMS)).theta)
     sd = np.asarray(est).std(axis=0, ddof=1)
-    return sd / np.array([pred[k] for k in coefficient_names(model)])
+    return sd / np.array([pred[k] for k in channel_names(model)])
 
 
 def main() -> None:
@@ -78,7 +79,7 @@ def main() -> None:
         print(table_text(proto.table()))
         print(comparison_text(rows, proto.criterion, proto.criterion_name))
         r = monte_carlo(proto, a.seeds, earth)
-        names = coefficient_names(tpr.triad_model(TERMS))
+        names = channel_names(tpr.triad_model(TERMS))
         print(
             f"Monte Carlo, {a.seeds} seeds: sd of the estimates / predicted sigma "
             f"(sampling sd {1 / math.sqrt(2 * (a.seeds - 1)):.3f})"

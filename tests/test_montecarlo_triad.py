@@ -20,8 +20,9 @@ from gyrojax.montecarlo.results import summarize
 from gyrojax.montecarlo.runner import run_study
 from gyrojax.montecarlo.study import Study, StudyError, study_from_dict
 from gyrojax.montecarlo.triad import mems_truth
+from gyrojax.physics.triad import channel_names
 from gyrojax.planning import triad_protocol as tpr
-from gyrojax.planning.triad_fisher import TriadNoise, coefficient_names
+from gyrojax.planning.triad_fisher import TriadNoise
 
 TERMS = ("D_F", "D_I", "D_O", "D_S", "sf_error", "ia_misalignment")
 PRIORS = {k: {"normal": [0.0, abs(v)]} for k, v in mems_truth().items()}  # MEMS-sized, per channel
@@ -82,7 +83,7 @@ def test_design_prediction_is_the_monte_carlo_of_its_protocol(protocol):
     )
     res = run_study(study)
     model = tpr.triad_model(TERMS)
-    names = coefficient_names(model)
+    names = list(channel_names(model))
     pred = np.array([tpr.sigma(protocol.fisher(), model)[k] for k in names])
     assert list(res.fit_names) == names
     stated = res.std.mean(axis=0)

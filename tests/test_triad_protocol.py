@@ -20,9 +20,10 @@ import pytest
 from gyrojax.cli.app import main
 from gyrojax.inference.triad import fit_triad
 from gyrojax.montecarlo.triad import mems_truth
+from gyrojax.physics.triad import channel_names
 from gyrojax.planning import triad_protocol as tpr
 from gyrojax.planning.criteria import Criterion
-from gyrojax.planning.triad_fisher import TriadNoise, coefficient_names
+from gyrojax.planning.triad_fisher import TriadNoise
 from gyrojax.report.protocol_text import table_text
 from gyrojax.simulation.triad import random_attitude
 from gyrojax.simulation.triad_session import simulate_session
@@ -91,7 +92,7 @@ def test_monte_carlo_confirms_the_designed_sigma(designed):
             warnings.simplefilter("ignore")
             est.append(fit_triad(rec, list(TERMS)).theta)
     est = np.array(est)
-    names = coefficient_names(model)
+    names = channel_names(model)
     v = est.var(axis=0, ddof=1) / np.array([pred[k] ** 2 for k in names])
     tol = 4.0 * math.sqrt(2.0 / (n - 1)) / math.sqrt(21.0 / 4.0)
     assert abs(v.mean() - 1.0) < tol, (v.mean(), tol, np.round(np.sqrt(v), 2))

@@ -207,7 +207,7 @@ def fit_triad_unchecked(
         kinds = [[s.kind for s, i in zip(segments, seg_rec) if i == k] for k in range(len(recs))]
         check_turn_on(model, [r.name for r in recs], kinds)
     pu = power_ups(model, seg_rec, mv_rec, len(recs), turn_on)
-    names = [tp.channel_name(c, ch) for ch in tp.CHANNELS for c in model.coefficient_names] + step_names(pu.count)
+    names = [*tp.channel_names(model), *step_names(pu.count)]
     n_theta = len(names)
     dt_s = float(np.median([np.median(np.diff(s.t_h)) for s in segments if len(s.t_h) > 1] or [0.0])) * 3600.0
     q = long_run_variance(resid) if noise_q is None else _channel_variances(noise_q, dt_s)

@@ -102,7 +102,7 @@ class ChannelCoefficients:
     @property
     def coefficient_names(self) -> tuple:
         """``<coefficient>[<channel>]`` in θ order."""
-        return tuple(tp.channel_name(c, ch) for ch in tp.CHANNELS for c in self.model.coefficient_names)
+        return tp.channel_names(self.model)
 
     @property
     def size(self) -> int:

@@ -44,6 +44,16 @@ def channel_name(coefficient: str, channel: str) -> str:
     return f"{coefficient}[{channel}]"
 
 
+def channel_names(model: Model) -> tuple[str, ...]:
+    """``<coefficient>[<channel>]`` of every coefficient, channel by channel: the order of a triad's θ (3p,)."""
+    return tuple(channel_name(c, ch) for ch in CHANNELS for c in model.coefficient_names)
+
+
+def channel_theta(model: Model, values: dict) -> np.ndarray:
+    """(3, p) per-channel coefficients from ``{"D_F[x]": …}`` in report units; a name not given is 0."""
+    return np.array([[values.get(channel_name(c, ch), 0.0) for c in model.coefficient_names] for ch in CHANNELS])
+
+
 def split_channel_name(name: str) -> tuple[str, str]:
     """``D_F[x]`` → (``D_F``, ``x``); :class:`ModelError` for a name without a channel."""
     if name.endswith("]") and "[" in name:

@@ -160,11 +160,6 @@ def rows_basis(model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return tuple(np.asarray(b) for b in _affine_rows(model))
 
 
-def coefficient_names(model) -> list[str]:
-    """The fit's coefficient names in the order of F: ``D_F[x]``, …, channel by channel."""
-    return [tp.channel_name(c, ch) for ch in tp.CHANNELS for c in model.coefficient_names]
-
-
 def profile_fractions(n_samples: int) -> tuple[np.ndarray, np.ndarray]:
     """The profile ∝ sin(π t / T) of a turn by Φ in T s sampled ``n_samples`` times (that of
     :func:`gyrojax.simulation.triad.turn_samples`): the fraction of Φ turned in each sample interval (summing to 1)

@@ -50,7 +50,6 @@ from gyrojax.planning.criteria import Criterion
 from gyrojax.planning.triad_fisher import (
     Parts,
     TriadNoise,
-    coefficient_names,
     pad_parts,
     protocol_information,
     rows_basis,
@@ -106,8 +105,8 @@ def triad_model(terms):
 
 
 def parse_criterion(text: str, model) -> Criterion:
-    """The criterion ``text`` over the triad's per-channel coefficients (:func:`coefficient_names`)."""
-    return Criterion.parse(text, model, coefficient_names(model))
+    """The criterion ``text`` over the triad's coefficients (:func:`gyrojax.physics.triad.channel_names`)."""
+    return Criterion.parse(text, model, list(tp.channel_names(model)))
 
 
 def min_poses(model) -> int:
@@ -467,7 +466,7 @@ def sigma(f, model) -> dict:
     s = np.sqrt(np.maximum(np.diag(f), 1e-300))
     fs = f / np.outer(s, s)
     ev = np.linalg.eigvalsh(fs)
-    names = coefficient_names(model)
+    names = tp.channel_names(model)
     if ev[0] < 1e-12 * ev[-1]:
         return {n: math.inf for n in names}
     cov = np.linalg.inv(fs) / np.outer(s, s)

@@ -57,6 +57,26 @@ def face_attitude(axis: int, sign: float, heading: float) -> np.ndarray:
     return rotation_matrix(z, heading) @ base
 
 
+def local_frame(latitude_deg: float, gravity_mps2: float | None, earth_rate: bool) -> tuple:
+    """The Earth rate Ω (deg/h; zero without ``earth_rate``) and the specific force at rest (g) in the level frame L
+    (ENU, conventions §2) at ``latitude_deg``, and the gravity (m/s²) they use: ``gravity_mps2``, or the site's normal
+    gravity where it is None."""
+    lat = math.radians(latitude_deg)
+    omega_l = units.OMEGA_IE_DEG_PER_H * np.array([0.0, math.cos(lat), math.sin(lat)]) * float(earth_rate)
+    gravity_mps2 = site_gravity(latitude_deg) if gravity_mps2 is None else gravity_mps2
+    return omega_l, np.array([0.0, 0.0, gravity_mps2 / units.G0]), gravity_mps2
+
+
+def session_record(name, segs, cols, notes, *, latitude_deg, fit_latitude, gravity_mps2, earth_rate) -> Record:
+    """A simulated session's ``imu-triad`` record: the latitude written only with ``fit_latitude`` (else ``null``,
+    unknown to the fit), the gravity used, and whether the Earth rate is in the motion."""
+    meta = triad_meta(
+        name, segs, latitude_deg=latitude_deg if fit_latitude else None, gravity_mps2=gravity_mps2, notes=notes
+    )
+    meta["earth_rate"] = bool(earth_rate)
+    return Record(meta, cols)
+
+
 _triad_output_jit = jax.jit(tp.triad_output, static_argnums=0)
 
 
@@ -125,13 +145,9 @@ def simulate_ferraris(
     """
     rng = np.random.default_rng(seed)
     model = tp.channel_model(terms)
-    theta = np.array([[truth.get(tp.channel_name(c, ch), 0.0) for c in model.coefficient_names] for ch in tp.CHANNELS])
+    theta = tp.channel_theta(model, truth)
     dt = 1.0 / rate_hz
-    lat_deg = latitude_deg if latitude_deg is not None else 0.0
-    lat = math.radians(lat_deg)
-    omega_l = units.OMEGA_IE_DEG_PER_H * np.array([0.0, math.cos(lat), math.sin(lat)]) * float(earth_rate)  # deg/h
-    gravity_mps2 = site_gravity(lat_deg) if gravity_mps2 is None else gravity_mps2
-    f_l = np.array([0.0, 0.0, gravity_mps2 / units.G0])  # g
+    omega_l, f_l, gravity_mps2 = local_frame(latitude_deg or 0.0, gravity_mps2, earth_rate)
     ws, fs, labels, segs = [], [], [], []
 
     def add(w, f, label):
@@ -170,15 +186,9 @@ def simulate_ferraris(
         add(np.tile(c0.T @ omega_l, (n_gap, 1)), np.tile(c0.T @ f_l, (n_gap, 1)), -1)
         label += 1
     cols = sensor_columns(model, theta, ws, fs, labels, dt, gyro_noise_dps, acc_noise_g, rng)
-    meta = triad_meta(
-        f"ferraris-sim-{seed}",
-        segs,
-        latitude_deg=latitude_deg if fit_latitude else None,
-        gravity_mps2=gravity_mps2,
-        notes="simulated Ferraris session (gyrojax.simulation.triad)",
-    )
-    meta["earth_rate"] = bool(earth_rate)
-    return Record(meta, cols)
+    notes = "simulated Ferraris session (gyrojax.simulation.triad)"
+    where = {"latitude_deg": latitude_deg, "fit_latitude": fit_latitude, "earth_rate": earth_rate}
+    return session_record(f"ferraris-sim-{seed}", segs, cols, notes, gravity_mps2=gravity_mps2, **where)
 
 
 def random_attitude(rng) -> np.ndarray:
@@ -227,12 +237,9 @@ def simulate_multiposition(
     gravity (conventions §2)."""
     rng = np.random.default_rng(seed)
     model = tp.channel_model(terms)
-    theta = np.array([[truth.get(tp.channel_name(c, ch), 0.0) for c in model.coefficient_names] for ch in tp.CHANNELS])
+    theta = tp.channel_theta(model, truth)
     dt = 1.0 / rate_hz
-    lat = math.radians(latitude_deg)
-    omega_l = units.OMEGA_IE_DEG_PER_H * np.array([0.0, math.cos(lat), math.sin(lat)]) * (1.0 if earth_rate else 0.0)
-    gravity_mps2 = site_gravity(latitude_deg) if gravity_mps2 is None else gravity_mps2
-    f_l = np.array([0.0, 0.0, gravity_mps2 / units.G0])
+    omega_l, f_l, gravity_mps2 = local_frame(latitude_deg, gravity_mps2, earth_rate)
     atts = [random_attitude(rng) for _ in range(poses)]
     ws, fs, labels, segs, extra = [], [], [], [], []
     step = np.zeros(3)
@@ -262,12 +269,6 @@ def simulate_multiposition(
         extra.append(step + burst)
         segs.append({"label": 2 * k + 1, "type": "move", "name": f"move-{k}-{k + 1}", "from": 2 * k, "to": 2 * k + 2})
     cols = sensor_columns(model, theta, ws, fs, labels, dt, gyro_noise_dps, acc_noise_g, rng, extra)
-    meta = triad_meta(
-        f"multiposition-sim-{seed}",
-        segs,
-        latitude_deg=latitude_deg if fit_latitude else None,
-        gravity_mps2=gravity_mps2,
-        notes="simulated multi-position session with gravity-to-gravity moves (gyrojax.simulation.triad)",
-    )
-    meta["earth_rate"] = bool(earth_rate)
-    return Record(meta, cols)
+    notes = "simulated multi-position session with gravity-to-gravity moves (gyrojax.simulation.triad)"
+    where = {"latitude_deg": latitude_deg, "fit_latitude": fit_latitude, "earth_rate": earth_rate}
+    return session_record(f"multiposition-sim-{seed}", segs, cols, notes, gravity_mps2=gravity_mps2, **where)

@@ -27,13 +27,10 @@ import math
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from gyrojax import units
-from gyrojax.data.importers import triad_meta
 from gyrojax.data.record import Record
 from gyrojax.errors import ModelError
 from gyrojax.physics import triad as tp
-from gyrojax.physics.gravity import site_gravity
-from gyrojax.simulation.triad import rotation_matrix, sensor_columns, turn_samples
+from gyrojax.simulation.triad import local_frame, rotation_matrix, sensor_columns, session_record, turn_samples
 
 STEP_TYPES = ("rest", "move", "turn", "reorient")
 AXIS_NAMES = {(1, 0, 0): "x", (-1, 0, 0): "-x", (0, 1, 0): "y", (0, -1, 0): "-y", (0, 0, 1): "z", (0, 0, -1): "-z"}
@@ -91,12 +88,9 @@ def simulate_session(
     check_steps(steps)
     rng = np.random.default_rng(seed)
     model = tp.channel_model(terms)
-    theta = np.array([[truth.get(tp.channel_name(c, ch), 0.0) for c in model.coefficient_names] for ch in tp.CHANNELS])
+    theta = tp.channel_theta(model, truth)
     dt = 1.0 / rate_hz
-    lat = math.radians(latitude_deg)
-    omega_l = units.OMEGA_IE_DEG_PER_H * np.array([0.0, math.cos(lat), math.sin(lat)]) * (1.0 if earth_rate else 0.0)
-    gravity_mps2 = site_gravity(latitude_deg) if gravity_mps2 is None else gravity_mps2
-    f_l = np.array([0.0, 0.0, gravity_mps2 / units.G0])
+    omega_l, f_l, gravity_mps2 = local_frame(latitude_deg, gravity_mps2, earth_rate)
     psi = math.radians(heading_deg) if heading_deg is not None else rng.uniform(0.0, 2.0 * math.pi)
     c0 = np.eye(3) if start_attitude is None else np.asarray(start_attitude, dtype=float)
     plan = rotation_matrix([0.0, 0.0, 1.0], psi) @ c0  # the attitude the person aims at
@@ -154,12 +148,6 @@ def simulate_session(
         fs.append(f)
         labels.append(np.full(len(w), lab))
     cols = sensor_columns(model, theta, ws, fs, labels, dt, gyro_noise_dps, acc_noise_g, rng)
-    meta = triad_meta(
-        f"protocol-sim-{seed}",
-        segs,
-        latitude_deg=latitude_deg if fit_latitude else None,
-        gravity_mps2=gravity_mps2,
-        notes="simulated hand session of a protocol (gyrojax.simulation.triad_session)",
-    )
-    meta["earth_rate"] = bool(earth_rate)
-    return Record(meta, cols)
+    notes = "simulated hand session of a protocol (gyrojax.simulation.triad_session)"
+    where = {"latitude_deg": latitude_deg, "fit_latitude": fit_latitude, "earth_rate": earth_rate}
+    return session_record(f"protocol-sim-{seed}", segs, cols, notes, gravity_mps2=gravity_mps2, **where)
