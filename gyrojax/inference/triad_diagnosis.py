@@ -254,6 +254,7 @@ def session_data(records, fit, earth_rate=None) -> dict:
         "n_records": len(recs),
         "power_ups": pu,
         "seg_inputs": inputs,
+        "components_memo": {},
     }
     data["inputs"] = list(inputs)
     data["seg_stacked"] = _stacked(inputs)
@@ -361,10 +362,16 @@ def _groups(data: dict, extra: list) -> list:
 def components(data: dict, extra: list, alpha: float) -> tuple[dict, float, list]:
     """The variance components by REML beside the candidates ``extra`` (raw columns): (τ̂², the bias walk's
     likelihood ratio, the REML groups), the walk among them only where it is significant at ``alpha``
-    (:func:`gyrojax.inference.triad_components.select_components`, the rule the fit's σ follow too)."""
-    groups = _groups(data, extra)
-    tau2, lr = select_components(groups, alpha)
-    return tau2, lr, groups
+    (:func:`gyrojax.inference.triad_components.select_components`, the rule the fit's σ follow too). The groups do
+    not depend on the variance components ``data`` is whitened with (:func:`with_tau2`), so the answer is kept in
+    ``data["components_memo"]``, which every ``data`` derived by :func:`with_tau2` shares."""
+    key = (tuple(map(id, extra)), alpha)
+    memo = data["components_memo"]
+    if key not in memo:  # the extra columns are held beside the answer, so that their ids are not reused
+        groups = _groups(data, extra)
+        memo[key] = (list(extra), *select_components(groups, alpha), groups)
+    _extra, tau2, lr, groups = memo[key]
+    return dict(tau2), lr, groups
 
 
 def with_components(data: dict, extra: list, alpha: float) -> dict:
