@@ -27,6 +27,7 @@ import argparse
 import json
 import math
 import os
+import statistics
 import sys
 import tempfile
 from pathlib import Path
@@ -134,20 +135,23 @@ def largest_change(new: dict, old: dict) -> tuple[float, str, list]:
 
 def process_row(name: str, roots: dict, args, tmp: Path, repeat: int) -> None:
     """A diagnosis as a process, cache warm, ``repeat`` times alternately; best by CPU; the JSONs compared."""
-    best, docs = {}, {}
+    best, docs, warm_cpu = {}, {}, {}
     for i in range(repeat):
         for who, root in roots.items():
             cache = tmp / f"cache-{name}-{who}-{i}"
             cold = gyrojax(root, args, cache, tmp)
             warm = gyrojax(root, args, cache, tmp)
             docs[who] = json.loads(warm[2])
+            warm_cpu.setdefault(who, []).append(warm[1])
             prev = best.get(who)
             if prev is None or warm[1] < prev[1][1]:
                 best[who] = (cold[:2], warm[:2])
     for who, (cold, warm) in best.items():
+        runs = warm_cpu[who]
         print(
             f"  {who}: warm {warm[0]:5.2f} s wall {warm[1]:5.2f} s CPU; first (cache empty) {cold[0]:5.2f} s wall "
-            f"{cold[1]:5.2f} s CPU (best of {repeat} by CPU)"
+            f"{cold[1]:5.2f} s CPU (best of {repeat} by CPU); warm CPU median {statistics.median(runs):5.2f} s "
+            f"({' '.join(f'{x:.2f}' for x in runs)})"
         )
     if "old" in best:
         n, o = best["new"][1], best["old"][1]
