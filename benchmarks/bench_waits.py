@@ -41,6 +41,9 @@ TDF_TRUTH = {
     "noise": {"white": 0.001},
 }
 
+JAX_CACHE_VARIABLES = ("JAX_COMPILATION_CACHE_DIR", "JAX_PERSISTENT_CACHE_")
+"""Environment variables of JAX's persistent compilation cache (prefixes)."""
+
 NOTEBOOK = r"""
 import json, sys, time
 from pathlib import Path
@@ -59,8 +62,11 @@ print(json.dumps({"first": first, "warm": warm, "verdict": d.verdict}))
 
 def env_of(root: Path, cache: Path | None) -> dict:
     """The environment of a child process of the checkout ``root``: compilation cache off (``cache`` None) or in
-    ``cache``."""
-    env = {k: v for k, v in os.environ.items() if k not in ("GYROJAX_NO_CACHE", "GYROJAX_CACHE_DIR", "PYTHONPATH")}
+    ``cache``. JAX's cache variables are dropped: this process' ``import gyrojax`` set them to the user's default
+    cache folder, which a child's ``import gyrojax`` would then keep (a notebook's chosen cache), so that a
+    "first call" would read every shape any earlier run compiled."""
+    drop = ("GYROJAX_NO_CACHE", "GYROJAX_CACHE_DIR", "PYTHONPATH")
+    env = {k: v for k, v in os.environ.items() if k not in drop and not k.startswith(JAX_CACHE_VARIABLES)}
     env["PYTHONPATH"] = str(root)
     if cache is None:
         env["GYROJAX_NO_CACHE"] = "1"
