@@ -27,6 +27,7 @@ import argparse
 import json
 import math
 import os
+import statistics
 import sys
 import tempfile
 from pathlib import Path
@@ -39,6 +40,9 @@ TDF_TRUTH = {
     "coefficients": {"DX_F": 0.3, "DY_F": -0.2, "DX_X": 0.1, "DY_Y": 0.05, "DX_XZ": 0.02},
     "noise": {"white": 0.001},
 }
+
+JAX_CACHE_VARIABLES = ("JAX_COMPILATION_CACHE_DIR", "JAX_PERSISTENT_CACHE_")
+"""Environment variables of JAX's persistent compilation cache (prefixes)."""
 
 NOTEBOOK = r"""
 import json, sys, time
@@ -58,8 +62,11 @@ print(json.dumps({"first": first, "warm": warm, "verdict": d.verdict}))
 
 def env_of(root: Path, cache: Path | None) -> dict:
     """The environment of a child process of the checkout ``root``: compilation cache off (``cache`` None) or in
-    ``cache``."""
-    env = {k: v for k, v in os.environ.items() if k not in ("GYROJAX_NO_CACHE", "GYROJAX_CACHE_DIR", "PYTHONPATH")}
+    ``cache``. JAX's cache variables are dropped: this process' ``import gyrojax`` set them to the user's default
+    cache folder, which a child's ``import gyrojax`` would then keep (a notebook's chosen cache), so that a
+    "first call" would read every shape any earlier run compiled."""
+    drop = ("GYROJAX_NO_CACHE", "GYROJAX_CACHE_DIR", "PYTHONPATH")
+    env = {k: v for k, v in os.environ.items() if k not in drop and not k.startswith(JAX_CACHE_VARIABLES)}
     env["PYTHONPATH"] = str(root)
     if cache is None:
         env["GYROJAX_NO_CACHE"] = "1"
@@ -134,20 +141,23 @@ def largest_change(new: dict, old: dict) -> tuple[float, str, list]:
 
 def process_row(name: str, roots: dict, args, tmp: Path, repeat: int) -> None:
     """A diagnosis as a process, cache warm, ``repeat`` times alternately; best by CPU; the JSONs compared."""
-    best, docs = {}, {}
+    best, docs, warm_cpu = {}, {}, {}
     for i in range(repeat):
         for who, root in roots.items():
             cache = tmp / f"cache-{name}-{who}-{i}"
             cold = gyrojax(root, args, cache, tmp)
             warm = gyrojax(root, args, cache, tmp)
             docs[who] = json.loads(warm[2])
+            warm_cpu.setdefault(who, []).append(warm[1])
             prev = best.get(who)
             if prev is None or warm[1] < prev[1][1]:
                 best[who] = (cold[:2], warm[:2])
     for who, (cold, warm) in best.items():
+        runs = warm_cpu[who]
         print(
             f"  {who}: warm {warm[0]:5.2f} s wall {warm[1]:5.2f} s CPU; first (cache empty) {cold[0]:5.2f} s wall "
-            f"{cold[1]:5.2f} s CPU (best of {repeat} by CPU)"
+            f"{cold[1]:5.2f} s CPU (best of {repeat} by CPU); warm CPU median {statistics.median(runs):5.2f} s "
+            f"({' '.join(f'{x:.2f}' for x in runs)})"
         )
     if "old" in best:
         n, o = best["new"][1], best["old"][1]

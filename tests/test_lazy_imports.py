@@ -80,3 +80,19 @@ def test_a_triad_fit_process_loads_neither_scipy_stats_nor_scipy_signal(tmp_path
         '"jax": "jax" in sys.modules', '"stats": "scipy.stats" in sys.modules, "signal": "scipy.signal" in sys.modules'
     )
     assert json.loads(_run(code, "fit", str(csv), "--json")) == {"rc": 0, "stats": False, "signal": False}
+
+
+def test_a_triad_diagnose_process_loads_neither_pandas_nor_scipy_stats(tmp_path):
+    # a diagnosis of a hand session as a process: its CSV read by numpy, its tails and quantiles by scipy.special
+    # (gyrojax.inference.tails, the same bits as scipy.stats); the command did diagnose (rc 0, or 1: inadequate)
+    from gyrojax.data.records import save_record
+    from gyrojax.montecarlo.triad import mems_truth
+    from gyrojax.simulation.triad import simulate_multiposition
+
+    save_record(simulate_multiposition(mems_truth(), poses=12, static_s=2.0, move_s=1.0, seed=1), tmp_path)
+    (meta,) = tmp_path.glob("*.json")
+    code = PROBE.replace(
+        '"jax": "jax" in sys.modules', '"stats": "scipy.stats" in sys.modules, "pandas": "pandas" in sys.modules'
+    )
+    got = json.loads(_run(code, "diagnose", str(meta), "--json"))
+    assert got["rc"] in (0, 1) and not got["stats"] and not got["pandas"]

@@ -34,12 +34,12 @@ from functools import partial
 import jax
 import jax.numpy as jnp
 import numpy as np
-from scipy import stats
 
 from gyrojax.inference.drift_rows import rows_of, servo_state
 from gyrojax.inference.scoring import collinear, score
 from gyrojax.inference.solver import stack_whitened
 from gyrojax.inference.subspace import UNSEEN, WhitenedSystem, basis, perp
+from gyrojax.inference.tails import chi2_isf
 from gyrojax.inference.verdict import POWERS, Structure
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import instrument_inputs
@@ -320,7 +320,7 @@ def near_aliases(lin, noises, p0: int, slices: dict, names, alpha: float, system
     single = {c: statistic(u) for c, u in perps.items()}
     out = {}
     for c in names:
-        if c not in perps or single[c] < stats.chi2.isf(alpha, perps[c].shape[1]):
+        if c not in perps or single[c] < chi2_isf(alpha, perps[c].shape[1]):
             continue  # (a slow candidate judged by its likelihood ratio, not by this score)
         found = []
         for d, ud in perps.items():
@@ -333,7 +333,7 @@ def near_aliases(lin, noises, p0: int, slices: dict, names, alpha: float, system
                 continue  # an exact alias
             ok = True
             for added, s_cond in ((add_c, s_joint - single[d]), (add_d, s_joint - single[c])):
-                if added and s_cond >= stats.chi2.isf(alpha, added):
+                if added and s_cond >= chi2_isf(alpha, added):
                     ok = False
             if ok:
                 found.append(d)

@@ -175,7 +175,7 @@ def fit_campaign(
     report = identifiability(jw, model)
     if (report["aliases"] or report["unexcited"]) and not allow_aliases:
         raise IdentifiabilityError(alias_message(report), report)
-    theta, it, why = weighted_least_squares(model, theta, camp, noises, scales, max_iter)
+    theta, it, why = weighted_least_squares(model, theta, camp, noises, scales, max_iter, lin)
     lin = linearize(model, theta, camp)
     # noise model and GLS pass
     known = isinstance(noise, NoiseSpec)  # a given noise model (e.g. from gyrojax noise): GLS, not re-estimated
@@ -184,12 +184,12 @@ def fit_campaign(
             raise ModelError(f"a noise model in deg/h applies to gyro records, not to {kind!r}")
         noise.whitening_theta(1.0)  # white + at most one Gauss-Markov process, or a NoiseModelError naming the rest
         noises = [replace(noise, dt_s=float(np.median(np.diff(t)))) for *_, t in lin]
-        theta, it_gls, why_gls = weighted_least_squares(model, theta, camp, noises, scales, max_iter)
+        theta, it_gls, why_gls = weighted_least_squares(model, theta, camp, noises, scales, max_iter, lin)
         it, why = it + it_gls, why or why_gls
         lin = linearize(model, theta, camp)
     elif noise == "ar":
         noises = campaign_noise(lin, camp)
-        theta, it_gls, why_gls = weighted_least_squares(model, theta, camp, noises, scales, max_iter)
+        theta, it_gls, why_gls = weighted_least_squares(model, theta, camp, noises, scales, max_iter, lin)
         it, why = it + it_gls, why or why_gls
         lin = linearize(model, theta, camp)
         why = why or noise_not_converged(noises)

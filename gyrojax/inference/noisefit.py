@@ -9,6 +9,7 @@ import numpy as np
 
 from gyrojax.data.timebase import interval_key
 from gyrojax.errors import ConvergenceWarning
+from gyrojax.inference import tails
 from gyrojax.inference.campaign import Campaign, Linearized
 from gyrojax.inference.solver import solve, stack_whitened
 from gyrojax.noise import reml
@@ -208,11 +209,9 @@ def satterthwaite_dof(lin, campaign: Campaign, noises, scales, gls_cov=None) -> 
 def small_sample_factor(nu) -> np.ndarray:
     """t_ν / z at :data:`INTERVAL_LEVEL` (dimensionless, ≥ 1; 1 for ν = ∞): the widening of a standard error
     whose variance has ν effective degrees of freedom."""
-    from scipy import stats  # only here: a triad fit's process never loads scipy.stats
-
     nu = np.asarray(nu, dtype=float)
-    z = stats.norm.ppf(INTERVAL_LEVEL)
-    return np.where(np.isfinite(nu), stats.t.ppf(INTERVAL_LEVEL, np.where(np.isfinite(nu), nu, 1.0)) / z, 1.0)
+    z = tails.norm_ppf(INTERVAL_LEVEL)
+    return np.where(np.isfinite(nu), tails.t_ppf(INTERVAL_LEVEL, np.where(np.isfinite(nu), nu, 1.0)) / z, 1.0)
 
 
 def _rms(r) -> float:

@@ -14,6 +14,7 @@ from gyrojax import protocol
 from gyrojax.data.arrays import record_data
 from gyrojax.data.record import Record
 from gyrojax.errors import FormatError, ModelError
+from gyrojax.inference import tails
 from gyrojax.inference.formats import LEGACY_FORMAT, RESULT_FORMAT, RESULT_VERSION, fit_kind
 from gyrojax.inference.noisefit import small_sample_factor
 from gyrojax.inference.scoring import ALPHA
@@ -104,10 +105,8 @@ class FitResult(Estimates):
         else:
             nu = np.full(t.shape, float(self.dof) if self.dof > 0 else np.inf)
         finite = np.isfinite(nu)
-        from scipy import stats  # only here: a triad fit's process never loads scipy.stats
-
         with np.errstate(invalid="ignore"):
-            return np.where(finite, 2 * stats.t.sf(t, np.where(finite, nu, 1.0)), 2 * stats.norm.sf(t))
+            return np.where(finite, 2 * tails.t_sf(t, np.where(finite, nu, 1.0)), 2 * tails.norm_sf(t))
 
     @property
     def residual_rms(self) -> float:

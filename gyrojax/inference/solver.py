@@ -39,7 +39,7 @@ def solve(jw, rw, rank_tol=ALIAS_TOL):
     return lstsq(jw, rw, "svd", rank_tol)
 
 
-def weighted_least_squares(model: Model, theta, campaign: Campaign, noises, scales, max_iter: int):
+def weighted_least_squares(model: Model, theta, campaign: Campaign, noises, scales, max_iter: int, lin=None):
     """θ minimising the weighted (``noises[i] is None``: divided by ``scales[i]``) or whitened residual of every
     record, for fixed noise models. Returns (θ, iterations, reason it did not converge or ``""``).
 
@@ -50,9 +50,10 @@ def weighted_least_squares(model: Model, theta, campaign: Campaign, noises, scal
     ppm, deg/h …, the natural scale of each coefficient): scaling it by the Jacobian's columns instead lets the
     first steps wander along the weakly seen set-up angles when a record is nearly noise-free. The whitening is
     linear in the data, so the whitened residual and Jacobian of :func:`stack_whitened` are exact for the solver too.
+    ``lin``: the rows of :func:`~gyrojax.inference.campaign.linearize` at ``theta`` when the caller has them.
     """
     if model.is_linear or model.size == 0:
-        rw, jw = stack_whitened(linearize(model, theta, campaign), noises, scales)
+        rw, jw = stack_whitened(linearize(model, theta, campaign) if lin is None else lin, noises, scales)
         step, _ = solve(jw, rw)
         return theta + step, 1, ""
     sol = least_squares(

@@ -32,7 +32,6 @@ import math
 from dataclasses import dataclass, replace
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 
 from gyrojax import units
@@ -43,6 +42,7 @@ from gyrojax.errors import ModelError
 from gyrojax.inference import triad as tf
 from gyrojax.inference.adequacy import near_aliases
 from gyrojax.inference.instrument import Rules, Session
+from gyrojax.inference.kept_model import kept_call
 from gyrojax.inference.scoring import ALPHA, residual_variance, rms_after, score, score_beside, score_tests
 from gyrojax.inference.subspace import WhitenedSystem, basis
 from gyrojax.inference.triad_components import (
@@ -58,8 +58,7 @@ from gyrojax.inference.triad_rows import (
     move_residual,
     pack_moves,
     pack_segments,
-    segment_jacobian_jit,
-    segment_means_jit,
+    segment_rows,
 )
 from gyrojax.inference.triad_turn_on import TURN_ON, move_rows_with_steps, power_ups
 from gyrojax.inference.verdict import Candidate, Structure
@@ -116,7 +115,7 @@ def _named(name: str, c: int) -> Regressor:
     def func(x, eff=eff):
         k = len(eff.coefficients)
         return np.column_stack(
-            [np.asarray(eff.contribution(x, jnp.eye(k)[i])) * np.ones(len(x["t_h"])) for i in range(k)]
+            [np.asarray(eff.contribution(x, np.eye(k)[i])) * np.ones(len(x["t_h"])) for i in range(k)]
         )
 
     return Regressor(f"{name}[{tp.CHANNELS[c]}]", name, c, eff.coefficients, eff.units, func)
@@ -189,9 +188,15 @@ def shape_regressors() -> list:
 
 # ---- the rows of the fit ----------------------------------------------------------------------------------------
 
-_move_dr_dg = jax.jit(
-    jax.vmap(jax.jacrev(move_residual, argnums=2), in_axes=(None, None, 0, 0, 0, 0, 0, 0, 0, 0)), static_argnums=0
-)
+_move_dr_dg = jax.vmap(jax.jacrev(move_residual, argnums=2), in_axes=(None, None, 0, 0, 0, 0, 0, 0, 0, 0))
+_move_dr_dg_jit = jax.jit(_move_dr_dg, static_argnums=0)
+
+
+def move_dr_dg(model, theta, packed) -> np.ndarray:
+    """∂r/∂g (M, 3, L, 3) of every move's residual in its indicated samples at θ (the channel coefficients),
+    ``packed`` from :func:`~gyrojax.inference.triad_rows.pack_moves`; one compiled pass, kept across processes."""
+    th = np.asarray(theta, dtype=float)
+    return np.asarray(kept_call("triad_move_dr_dg", _move_dr_dg, _move_dr_dg_jit, model, th, *packed))
 
 
 def session_data(records, fit, earth_rate=None) -> dict:
@@ -219,10 +224,10 @@ def session_data(records, fit, earth_rate=None) -> dict:
     tau2_fit = tf.components_tau2(comp)
     tau2 = {"pose": tau2_fit.get("pose", 0.0), "move": tau2_fit.get("move", 0.0)}
     arrays = pack_segments(segments)
-    th = jnp.asarray(th_ch)
     y = np.concatenate([sg.y for sg in segments])
-    resid = y - np.asarray(segment_means_jit(model, th, arrays)) - pu.bias_of(theta, seg_rec).reshape(-1)
-    jac = pu.segment_jacobian(np.asarray(segment_jacobian_jit(model, th, arrays)))
+    y_model, jac_model = segment_rows(model, th_ch, arrays, len(segments))
+    resid = y - y_model - pu.bias_of(theta, seg_rec).reshape(-1)
+    jac = pu.segment_jacobian(jac_model)
     t_all = np.concatenate([sg.t_h for sg in segments] + [t for t, _ in mv_times])
     t_mid = 0.5 * (t_all.min() + t_all.max())
 
@@ -249,6 +254,7 @@ def session_data(records, fit, earth_rate=None) -> dict:
         "n_records": len(recs),
         "power_ups": pu,
         "seg_inputs": inputs,
+        "components_memo": {},
     }
     data["inputs"] = list(inputs)
     data["seg_stacked"] = _stacked(inputs)
@@ -257,7 +263,7 @@ def session_data(records, fit, earth_rate=None) -> dict:
         move_w = tf.move_whitening(moves, q, s_mat, tau2["move"])
         _, mr, mj = move_rows_with_steps(model, theta, packed, move_w, pu)
         data.update(packed=packed, move_w=move_w, move_r=mr, move_j=mj)
-        data["dr_dg"] = np.asarray(_move_dr_dg(model, th, *pu.shifted_moves(packed, theta)))  # (M, 3, L, 3)
+        data["dr_dg"] = move_dr_dg(model, th_ch, pu.shifted_moves(packed, theta))  # (M, 3, L, 3)
         mv_inputs = []
         for m, ri, (t_h, temp) in zip(moves, mv_rec, mv_times):
             bias = b + pu.bias_of(theta, ri)  # the power-up's own
@@ -356,10 +362,16 @@ def _groups(data: dict, extra: list) -> list:
 def components(data: dict, extra: list, alpha: float) -> tuple[dict, float, list]:
     """The variance components by REML beside the candidates ``extra`` (raw columns): (τ̂², the bias walk's
     likelihood ratio, the REML groups), the walk among them only where it is significant at ``alpha``
-    (:func:`gyrojax.inference.triad_components.select_components`, the rule the fit's σ follow too)."""
-    groups = _groups(data, extra)
-    tau2, lr = select_components(groups, alpha)
-    return tau2, lr, groups
+    (:func:`gyrojax.inference.triad_components.select_components`, the rule the fit's σ follow too). The groups do
+    not depend on the variance components ``data`` is whitened with (:func:`with_tau2`), so the answer is kept in
+    ``data["components_memo"]``, which every ``data`` derived by :func:`with_tau2` shares."""
+    key = (tuple(map(id, extra)), alpha)
+    memo = data["components_memo"]
+    if key not in memo:  # the extra columns are held beside the answer, so that their ids are not reused
+        groups = _groups(data, extra)
+        memo[key] = (list(extra), *select_components(groups, alpha), groups)
+    _extra, tau2, lr, groups = memo[key]
+    return dict(tau2), lr, groups
 
 
 def with_components(data: dict, extra: list, alpha: float) -> dict:

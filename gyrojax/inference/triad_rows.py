@@ -111,10 +111,6 @@ def pack_segments(segments, bucketed: bool = False) -> tuple:
     return tuple(jax.device_put(x) for x in (w, a, t, temp, idx, counts))  # a copy to the device, no compiled op
 
 
-segment_means_jit = jax.jit(segment_means, static_argnums=0)
-segment_jacobian_jit = jax.jit(jax.jacfwd(segment_means, argnums=1), static_argnums=0)
-
-
 def _means_twice(model, theta, arrays):
     y = segment_means(model, theta, arrays)
     return y, y

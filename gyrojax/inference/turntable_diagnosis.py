@@ -23,7 +23,6 @@ from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
-from scipy import stats
 
 from gyrojax.errors import ModelError
 from gyrojax.inference import adequacy
@@ -43,7 +42,7 @@ from gyrojax.inference.scoring import ALPHA, residual_variance, rms_after, score
 from gyrojax.inference.separation import separating_plans, setup_measurements
 from gyrojax.inference.solver import solve, stack_whitened
 from gyrojax.inference.subspace import WhitenedSystem, basis
-from gyrojax.inference.tails import chi2_logsf
+from gyrojax.inference.tails import chi2_logsf, f_sf
 from gyrojax.inference.verdict import Candidate
 from gyrojax.noise import reml
 from gyrojax.noise.readout import white_beside_readout
@@ -509,7 +508,7 @@ def wald_beside_drift(camp: Campaign, lin, cols: np.ndarray, p0: int):
         nus = satterthwaite_dof(sub, camp, noises, scales)[idx]
     k = int(ok.sum())
     # the standard error as `fit` states it: widened by t_ν / z (gyrojax.inference.noisefit.small_sample_factor)
-    return float(stats.f.sf(stat / k, k, float(np.min(nus[ok])))), beta, sd * small_sample_factor(nus)
+    return float(f_sf(stat / k, k, float(np.min(nus[ok])))), beta, sd * small_sample_factor(nus)
 
 
 def _colour_candidate(noises, lin, alpha: float = ALPHA, p0: int = 0) -> Candidate | None:
