@@ -32,7 +32,6 @@ import math
 from dataclasses import dataclass, replace
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 from scipy import stats
 
@@ -43,6 +42,7 @@ from gyrojax.data.triad_segments import triad_segments
 from gyrojax.errors import ModelError
 from gyrojax.inference import triad as tf
 from gyrojax.inference.instrument import Rules, Session
+from gyrojax.inference.kept_model import kept_call
 from gyrojax.inference.scoring import ALPHA, residual_variance, rms_after, score, score_beside, score_tests
 from gyrojax.inference.subspace import basis
 from gyrojax.inference.triad_components import estimate_components, reml_objective, whiten_rows
@@ -52,8 +52,7 @@ from gyrojax.inference.triad_rows import (
     move_rows,
     pack_moves,
     pack_segments,
-    segment_jacobian_jit,
-    segment_means_jit,
+    segment_means_and_jacobian,
 )
 from gyrojax.inference.verdict import Candidate, Structure
 from gyrojax.physics import effects as fx
@@ -108,7 +107,7 @@ def _named(name: str, c: int) -> Regressor:
     def func(x, eff=eff):
         k = len(eff.coefficients)
         return np.column_stack(
-            [np.asarray(eff.contribution(x, jnp.eye(k)[i])) * np.ones(len(x["t_h"])) for i in range(k)]
+            [np.asarray(eff.contribution(x, np.eye(k)[i])) * np.ones(len(x["t_h"])) for i in range(k)]
         )
 
     return Regressor(f"{name}[{tp.CHANNELS[c]}]", name, c, eff.coefficients, eff.units, func)
@@ -180,9 +179,8 @@ def shape_regressors() -> list:
 
 # ---- the rows of the fit ----------------------------------------------------------------------------------------
 
-_move_dr_dg = jax.jit(
-    jax.vmap(jax.jacrev(move_residual, argnums=2), in_axes=(None, None, 0, 0, 0, 0, 0, 0, 0, 0)), static_argnums=0
-)
+_dr_dg = jax.vmap(jax.jacrev(move_residual, argnums=2), in_axes=(None, None, 0, 0, 0, 0, 0, 0, 0, 0))
+_dr_dg_jit = jax.jit(_dr_dg, static_argnums=0)
 
 
 def session_data(records, fit, earth_rate=None) -> dict:
@@ -208,10 +206,9 @@ def session_data(records, fit, earth_rate=None) -> dict:
         "move": math.radians(comp.get("move_angle_noise_deg", 0.0)) ** 2,
     }
     arrays = pack_segments(segments)
-    th = jnp.asarray(theta)
     y = np.concatenate([sg.y for sg in segments])
-    resid = y - np.asarray(segment_means_jit(model, th, arrays))
-    jac = np.asarray(segment_jacobian_jit(model, th, arrays))
+    means, jac = segment_means_and_jacobian(model, theta, arrays)
+    resid = y - means
     t_all = np.concatenate([sg.t_h for sg in segments] + [t for t, _ in mv_times])
     t_mid = 0.5 * (t_all.min() + t_all.max())
 
@@ -245,7 +242,8 @@ def session_data(records, fit, earth_rate=None) -> dict:
         move_w = tf.move_whitening(moves, q, s_mat, tau2["move"])
         _, mr, mj = move_rows(model, theta, packed, move_w)
         data.update(packed=packed, move_w=move_w, move_r=mr, move_j=mj)
-        data["dr_dg"] = np.asarray(_move_dr_dg(model, th, *packed))  # (M, 3, L, 3)
+        dr_dg = kept_call("triad_move_dr_dg", _dr_dg, _dr_dg_jit, model, theta, *packed)
+        data["dr_dg"] = np.asarray(dr_dg)  # (M, 3, L, 3)
         mv_inputs = []
         for m, ri, (t_h, temp) in zip(moves, mv_rec, mv_times):
             w_cal = np.linalg.solve(s_mat, (m.g - b - m.a @ g_mat.T).T).T  # deg/h, the calibrated body rate

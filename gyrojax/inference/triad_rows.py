@@ -112,7 +112,17 @@ def pack_segments(segments, bucketed: bool = False) -> tuple:
 
 
 segment_means_jit = jax.jit(segment_means, static_argnums=0)
-segment_jacobian_jit = jax.jit(jax.jacfwd(segment_means, argnums=1), static_argnums=0)
+_segment_jacobian = jax.jacfwd(segment_means, argnums=1)
+_segment_jacobian_jit = jax.jit(_segment_jacobian, static_argnums=0)
+
+
+def segment_means_and_jacobian(model, theta, arrays) -> tuple[np.ndarray, np.ndarray]:
+    """(model of the segment means (3m,) deg/h, its Jacobian (3m, 3p)) at θ, each through its kept executable;
+    ``arrays`` from :func:`pack_segments`."""
+    th = np.asarray(theta, dtype=float)
+    y = kept_call("triad_segment_means", segment_means, segment_means_jit, model, th, arrays)
+    jac = kept_call("triad_segment_jacobian", _segment_jacobian, _segment_jacobian_jit, model, th, arrays)
+    return np.asarray(y), np.asarray(jac)
 
 
 def _means_twice(model, theta, arrays):

@@ -219,9 +219,9 @@ class Kept:
         def flat(*leaves):  # compiled over the leaves: the argument tree (in the key) may hold non-array types
             return self.fn(*jax.tree_util.tree_unflatten(tree, leaves))
 
-        flat.__name__ = self.name
+        flat.__name__ = f"{self.name}_{key[:12]}"  # a module of its own: JAX's persistent cache does not hold it
         compiled, from_cache = _compile(flat, specs)
-        if from_cache:  # JAX's persistent cache (the command's) gave it: compiled afresh under a name of its own
+        if from_cache:  # JAX's persistent cache held it all the same (its kept file gone): compiled afresh
             flat.__name__ = f"{self.name}_{secrets.token_hex(8)}"
             compiled, _ = _compile(flat, specs)
         data = _written(compiled, key)
