@@ -5,9 +5,10 @@ Run: ``python -m benchmarks.bench_design`` (add ``--quick`` for fewer Monte Carl
 
 ``python -m benchmarks.bench_design --triad [--baseline-dir DIR] [--repeat N]``: ``gyrojax design --instrument
 imu-triad --poses 12 --minutes 10 --arw 1.2`` as a process, this checkout beside the one in DIR (e.g. the previous
-commit, ``git worktree add /tmp/old HEAD~1``) run alternately in the same run: cold (compilation cache off) and warm
-(a fresh cache filled by the run before), wall and CPU seconds, compile ≈ cold − warm; then the designs' predicted
-σ of every coefficient, each beside Ferraris' and imu_tk's protocols as the command prints them.
+commit, ``git worktree add /tmp/old HEAD~1``; each with its own ``.venv`` when it has one, the versions of its
+lock) run alternately in the same run: cold (compilation cache off) and warm (a fresh cache filled by the run
+before), wall and CPU seconds, compile ≈ cold − warm; then the designs' predicted σ of every coefficient, each
+beside Ferraris' and imu_tk's protocols as the command prints them.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from benchmarks.timing import compile_here, run_process
+from benchmarks.timing import compile_here, python_of, run_process
 from gyrojax.data import plans
 from gyrojax.inference.campaign import Campaign, linearize
 from gyrojax.noise.processes import random_drift
@@ -139,7 +140,7 @@ def triad_process(root: Path, out: Path, cache: Path | None) -> tuple[float, flo
         env["GYROJAX_NO_CACHE"] = "1"
     else:
         env["GYROJAX_CACHE_DIR"] = str(cache)
-    cmd = [sys.executable, "-m", "gyrojax", *TRIAD_COMMAND, "--out", str(out), "--force", "--json"]
+    cmd = [python_of(root), "-m", "gyrojax", *TRIAD_COMMAND, "--out", str(out), "--force", "--json"]
     wall, cpu, stdout = run_process(cmd, env=env, cwd=out.parent)
     return wall, cpu, json.loads(stdout)
 

@@ -2,7 +2,8 @@
 checkout beside another (the previous commit) run alternately in the same run.
 
 Rows, each a fresh process (wall and CPU seconds of the child; the CPU reading is the one a loaded machine disturbs
-least), this checkout (``new``) and the one in ``--baseline-dir`` (``old``):
+least), this checkout (``new``) and the one in ``--baseline-dir`` (``old``), each with its own ``.venv`` when it has
+one (the versions of its lock; :func:`benchmarks.timing.python_of`):
 
 * ``gyrojax diagnose --json`` of imu_tk's Xsens hand session (tests/data/imutk, 51 175 samples, imported here with
   imu_tk's scale and gravity), the persistent compilation cache warm (filled by a run before);
@@ -30,7 +31,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from benchmarks.timing import run_process
+from benchmarks.timing import python_of, run_process
 
 HERE = Path(__file__).resolve().parents[1]
 XSENS_SCALE = 6258.0 * math.pi / 180.0  # imu_tk's nominal Xsens gyro scale, counts per deg/s
@@ -70,7 +71,7 @@ def env_of(root: Path, cache: Path | None) -> dict:
 def gyrojax(root: Path, args, cache: Path | None, cwd: Path) -> tuple[float, float, str]:
     """(wall s, CPU s, stdout) of ``gyrojax ARGS`` of the checkout ``root`` (exit 1, an inadequate model, is an
     answer)."""
-    return run_process([sys.executable, "-m", "gyrojax", *map(str, args)], env=env_of(root, cache), ok=(0, 1), cwd=cwd)
+    return run_process([python_of(root), "-m", "gyrojax", *map(str, args)], env=env_of(root, cache), ok=(0, 1), cwd=cwd)
 
 
 def inputs(tmp: Path) -> dict:
@@ -166,10 +167,10 @@ def notebook_row(roots: dict, rec: dict, tmp: Path, repeat: int) -> None:
     for i in range(repeat):
         for who, root in roots.items():
             cache = tmp / f"cache-nb-{who}-{i}"
-            run_process([sys.executable, script, rec["tumble-other"]], env=env_of(root, cache), cwd=tmp)
+            run_process([python_of(root), script, rec["tumble-other"]], env=env_of(root, cache), cwd=tmp)
             # the same campaign's shapes new to the cache, then seen by the run before, then no cache at all
             for mode, c in (("unseen", cache), ("seen", cache), ("empty", tmp / f"cache-nb-empty-{who}-{i}")):
-                out = run_process([sys.executable, script, rec["tumble"]], env=env_of(root, c), cwd=tmp)[2]
+                out = run_process([python_of(root), script, rec["tumble"]], env=env_of(root, c), cwd=tmp)[2]
                 res[who][mode].append(json.loads(out))
     for who, modes in res.items():
         for mode, runs in modes.items():

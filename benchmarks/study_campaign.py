@@ -1,7 +1,7 @@
 """Monte Carlo study of the campaign loop (:mod:`gyrojax.adaptive`) on simulated laboratories with hidden effects.
 
 ``python -m benchmarks.study_campaign [--truths 50] [--seed 0] [--out study_campaign.json] [--per-process 5]``
-(worker processes of a few truths each, resumable from ``--out``)
+(worker processes of a few truths each, resumable from ``--out``); ``--only 10,16`` runs the chosen truths alone
 
 Each truth is an SDF gyro whose lab knows D_F, D_I, D_S (each drawn uniformly in ±[0.1, 1] deg/h or deg/h/g) and
 whose truth holds two effects hidden from the lab's first test, a single-mount polar tumble (2 revolutions at 20
@@ -21,7 +21,10 @@ step cheap; white-noise information depends on the time, not the interval).
 Per truth: whether the goal was met, the loop's table hours and those of Hu's classical sequence scaled to the same
 σ on the same truth (:mod:`gyrojax.adaptive.classical`), effects added that the truth does not hold (false
 effects), true effects missed, and whether θ̂ ± 2σ covers the truth for every coefficient of the final model.
-Prints the summary and writes every truth's row to ``--out``.
+Beside it, the fewest table hours any campaign from the same first test needs for the final model's σ
+(:mod:`gyrojax.adaptive.bound`): where that bound is above 1/3 of the classical hours, 1/3 cannot be reached by any
+design. The ratio is summarised overall, per truth class (the two hidden effects) and over the truths where 1/3 is
+possible. Prints the summary and writes every truth's row to ``--out``.
 """
 
 from __future__ import annotations
@@ -95,6 +98,8 @@ def one(truth: dict, seed: int) -> dict:
         "classical_hours": cl.hours if cl else None,
         "classical_best_split_hours": cl.best_split_hours if cl else None,
         "ratio": res.table_hours / cl.hours if cl and cl.hours else None,
+        "bound": res.hours_bound(),
+        "class": "+".join(c for c in truth["coefficients"] if c not in BASE),
         "terms": sorted(terms),
         "added": added,
         "false_effects": sorted(terms - true),
@@ -126,9 +131,47 @@ def summary(rows: list) -> dict:
         hi = stats.beta.ppf(0.975, k + 1, n - k) if k < n else 1.0
         return (float(lo), float(hi))
 
+    def spread(x):
+        x = np.asarray(x, dtype=float)
+        if not x.size:
+            return None
+        return {
+            "n": int(x.size),
+            "median": float(np.median(x)),
+            "q25": float(np.percentile(x, 25)),
+            "q75": float(np.percentile(x, 75)),
+            "min": float(x.min()),
+            "max": float(x.max()),
+            "share_at_most_one_third": float(np.mean(x <= 1 / 3)),
+        }
+
+    bounded = [r for r in met if r.get("bound") and r["bound"].get("ratio_lower") is not None]
+    by_class = {}
+    for cls in sorted({r.get("class", "") for r in met}):
+        rs = [r for r in met if r.get("class", "") == cls and r["ratio"] is not None]
+        lows = [r["bound"]["ratio_lower"] for r in rs if r in bounded]
+        by_class[cls] = {
+            "ratio": spread([r["ratio"] for r in rs]),
+            "ratio_lower_bound": spread(lows),
+            "one_third_impossible": sum(1 for x in lows if x > 1 / 3),
+            "loop_over_its_bound_median": float(
+                np.median([r["table_hours"] / r["bound"]["table_hours_lower"] for r in rs if r in bounded])
+            )
+            if lows
+            else None,
+        }
+    possible = [r["ratio"] for r in bounded if r["bound"]["ratio_lower"] <= 1 / 3 and r["ratio"] is not None]
     return {
         "truths": n,
         "goal_met": len(met),
+        "by_class": by_class,
+        "one_third_impossible": sum(1 for r in bounded if r["bound"]["ratio_lower"] > 1 / 3),
+        "ratio_where_one_third_possible": spread(possible),
+        "loop_over_bound_median": float(
+            np.median([r["table_hours"] / r["bound"]["table_hours_lower"] for r in bounded])
+        )
+        if bounded
+        else None,
         "not_met": [
             {"seed": r["seed"], "status": r["status"], "reason": r["reason"][:300]} for r in rows if not r["goal_met"]
         ],
@@ -193,7 +236,8 @@ def worker(args) -> int:
 
     warnings.simplefilter("ignore", ConvergenceWarning)
     rows = _load(args.out)
-    for i in range(len(rows), min(args.truths, len(rows) + args.per_process)):
+    chosen = args.only if args.only is not None else range(len(rows), min(args.truths, len(rows) + args.per_process))
+    for i in chosen:
         truth = draw_truth(np.random.default_rng([args.seed, i]))
         row = one(truth, args.seed * 1000 + i)
         rows.append(row)
@@ -201,6 +245,7 @@ def worker(args) -> int:
             f"{i + 1:3d}/{args.truths}  met={row['goal_met']!s:5s} tests={row['tests']} "
             f"loop={row['table_hours']:6.1f} h "
             f"classical={row['classical_hours'] or math.nan:6.1f} h ratio={row['ratio'] or math.nan:5.2f} "
+            f"(≥ {(row['bound'] or {}).get('ratio_lower') or math.nan:4.2f}) "
             f"false={row['false_effects']} missed={row['missed_effects']} "
             f"covered={sum(row['covered'].values())}/{len(row['covered'])} ({row['wall_s']:.0f} s)",
             flush=True,
@@ -215,9 +260,14 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", default="study_campaign.json")
     ap.add_argument("--per-process", type=int, default=5, help="truths per worker process (bounds its memory)")
+    ap.add_argument(
+        "--only",
+        type=lambda v: [int(x) for x in v.split(",")],
+        help="run only these truths (comma-separated indices, in this process; rows appended to --out)",
+    )
     ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
-    if args.worker:
+    if args.worker or args.only is not None:
         return worker(args)
     import subprocess
     import sys

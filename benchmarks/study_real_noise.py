@@ -16,10 +16,17 @@ Subcommands:
   being checked against V in tests/test_real_noise.py), the rate at which the reference itself finds a trend when
   it assumes independent scatter on a walk, and with ``--gyrojax`` the rate of deterministic proposals by gyrojax's
   diagnosis (written records, one diagnosis per draw). Rates with Clopper–Pearson 95 % intervals.
-* ``walk-nulls [--draws 100] [--workers 1] [--full-size] [--drifts steps,rrw,scatter]``: gyrojax's rate of
-  deterministic proposals on triad nulls whose bias walks (steps at each move; a rate random walk) and on the
+* ``walk-nulls [--draws 100] [--workers 1] [--full-size] [--drifts steps,rrw,scatter] [--power-ups]``: gyrojax's
+  rate of deterministic proposals on triad nulls whose bias walks (steps at each move; a rate random walk) and on the
   independent scatter, the rate at which it names the walk, and how often it says a candidate cannot be told from
-  the walk (small sessions of 16 rests unless ``--full-size``).
+  the walk (small sessions of 16 rests unless ``--full-size``); with ``--power-ups``, two power-ups of one IMU and
+  no step between them, each walking from the common turn-on bias (the step must not be proposed for the walk).
+* ``walk-coverage [--draws 40] [--step 250] [--walk 20] [--workers 1]``: ±2σ coverage of the triad fit's planted
+  power-up step, a zero step and the bias on two power-ups whose bias walks between rests (small sessions), against
+  the binomial band of 0.954: whether the fit's σ carry the walk.
+* ``step-walk [--draws 20] [--step 250] [--walk 20] [--workers 1]``: gyrojax's proposals on the same two power-ups
+  (the step beside the walk): bias_turn_on proposed in n/N, what else, how often the proposal is marked
+  indistinguishable, and after adding it the verdict and the step's ±2σ coverage.
 * ``colour [--draws 30] [--planted-draws 10] [--workers 1]``: the rule that judges colour against input-following
   shapes (a hinge with a fitted knee, the linear temperature, the trend): gyrojax's rate of deterministic
   proposals on the turntable null with slow Gauss–Markov drift and a temperature cycle, from D_F…D_S and from
@@ -27,7 +34,8 @@ Subcommands:
   temperature in drift and on the two slopes (with bias_temperature in the model), and how often the hinge's fitted
   knee lies within 2σ of 20 °C. One diagnosis per draw, in bounded worker processes (a few draws each).
 
-Run: python -m benchmarks.study_real_noise reference | power | baseline | nulls | walk-nulls | colour [options]
+Run: python -m benchmarks.study_real_noise reference | power | baseline | nulls | walk-nulls | walk-coverage |
+step-walk | colour [options]
 """
 
 from __future__ import annotations
@@ -197,9 +205,13 @@ def _walk_draw(job):
     import gyrojax as gj
     from tests import independent_triad_writer as itw
 
-    drift, size, seed, small = job
+    drift, size, seed, small, two = job
     kw = WALK_SMALL if small else {"rest_s": rc.REST_S, "move_s": rc.MOVE_S}
-    recs, _ = itw.hand_session_records(seed, drift=drift, drift_size=size, **kw)
+    if two:  # two power-ups with no step, each walking from the common turn-on bias
+        kw = kw | {"poses": kw.get("poses", rc.POWER_UP_POSES), "gap_s": rc.POWER_UP_GAP_S}
+        recs, _ = itw.power_up_records(seed, drift=drift, scatter_dph=size, **kw)
+    else:
+        recs, _ = itw.hand_session_records(seed, drift=drift, drift_size=size, **kw)
     with tempfile.TemporaryDirectory() as folder, warnings.catch_warnings():
         warnings.simplefilter("ignore")
         d = gj.diagnose(gj.load_records(itw.write(folder, recs)), itw.MODEL)
@@ -207,14 +219,15 @@ def _walk_draw(job):
     return drift, seed, d.proposal, [c.name for c in d.noise_processes], drifting
 
 
-def walk_nulls(draws, workers, small, drifts=None) -> None:
+def walk_nulls(draws, workers, small, drifts=None, power_ups=False) -> None:
     """gyrojax's deterministic proposals on triad nulls whose bias walks between rests (steps at each move, a rate
-    random walk) and on the independent scatter, drawn in memory by the independent writer; bounded worker
+    random walk) and on the independent scatter, drawn in memory by the independent writer (with ``power_ups``: two
+    power-ups of one IMU with no step between them, each walking from the common turn-on bias); bounded worker
     processes (a few draws each, then replaced)."""
     import multiprocessing as mp
 
     walks = [(d, size) for d, size in WALKS if drifts is None or d in drifts]
-    jobs = [(drift, size, 30_000 + i, small) for drift, size in walks for i in range(draws)]
+    jobs = [(drift, size, 30_000 + i, small, power_ups) for drift, size in walks for i in range(draws)]
     t0 = time.time()
     with mp.get_context("spawn").Pool(workers, maxtasksperchild=10) as pool:
         out = []
@@ -222,7 +235,8 @@ def walk_nulls(draws, workers, small, drifts=None) -> None:
             out.append(o)
             if len(out) % 20 == 0:
                 print(f"  {len(out)}/{len(jobs)} draws, {time.time() - t0:.0f} s", flush=True)
-    print(f"{'small' if small else 'full-size'} sessions, {draws} draws per drift, {time.time() - t0:.0f} s")
+    what = "two power-ups of " if power_ups else ""
+    print(f"{what}{'small' if small else 'full-size'} sessions, {draws} draws per drift, {time.time() - t0:.0f} s")
     for drift, _size in walks:
         rows = [o for o in out if o[0] == drift]
         props = [o[2] for o in rows if o[2]]
@@ -231,6 +245,91 @@ def walk_nulls(draws, workers, small, drifts=None) -> None:
         found = f" ({', '.join(sorted(set(props)))})" if props else ""
         print(f"gyrojax, {drift}: a deterministic proposal {interval(len(props), len(rows))}{found}")
         print(f"  bias_random_walk named {interval(walk, len(rows))}; a candidate indistinguishable from it {near}")
+
+
+WALK_COVERAGE = ("D_F_step_1[y]", "D_F_step_1[x]", "D_F[x]", "D_F[y]", "D_F[z]")
+"""The coefficients whose ±2σ coverage the walk-coverage study counts: the planted power-up step, a zero step, and
+the first power-up's bias."""
+
+
+def _coverage_draw(job):
+    """One fit of two power-ups whose bias walks, with a planted step (in a worker; written by the writer and read as a
+    user would): ({coefficient: (estimate − truth) / σ}, the fit's bias walk or None)."""
+    from gyrojax.data.records import load_records
+    from gyrojax.inference.triad import fit_triad
+    from tests import independent_triad_writer as itw
+
+    seed, step, walk = job
+    kw = WALK_SMALL | {"gap_s": rc.POWER_UP_GAP_S}
+    recs, truth = itw.power_up_records(seed, step={"y": step}, drift="steps", scatter_dph=walk, **kw)
+    with tempfile.TemporaryDirectory() as folder, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fit = fit_triad(load_records(itw.write(folder, recs)), itw.MODEL + ("bias_turn_on",))
+    z = {n: (fit.values[n] - truth["coefficients"][n]) / fit.stds[n] for n in WALK_COVERAGE}
+    return z, fit.variance_components.get("bias_walk_deg_per_h_per_sqrt_pose")
+
+
+def walk_coverage(draws: int, step: float, walk: float, workers: int) -> None:
+    """±2σ coverage of the triad fit's coefficients (:data:`WALK_COVERAGE`) on two power-ups of small sessions whose
+    bias walks by ``walk`` deg/h at each move, the second's bias ``step`` deg/h higher on y: the σ are honest when
+    the coverage lies within the binomial band of 0.954 (the fraction of a normal within ±2σ)."""
+    import multiprocessing as mp
+
+    t0 = time.time()
+    jobs = [(40_000 + i, step, walk) for i in range(draws)]
+    with mp.get_context("spawn").Pool(workers, maxtasksperchild=10) as pool:
+        out = pool.map(_coverage_draw, jobs, chunksize=1)
+    lo, hi = stats.binom.ppf(0.025, draws, 0.9545), stats.binom.ppf(0.975, draws, 0.9545)
+    walks = [w for _, w in out if w]
+    print(f"{draws} draws, step {step:g} deg/h on y, walk {walk:g} deg/h per move, {time.time() - t0:.0f} s")
+    print(f"  the fit's σ carry a bias walk in {len(walks)}/{draws} (median {np.median(walks or [np.nan]):.3g})")
+    print(f"  95 % binomial band of the count within ±2σ: [{lo:g}, {hi:g}] of {draws}")
+    for n in WALK_COVERAGE:
+        z = np.array([d[n] for d, _ in out])
+        print(f"  {n}: within ±2σ {interval(int((abs(z) < 2).sum()), draws)}; rms z {np.sqrt(np.mean(z**2)):.2f}")
+
+
+def _step_walk_draw(job):
+    """One diagnosis of two power-ups whose bias walks, with a planted step on y (in a worker): (proposal, whether the
+    proposed candidate is marked indistinguishable from another, the verdict after adding bias_turn_on where it was
+    proposed, its step on y and σ)."""
+    import gyrojax as gj
+    from tests import independent_triad_writer as itw
+
+    seed, step, walk = job
+    kw = WALK_SMALL | {"gap_s": rc.POWER_UP_GAP_S}
+    recs, _ = itw.power_up_records(seed, step={"y": step}, drift="steps", scatter_dph=walk, **kw)
+    with tempfile.TemporaryDirectory() as folder, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        loaded = gj.load_records(itw.write(folder, recs))
+        d = gj.diagnose(loaded, itw.MODEL)
+        near = any(c.indistinguishable for c in d.candidates if d.proposal and c.name.split("[")[0] == d.proposal)
+        after, est = None, None
+        if d.proposal == "bias_turn_on":
+            a = gj.diagnose(loaded, itw.MODEL + ("bias_turn_on",))
+            after, est = a.verdict, (a.fit.values["D_F_step_1[y]"], a.fit.stds["D_F_step_1[y]"])
+    return d.proposal, near, after, est
+
+
+def step_walk(draws: int, step: float, walk: float, workers: int) -> None:
+    """gyrojax's proposals on two power-ups whose bias walks by ``walk`` deg/h at each move, the second's bias
+    ``step`` deg/h higher on y: how often bias_turn_on is proposed, what else is, how often the proposal is marked
+    indistinguishable, and after adding it the verdict and the step's coverage within ±2σ."""
+    import multiprocessing as mp
+
+    t0 = time.time()
+    jobs = [(40_000 + i, step, walk) for i in range(draws)]
+    with mp.get_context("spawn").Pool(workers, maxtasksperchild=4) as pool:
+        out = pool.map(_step_walk_draw, jobs, chunksize=1)
+    right = [o for o in out if o[0] == "bias_turn_on"]
+    other = sorted({str(o[0]) for o in out if o[0] != "bias_turn_on"})
+    print(f"{draws} draws, step {step:g} deg/h on y, walk {walk:g} deg/h per move, {time.time() - t0:.0f} s")
+    print(f"  bias_turn_on proposed {interval(len(right), draws)}; otherwise {other}")
+    print(f"  the proposal marked indistinguishable: {sum(o[1] for o in out)}/{draws}")
+    if right:
+        adequate = sum(o[2] == "adequate" for o in right)
+        inside = sum(abs(v - step) < 2 * sd for *_x, (v, sd) in right)
+        print(f"  after adding it: adequate {adequate}/{len(right)}; step within ±2σ {interval(inside, len(right))}")
 
 
 def nulls(draws, with_gyrojax) -> None:
@@ -312,6 +411,17 @@ def main(argv=None) -> None:
     w.add_argument("--workers", type=int, default=1)
     w.add_argument("--full-size", action="store_true", help="the cases' own rests and moves (slower)")
     w.add_argument("--drifts", type=lambda s: s.split(","), default=None, help="steps,rrw,scatter (default: all)")
+    w.add_argument("--power-ups", action="store_true", help="two power-ups of one IMU, no step between them")
+    v = sub.add_parser("walk-coverage")
+    v.add_argument("--draws", type=int, default=40)
+    v.add_argument("--step", type=float, default=250.0, help="deg/h, the second power-up's bias step on y")
+    v.add_argument("--walk", type=float, default=20.0, help="deg/h, the bias step at each move")
+    v.add_argument("--workers", type=int, default=1)
+    sw = sub.add_parser("step-walk")
+    sw.add_argument("--draws", type=int, default=20)
+    sw.add_argument("--step", type=float, default=250.0, help="deg/h, the second power-up's bias step on y")
+    sw.add_argument("--walk", type=float, default=20.0, help="deg/h, the bias step at each move")
+    sw.add_argument("--workers", type=int, default=1)
     c = sub.add_parser("colour")
     c.add_argument("--draws", type=int, default=30, help="draws of each null")
     c.add_argument("--planted-draws", type=int, default=10, help="draws of each planted case")
@@ -324,7 +434,11 @@ def main(argv=None) -> None:
     elif args.cmd == "baseline":
         baseline(args.seeds, args.cases)
     elif args.cmd == "walk-nulls":
-        walk_nulls(args.draws, args.workers, not args.full_size, args.drifts)
+        walk_nulls(args.draws, args.workers, not args.full_size, args.drifts, args.power_ups)
+    elif args.cmd == "walk-coverage":
+        walk_coverage(args.draws, args.step, args.walk, args.workers)
+    elif args.cmd == "step-walk":
+        step_walk(args.draws, args.step, args.walk, args.workers)
     elif args.cmd == "colour":
         colour(args.draws, args.planted_draws, args.workers)
     else:

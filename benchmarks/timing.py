@@ -4,7 +4,16 @@ from __future__ import annotations
 
 import resource
 import subprocess
+import sys
 import time
+from pathlib import Path
+
+
+def python_of(root) -> str:
+    """The interpreter of the checkout ``root``: its own ``.venv`` when it has one (the versions of its lock, e.g. a
+    baseline checkout's), else this process' interpreter."""
+    own = Path(root) / ".venv" / "bin" / "python"
+    return str(own) if own.exists() else sys.executable
 
 
 def run_process(cmd, env=None, ok=(0,), cwd=None) -> tuple[float, float, str]:

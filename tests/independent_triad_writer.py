@@ -275,9 +275,11 @@ def power_up_records(
     gyro_noise_dps: float = 0.05,
     acc_noise_g: float = 0.001,
     latitude_deg: float = LATITUDE_DEG,
+    drift: str = "scatter",
 ):
     """Two power-ups of one IMU (module doc): two records of ``instrument.id`` "IMU-43" on one clock, ``gap_s`` apart,
-    each a hand session with per-pose bias scatter ``scatter_dph`` (deg/h); the second's bias higher by ``step``
+    each a hand session with per-pose bias scatter ``scatter_dph`` (deg/h; with ``drift`` "steps" or "rrw" a walk of
+    that size instead, each power-up's from its own turn-on bias); the second's bias higher by ``step``
     {channel: deg/h}. Returns ([SessionRecord] × 2, truth) with ``D_F_step_1[c]`` in the truth."""
     rng = np.random.default_rng(seed)
     step = step or {}
@@ -293,7 +295,7 @@ def power_up_records(
             rest_s=rest_s,
             move_s=move_s,
             rate_hz=rate_hz,
-            drift="scatter",
+            drift=drift,
             drift_size=scatter_dph,
             gyro_noise_dps=gyro_noise_dps,
             acc_noise_g=acc_noise_g,
@@ -306,7 +308,7 @@ def power_up_records(
     truth = dict(BASE) | {f"D_F_step_1[{c}]": step.get(c, 0.0) for c in CHANNELS}
     return recs, {
         "coefficients": truth,
-        "drift": "scatter",
+        "drift": drift,
         "drift_size": scatter_dph,
         "drift_at_rest": np.vstack(at_rest),
         "gyro_noise_dps": gyro_noise_dps,

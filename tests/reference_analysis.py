@@ -401,6 +401,21 @@ def triad_noncentrality(records, noise_dps: float, components: dict, planted: di
     return noncentrality(wh(x), wh(h), list(planted.values()))
 
 
+def triad_gls(records, noise_dps: float, components: dict, held=()) -> dict:
+    """GLS (Aitken) of the rests beside X₀ and the candidates ``held`` at the given variance components {"steps" |
+    "rrw" | "scatter": variance}: {name of a held candidate's column: (β̂, σ)} in deg/h per unit."""
+    r = rests(records)
+    cov = triad_covariances(r, noise_dps)
+    x0, cand = triad_design(r)
+    wh = whitener(cov["v0"] + sum(v * cov[n] for n, v in components.items()))
+    x = np.column_stack([x0] + [cand[n] for n in held])
+    xw = wh(x)
+    beta = np.linalg.lstsq(xw, wh(r.y.ravel()), rcond=None)[0]
+    sd = np.sqrt(np.diag(np.linalg.inv(xw.T @ xw)))
+    k = x0.shape[1]
+    return {n: (float(beta[k + i]), float(sd[k + i])) for i, n in enumerate(held)}
+
+
 def walk_against_scatter(paths, noise_dps: float):
     """−2ℓ_R of the scatter-only, steps-only and both-components models (same fixed effects): the data's preference
     for a walk, and the nested likelihood ratio of the walk beside the scatter (boundary: p = ½ P(χ²₁ > LR))."""

@@ -275,3 +275,94 @@ def test_classical_hours_beyond_any_test_are_said_not_printed():
     assert "D_F" in far.reason and f"{MAX_CLASSICAL_HOURS:g} h" in far.reason
     need = float(far.reason.split("would need ")[1].split(" ")[0])
     assert need > MAX_CLASSICAL_HOURS
+
+
+def test_dwell_lower_bound_against_the_mean_of_white_noise(first_records):
+    """The fewest hours any static design needs for D_F and D_I to σ ≤ S (no records before): D_I's row is a_I, at
+    most g, so 1/σ_I² ≤ H·g²/N² whatever the design (the mean of white noise over H hours); half the
+    dwell with IA up and half with IA down gives σ_F = N/√H and σ_I = N/(g√H) (a_I = ±g, the site's gravity in
+    standard g), so (N/(g·S))² is the minimum. The bound and the design it certifies must bracket it tightly."""
+    from gyrojax.adaptive.bound import dwell_lower_bound, grid_rows
+
+    white, target = 0.005, 0.001
+    lab = Lab.from_records(first_records, axes=plans.TWO_AXIS, turn_case=False)
+    model = Model(("D_F", "D_I"), "sdf-gyro")
+    h = grid_rows(model, lab)
+    g = first_records[0].meta["site"]["gravity_mps2"] / 9.80665  # a_I with IA vertical, in standard g
+    assert np.abs(h[:, 1]).max() == pytest.approx(g, abs=1e-9)  # the grid holds IA vertical
+    low, up = dwell_lower_bound(np.zeros((2, 2)), h, white, [target, target])
+    closed = (white / target) ** 2 / g**2  # D_I binds: σ_I² = N²/(H·g²)
+    assert low <= closed * (1 + 1e-3) and up >= closed * (1 - 1e-3)
+    assert low == pytest.approx(closed, rel=0.01) and up == pytest.approx(closed, rel=0.01)
+
+
+def test_a_slow_drift_the_records_cannot_resolve_does_not_set_the_hours(first_records):
+    """A Gauss–Markov term whose τ the records hold fewer than ten times in their longest continuous segment (the
+    tumble: one segment of its whole duration) is left out of the designed test's noise and said; one they resolve
+    is kept."""
+    from types import SimpleNamespace
+
+    from gyrojax.adaptive.information import RESOLVED_CORRELATION_TIMES, test_noise
+    from gyrojax.noise.spec import NoiseSpec
+
+    span = float(first_plan().duration_s)
+    for tau, kept in ((span / 4.5, False), (span / (2 * RESOLVED_CORRELATION_TIMES), True)):
+        fake = SimpleNamespace(noise=[NoiseSpec(white=0.005, gauss_markov=((0.016, tau),))])
+        noise, unresolved = test_noise(fake, first_records)
+        assert noise.white == pytest.approx(0.005)
+        assert bool(noise.gauss_markov) is kept and bool(unresolved) is not kept
+
+
+def test_no_test_holds_its_positions_for_less_than_the_settle_time(first_records):
+    """Requirements the records already meet by their information: the design is the shortest test worth moving the
+    table for — every position held the lab's settle time (or its fewest samples) on average — never one of near-zero
+    dwell."""
+    from gyrojax.adaptive.design import design_test
+    from gyrojax.noise.spec import NoiseSpec
+
+    goal = Goal(sigma=TARGET)
+    lab = fast_lab(first_records)
+    terms = ("D_F", "D_I", "D_S")
+    reqs = [r for r in rq.build(terms, goal, lab.kind, 0.01) if r.kind == "sigma"]
+    uni = rq.universe(terms, goal, lab.kind)
+    test = design_test(
+        uni, rq.arrays(reqs, uni), 1e12 * np.eye(uni.size), lab, NoiseSpec(white=0.005), 8.0, 0.0, 0.95, steps=20
+    )
+    # the settle time, or the four samples a position keeps at least (here 4 × 60 s)
+    shortest = max(lab.settle_s, 4 * lab.dt_s)
+    assert test.dwell_hours == pytest.approx(lab.positions * shortest / 3600.0, rel=1e-6)
+
+
+# the study's truth 10 (benchmarks/study_campaign.py): D_SS and D_O hidden from the first test (a polar tumble), and
+# the 12 static positions the loop designed next: (outer, inner) deg and dwell s
+RIVAL_TRUTH = {
+    "coefficients": {"D_F": -0.2848, "D_I": -0.6555, "D_S": 0.6518, "D_SS": -0.04697, "D_O": -0.04129},
+    "noise": {"white": 0.005},
+}
+RIVAL_POSITIONS = [
+    ((154.039022, 36.051893), 780), ((94.380441, 62.306726), 1170), ((78.661723, 125.156316), 720),
+    ((71.886967, 134.021443), 1920), ((23.168092, 199.540404), 1170), ((75.251028, 230.647591), 1110),
+    ((104.630586, 309.201392), 1170), ((155.143996, 329.148631), 2790), ((235.623457, 264.873743), 2310),
+    ((287.787421, 313.542941), 840), ((299.220975, 21.985256), 1740), ((258.865372, 75.991891), 2700),
+]  # fmt: skip
+
+
+def test_two_missing_effects_that_look_like_a_third_are_not_named_by_it():
+    """After the tumble and those positions, one-at-a-time score tests rank a scale-factor asymmetry E_A·|ω_I| (at
+    Earth rate, it follows a_O and a_S² across the positions) above D_O and D_SS, the effects the truth holds; the
+    asymmetry is not significant beside them, so the step must not add it (a false effect) but name the group the
+    next test separates, the truth's effects among it."""
+    import jax
+
+    first = plans.tumble(revolutions=2.0, earth_rates=20.0, dt_s=30.0, flip=False, both_directions=False)
+    key = jax.random.PRNGKey(10)
+    records = simulate(first, RIVAL_TRUTH, key=jax.random.fold_in(key, 0))
+    lab = Lab.from_records(records, axes=plans.TWO_AXIS, turn_case=False, mountings_per_test=1)
+    ang = np.array([[a for a, _ in RIVAL_POSITIONS]], dtype=float)
+    dwell = np.array([[d for _, d in RIVAL_POSITIONS]], dtype=float)
+    plan = lab.plan("test-2", lab.triad[None], ang, dwell, "the loop's second test")
+    clock = float(records[0].time_s[-1]) + lab.settle_s
+    records = records + simulate(plan, RIVAL_TRUTH, key=jax.random.fold_in(key, 1), start_s=clock)
+    nt = next_test(records, ["D_F", "D_I", "D_S"], Goal(sigma=0.003), lab, looks=1, starts=1, steps=40)
+    assert "sf_asymmetry" not in nt.terms
+    assert {"D_O", "D_SS"} <= set(nt.terms) | set(nt.alias)

@@ -22,7 +22,8 @@ gm_mean_factor`); the covariance between positions is left out of the search (th
 :func:`gyrojax.adaptive.information.test_information`, holds it).
 
 **Hours.** For each design, the shortest total dwell H* at which every ratio is at most 1 (bisection on the design
-scaled in time: every ratio falls as H grows), capped by the hours the lab allows one test; the design of fewest
+scaled in time: every ratio falls as H grows), at least :attr:`gyrojax.adaptive.lab.Lab.min_dwell_s` a position
+on average and at most the hours the lab allows one test; the design of fewest
 table hours (dwell, settling, remounting) is re-designed at its H* and kept. When no design meets every ratio
 within the cap, the one with the smallest worst ratio is kept: the test makes the most progress the hours allow.
 :attr:`TestDesign.hours_needed` is the dwell a test of the kept shape would need to meet every requirement (up to
@@ -233,12 +234,16 @@ def design_test(
             u[..., i] = rng.uniform(0.0, 2 * math.pi, shape) if lim is None else rng.normal(0.0, 1.5, shape)
         return u
 
-    batch = n_m * starts  # every search runs this many starts, so that each configuration compiles once
+    def batch(runs: int) -> int:
+        """Lanes of every search of ``runs`` runs, so that each configuration compiles once: ``starts`` per mounting
+        for one run; one per mounting for more, whose earlier runs start from the previous best and whose new run
+        tries every mounting once."""
+        return n_m * starts if runs == 1 else n_m
 
     def optimise(runs, u0, z0, mi, total_h):
         prob = _problem(uni, runs, n, limits, steps, learning_rate)
         k0 = len(u0)
-        take = np.arange(batch) % k0  # the starts repeated and perturbed: a local multi-start, and no new shape
+        take = np.arange(batch(runs)) % k0  # the starts repeated and perturbed: a local multi-start, and no new shape
         u0, z0, mi = np.array(u0)[take], np.asarray(z0)[take], np.asarray(mi)[take]
         u0[k0:] += rng.normal(0.0, 0.3, u0[k0:].shape)
         tri = jnp.asarray(mounts[mi])
@@ -265,6 +270,9 @@ def design_test(
         if worst(d, cap) > 1.0:
             return None
         lo, hi = 0.0, cap
+        floor = min(d["runs"] * n * lab.min_dwell_s / 3600.0, cap)
+        if worst(d, floor) <= 1.0:  # met by the shortest test worth moving the table for
+            return floor
         for _ in range(50):
             mid = 0.5 * (lo + hi)
             lo, hi = (lo, mid) if worst(d, mid) <= 1.0 else (mid, hi)
@@ -311,8 +319,8 @@ def design_test(
         total_need = shortest(longer, cap)
         if total_need is None:  # a refusal rests on it: fresh random starts too, not only the test's local optimum
             runs = widest["runs"]
-            mi = mi1 if runs == 1 else np.tile(widest["mi"], (batch, 1))
-            fresh = optimise(runs, random_u(batch, runs), np.zeros((batch, runs * n)), mi, cap)
+            mi = mi1 if runs == 1 else np.tile(widest["mi"], (batch(runs), 1))
+            fresh = optimise(runs, random_u(batch(runs), runs), np.zeros((batch(runs), runs * n)), mi, cap)
             if shortest(fresh, cap) is not None or worst(fresh, cap) < worst(longer, cap):
                 longer = fresh
             total_need = shortest(longer, cap)

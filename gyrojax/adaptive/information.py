@@ -67,14 +67,37 @@ def record_information(universe: Model, records, fit=None, theta=None) -> tuple[
     return f / kappa, kappa
 
 
-def test_noise(fit, records) -> NoiseSpec:
-    """The noise of a new static test: the fitted white noise (rms over the records) and the first Gauss–Markov
-    term the fit found, if any (in deg/√h and (deg/h, s))."""
+RESOLVED_CORRELATION_TIMES = 10.0
+"""Correlation times τ a Gauss–Markov term must fit in the records' longest continuous segment to be resolved."""
+
+
+def longest_segment_s(records) -> float:
+    """The longest continuous segment (s) of the records: the span over which a correlation time can be seen."""
+    out = 0.0
+    for r in records:
+        t, seg = np.asarray(r.time_s, dtype=float), np.asarray(r.segment_id)
+        for s in np.unique(seg):
+            ts = t[seg == s]
+            out = max(out, float(ts[-1] - ts[0]) if ts.size else 0.0)
+    return out
+
+
+def test_noise(fit, records) -> tuple[NoiseSpec, tuple]:
+    """(noise, unresolved) of a new static test: the fitted white noise (rms over the records) and the first
+    Gauss–Markov term the fit found, if it is *resolved* — τ at most the records' longest continuous segment over
+    :data:`RESOLVED_CORRELATION_TIMES` — in deg/√h and (deg/h, s); ``unresolved`` the (σ, τ) left out. Over a few
+    correlation times a record cannot tell a slow drift from chance structure (the relative error of the drift's
+    low-frequency power σ²τ is about √(2τ/T) over a span T), and for the long dwells of a test that power is all
+    that matters (a position mean over T ≫ τ has variance 2σ²τ/T): an unresolved term would set the test's hours
+    from one noisy number. The next test's records, fitted with all before, resolve it or not."""
     if fit is None:
-        return NoiseSpec(white=float(np.sqrt(np.mean([record_white(r) ** 2 for r in records]))))
+        return NoiseSpec(white=float(np.sqrt(np.mean([record_white(r) ** 2 for r in records])))), ()
     whites = [float(nz.white) for nz in fit.noise if nz.white > 0] or [record_white(r) for r in records]
-    gm = next((tuple(nz.gauss_markov) for nz in fit.noise if nz.gauss_markov), ())
-    return NoiseSpec(white=float(np.sqrt(np.mean(np.square(whites)))), gauss_markov=gm[:1])
+    gm = next((tuple(nz.gauss_markov) for nz in fit.noise if nz.gauss_markov), ())[:1]
+    span = longest_segment_s(records)
+    unresolved = tuple((float(s), float(tau)) for s, tau in gm if tau * RESOLVED_CORRELATION_TIMES > span)
+    gm = tuple(x for x in gm if (float(x[0]), float(x[1])) not in unresolved)
+    return NoiseSpec(white=float(np.sqrt(np.mean(np.square(whites)))), gauss_markov=gm), unresolved
 
 
 def rows(universe: Model, table, triad, angles_rad, times_s, theta):

@@ -98,6 +98,13 @@ class Lab:
         return cls(**fields)
 
     @property
+    def min_dwell_s(self) -> float:
+        """The shortest mean dwell (s) of a designed position: the settle time, and at least the four samples
+        :meth:`sample_counts` keeps — a table is not moved and settled to hold a position for less time than it took
+        to settle there."""
+        return max(self.settle_s, 4.0 * self.dt_s)
+
+    @property
     def kind(self) -> str:
         """The instrument kind (conventions §5)."""
         return self.instrument["kind"]

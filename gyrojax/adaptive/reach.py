@@ -43,14 +43,14 @@ def reachable_information(uni, lab, samples: int = SAMPLES, seed: int = 0) -> np
         lo, hi = (0.0, 360.0) if lim is None else lim
         ang[:, i] = rng.uniform(lo, hi, samples)
     table = lab.table()
-    h = np.asarray(_rows_fn(uni)(table.template, jnp.asarray(lab.mountings()), jnp.deg2rad(jnp.asarray(ang))))
+    h = np.asarray(mounting_rows(uni)(table.template, jnp.asarray(lab.mountings()), jnp.deg2rad(jnp.asarray(ang))))
     h = h.reshape(-1, uni.size)
     f = h.T @ h
     return f / max(np.abs(f).max(), 1e-300)
 
 
 @lru_cache(maxsize=16)
-def _rows_fn(uni):
+def mounting_rows(uni):
     """Rows of every mounting at a set of angles, compiled once per universe: f(template, triads, angles rad)."""
     from gyrojax.planning.fisher import Table
 

@@ -5,7 +5,8 @@ diagnoses every record so far, adds what the data ask for and designs the next t
 simulated from the same truth on the campaign's clock (test k draws its noise from ``fold_in(key(seed), k)``) and
 fitted jointly with everything before, until the goal is met, refused as unreachable, blocked, or ``max_tests`` tests
 have run. Its table hours are compared with Hu's classical sequence scaled to reach the same σ on the same truth
-(:mod:`gyrojax.adaptive.classical`).
+(:mod:`gyrojax.adaptive.classical`), and with the fewest table hours any campaign from the same first test needs
+for the final model's σ (:mod:`gyrojax.adaptive.bound`).
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from dataclasses import dataclass, field
 
 import jax
 
+from gyrojax.adaptive.bound import table_hours_bound
 from gyrojax.adaptive.classical import ClassicalResult, classical_hours
 from gyrojax.adaptive.goal import Goal
 from gyrojax.adaptive.lab import Lab
@@ -63,6 +65,30 @@ class CampaignResult:
     goal: Goal
     lab: Lab
     classical: ClassicalResult | None = None
+    first_hours: float = 0.0
+    bound: dict | None = None  # :func:`gyrojax.adaptive.bound.table_hours_bound` of the final model
+
+    def hours_bound(self) -> dict | None:
+        """The table hours no campaign from the same first test can go below (the first test's hours plus the
+        dwell bound of the final model's σ targets), the ratio to the classical sequence they imply, and whether
+        ≤ 1/3 of the classical hours is possible at all."""
+        if self.bound is None:
+            return None
+        low = self.first_hours + self.bound["dwell_lower"]
+        c = self.classical.hours if self.classical is not None else None
+        ratio = low / c if c else None
+        out = {**self.bound, "table_hours_lower": low, "ratio_lower": ratio}
+        if ratio is not None:
+            out["one_third_possible"] = bool(ratio <= 1.0 / 3.0)
+            out["statement"] = (
+                f"no campaign that starts with this first test can bring {', '.join(self.last.terms)} to the "
+                f"targets in fewer than {low:.3g} table hours (the first test's {self.first_hours:.3g} h and "
+                f"{self.bound['dwell_lower']:.3g} h of dwell, a bound over every static design on a "
+                f"{self.bound['grid_deg']:g}° grid of the table's angles; a design of "
+                f"{self.bound['dwell_design']:.3g} h meets them): {ratio:.3f} of the classical sequence's {c:.3g} h"
+                + ("" if ratio <= 1.0 / 3.0 else ", so 1/3 of its hours cannot be reached")
+            )
+        return out
 
     @property
     def goal_met(self) -> bool:
@@ -89,6 +115,7 @@ class CampaignResult:
             "table_hours": self.table_hours,
             "classical_table_hours": c.hours if c is not None else None,
             "hours_ratio": ratio,
+            "hours_lower_bound": self.hours_bound(),
             "classical": c.to_json() if c is not None else None,
             "terms": list(self.last.terms),
             "verdict": d.verdict if d is not None else None,
@@ -184,12 +211,16 @@ def run_campaign(
             if r.kind != "separate" and math.isfinite(x)
         ]
         steps.append(CampaignStep(nt.plan, nt.hours, nt.reason, total, predicted=predicted))
-    result = CampaignResult(status, reason, steps, nt, records, goal, lab)
+    result = CampaignResult(status, reason, steps, nt, records, goal, lab, first_hours=hours)
     if classical:
         try:
             result.classical = classical_hours(truth, nt.terms, goal, nt.kind, seed, lab.latitude_deg)
         except ModelError as e:
             result.classical = ClassicalResult(None, None, {}, reason=str(e))
+        if result.classical.hours and truth.noise.white > 0:
+            result.bound = table_hours_bound(
+                simulate(first, {"coefficients": {}}), nt.terms, goal, lab, truth.noise.white
+            )
     return result
 
 

@@ -5,7 +5,10 @@
    (:func:`gyrojax.adaptive.goal.look_alpha`); the effect the diagnosis proposes (significant, accepted by ``fit``,
    plausible) is added and the records diagnosed again, until it proposes nothing. A proposal the records cannot
    tell from other candidates (its ``aliases`` or ``indistinguishable``, plausible ones) is *not* added: naming one
-   member of an alias group would be a guess, and the next test is designed to separate the group instead.
+   member of an alias group would be a guess, and the next test is designed to separate the group instead. So is
+   a proposal outside the goal's watched effects that is no longer significant beside the significant watched
+   candidates fitted together (:func:`_rivals`): two missing effects can together look like a third. When those
+   candidates stay significant beside it, the records prefer them, and the strongest of them is added instead.
 2. **Require.** What stands between the data and the goal (:mod:`gyrojax.adaptive.requirements`): σ of the model's
    coefficients (the fit's own standard errors), σ of each watched candidate were it added (detection of every size
    that matters), σ of the alias group's members in one fit.
@@ -26,7 +29,12 @@ import numpy as np
 from gyrojax.adaptive import requirements as rq
 from gyrojax.adaptive.design import MAX_HOURS, STARTS, STEPS, design_test
 from gyrojax.adaptive.goal import Goal, detection_power, look_alpha, noncentrality_for_power
-from gyrojax.adaptive.information import record_information, test_information, test_noise
+from gyrojax.adaptive.information import (
+    RESOLVED_CORRELATION_TIMES,
+    record_information,
+    test_information,
+    test_noise,
+)
 from gyrojax.adaptive.lab import Lab
 from gyrojax.adaptive.reach import out_of_reach
 from gyrojax.errors import ModelError
@@ -176,14 +184,21 @@ def _update_model(records, terms, goal: Goal, looks: int, kind: str):
             return terms, res, d, added, (), looks, ""
         c = next(x for x in d.candidates if x.name == d.proposal)
         plausible = {x.name for x in d.candidates if x.implausible is None and x.refused is None}
-        group = tuple(
-            g for g in dict.fromkeys(c.aliases + c.indistinguishable) if g in fx.names(kind) and g in plausible
-        )
-        group = tuple(g for g in group if g not in terms)
+        rivals, preferred = _rivals(records, terms, c, d, a, goal, kind, plausible)
+        if preferred:  # the records single out the watched rivals: the strongest of them is the proposal
+            c = next(x for x in d.candidates if x.name in rivals)
+        group = _named_aliases(c, plausible, terms, kind)
+        group = group if preferred else tuple(dict.fromkeys(group + rivals))
         if group:
             return terms, res, d, added, (c.name,) + group, looks, ""
-        res = fit_with(d, records, c.name)
-        terms = terms + (c.name,)
+        try:
+            new = fit_with(d, records, c.name)
+        except ModelError:
+            if not preferred:
+                raise
+            # a preferred rival the fit refuses: the records hold a group to separate
+            return terms, res, d, added, (d.proposal,) + rivals, looks, ""
+        res, terms = new, terms + (c.name,)
         added.append(
             {
                 "effect": c.name,
@@ -193,6 +208,54 @@ def _update_model(records, terms, goal: Goal, looks: int, kind: str):
                 "estimate": c.estimate,
             }
         )
+
+
+def _named_aliases(c, plausible, terms, kind: str) -> tuple:
+    """The plausible named effects of ``kind`` outside ``terms`` the records cannot tell from the candidate ``c``."""
+    names = fx.names(kind)
+    return tuple(
+        g for g in dict.fromkeys(c.aliases + c.indistinguishable) if g in names and g in plausible and g not in terms
+    )
+
+
+def _rivals(records, terms, c, d, alpha: float, goal: Goal, kind: str, plausible) -> tuple[tuple, bool]:
+    """(rivals, preferred) of the proposal ``c``, an effect outside the goal's watch: the significant, plausible
+    watched candidates R when ``c`` is no longer significant (level ``alpha``) in the fit of the model with all of
+    R; ``preferred`` when R, in turn, is still significant beside ``c`` (Holm over R): the records then single out
+    R, not ``c``. ((), False) when ``c`` holds, is watched, or has no rival. The one-at-a-time tests rank candidates
+    by what each alone explains: two missing effects can together look like a third, one that no single test names
+    (a scale-factor asymmetry |ω_I| at Earth rate follows a_O and a_S² across a set of static positions; a table
+    azimuth error follows several g-sensitive terms of a multi-position test)."""
+    watched = goal.watched(kind)
+    if c.name in watched:
+        return (), False
+    rivals = [
+        x.name
+        for x in d.candidates
+        if x.name in watched and x.name in plausible and x.name not in terms and x.p_adjusted < alpha
+    ]
+    if not rivals:
+        return (), False
+    model = list(terms) + rivals
+    try:
+        res = fit(records, model, allow_aliases=True)
+        beside = diagnose(
+            records, model, alpha=alpha, result=res, candidates=[c.name], suggest_tests=False, model_free=False
+        )
+    except ModelError:
+        return (), False
+    held = next((x for x in beside.candidates if x.name == c.name), None)
+    if held is not None and held.p_adjusted < alpha:
+        return (), False
+    try:
+        with_c = list(terms) + [c.name]
+        res = fit(records, with_c, allow_aliases=True)
+        back = diagnose(
+            records, with_c, alpha=alpha, result=res, candidates=rivals, suggest_tests=False, model_free=False
+        )
+    except ModelError:
+        return tuple(rivals), False
+    return tuple(rivals), any(x.p_adjusted < alpha for x in back.candidates if x.name in rivals)
 
 
 def _assess(records, terms, goal, kind, alias, res, alpha_next):
@@ -281,21 +344,41 @@ def next_test(
     if lab.kind != kind:
         raise ModelError(f"next test: the lab's instrument is a {lab.kind}, the records' a {kind}")
     terms = tuple(Model.of(terms if terms else DEFAULT_TERMS[kind], kind).terms)
-    terms, res, d, added, alias, looks, note = _update_model(records, terms, goal, looks, kind)
-    alpha_next = look_alpha(looks + 1, goal.alpha)
-    notes = [note] if note else []
-    reqs, uni, f_rec, kappa, sat, sigma_now = _assess(records, terms, goal, kind, alias, res, alpha_next)
-    unwatched = tuple(g for g in alias if g not in goal.watched(kind))
-    if unwatched:
-        sep = [r for r in reqs if r.kind == "separate"]
-        if out_of_reach(uni, sep, f_rec, lab):
+    added, notes = [], []
+    while True:
+        terms, res, d, more, alias, looks, note = _update_model(records, terms, goal, looks, kind)
+        added += more
+        notes += [note] if note else []
+        alpha_next = look_alpha(looks + 1, goal.alpha)
+        reqs, uni, f_rec, kappa, sat, sigma_now = _assess(records, terms, goal, kind, alias, res, alpha_next)
+        unwatched = tuple(g for g in alias if g not in goal.watched(kind))
+        if unwatched and out_of_reach(uni, [r for r in reqs if r.kind == "separate"], f_rec, lab):
             # a member no test on the table separates from the model and the group (D_OO beside D_F, D_II, D_SS at
             # 1 g) is not a name the campaign can give: the group is its watched members
             notes.append(
                 f"left out of the alias group, as no test on this table separates them: {', '.join(unwatched)}"
             )
             alias = tuple(g for g in alias if g not in unwatched)
+            if len(alias) == 1:  # one name left, the one the campaign can give (Hu drops D_OO so): add it
+                c = next(x for x in d.candidates if x.name == alias[0])
+                try:
+                    fit(records, list(terms + alias))
+                except ModelError:
+                    pass
+                else:
+                    added.append(
+                        {
+                            "effect": c.name,
+                            "look": looks,
+                            "alpha": look_alpha(looks, goal.alpha),
+                            "p_adjusted": c.p_adjusted,
+                            "estimate": c.estimate,
+                        }
+                    )
+                    terms = terms + alias
+                    continue
             reqs, uni, f_rec, kappa, sat, sigma_now = _assess(records, terms, goal, kind, alias, res, alpha_next)
+        break
     out = NextTest(
         "test", terms, kind, res, d, added, alias, reqs, sigma_now, alpha_next, looks, goal, kappa=kappa, notes=notes
     )
@@ -322,7 +405,13 @@ def next_test(
         out.status = "unreachable"
         out.reason = f"the campaign's budget of {lab.budget_hours:g} table hours is spent; " + _unmet_text(out, unmet)
         return out
-    noise = test_noise(sat, records)
+    noise, unresolved = test_noise(sat, records)
+    for sig, tau in unresolved:
+        out.notes.append(
+            f"the fitted Gauss–Markov drift (σ {sig:.3g} deg/h, τ {tau:.4g} s) is not resolved by the records (their "
+            f"longest continuous segment holds fewer than {RESOLVED_CORRELATION_TIMES:g} correlation times): the test "
+            "is designed for the white noise, and the fit after it says whether the drift is there"
+        )
     last_end = max(float(r.time_s[-1]) for r in records)
     start = last_end + lab.settle_s if start_s is None else float(start_s)
     test = design_test(

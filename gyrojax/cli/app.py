@@ -159,8 +159,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--dt", type=float, default=1.0, help="sample interval, s")
     s.add_argument("--starts", type=int, default=8)
     s.add_argument("--seed", type=int, default=0)
-    s.add_argument("--adam-steps", type=int, default=600)
-    s.add_argument("--lbfgs-steps", type=int, help="L-BFGS steps after Adam (default 40; imu-triad 0)")
+    s.add_argument("--adam-steps", type=int, help="Adam steps (default 600; imu-triad 150)")
+    s.add_argument(
+        "--lbfgs-steps", type=int, help="L-BFGS steps after Adam (default 40; imu-triad at most 400, until settled)"
+    )
     s.add_argument("--out", required=True, help="the plan JSON to write")
     s.add_argument("--force", action="store_true", help="overwrite an existing plan file")
     s.add_argument("--json", action="store_true")

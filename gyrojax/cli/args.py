@@ -1,12 +1,13 @@
-"""What the ``gyrojax`` command reads from its arguments: the usage error and the parsers of option values that
-the sub-commands share (plan options, term lists, a Gauss–Markov pair). Below both :mod:`gyrojax.cli.app` (the
-parser and ``main``) and :mod:`gyrojax.cli.commands` (what each sub-command does), so neither imports the other's
-module at import time.
+"""What the ``gyrojax`` command reads from its arguments: the usage error, the parsers of option values that the
+sub-commands share (plan options, term lists, a Gauss–Markov pair) and the refusal to write over records. Below
+both :mod:`gyrojax.cli.app` (the parser and ``main``) and :mod:`gyrojax.cli.commands` (what each sub-command does),
+so neither imports the other's module at import time.
 """
 
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 from gyrojax.errors import GyrojaxError
 
@@ -51,3 +52,17 @@ def parse_gm(text: str | None, option: str = "--gm") -> tuple[float, float] | No
     if not (sigma > 0 and tau > 0 and sigma < float("inf") and tau < float("inf")):
         raise UsageError(f"{option} {text!r}: sigma and tau must be finite and positive")
     return sigma, tau
+
+
+def save_new_records(records, out, force: bool) -> list[Path]:
+    """Write ``records`` into the folder ``out``; without ``force``, nothing when a file of one of them exists
+    (:class:`UsageError` naming it). Returns the JSON paths."""
+    from gyrojax.data.records import record_paths, save_record
+
+    out = Path(out)
+    if not force:
+        for r in records:
+            for p in record_paths(out / r.name):
+                if p.exists():
+                    raise UsageError(f"{p}: exists; pass --force to overwrite")
+    return [save_record(r, out, force=True) for r in records]

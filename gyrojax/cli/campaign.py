@@ -240,6 +240,9 @@ def cmd_campaign(args) -> int:
         f"table hours: loop {j['table_hours']:.3g} h; Hu's classical sequence for the same σ: "
         + (f"{c:.3g} h (ratio {ratio:.2f})" if c else f"not reached ({why})")
     )
+    bound = j["hours_lower_bound"]
+    if bound and bound.get("statement"):
+        print(f"lower bound: {bound['statement']}")
     if not res.goal_met:
         print(f"why: {res.reason}")
     return 0

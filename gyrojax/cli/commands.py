@@ -11,7 +11,7 @@ import warnings
 from dataclasses import replace
 from pathlib import Path
 
-from gyrojax.cli.args import UsageError, parse_gm, parse_options, parse_terms
+from gyrojax.cli.args import UsageError, parse_gm, parse_options, parse_terms, save_new_records
 from gyrojax.errors import ConvergenceWarning, ModelError
 from gyrojax.kinds import TRIAD_KIND
 
@@ -64,21 +64,14 @@ def plan_from_arg(arg: str, options: dict):
 
 def cmd_simulate(args) -> int:
     """``gyrojax simulate``: build a plan, simulate it with a truth file, write the records; exit code."""
-    from gyrojax.data.records import record_paths, save_record
     from gyrojax.data.truth import Truth, load_truth
     from gyrojax.simulation.simulator import simulate
 
     plan = plan_from_arg(args.plan, parse_options(args.option))
     effects_from_args(args, plan.runs[0].instrument.get("kind", "sdf-gyro") if plan.runs else "sdf-gyro")
     truth = load_truth(args.truth) if args.truth else Truth()
-    out = Path(args.out)
     recs = simulate(plan, truth, seed=args.seed, dynamics=args.dynamics)
-    if not args.force:
-        for r in recs:
-            for p in record_paths(out / r.name):
-                if p.exists():
-                    raise UsageError(f"{p}: exists; pass --force to overwrite")
-    paths = [str(save_record(r, out, force=True)) for r in recs]
+    paths = [str(p) for p in save_new_records(recs, args.out, args.force)]
     if args.json:
         print(json.dumps({"plan": plan.name, "records": paths, "seed": args.seed}))
     else:
@@ -186,7 +179,7 @@ def cmd_demo(args) -> int:
 def cmd_design(args) -> int:
     """``gyrojax design``: design a static plan (ARW in deg/√h, GM as σ deg/h and τ s, total dwell in h), write
     the plan file to ``--out`` and print its comparison with the classical set; exit code."""
-    if getattr(args, "separate", None) or getattr(args, "from_records", None):  # separate two effects (#27)
+    if getattr(args, "separate", None) or getattr(args, "from_records", None):  # separate two effects
         from gyrojax.cli.design_separate import cmd_design_separate
 
         return cmd_design_separate(args)
@@ -208,6 +201,8 @@ def cmd_design(args) -> int:
 
     if args.lbfgs_steps is None:
         args.lbfgs_steps = 40
+    if args.adam_steps is None:
+        args.adam_steps = 600
     out = Path(args.out)
     if out.exists() and not args.force:
         raise UsageError(f"{out}: exists; pass --force to overwrite")
@@ -398,7 +393,6 @@ def cmd_import(args) -> int:
     records in ``--out`` (a turntable data system's log into a conventions record: :mod:`gyrojax.cli.import_table`)."""
     from gyrojax.cli.import_table import cmd_import_table, refuse_table_options
     from gyrojax.data import importers
-    from gyrojax.data.records import record_paths, save_record
 
     for dest, formats in IMPORT_OPTIONS.items():
         if getattr(args, dest) is not None and args.format not in formats:
@@ -490,12 +484,7 @@ def cmd_import(args) -> int:
             **detector,
             **common,
         )
-    out = Path(args.out)
-    if not args.force:
-        for p in record_paths(out / rec.name):
-            if p.exists():
-                raise UsageError(f"{p}: exists; pass --force to overwrite")
-    path = save_record(rec, out, force=True)
+    (path,) = save_new_records([rec], args.out, args.force)
     kinds = [s["type"] for s in rec.meta["segments"]]
     summary = {k: kinds.count(k) for k in ("static", "rotation", "move") if k in kinds}
     report = rec.meta.get("import", {})

@@ -55,6 +55,8 @@ def cmd_design_separate(args) -> int:
         raise UsageError(f"{out}: exists; pass --force to overwrite")
     if not 0 < args.hours < float("inf"):
         raise UsageError(f"--hours must be finite and positive, got {args.hours}")
+    if args.adam_steps is None:
+        args.adam_steps = 600
     for option, value in (
         ("--positions", args.positions),
         ("--starts", args.starts),

@@ -58,7 +58,7 @@ def design_triad(args) -> int:
     minutes = 10.0 if args.minutes is None else args.minutes
     if not 0 < minutes < math.inf:
         raise UsageError(f"--minutes must be finite and positive, got {minutes}")
-    if args.starts < 1 or args.adam_steps < 1 or (args.lbfgs_steps or 0) < 0:
+    if args.starts < 1 or (args.adam_steps is not None and args.adam_steps < 1) or (args.lbfgs_steps or 0) < 0:
         raise UsageError("--starts and --adam-steps must be >= 1, --lbfgs-steps >= 0")
     terms = parse_terms(args.terms) if args.terms else list(DEFAULT_TERMS)
     noise, note = triad_noise_from_args(args)

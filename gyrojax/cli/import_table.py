@@ -8,9 +8,8 @@ here. Imports nothing heavy at start-up (argparse only): the command line answer
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
-from gyrojax.cli.args import UsageError
+from gyrojax.cli.args import UsageError, save_new_records
 
 TABLE_OPTIONS = {
     "setup": "--setup",
@@ -70,7 +69,6 @@ def _pairs(text: str) -> dict:
 
 def cmd_import_table(args) -> int:
     """``gyrojax import table TABLE.csv [INSTRUMENT.csv] --out DIR``: one record from a table data system's log(s)."""
-    from gyrojax.data.records import record_paths, save_record
     from gyrojax.data.tablelog import import_summary, import_table
     from gyrojax.data.tablesetup import TableSetup, apply_flags, read_setup_file, setup_from_dict
 
@@ -80,37 +78,14 @@ def cmd_import_table(args) -> int:
     if len(args.inputs) not in (1, 2):
         raise UsageError("import table takes the table's log and, on a clock of its own, the instrument's log")
     setup = setup_from_dict(read_setup_file(args.setup), args.setup) if args.setup else TableSetup()
-    flags = {
-        "--name": args.name,
-        "--id": args.id,
-        "--kind": args.kind,
-        "--mode": args.mode,
-        "--servo-axis": args.servo_axis,
-        "--latitude": args.latitude,
-        "--gravity": args.gravity,
-        "--axes": args.axes,
-        "--mounting": args.mounting,
-        "--scale": args.scale,
-        "--clock-offset": args.clock_offset,
-        "--keep-transitions": args.keep_transitions,
-        "--map": _pairs(args.map) if args.map else None,
-        "--time-unit": args.time_unit,
-        "--gyro-time-unit": args.gyro_time_unit,
-        "--angle-unit": args.angle_unit,
-        "--counts-per-rev": args.counts_per_rev,
-        "--rate-unit": args.rate_unit,
-        "--output-unit": args.output_unit,
-        "--temperature-unit": args.temperature_unit,
-    }
+    # the table's own options laid over the set-up file, then the import options it shares with the IMU importers
+    flags = {flag: getattr(args, dest) for dest, flag in TABLE_OPTIONS.items() if dest != "setup"}
+    flags.update({"--name": args.name, "--id": args.id, "--latitude": args.latitude, "--gravity": args.gravity})
+    flags.update({"--map": _pairs(args.map) if args.map else None, "--time-unit": args.time_unit})
     setup = apply_flags(setup, flags)
     gyro_log = args.inputs[1] if len(args.inputs) == 2 else None
     rec = import_table(args.inputs[0], gyro_log, setup, delimiter=args.delimiter)
-    out = Path(args.out)
-    if not args.force:
-        for p in record_paths(out / rec.name):
-            if p.exists():
-                raise UsageError(f"{p}: exists; pass --force to overwrite")
-    path = save_record(rec, out, force=True)
+    (path,) = save_new_records([rec], args.out, args.force)
     report = rec.meta["import"]
     if args.json:
         print(json.dumps({"record": str(path), "n_samples": rec.n, "output": rec.meta["output"], "import": report}))

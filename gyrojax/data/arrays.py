@@ -5,13 +5,19 @@ conventions §4: the indicated output in rebalance mode, the servo-axis rate per
 
 from __future__ import annotations
 
-import jax.numpy as jnp
+import jax
 import numpy as np
 
 from gyrojax import units
 from gyrojax.data.record import Record
 from gyrojax.kinds import TDF
 from gyrojax.physics.model import RecordData
+
+
+def on_device(x) -> jax.Array:
+    """``x`` as a float64 device array, by ``jax.device_put``: ``jnp.asarray`` of a numpy array compiles a staging
+    function for every new shape, eight of them for each record of a shape not seen before."""
+    return jax.device_put(np.asarray(x, dtype=np.float64))
 
 
 def record_data(record: Record) -> RecordData:
@@ -35,18 +41,18 @@ def record_data(record: Record) -> RecordData:
         weight = np.ones_like(y)
         command = np.zeros(record.n)
     return RecordData(
-        axes=jnp.asarray(record.axes_enu),
-        triad=jnp.asarray(record.triad),
-        latitude=jnp.asarray(np.deg2rad(record.latitude_deg)),
-        gravity=jnp.asarray(record.gravity_mps2),
-        time_s=jnp.asarray(t),
-        angles=jnp.asarray(angles),
-        rates=jnp.asarray(rates),
-        temperature=jnp.asarray(temp),
-        y=jnp.asarray(y, dtype=jnp.float64),
-        weight=jnp.asarray(weight),
-        command=jnp.asarray(command, dtype=jnp.float64),
-        dt=jnp.asarray(dt),
+        axes=on_device(record.axes_enu),
+        triad=on_device(record.triad),
+        latitude=on_device(np.deg2rad(record.latitude_deg)),
+        gravity=on_device(record.gravity_mps2),
+        time_s=on_device(t),
+        angles=on_device(angles),
+        rates=on_device(rates),
+        temperature=on_device(temp),
+        y=on_device(y),
+        weight=on_device(weight),
+        command=on_device(command),
+        dt=on_device(dt),
         kind=record.kind,
         mode=record.mode,
         servo_axis=record.servo_axis_index,

@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from gyrojax.data.importclues import MEMS_SCALE_BOUND, ratio_clue
+from gyrojax.data.restlog import rest_segments
 from gyrojax.data.triad import DIRECTIONS, axis_vector
 from gyrojax.errors import RecordError
 from gyrojax.protocol import is_finite_number
@@ -240,11 +241,7 @@ def gyro_only_segments(
         )
     if free:
         notes.append(f"{len(free)} motion(s) match no listed rotation: moves that are not fitted")
-    labels = np.full(len(t), -1.0)
-    segs = []
-    for i, (s, e) in enumerate(rests):
-        labels[s:e] = i
-        segs.append({"label": i, "type": "static", "name": f"rest-{i}"})
+    labels, segs = rest_segments(rests, len(t))
     for k, (s, e, _v, rot) in enumerate(matched):
         labels[s:e] = len(rests) + k
         segs.append({"label": len(rests) + k, "type": "rotation", "name": f"turn-{k}-{rot['axis']}", **rot})

@@ -213,8 +213,7 @@ def import_imucal(
       session: CSV path (columns ``acc_x…gyr_z``, optionally ``part`` and ``samples``) or a pandas DataFrame.
       rate_hz: sample rate, Hz (imucal's files do not carry it; None: 204.8, NilsPod's, with a note).
       sections: a section list for sessions without a ``part`` column, as :func:`read_sections` reads it (dict or
-        file; imucal's ``{"x_p": {"start": 540, "end": 1271}, …}`` or ``{"x_p": [start, end], …}``; row positions
-        in file order, end exclusive, as imucal's ``iloc``).
+        file).
       gyro_unit: ``"counts"`` (with ``gyro_counts_per_dps``, the nominal scale), ``"dps"`` or ``"rad/s"``.
       angle_deg: the known total angle of each hand rotation (deg; its sign comes from the data).
       angle_std_deg: 1σ error of that angle (deg), for the hand's imprecision.
@@ -325,9 +324,7 @@ def import_imucal(
             "import": report,
         },
     )
-    validate_triad_meta(meta, f"{meta['name']}.json")
-    validate_triad_columns(meta, cols, f"{meta['name']}.csv")
-    return Record(meta, {k: np.asarray(v, dtype=float) for k, v in cols.items()})
+    return _checked_record(meta, cols)
 
 
 def triad_from_arrays(
@@ -386,6 +383,12 @@ def triad_from_arrays(
     if iv:
         door["rest_gyro"] = check_rest_gyro(dps, iv, source, gyro_unit)
     notes = list(notes or [])
+    meta_kw = dict(
+        latitude_deg=latitude_deg,
+        gravity_mps2=gravity_mps2,
+        counts_per_dps=gyro_counts_per_dps,
+        instrument_id=instrument_id,
+    )
     if restlog.is_rest_log(iv, len(t), acc):
         acc_g, rest_g, acc_notes = (None, None, [])
         if acc is not None:
@@ -399,17 +402,8 @@ def triad_from_arrays(
         covered = restlog.coverage(iv, len(t))
         what = f"a rest log: {len(iv)} rest(s) covering {covered:.1%} of {t[-1]:.6g} s"
         report = {"source": source, "kind": "rest log", **door, **det.to_json(), "notes": notes + acc_notes}
-        return _triad_record(
-            name,
-            segs,
-            cols,
-            latitude_deg,
-            gravity_mps2,
-            gyro_counts_per_dps,
-            instrument_id,
-            f"imported from {source}: {what} ({rate_hz:.6g} Hz)",
-            {"import": report},
-        )
+        notes = f"imported from {source}: {what} ({rate_hz:.6g} Hz)"
+        return _checked_record(triad_meta(name, segs, notes=notes, extra={"import": report}, **meta_kw), cols)
     if acc is None or not iv:
         found = "no rest found" if not iv else f"its rests cover {restlog.coverage(iv, len(t)):.0%}"
         raise RecordError(
@@ -451,31 +445,12 @@ def triad_from_arrays(
     extra = {"import": {"source": source, **door, **det.to_json(), "accelerometer": acc_check, "notes": notes}}
     if calib is not None:
         extra["accelerometer_calibration"] = calib
-    return _triad_record(
-        name,
-        segs,
-        cols,
-        latitude_deg,
-        gravity_mps2,
-        gyro_counts_per_dps,
-        instrument_id,
-        f"imported from {source} ({len(iv)} static poses, {rate_hz:.6g} Hz)",
-        extra,
-    )
+    notes = f"imported from {source} ({len(iv)} static poses, {rate_hz:.6g} Hz)"
+    return _checked_record(triad_meta(name, segs, notes=notes, extra=extra, **meta_kw), cols)
 
 
-def _triad_record(name, segs, cols, latitude_deg, gravity_mps2, counts_per_dps, instrument_id, notes, extra):
-    """The checked record of :func:`triad_from_arrays`."""
-    meta = triad_meta(
-        name,
-        segs,
-        latitude_deg=latitude_deg,
-        gravity_mps2=gravity_mps2,
-        counts_per_dps=counts_per_dps,
-        instrument_id=instrument_id,
-        notes=notes,
-        extra=extra,
-    )
+def _checked_record(meta: dict, cols: dict) -> Record:
+    """The record of an importer, its JSON and columns checked as :func:`gyrojax.data.records.load_record` would."""
     validate_triad_meta(meta, f"{meta['name']}.json")
     validate_triad_columns(meta, cols, f"{meta['name']}.csv")
     return Record(meta, {k: np.asarray(v, dtype=float) for k, v in cols.items()})
@@ -511,10 +486,7 @@ def gyro_only_record(t, gyr, rotations, *, gyro_unit="dps", gyro_counts_per_dps=
     dps = np.stack(list(gcols.values()), axis=1) / (k or 1.0)
     labels, segs, report = gyro_only_segments(t, dps, rotations, **seg_kw)
     meta = triad_meta(name, segs, counts_per_dps=k, notes="a gyro-only session", extra={"import": report}, **kw)
-    cols = {"time_s": np.asarray(t, dtype=float), "segment": labels, **gcols}
-    validate_triad_meta(meta, f"{name}.json")
-    validate_triad_columns(meta, cols, f"{name}.csv")
-    return Record(meta, cols)
+    return _checked_record(meta, {"time_s": np.asarray(t, dtype=float), "segment": labels, **gcols})
 
 
 CSV_KEYS = ("time", "time_s", "sample", "gyro_x", "gyro_y", "gyro_z", "acc_x", "acc_y", "acc_z")

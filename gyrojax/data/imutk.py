@@ -12,7 +12,6 @@ import numpy as np
 from gyrojax.data.importers import triad_from_arrays
 from gyrojax.data.logs import jitter_note, log_clock
 from gyrojax.data.record import Record
-from gyrojax.data.segments import MIN_REST_S
 from gyrojax.errors import RecordError
 
 
@@ -44,34 +43,14 @@ def read_imutk_ascii(path) -> np.ndarray:
 
 
 def import_imutk(
-    acc_path,
-    gyro_path,
-    *,
-    acc_unit: str = "counts",
-    gyro_unit: str = "counts",
-    gyro_counts_per_dps: float | None = None,
-    acc_g_per_count: float | None = None,
-    acc_bias0=None,
-    latitude_deg: float | None = None,
-    gravity_mps2: float | None = None,
-    min_rest_s: float = MIN_REST_S,
-    static_threshold: float | None = None,
-    name: str | None = None,
-    instrument_id: str | None = None,
-    acc_counts_per_g: float | None = None,
+    acc_path, gyro_path, *, acc_unit: str = "counts", gyro_unit: str = "counts", name=None, **kw
 ) -> Record:
-    """An imu_tk multi-position recording (or a rest log in its format, ``acc_counts_per_g`` its accelerometer's
-    nominal scale) (accelerometer and gyroscope files) as one ``imu-triad`` record.
+    """An imu_tk multi-position recording (or a rest log in its format) (accelerometer and gyroscope files) as one
+    ``imu-triad`` record by :func:`gyrojax.data.importers.triad_from_arrays` (other keyword arguments go there).
 
-    Static poses come from :func:`gyrojax.data.segments.detect_rests` (accelerometer and gyro variance against the
-    rests' own noise; ``min_rest_s`` the shortest rest, ``static_threshold`` the threshold in multiples of the
-    noise variance); each pair of consecutive poses gets a ``move`` segment (the samples between them: a
-    gravity-to-gravity move, its rotation known through the accelerometer directions before and after). The
-    accelerometer (``acc_unit``, imu_tk's raw counts by default) is checked and calibrated as
-    :func:`accelerometer_in_g` says, started from ``acc_g_per_count`` and ``acc_bias0`` when given.
-
-    Args: gyro_unit ``"counts"`` (with ``gyro_counts_per_dps``), ``"dps"`` or ``"rad/s"``; latitude_deg (None:
-    unknown); gravity_mps2 (local gravity, m/s²).
+    Static poses come from :func:`gyrojax.data.segments.detect_rests`; each pair of consecutive poses gets a
+    ``move`` segment (a gravity-to-gravity move, its rotation known through the accelerometer directions before and
+    after). The accelerometer is in imu_tk's raw counts by default, the gyro too (``gyro_counts_per_dps`` per deg/s).
     """
     acc = read_imutk_ascii(acc_path)
     gyr = read_imutk_ascii(gyro_path)
@@ -88,17 +67,9 @@ def import_imutk(
         gyr[:, 1:],
         acc_unit=acc_unit,
         gyro_unit=gyro_unit,
-        gyro_counts_per_dps=gyro_counts_per_dps,
-        acc_g_per_count=acc_g_per_count,
-        acc_bias0=acc_bias0,
-        latitude_deg=latitude_deg,
-        gravity_mps2=gravity_mps2,
-        min_rest_s=min_rest_s,
-        static_threshold=static_threshold,
         name=name or Path(acc_path).name.split(".")[0],
-        instrument_id=instrument_id,
         source=f"imu_tk files {acc_path}, {gyro_path}",
         notes=notes,
-        acc_counts_per_g=acc_counts_per_g,
         clock=clock,
+        **kw,
     )

@@ -23,6 +23,7 @@ from gyrojax.data.door import check_rest_gyro
 from gyrojax.data.logs import TIME_UNITS, file_stem, log_clock, table_layout
 from gyrojax.data.segments import WINDOW_S, default_threshold, window_samples
 from gyrojax.data.stream import CHUNK_ROWS, Progress
+from gyrojax.data.timebase import true_runs
 from gyrojax.data.triad import CHANNELS
 from gyrojax.errors import RecordError
 from gyrojax.physics.gravity import site_gravity
@@ -145,11 +146,6 @@ def still_blocks(var: np.ndarray, size: int, sensors: dict, floor: np.ndarray) -
     return still, thr
 
 
-def _runs(mask: np.ndarray) -> list:
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
-    return list(zip(edges[::2].tolist(), edges[1::2].tolist()))
-
-
 def import_long_csv(
     path,
     mapping: dict,
@@ -250,7 +246,7 @@ def import_long_csv(
         sensors = {"gyro": [0, 1, 2]} | ({"acc": [3, 4, 5]} if acc_names else {})
         still, thr = still_blocks(var, size, sensors, state["floor"])
         rests = []
-        for s, e in _runs(still):
+        for s, e in true_runs(still):
             s2, e2 = s + (s > 0), e - (e < len(still))  # a block beside a move is no rest
             if (e2 - s2) * size >= min_rest_s * rate and e2 > s2:
                 rests.append((s2, e2))

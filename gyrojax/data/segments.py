@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import optimize, special
 
+from gyrojax.data.timebase import true_runs
 from gyrojax.errors import RecordError
 
 WINDOW_S = 0.2
@@ -148,12 +149,6 @@ def _noise_variance(v: np.ndarray, m: int, rest: np.ndarray | None, floor: np.nd
     return np.maximum(level, np.maximum(floor, 1e-300))
 
 
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    """(start, end) of the runs of True in ``mask`` (end exclusive)."""
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
-    return list(zip(edges[::2].tolist(), edges[1::2].tolist()))
-
-
 def _join_gyro_quiet(keep, ratio_gyro, rate_hz):
     """Join consecutive rests whose gap never lifts the gyro's windowed variance above the threshold: nothing
     turned between them (a tap disturbed the accelerometer), so they are one pose. Returns (rests, joined gaps)."""
@@ -227,9 +222,9 @@ def detect_rests(
     def trimmed(s, e):
         return (s + trim if s > 0 else s), (e - trim if e < n else e)
 
-    for cs, ce in _runs(ratio <= CANDIDATE_FACTOR):
+    for cs, ce in true_runs(ratio <= CANDIDATE_FACTOR):
         found, short = [], []
-        for s, e in _runs(rest[cs:ce]):
+        for s, e in true_runs(rest[cs:ce]):
             s2, e2 = trimmed(cs + s, cs + e)
             if e2 - s2 >= min_n and e2 > s2:
                 found.append((s2, e2))

@@ -16,7 +16,7 @@ sampling at the mean interval; more is refused (the Allan variance needs a const
 def static_rate_segments(records, rate_tol_dps: float = 1e-9, notes: list | None = None):
     """The indicated rate (deg/h) of static SDF records, split into continuous segments; and the common τ0 (s).
 
-    Gaps (steps over 1.5 × the median, :func:`gyrojax.data.records.continuous_segments`) split a record into
+    Gaps (steps over 1.5 × the median, :func:`gyrojax.data.timebase.continuous_segments`) split a record into
     segments that are pooled. Timestamp jitter within a segment up to :data:`JITTER_TOLERANCE` of the interval
     is tolerated: τ0 is then the mean interval and a sentence saying so is appended to ``notes`` (if given).
     Raises :class:`AllanError` for a non-SDF record, a moving table, larger jitter, or intervals that differ.

@@ -46,7 +46,6 @@ from gyrojax.kinds import ACCEL, TDF
 MIN_OVERLAP = 0.5
 """Smallest share of the instrument's log that the table's log must cover (after the clock offset)."""
 TABLE_KEYS = ("time", "segment")
-GYRO_KEYS = ("gyro_time", "output", "output_x", "output_y")
 
 
 def clock_seconds(df, col: str, unit: str, where: str) -> np.ndarray:

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gyrojax.data.timebase import GAP_FACTOR
+from gyrojax.data.timebase import GAP_FACTOR, true_runs
 
 HOLD_S = 2.0
 """Shortest hold (position or rate step) kept, s."""
@@ -75,11 +75,6 @@ def _pieces(t: np.ndarray) -> list[tuple[int, int]]:
     brk = np.flatnonzero(dt > GAP_FACTOR * np.median(dt)) + 1
     edges = np.concatenate([[0], brk, [len(t)]])
     return list(zip(edges[:-1].tolist(), edges[1:].tolist()))
-
-
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
-    return list(zip(edges[::2].tolist(), edges[1::2].tolist()))
 
 
 def _window_rates(t, angles, rates, h):
@@ -150,7 +145,7 @@ def detect_table_segments(
             out.append(_segment(kind, s0, e0, t, angles, rates))
             continue
         level, _ = level_samples(ts, ang, rts, window_s, resolution)
-        holds = [(s, e) for s, e in _runs(level) if ts[e - 1] - ts[s] >= hold_s]
+        holds = [(s, e) for s, e in true_runs(level) if ts[e - 1] - ts[s] >= hold_s]
         pos = s0
         for s, e in holds:
             if s0 + s > pos:

@@ -1,5 +1,6 @@
-"""The time base of a record (conventions §5): continuous segments, the sample interval and its jitter, the
-interval key that groups records sampled at one rate, and rates derived from angles inside segments.
+"""The time base of a record (conventions §5): continuous segments, the runs of samples that pass a test, the
+sample interval and its jitter, the interval key that groups records sampled at one rate, and rates derived from
+angles inside segments.
 
 Pure functions of arrays: they know nothing of files or metadata.
 """
@@ -28,6 +29,12 @@ def continuous_segments(time_s: np.ndarray, segment: np.ndarray | None = None) -
     out[0] = 0
     np.cumsum(brk, out=out[1:])
     return out
+
+
+def true_runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """(start, end) of the runs of True in ``mask`` (end exclusive)."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
+    return list(zip(edges[::2].tolist(), edges[1::2].tolist()))
 
 
 JITTER_TOL = 0.05

@@ -2,7 +2,7 @@
 
 gyrojax writes them in the result protocol of :mod:`gyrojax.protocol` (:func:`save_truth`: format tag
 ``"gyrojax-truth"``, integer ``format_version``); a truth file without the tag, as other tools and hand-written
-files have it, loads as before.
+files have it, loads too.
 """
 
 from __future__ import annotations

@@ -17,13 +17,14 @@ from __future__ import annotations
 import jax.numpy as jnp
 from jax.scipy.linalg import expm
 
-__all__ = ["zoh", "zoh_ab", "step_response_integral"]
+__all__ = ["zoh", "zoh_ab"]
 
 
 def zoh_ab(a, b, dt):
-    """(A_d, B_d) of the zero-order-hold discretisation of (A, B) at step ``dt`` (s).
+    """(A_d, B_d) of the zero-order-hold discretisation of (A, B) at step ``dt`` (s, may be traced).
 
-    a: (n, n), b: (n, m). Uses expm of the (n+m)×(n+m) augmented matrix [[A, B], [0, 0]]·dt.
+    a: (n, n), b: (n, m). Uses expm of the (n+m)×(n+m) augmented matrix [[A, B], [0, 0]]·dt. The state after
+    holding u for ``dt`` from x is A_d x + B_d u (also for sub-step pulse timing).
     """
     a = jnp.asarray(a)
     b = jnp.asarray(b)
@@ -41,11 +42,3 @@ def zoh(a, b, c, d, dt):
     """
     ad, bd = zoh_ab(a, b, dt)
     return ad, bd, jnp.asarray(c), jnp.asarray(d)
-
-
-def step_response_integral(a, b, t):
-    """Γ(t) = ∫₀^t e^{As} ds · B and e^{At} for a (possibly traced) duration ``t`` ≥ 0, as (e^{At}, Γ(t)).
-
-    The state after holding u for t seconds from x is e^{At} x + Γ(t) u; used for sub-step pulse timing.
-    """
-    return zoh_ab(a, b, t)

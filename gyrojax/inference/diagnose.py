@@ -247,7 +247,7 @@ def fit_with(d: Diagnosis, records, effect: str | None = None, campaign: Campaig
             done_on, res = c.refit
             if len(done_on) == len(recs) and all(a is b for a, b in zip(done_on, recs)):
                 return res
-    terms = tuple(d.fit.model.terms) + (effect,)
+    terms = tuple(d.fit.terms) + (effect,)
     return fit(recs, terms, campaign=campaign, allow_aliases=False, earth_rate=earth_rate)
 
 
@@ -264,6 +264,6 @@ def add_and_refit(records, terms=None, effect: str | None = None, *, diagnosis: 
     recs = kw["campaign"].records if kw.get("campaign") is not None else records
     d = diagnosis or diagnose(recs, terms, **kw)
     effect = effect_to_add(d, effect)
-    new_terms = tuple(d.fit.model.terms) + (effect,)
+    new_terms = tuple(d.fit.terms) + (effect,)
     new_fit = fit_with(d, recs, effect, campaign=kw.get("campaign"), earth_rate=kw.get("earth_rate"))
     return Step(new_terms, new_fit, diagnose(recs, new_terms, result=new_fit, **kw), effect)

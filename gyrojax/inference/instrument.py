@@ -77,7 +77,7 @@ class Session:
 
     def refit(self, c: Candidate):
         """The fit with ``c``'s effect added, exactly as the fit would add it (:class:`ModelError` when it refuses)."""
-        return self.fit_terms(tuple(self.fit.model.terms) + (self.effect_of(c),))
+        return self.fit_terms(tuple(self.fit.terms) + (self.effect_of(c),))
 
     def with_refit(self, c: Candidate, f) -> Candidate:
         """``c`` after the fit accepted it: the refit kept for the next step of the main loop."""

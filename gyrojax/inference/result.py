@@ -71,6 +71,11 @@ class FitResult(Estimates):
         return self.model.coefficient_names
 
     @property
+    def terms(self) -> tuple:
+        """The effect names of the fit (the model's), as the next step of the main loop extends them."""
+        return tuple(self.model.terms)
+
+    @property
     def correlation(self) -> np.ndarray:
         """Correlation matrix of the estimates (p, p), dimensionless."""
         s = self.std

@@ -27,7 +27,11 @@ derivatives by ``jax.jacfwd`` of the same measurement model), through the one ra
 * the **unknown heading** of each hand-placed pose, a nuisance marginalised with a uniform prior: the horizontal
   Earth rate of magnitude Ω cos φ adds (Ω cos φ)²/2 (I − u uᵀ) to the pose's 3×3 block (u: Up in the body
   frame, from the accelerometer);
-* the **angle error** of a hand rotation (``angle_std_deg``), σ_Θ² n nᵀ / T² on the rotation's block.
+* the **angle error** of a hand rotation (``angle_std_deg``), σ_Θ² n nᵀ / T² on the rotation's block;
+* in a session with moves, the **variance components between segments** (:mod:`gyrojax.inference.triad_components`,
+  REML): a per-pose bias scatter, a per-move angle noise, and a bias walk from pose to pose where its likelihood ratio
+  is significant — it couples every segment, so the fit is then generalised least squares under one dense
+  covariance (Gauss–Newton from the fit without it) and the notes say so.
 
 Earth rate (ω_ie = 15.04 deg/h): with the site latitude φ its vertical part Ω sin φ·u is modelled exactly; the
 horizontal part enters as above. With the latitude unknown (``null``), the vertical part cannot be told from a
@@ -55,9 +59,11 @@ from gyrojax.inference.scoring import ALPHA
 from gyrojax.inference.solver import solve
 from gyrojax.inference.triad_accel import accelerometer_json, fit_accelerometer, needs_calibration
 from gyrojax.inference.triad_checks import divergence_hint, plausibility_notes, terms_for_force
-from gyrojax.inference.triad_components import Group, estimate_components
+from gyrojax.inference.triad_components import Group, boundary_p, estimate_components, select_components, whiten_rows
 from gyrojax.inference.triad_result import TriadFit
-from gyrojax.inference.triad_rows import move_rows, pack_moves, pack_segments, scale_matrix, segment_rows
+from gyrojax.inference.triad_rows import pack_moves, pack_segments, scale_matrix, segment_rows
+from gyrojax.inference.triad_turn_on import BIAS, move_rows_with_steps, power_ups, split_terms, step_names
+from gyrojax.inference.triad_turn_on import check as check_turn_on
 from gyrojax.noise.spec import SessionNoise
 from gyrojax.noise.whiten import pooled_autocovariance
 from gyrojax.optimize import least_squares
@@ -69,6 +75,7 @@ DEFAULT_ROTATION_TERMS = DEFAULT_STATIC_TERMS + ("sf_error", "ia_misalignment")
 MAX_NOISE_PASSES = 8  # fits at fixed noise, the noise updated with the fitted S between them (2–3 suffice)
 NOISE_PASS_TOL = 1e-10  # relative change of S below which the noise is settled (χ² then changes by ≲ 1e-10)
 MOVE_DIVERGED_DEG = 10.0  # median angle left at the moves above which the fit of the moves has diverged
+WALK_STEPS = 5  # Gauss–Newton steps of the fit under a bias walk at most (the moves are nearly linear: 1–2 suffice)
 NW_MAX_LAG = 50  # samples: longest autocovariance lag of the long-run variance (MEMS filters span a few samples)
 
 
@@ -161,7 +168,9 @@ def fit_triad_unchecked(
       max_iter: iterations of the fit of gravity-to-gravity moves (the only nonlinear part): at most this many
         evaluations of the moves' residual by Levenberg–Marquardt (about one per iteration; 5 to 10 suffice).
       components: in a session with moves, estimate a per-pose bias scatter and a per-move angle noise by REML
-        (:mod:`gyrojax.inference.triad_components`) and let σ carry them (False: white noise only).
+        (:mod:`gyrojax.inference.triad_components`) and let σ carry them, and a bias walk between poses where it is
+        significant (:func:`~gyrojax.inference.triad_components.select_components`; the fit is then generalised
+        least squares under its dense covariance) (False: white noise only).
 
     Returns: a :class:`TriadFit`; coefficients ``<name>[<channel>]`` in report units.
     Raises: :class:`~gyrojax.inference.identifiability.IdentifiabilityError` naming what the segments cannot separate.
@@ -176,32 +185,41 @@ def fit_triad_unchecked(
     if needs_calibration(acc_fit, recs):  # off g beyond the tolerance: calibrated here, never taken on trust
         recs = [with_calibrated_accelerometer(r, acc_fit) for r in recs]
         acc_fit["applied"] = True
-    segments, resid, modes, moves = [], [], set(), []
-    for r in recs:
+    segments, resid, modes, moves, seg_rec, mv_rec = [], [], set(), [], [], []
+    for i, r in enumerate(recs):
         s, q, mode, mv = triad_segments(r, earth_rate)
         segments.extend(s)
         resid.extend(q)
         modes.add(mode)
         moves.extend(mv)
+        seg_rec += [i] * len(s)
+        mv_rec += [i] * len(mv)
     if not segments:
         raise ModelError("the records hold no static or rotation segment to fit")
     has_rot = any(s.kind == "rotation" for s in segments) or bool(moves)
     default = terms is None
     if default:
         terms = DEFAULT_ROTATION_TERMS if has_rot else DEFAULT_STATIC_TERMS
+    terms, turn_on = split_terms(terms)
     terms, force_notes = terms_for_force(terms, segments, default)
     model = tp.channel_model(terms)
-    names = [tp.channel_name(c, ch) for ch in tp.CHANNELS for c in model.coefficient_names]
+    if turn_on:
+        kinds = [[s.kind for s, i in zip(segments, seg_rec) if i == k] for k in range(len(recs))]
+        check_turn_on(model, [r.name for r in recs], kinds)
+    pu = power_ups(model, seg_rec, mv_rec, len(recs), turn_on)
+    names = [tp.channel_name(c, ch) for ch in tp.CHANNELS for c in model.coefficient_names] + step_names(pu.count)
+    n_theta = len(names)
     dt_s = float(np.median([np.median(np.diff(s.t_h)) for s in segments if len(s.t_h) > 1] or [0.0])) * 3600.0
     q = long_run_variance(resid) if noise_q is None else _channel_variances(noise_q, dt_s)
 
     # one compiled call each for the segment means and the moves (triad_rows), at shapes bucketed across sessions
     base, jac = segment_rows(model, np.zeros(3 * model.size), pack_segments(segments, bucketed=True), len(segments))
+    jac = pu.segment_jacobian(jac)  # the power-ups' bias steps beside the channel coefficients (triad_turn_on)
     y = np.concatenate([s.y for s in segments])
     packed = pack_moves(moves, bucketed=True) if moves else None
     # the noise of every row in indicated units at the fitted S (whiten_segments, move_whitening): the model is
     # linear in S, so a record whose nominal scale is off by k gives the same fit with S, b, G times k, the same χ²
-    theta = np.zeros(3 * model.size)
+    theta = np.zeros(n_theta)
     if moves and not any(s.kind == "rotation" for s in segments):
         # statics alone see S only through the vertical Earth rate (≤ 15 deg/h): the start holds S = I and fits
         # bias and g-terms, the moves then find S (a free S would split Ω sin φ into absurd scale and misalignment)
@@ -214,7 +232,7 @@ def fit_triad_unchecked(
     # S is seen by rotations or moves only; without them the body-rate covariances stay at the nominal scale
     passes = MAX_NOISE_PASSES if moves or any(s.kind == "rotation" for s in segments) else 1
     for _pass in range(passes):  # fixed noise per pass; the passes update it with the fitted S
-        s_mat = scale_matrix(model, theta) if passes > 1 else np.eye(3)
+        s_mat = scale_matrix(model, pu.split(theta)[0]) if passes > 1 else np.eye(3)
         if s_prev is not None and np.max(np.abs(s_mat - s_prev)) <= NOISE_PASS_TOL * np.max(np.abs(s_prev)):
             break
         _check_scale_matrix(s_mat)
@@ -222,37 +240,48 @@ def fit_triad_unchecked(
         lin_r, lin_j = whiten_segments(segments, y - base, jac, q, s_mat)
         if moves:  # Levenberg–Marquardt on the linear rows and the moves' direction residuals (2 rows per move)
             move_w = move_whitening(moves, q, s_mat)
-            system = _moves_system(model, packed, lin_r, lin_j, move_w)
+            system = _moves_system(model, packed, lin_r, lin_j, move_w, pu)
             sol = least_squares(system, theta, max_iter)
             theta, n_eval, why = sol.x, sol.steps, sol.reason
             iterations += n_eval
             if why:
                 break
         else:
-            theta = np.zeros(3 * model.size) + solve(lin_j, lin_r)[0]
+            theta = np.zeros(n_theta) + solve(lin_j, lin_r)[0]
             iterations += 1
     else:
         if passes > 1:
             why = why or f"the noise did not settle with the fitted scale in {MAX_NOISE_PASSES} passes"
-    tau2, why_components = {}, ""
+    tau2, why_components, walk_note = {}, "", ""
     if moves:
         base_w = (lin_r, lin_j, move_w)  # the white-noise model's rows: its χ² says how poor that model is
         if components and not why:
-            moves_at = move_rows(model, theta, packed, move_w)[1:]
+            moves_at = move_rows_with_steps(model, theta, packed, move_w, pu)[1:]
             groups = component_groups(segments, y - base - jac @ theta, jac, q, s_mat, moves_at, move_w)
             tau2, why_components = estimate_components(groups)
         if any(v > 0 for v in tau2.values()):  # refit with the components in the covariance
             lin_r, lin_j = whiten_segments(segments, y - base, jac, q, s_mat, tau2.get("pose", 0.0))
             move_w = move_whitening(moves, q, s_mat, tau2.get("move", 0.0))
-            system = _moves_system(model, packed, lin_r, lin_j, move_w)
+            system = _moves_system(model, packed, lin_r, lin_j, move_w, pu)
             sol = least_squares(system, theta, max_iter)
             theta, n_eval, why = sol.x, sol.steps, sol.reason
             iterations += n_eval
         rw, jw = system(theta)
         why = why or why_components
+        if components and not why and BIAS in model.terms:  # a bias that walks between poses: the σ carry it
+            walk_at = _walk_groups(model, segments, moves, y - base, jac, q, s_mat, packed, pu, (seg_rec, mv_rec))
+            tau2_walk, lr_walk = select_components(walk_at(theta), ALPHA)
+            if tau2_walk.get("walk", 0.0) > 0.0:
+                tau2 = tau2_walk
+                theta, rw, jw = _fit_with_walk(walk_at, theta, tau2)
+                walk_note = (
+                    f"the bias walks between poses (REML likelihood ratio {lr_walk:.3g} against independent pose "
+                    f"scatter, p {boundary_p(lr_walk):.2g}): the coefficients are generalised least squares and their "
+                    "standard errors carry the walk, the pose scatter and the move angle noise (variance_components)"
+                )
     else:
         rw, jw = lin_r, lin_j
-        theta = np.zeros(3 * model.size)
+        theta = np.zeros(n_theta)
     report = alias_analysis(jw, names, names)
     not_excited = report["unexcited"]
     if (report["aliases"] or not_excited) and not allow_aliases:
@@ -260,10 +289,10 @@ def fit_triad_unchecked(
     step, cov = solve(jw, rw)  # rank-cut SVD in normalised columns; unseen coefficients get NaN rows and columns
     theta = theta + step
     bad = ~np.isfinite(np.diag(cov))
-    s_fit = scale_matrix(model, theta)
+    s_fit = scale_matrix(model, pu.split(theta)[0])
     if moves:  # one evaluation of the moves at the fitted θ: their Up residuals and rows of the white-noise model
         lr0, lj0, mw0 = base_w
-        r_moves, mr, _ = move_rows(model, theta, packed, mw0)
+        r_moves, mr, _ = move_rows_with_steps(model, theta, packed, mw0, pu)
         _check_moves_converged(s_fit, r_moves, moves)
         e = np.concatenate([lr0 - lj0 @ theta, mr])
     else:
@@ -295,6 +324,14 @@ def fit_triad_unchecked(
             f"the segment means scatter more than the sample noise explains (chi2 {chi2:.3g} on {dof} dof, "
             f"p {special.chdtrc(dof, chi2):.2g}; largest shares: {drivers}): bias shifts between poses, hand-move "
             f"errors or a missing effect; {tail}"
+        )
+    if walk_note:
+        notes.append(walk_note)
+    if pu.n_steps:
+        notes.append(
+            f"bias_turn_on: D_F is the bias of the first power-up ({recs[0].name}); "
+            + "; ".join(f"D_F_step_{k} that of {recs[k].name} less it" for k in range(1, len(recs)))
+            + " (apply calibrates a fitted power-up's record with its own bias, any other with the first's)"
         )
     if acc_fit is not None and acc_fit["poorly_determined"]:  # the gyro fit takes the specific force as calibrated
         notes.append(f"{acc_fit['poorly_determined']}; the gyro's standard errors do not include that error")
@@ -360,12 +397,12 @@ def _scale_coefficient(name: str) -> bool:
     return tp.split_channel_name(name)[0] in ("E_SF", "M_O", "M_S", "E_A", "E_2")
 
 
-def _moves_system(model, packed, lin_r, lin_j, move_w):
+def _moves_system(model, packed, lin_r, lin_j, move_w, pu):
     """The whitened rows of a fit with moves and their Jacobian at θ: the linear rows, then the moves' two direction
-    rows each (:func:`gyrojax.inference.triad_rows.move_rows`)."""
+    rows each (:func:`gyrojax.inference.triad_turn_on.move_rows_with_steps`: the power-ups' steps ``pu`` included)."""
 
     def system(th):
-        _, mr, mj = move_rows(model, th, packed, move_w)
+        _, mr, mj = move_rows_with_steps(model, th, packed, move_w, pu)
         return np.concatenate([lin_r - lin_j @ th, mr]), np.concatenate([lin_j, mj])
 
     return system
@@ -434,7 +471,31 @@ def components_report(tau2: dict, s_mat=None) -> dict:
         s_inv = np.linalg.inv(np.eye(3) if s_mat is None else np.asarray(s_mat))
         tau = float(np.sqrt(tau2["walk"]))
         out["bias_walk_deg_per_h_per_sqrt_pose"] = tau * float(np.sqrt(np.trace(s_inv @ s_inv.T) / 3.0))
+        out["bias_walk_indicated_deg_per_h_per_sqrt_pose"] = tau
     return out
+
+
+def components_tau2(report: dict) -> dict:
+    """The variance components τ² (natural units, as estimated) of a :func:`components_report`."""
+    out = {}
+    if "pose_bias_scatter_deg_per_h" in report:
+        out["pose"] = report.get("pose_bias_scatter_indicated_deg_per_h", report["pose_bias_scatter_deg_per_h"]) ** 2
+    if "move_angle_noise_deg" in report:
+        out["move"] = np.radians(report["move_angle_noise_deg"]) ** 2
+    if "bias_walk_deg_per_h_per_sqrt_pose" in report:
+        walk = report.get("bias_walk_indicated_deg_per_h_per_sqrt_pose", report["bias_walk_deg_per_h_per_sqrt_pose"])
+        out["walk"] = walk**2
+    return out
+
+
+def walk_clocks(segments, moves) -> tuple[np.ndarray, np.ndarray]:
+    """The bias walk's clock (:mod:`gyrojax.inference.triad_components`, dimensionless: segments counted) of each
+    segment (its ordinal in order of its mid time, h) and each move (between its neighbours: k + ½ after segment k)."""
+    seg_mid = np.array([float(np.mean(sg.t_h)) for sg in segments])
+    clock = np.empty(len(segments))
+    clock[np.argsort(seg_mid, kind="stable")] = np.arange(len(segments))
+    move_mid = np.array([float(np.mean(m.t_h)) for m in moves])
+    return clock, np.searchsorted(np.sort(seg_mid), move_mid) - 0.5
 
 
 def _segment_residuals(segments, e, raw_res, moves, r_moves, move_w) -> list:
@@ -487,21 +548,57 @@ def component_groups(segments, e, jac, q, s_mat, moves_at, move_w, extra=(), wal
     move's 2 direction rows (``moves_at``: the whitened rows and Jacobian of :func:`gyrojax.inference.triad_rows.
     move_rows` at θ with the whitening ``move_w``, the angle noise component). ``extra``: more regressors as
     (segment rows (3m, k), move rows (M, 3, k)) pairs, beside the Jacobian. ``walk``: (each segment's clock, each
-    move's clock, each move's (3, 3) change per deg/h of each channel's bias) where a bias walk is estimated."""
+    move's clock, each move's (2, 3) change of its two rows (natural units) per deg/h of each channel's bias, each
+    segment's power-up, each move's)
+    where a bias walk is estimated (it restarts at each power-up: :mod:`gyrojax.inference.triad_components`)."""
     groups = []
     covs = _segment_covs(segments, q, s_mat)
-    seg_clock, move_clock, move_bias = walk if walk is not None else (None, None, None)
+    seg_clock, move_clock, move_bias, seg_power, move_power = walk if walk is not None else (None,) * 5
     for i, seg in enumerate(segments):
         sl = slice(3 * i, 3 * i + 3)
         j = np.column_stack([jac[sl]] + [sg[sl] for sg, _ in extra])
-        step = None if walk is None else float(seg_clock[i])
-        groups.append(Group(covs[i], e[sl], j, "pose" if seg.kind == "static" else "", step))
+        step, power = (None, 0) if walk is None else (float(seg_clock[i]), int(seg_power[i]))
+        groups.append(Group(covs[i], e[sl], j, "pose" if seg.kind == "static" else "", step, power_up=power))
     rows, jrows = moves_at  # whitened by σ_k: natural units are σ_k times them
     for k, (p, sd) in enumerate(move_w):
         j = np.column_stack([sd * jrows[2 * k : 2 * k + 2]] + [p.T @ mv[k] for _, mv in extra])
-        step, bias_rows = (None, None) if walk is None else (float(move_clock[k]), p.T @ move_bias[k])
-        groups.append(Group(sd**2 * np.eye(2), sd * rows[2 * k : 2 * k + 2], j, "move", step, bias_rows))
+        if walk is None:
+            step, bias_rows, power = None, None, 0
+        else:
+            step, bias_rows, power = float(move_clock[k]), move_bias[k], int(move_power[k])
+        groups.append(Group(sd**2 * np.eye(2), sd * rows[2 * k : 2 * k + 2], j, "move", step, bias_rows, power))
     return groups
+
+
+def _walk_groups(model, segments, moves, resid0, jac, q, s_mat, packed, pu, records):
+    """θ ↦ the fit's rows at θ as REML groups with the bias walk's clock (:func:`component_groups`): ``resid0`` the
+    segment means less the model at θ = 0 (linear in θ, ``jac``), the moves' rows redone at θ, each move's change per
+    deg/h of each channel's bias its D_F columns; ``records`` the power-up of each segment and each move."""
+    move_w = move_whitening(moves, q, s_mat)
+    clock, move_clock = walk_clocks(segments, moves)
+    bias = [c * model.size + model.coefficient_names.index(BIAS) for c in range(3)]
+
+    def at(theta):
+        rows, jrows = move_rows_with_steps(model, theta, packed, move_w, pu)[1:]
+        move_bias = [sd * jrows[2 * k : 2 * k + 2, bias] for k, (_p, sd) in enumerate(move_w)]
+        walk = (clock, move_clock, move_bias, np.asarray(records[0]), np.asarray(records[1]))
+        return component_groups(segments, resid0 - jac @ theta, jac, q, s_mat, (rows, jrows), move_w, (), walk)
+
+    return at
+
+
+def _fit_with_walk(groups_at, theta, tau2: dict):
+    """(θ, whitened rows, their Jacobian) of the generalised least squares under the covariance ``tau2`` with its
+    walk (:func:`gyrojax.inference.triad_components.whiten_rows`: one dense whitening), by Gauss–Newton from θ: the
+    segment means are linear in θ, the moves nearly so."""
+    for _ in range(WALK_STEPS):
+        e, x = whiten_rows(groups_at(theta), tau2)
+        step = np.nan_to_num(solve(x, e)[0])
+        theta = theta + step
+        if np.linalg.norm(x @ step) <= 1e-8 * max(1.0, float(np.linalg.norm(e))):
+            break
+    e, x = whiten_rows(groups_at(theta), tau2)
+    return theta, e, x
 
 
 def move_whitening(moves, q, s_mat, angle_var_extra: float = 0.0) -> list:

@@ -9,14 +9,18 @@ with one variance each, added to the covariance of the segment groups:
 * every move's 2 direction rows: + τ_m² I₂ (rad², the per-move angle noise about each horizontal axis);
 * a bias that walks from segment to segment (persisting steps at each move, or a rate random walk sampled at paced
   poses): the bias of the k-th segment in time order is b₀ + Σ_{j≤k} w_j with independent steps w_j of variance
-  τ_w² per channel, so segments k and l covary by τ_w² min(k, l) I₃ ((deg/h)² per pose; b₀ is the fitted bias). Its
-  covariance couples every segment, so with it the rows are whitened as one dense matrix.
+  τ_w² per channel, so segments k and l covary by τ_w² min(k, l) I₃ ((deg/h)² per pose; b₀ is the fitted bias). An
+  in-run walk does not outlive a power-off: with records of several power-ups, each walks from its own turn-on bias
+  (the fitted b₀, and its ``bias_turn_on`` step where fitted), k and l counted from its first segment and segments of
+  different power-ups independent. Its covariance couples every segment, so with it the rows are whitened as one
+  dense matrix.
 
 They are estimated by restricted maximum likelihood (Patterson & Thompson 1971; Harville 1977) on the model
 linearised at the fit: minimising −2ℓ_R(τ) = log|V(τ)| + log|Xᵀ V⁻¹ X| + min_δ (r − X δ)ᵀ V⁻¹ (r − X δ), which,
 unlike ML, accounts for the degrees of freedom the coefficients take (a model that fits leaves τ̂ ≈ 0 and σ as
-before). With τ̂ the fit is redone and its σ carry both components; χ² of the white-noise model is kept to say
-how poor that model is.
+before). With τ̂ the fit is redone and its σ carry the components; χ² of the white-noise model is kept to say
+how poor that model is. The walk is kept only where its likelihood ratio against the independent components is
+significant (:func:`select_components`): the one rule by which the fit's σ carry it and the diagnosis names it.
 """
 
 from __future__ import annotations
@@ -24,7 +28,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import linalg
+from scipy import linalg, special
 
 from gyrojax.optimize import difference_curvature, minimize
 
@@ -46,6 +50,7 @@ class Group:
     step: float | None = None  # where the bias walk applies: its clock (the segment's ordinal in time order; a move
     # between segments k and k + 1 is at k + ½); None where it does not
     bias_rows: np.ndarray | None = None  # (d, 3) the rows' change per deg/h of each channel's bias (None: I₃)
+    power_up: int = 0  # the power-up (record) of the rows: the walk restarts at each (module doc)
 
 
 class _Stacked:
@@ -126,23 +131,28 @@ def whiten_rows(groups, tau2: dict) -> tuple[np.ndarray, np.ndarray]:
 
 
 def walk_covariance(groups, offsets) -> np.ndarray:
-    """∂V/∂τ_w² of the bias walk (module doc): min(k, l) G_k G_lᵀ between the rows of groups at clocks k and l, G
-    a group's change per unit of each channel's bias (I₃ for a segment mean; for a move, the change of its two
-    direction rows, carried along the move as the fit carries a bias)."""
+    """∂V/∂τ_w² of the bias walk (module doc): min(k, l) G_k G_lᵀ between the rows of groups of one power-up at
+    clocks k and l (counted from its first), 0 between power-ups, G a group's change per unit of each channel's bias
+    (I₃ for a segment mean; for a move, the change of its two direction rows, carried along the move as the fit
+    carries a bias)."""
     n = int(offsets[-1])
     walking = [
-        (g.step, lo, np.eye(3) if g.bias_rows is None else g.bias_rows)
+        (g.step, lo, np.eye(3) if g.bias_rows is None else g.bias_rows, g.power_up)
         for g, lo in zip(groups, offsets[:-1])
         if g.step is not None
     ]
     if not walking:
         return np.zeros((n, n))
-    first = min(k for k, _, _ in walking)
-    rows = np.concatenate([lo + np.arange(len(b)) for _, lo, b in walking])
-    big_g = np.concatenate([b for _, _, b in walking])  # (rows, 3)
-    clock = np.concatenate([np.full(len(b), k - first) for k, _, b in walking])
+    first: dict = {}
+    for k, _, _, p in walking:
+        first[p] = min(first.get(p, k), k)
+    rows = np.concatenate([lo + np.arange(len(b)) for _, lo, b, _ in walking])
+    big_g = np.concatenate([b for _, _, b, _ in walking])  # (rows, 3)
+    clock = np.concatenate([np.full(len(b), k - first[p]) for k, _, b, p in walking])
+    power = np.concatenate([np.full(len(b), p) for _, _, b, p in walking])
     out = np.zeros((n, n))
-    out[np.ix_(rows, rows)] = np.minimum.outer(clock, clock) * (big_g @ big_g.T)
+    same = power[:, None] == power[None, :]
+    out[np.ix_(rows, rows)] = np.minimum.outer(clock, clock) * same * (big_g @ big_g.T)
     return out
 
 
@@ -243,3 +253,31 @@ def estimate_components(groups, kinds=("pose", "move")) -> tuple[dict, str]:
         if reml_objective(st, {**out, k: 0.0}, col_scale) - best.value < NEGLIGIBLE:
             out[k] = 0.0
     return out, best.reason
+
+
+def boundary_p(lr: float) -> float:
+    """The p-value of a variance component's likelihood ratio against zero, on the boundary of its parameter space:
+    ½ P(χ²₁ > LR) (Self & Liang 1987)."""
+    return 0.5 * float(special.chdtrc(1, lr)) if lr > 0 else 1.0
+
+
+def column_scale(groups) -> np.ndarray:
+    """The norms of the columns of the groups' Jacobian whitened by their base covariance (the REML objective's
+    column scaling)."""
+    col = np.linalg.norm(np.concatenate([np.linalg.solve(np.linalg.cholesky(g.cov), g.jac) for g in groups]), axis=0)
+    col[col == 0] = 1.0
+    return col
+
+
+def select_components(groups, alpha: float) -> tuple[dict, float]:
+    """The variance components of ``groups`` by REML with the bias walk among them only where its profile likelihood
+    ratio against no walk (the independent components re-estimated) is significant at ``alpha`` (boundary:
+    :func:`boundary_p`): (τ̂², the walk's likelihood ratio, 0 where it was not estimated). The one rule by which the
+    fit's σ and the diagnosis's tests take a walk."""
+    tau2, _why = estimate_components(groups)
+    with_walk, _why = estimate_components(groups, ("pose", "move", "walk"))
+    if with_walk.get("walk", 0.0) <= 0.0:
+        return tau2, 0.0
+    col = column_scale(groups)
+    lr = max(reml_objective(groups, tau2, col) - reml_objective(groups, with_walk, col), 0.0)
+    return (with_walk if boundary_p(lr) < alpha else tau2), lr

@@ -17,13 +17,13 @@ forward selection of the noise re-estimates those components with the candidates
 that selection with the named candidates, and are tested beside every named candidate with σ̃² after them all
 (F law). The noise processes between segments — ``pose_bias_scatter`` (an independent bias level at each pose),
 ``move_angle_noise`` (a per-move angle error) and ``bias_random_walk`` (a bias that walks from pose to pose: steps
-at each move that persist, or a rate random walk) — are tested by the REML likelihood ratio of their variance
-component against zero (boundary: p = ½ P(χ²₁ > LR); the walk's against the independent scatter alone, the other
-components re-estimated), as ``gauss_markov`` is on a turntable; they are noise, never proposed as deterministic
-effects. Where the walk is significant it whitens every test (the rows then as one dense covariance), from the first
-round of the forward selection on: a trend enters only when it beats the walk, and a candidate that the walk and it
-explain alike is said to be indistinguishable from drift. Sizes are checked against the MEMS limits of
-:mod:`gyrojax.physics.plausibility`.
+at each move that persist, or a rate random walk; each power-up's from its own turn-on bias) — are tested by the
+REML likelihood ratio of their variance component against zero (boundary: p = ½ P(χ²₁ > LR); the walk's against
+the independent scatter alone, the other components re-estimated), as ``gauss_markov`` is on a turntable; they are
+noise, never proposed as deterministic effects. Where the walk is significant it whitens every test (the rows then
+as one dense covariance), from the first round of the forward selection on: a trend enters only when it beats the
+walk, and a candidate that the walk and it explain alike is said to be indistinguishable from drift. Sizes are
+checked against the MEMS limits of :mod:`gyrojax.physics.plausibility`.
 """
 
 from __future__ import annotations
@@ -33,7 +33,6 @@ from dataclasses import dataclass, replace
 
 import jax
 import numpy as np
-from scipy import stats
 
 from gyrojax import units
 from gyrojax.data.record import Record
@@ -41,19 +40,27 @@ from gyrojax.data.triad import gyro_dph
 from gyrojax.data.triad_segments import triad_segments
 from gyrojax.errors import ModelError
 from gyrojax.inference import triad as tf
+from gyrojax.inference.adequacy import near_aliases
 from gyrojax.inference.instrument import Rules, Session
 from gyrojax.inference.kept_model import kept_call
 from gyrojax.inference.scoring import ALPHA, residual_variance, rms_after, score, score_beside, score_tests
-from gyrojax.inference.subspace import basis
-from gyrojax.inference.triad_components import estimate_components, reml_objective, whiten_rows
+from gyrojax.inference.subspace import WhitenedSystem, basis
+from gyrojax.inference.triad_components import (
+    boundary_p,
+    column_scale,
+    estimate_components,
+    reml_objective,
+    select_components,
+    whiten_rows,
+)
 from gyrojax.inference.triad_rows import (
     channel_matrices,
     move_residual,
-    move_rows,
     pack_moves,
     pack_segments,
     segment_means_and_jacobian,
 )
+from gyrojax.inference.triad_turn_on import TURN_ON, move_rows_with_steps, power_ups
 from gyrojax.inference.verdict import Candidate, Structure
 from gyrojax.physics import effects as fx
 from gyrojax.physics import plausibility
@@ -76,7 +83,8 @@ SHAPE_VERSUS = {
 
 MEMS_CANDIDATES = ("bias_turn_on", "time_offset")
 """Triad candidates beyond the registry (conventions §9): a bias step at each turn-on (one level per record after
-the first, per channel, deg/h) and a time offset between the gyro and accelerometer streams (one for the triad, s)."""
+the first, per channel, deg/h; the fit's term :mod:`gyrojax.inference.triad_turn_on`) and a time offset between the
+gyro and accelerometer streams (one for the triad, s; no fit term)."""
 
 SHAPES = ("rate_cross", "rate_magnitude", "motion_bias", "time_quadratic")
 """Model-free residual shapes per channel: ω_I ω_O, ω_I ω_S, ω_O ω_S ((deg/s)²); |ω| (deg/s); a bias present only
@@ -145,7 +153,8 @@ def candidate_regressors(model, data, candidates=None) -> list:
             and fx.get(n).knee is None  # a knee is fitted on turntable records only
             and (n != "bias_temperature" or np.ptp(temp) > 1e-6)
         ]
-        names += [n for n in MEMS_CANDIDATES if n != "bias_turn_on" or data["n_records"] > 1]
+        fitted = data["power_ups"].count > 1  # the fit has the steps: no candidate of them
+        names += [n for n in MEMS_CANDIDATES if n != TURN_ON or (data["n_records"] > 1 and not fitted)]
     out = []
     for n in names:
         if n == "bias_turn_on":
@@ -189,6 +198,8 @@ def session_data(records, fit, earth_rate=None) -> dict:
     in deg/h, specific force in g, time in h); ``earth_rate`` as :func:`gyrojax.inference.triad.fit_triad` takes it."""
     recs = [records] if isinstance(records, Record) else list(records)
     model, theta = fit.model, np.asarray(fit.theta, dtype=float)
+    if fit.power_ups > 1 and fit.power_ups != len(recs):
+        raise ModelError(f"the fit has the bias of {fit.power_ups} power-ups; {len(recs)} records are diagnosed")
     segments, moves, seg_rec, mv_rec, mv_times = [], [], [], [], []
     for i, r in enumerate(recs):
         s, _q, _mode, mv = triad_segments(r, earth_rate)
@@ -199,16 +210,17 @@ def session_data(records, fit, earth_rate=None) -> dict:
         mv_times.extend((m.t_h, m.temp) for m in mv)  # the samples the fit integrates
         gyro_dph(r)  # refuses a record without gyro columns here, by name
     q = np.asarray(fit.noise_q, dtype=float)
-    b, s_mat, g_mat = channel_matrices(model, theta)
+    pu = power_ups(model, seg_rec, mv_rec, len(recs), fit.power_ups > 1)
+    th_ch = pu.split(theta)[0]  # the channel coefficients, without the power-ups' bias steps (triad_turn_on)
+    b, s_mat, g_mat = channel_matrices(model, th_ch)
     comp = fit.variance_components or {}
-    tau2 = {
-        "pose": comp.get("pose_bias_scatter_indicated_deg_per_h", comp.get("pose_bias_scatter_deg_per_h", 0.0)) ** 2,
-        "move": math.radians(comp.get("move_angle_noise_deg", 0.0)) ** 2,
-    }
+    tau2_fit = tf.components_tau2(comp)
+    tau2 = {"pose": tau2_fit.get("pose", 0.0), "move": tau2_fit.get("move", 0.0)}
     arrays = pack_segments(segments)
     y = np.concatenate([sg.y for sg in segments])
-    means, jac = segment_means_and_jacobian(model, theta, arrays)
-    resid = y - means
+    means, jac_ch = segment_means_and_jacobian(model, th_ch, arrays)
+    resid = y - means - pu.bias_of(theta, seg_rec).reshape(-1)
+    jac = pu.segment_jacobian(jac_ch)
     t_all = np.concatenate([sg.t_h for sg in segments] + [t for t, _ in mv_times])
     t_mid = 0.5 * (t_all.min() + t_all.max())
 
@@ -233,6 +245,7 @@ def session_data(records, fit, earth_rate=None) -> dict:
         "resid": resid,
         "jac": jac,
         "n_records": len(recs),
+        "power_ups": pu,
         "seg_inputs": inputs,
     }
     data["inputs"] = list(inputs)
@@ -240,13 +253,14 @@ def session_data(records, fit, earth_rate=None) -> dict:
     if moves:
         packed = pack_moves(moves)
         move_w = tf.move_whitening(moves, q, s_mat, tau2["move"])
-        _, mr, mj = move_rows(model, theta, packed, move_w)
+        _, mr, mj = move_rows_with_steps(model, theta, packed, move_w, pu)
         data.update(packed=packed, move_w=move_w, move_r=mr, move_j=mj)
-        dr_dg = kept_call("triad_move_dr_dg", _dr_dg, _dr_dg_jit, model, theta, *packed)
+        dr_dg = kept_call("triad_move_dr_dg", _dr_dg, _dr_dg_jit, model, th_ch, *pu.shifted_moves(packed, theta))
         data["dr_dg"] = np.asarray(dr_dg)  # (M, 3, L, 3)
         mv_inputs = []
         for m, ri, (t_h, temp) in zip(moves, mv_rec, mv_times):
-            w_cal = np.linalg.solve(s_mat, (m.g - b - m.a @ g_mat.T).T).T  # deg/h, the calibrated body rate
+            bias = b + pu.bias_of(theta, ri)  # the power-up's own
+            w_cal = np.linalg.solve(s_mat, (m.g - bias - m.a @ g_mat.T).T).T  # deg/h, the calibrated body rate
             a_dot = np.gradient(m.a, m.dt, axis=0) if len(m.a) > 1 else np.zeros_like(m.a)
             n = len(m.g)
             mv_inputs.append(x(w_cal, m.a, t_h[:n], temp[:n], ri, np.ones(n, dtype=bool), a_dot @ g_mat.T))
@@ -254,12 +268,11 @@ def session_data(records, fit, earth_rate=None) -> dict:
         data["move_stacked"] = _stacked(mv_inputs)
         data["inputs"] += mv_inputs
         data["move_bias"] = np.stack([data["dr_dg"][k, :, : len(m.g), :].sum(axis=1) for k, m in enumerate(moves)])
-    # the bias walk's clock (triad_components): segments by their order in time, a move between its neighbours
-    seg_mid = np.array([float(np.mean(sg.t_h)) for sg in segments])
-    clock = np.empty(len(segments))
-    clock[np.argsort(seg_mid, kind="stable")] = np.arange(len(segments))
-    move_mid = np.array([float(np.mean(t)) for t, _ in mv_times])
-    data["walk"] = (clock, np.searchsorted(np.sort(seg_mid), move_mid) - 0.5, data.get("move_bias"))
+    clock, move_clock = tf.walk_clocks(segments, moves)  # the bias walk's (triad_components)
+    move_bias = [p.T @ g for (p, _sd), g in zip(data.get("move_w", []), data.get("move_bias", []))]
+    data["walk"] = (clock, move_clock, move_bias, np.asarray(seg_rec), np.asarray(mv_rec))
+    if "walk" in tau2_fit:  # the fit's σ carry a walk: the rows start from the independent components alone
+        data = with_tau2(data, estimate_components(_groups(data, []))[0])
     return data
 
 
@@ -333,7 +346,7 @@ def _groups(data: dict, extra: list) -> list:
     move_w, moves_at = [], (np.zeros(0), np.zeros((0, data["jac"].shape[1])))
     if data["moves"]:
         move_w = tf.move_whitening(data["moves"], data["q"], data["s_mat"])
-        moves_at = move_rows(data["model"], data["theta"], data["packed"], move_w)[1:]
+        moves_at = move_rows_with_steps(data["model"], data["theta"], data["packed"], move_w, data["power_ups"])[1:]
     return tf.component_groups(
         data["segments"], data["resid"], data["jac"], data["q"], data["s_mat"], moves_at, move_w, extra, data["walk"]
     )
@@ -341,40 +354,29 @@ def _groups(data: dict, extra: list) -> list:
 
 def components(data: dict, extra: list, alpha: float) -> tuple[dict, float, list]:
     """The variance components by REML beside the candidates ``extra`` (raw columns): (τ̂², the bias walk's
-    likelihood ratio, the REML groups). The walk is among them only where its profile likelihood ratio against no
-    walk (the other components re-estimated) is significant at ``alpha`` (boundary: p = ½ P(χ²₁ > LR)); else the
-    components are those of the independent scatter alone."""
+    likelihood ratio, the REML groups), the walk among them only where it is significant at ``alpha``
+    (:func:`gyrojax.inference.triad_components.select_components`, the rule the fit's σ follow too)."""
     groups = _groups(data, extra)
-    tau2, _why = estimate_components(groups)
-    with_walk, _why = estimate_components(groups, ("pose", "move", "walk"))
-    if with_walk.get("walk", 0.0) <= 0.0:
-        return tau2, 0.0, groups
-    col = _column_scale(groups)
-    lr = max(reml_objective(groups, tau2, col) - reml_objective(groups, with_walk, col), 0.0)
-    return (with_walk if boundary_p(lr) < alpha else tau2), lr, groups
-
-
-def boundary_p(lr: float) -> float:
-    """The p-value of a variance component's likelihood ratio against zero, on the boundary: ½ P(χ²₁ > LR)."""
-    return 0.5 * float(stats.chi2.sf(lr, 1)) if lr > 0 else 1.0
-
-
-def _column_scale(groups) -> np.ndarray:
-    col = np.linalg.norm(np.concatenate([np.linalg.solve(np.linalg.cholesky(g.cov), g.jac) for g in groups]), axis=0)
-    col[col == 0] = 1.0
-    return col
+    tau2, lr = select_components(groups, alpha)
+    return tau2, lr, groups
 
 
 def with_components(data: dict, extra: list, alpha: float) -> dict:
     """``data`` whitened with the variance components re-estimated by REML with the candidates ``extra`` (raw
     columns) among the fixed effects (:func:`components`): a missing effect is then not taken for pose scatter
     (deg/h), move angle noise (rad) or a bias walk, and a walk is not taken for a missing effect."""
-    tau2, _lr, _groups_ = components(data, extra, alpha)
+    return with_tau2(data, components(data, extra, alpha)[0])
+
+
+def with_tau2(data: dict, tau2: dict) -> dict:
+    """``data`` whitened with the variance components ``tau2`` ((deg/h)² per pose, rad² per move, (deg/h)² per pose
+    of the walk; the moves' rows redone with their angle noise)."""
     out = dict(data)
     out["tau2"] = {"pose": tau2.get("pose", 0.0), "move": tau2.get("move", 0.0), "walk": tau2.get("walk", 0.0)}
     if data["moves"]:
         out["move_w"] = tf.move_whitening(data["moves"], data["q"], data["s_mat"], out["tau2"]["move"])
-        _, out["move_r"], out["move_j"] = move_rows(data["model"], data["theta"], data["packed"], out["move_w"])
+        rows = move_rows_with_steps(data["model"], data["theta"], data["packed"], out["move_w"], data["power_ups"])
+        _, out["move_r"], out["move_j"] = rows
     return out
 
 
@@ -383,7 +385,7 @@ def _noise_processes(data: dict, alpha: float, extra: list) -> tuple[list, dict]
     ``extra`` the diagnosis took in (the walk's, :func:`components`, against the independent scatter alone);
     (candidates, τ̂²)."""
     tau2, lr_walk, groups = components(data, extra, alpha)
-    col = _column_scale(groups)
+    col = column_scale(groups)
     best = reml_objective(groups, tau2, col)
     out = []
     for kind, name in NOISE_PROCESSES.items():
@@ -538,10 +540,24 @@ class TriadSession(Session):
         sc = score_beside(rnd.r, rnd.j0, xs[name], others)
         return 0.0 if sc is None else sc.log10_p
 
+    def near_aliases(self, rnd: Round, names: list, alpha: float) -> dict:
+        """The named candidates each of ``names`` cannot be told from at level ``alpha``, in this round's whitening
+        (:func:`gyrojax.inference.adequacy.near_aliases`, the rule every instrument follows)."""
+        live = [(c.name, x) for (_reg, c), x in zip(rnd.scored[: self.n_named], rnd.xs) if c is not None and c.df > 0]
+        if not live:
+            return {}
+        p0 = rnd.j0.shape[1]
+        bounds = np.cumsum([p0] + [x.shape[1] for _n, x in live])
+        slices = {n: slice(int(a), int(b)) for (n, _x), a, b in zip(live, bounds[:-1], bounds[1:])}
+        jw = np.column_stack([rnd.j0] + [x for _n, x in live])
+        system = WhitenedSystem.of(rnd.r, jw, np.zeros((len(rnd.r), 0)), [], p0)
+        return near_aliases(None, None, p0, slices, names, alpha, system)
+
     def no_term(self, c: Candidate) -> str | None:
-        """Why the fit cannot add ``c`` (a MEMS candidate has no fit term), or None."""
+        """Why the fit cannot add ``c`` (``time_offset`` has no fit term; ``bias_turn_on`` has,
+        :mod:`gyrojax.inference.triad_turn_on`), or None."""
         effect = self.effect_of(c)
-        if effect in MEMS_CANDIDATES:
+        if effect in MEMS_CANDIDATES and effect != TURN_ON:
             return f"{effect} is a diagnosis candidate; fit_triad has no term for it yet"
         return None
 

@@ -17,6 +17,7 @@ from gyrojax.errors import FormatError, ModelError
 from gyrojax.inference.formats import LEGACY_FORMAT, TRIAD_FORMAT, TRIAD_VERSION, fit_kind
 from gyrojax.inference.result import Estimates
 from gyrojax.inference.scoring import ALPHA
+from gyrojax.inference.triad_turn_on import BIAS, STEP, TURN_ON, is_step, split_terms
 from gyrojax.noise.spec import SessionNoise
 from gyrojax.physics import triad as tp
 
@@ -55,13 +56,30 @@ class TriadFit(Estimates):
 
     @property
     def coefficient_names(self) -> list:
-        """Per-channel coefficient names ``D_F[x]`` … in θ order (the keys of :attr:`values`, :attr:`stds`)."""
+        """Per-channel coefficient names ``D_F[x]`` … in θ order (the keys of :attr:`values`, :attr:`stds`), then
+        the power-ups' bias steps ``D_F_step_<k>[x]`` … of ``bias_turn_on`` (:mod:`gyrojax.inference.triad_turn_on`)."""
         return self.names
+
+    @property
+    def terms(self) -> tuple:
+        """The effect names of the fit: the channel model's, and ``bias_turn_on`` when power-ups' steps are fitted."""
+        return tuple(self.model.terms) + ((TURN_ON,) if self.power_ups > 1 else ())
+
+    @property
+    def power_ups(self) -> int:
+        """Power-ups with a bias of their own (1: no ``bias_turn_on``)."""
+        return 1 + sum(map(is_step, self.names)) // 3
+
+    @property
+    def channel_theta(self) -> np.ndarray:
+        """The channel model's coefficients (3p,), report units: θ without the power-ups' steps."""
+        return np.asarray(self.theta, dtype=float)[: 3 * self.model.size]
 
     def units(self) -> dict:
         """Coefficient name → report unit."""
         u = self.model.coefficient_units
-        return {tp.channel_name(c, ch): uu for ch in tp.CHANNELS for c, uu in zip(self.model.coefficient_names, u)}
+        out = {tp.channel_name(c, ch): uu for ch in tp.CHANNELS for c, uu in zip(self.model.coefficient_names, u)}
+        return out | {n: "deg/h" for n in self.names if is_step(n)}
 
     @property
     def residual_rms(self) -> float:
@@ -81,7 +99,10 @@ class TriadFit(Estimates):
             return None
         comp = self.variance_components
         pose, move = comp.get("pose_bias_scatter_deg_per_h", 0.0), comp.get("move_angle_noise_deg", 0.0)
-        return SessionNoise.of_sample_variances(self.noise_q, self.dt_s, pose_bias_scatter=pose, move_angle_noise=move)
+        walk = comp.get("bias_walk_deg_per_h_per_sqrt_pose", 0.0)  # where the fit's σ carry a walk
+        return SessionNoise.of_sample_variances(
+            self.noise_q, self.dt_s, pose_bias_scatter=pose, move_angle_noise=move, bias_walk=walk
+        )
 
     @property
     def chi2_p_value(self) -> float:
@@ -108,8 +129,15 @@ class TriadFit(Estimates):
         E_2, trend (at the record's ``time_s``) and temperature (its ``temperature_C`` column) included). The Earth
         rate is part of ω, as a navigator wants it. Refuses a record without the accelerometer columns when the
         model has g-terms, without ``temperature_C`` when it has ``bias_temperature``, and an inversion that does
-        not reproduce the indicated rates (to 1e-9 of their size)."""
-        return calibrated_rates(self.model, self.theta, record, self.accelerometer)
+        not reproduce the indicated rates (to 1e-9 of their size). With ``bias_turn_on``, a record of a fitted
+        power-up (by name) is calibrated with its own bias, any other with the first power-up's."""
+        theta = self.channel_theta.copy()
+        if record.name in self.record_names[1:] and self.power_ups > 1:
+            k = self.record_names.index(record.name)
+            for c, ch in enumerate(tp.CHANNELS):
+                i = c * self.model.size + self.model.coefficient_names.index(BIAS)
+                theta[i] += self.values[tp.channel_name(f"{STEP}_{k}", ch)]
+        return calibrated_rates(self.model, theta, record, self.accelerometer)
 
     def specific_force(self, record: Record) -> np.ndarray | None:
         """Calibrated specific force (n, 3) g of a triad record by the fitted accelerometer model (imu_tk's
@@ -131,7 +159,7 @@ class TriadFit(Estimates):
         kal = tp.kalibr_form(m)
         p = self.chi2_p_value
         return {
-            "terms": list(self.model.terms),
+            "terms": list(self.terms),
             "instrument": TRIAD_KIND,
             "channels": list(tp.CHANNELS),
             "coefficients": coeffs,
@@ -282,7 +310,7 @@ def load_triad_fit(path) -> TriadFit:
 def _triad_fit_of(d: dict) -> TriadFit:
     """The :class:`TriadFit` of a saved file's dict. 0.2's files kept the noise only as its square root per
     channel and the residuals only per segment: both come back from there."""
-    model = tp.channel_model(d["terms"])
+    model = tp.channel_model(split_terms(d["terms"])[0])
     if "noise_q" in d:
         q = protocol.floats(d["noise_q"])
     else:

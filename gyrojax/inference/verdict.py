@@ -166,7 +166,7 @@ class Diagnosis:
             "residual_rms_deg_per_h": self.residual_rms,
             "noise_floor_deg_per_h": self.noise_floor,
             "candidates": [c.to_json() for c in self.candidates],
-            "terms": list(self.fit.model.terms),
+            "terms": list(self.fit.terms),
             "alpha": self.alpha,
             "not_excited": list(self.unexcited),
             "unexplained": [s.to_json() for s in self.unexplained],

@@ -27,7 +27,7 @@ def design(
     noise=None,
     starts: int = 8,
     seed: int = 0,
-    adam_steps: int = 600,
+    adam_steps: int | None = None,
     lbfgs_steps: int | None = None,
     learning_rate: float = 0.05,
     **turntable,
@@ -51,7 +51,14 @@ def design(
         from gyrojax.planning.optimal import design as design_plan
 
         return design_plan(
-            terms, n_positions, hours, criterion, noise=noise, adam_steps=adam_steps, **search, **turntable
+            terms,
+            n_positions,
+            hours,
+            criterion,
+            noise=noise,
+            adam_steps=600 if adam_steps is None else adam_steps,
+            **search,
+            **turntable,
         )
     if instrument != "imu-triad":
         raise ModelError(f"unknown instrument {instrument!r}; valid: {', '.join(INSTRUMENTS)}")
@@ -63,5 +70,8 @@ def design(
     if isinstance(noise, NoiseSpec):
         noise = TriadNoise.from_spec(noise, "design: noise")
     minutes = hours * 60.0 if minutes is None else minutes
-    search["lbfgs_steps"] = 0 if lbfgs_steps is None else lbfgs_steps
-    return design_protocol(terms, n_positions, minutes, criterion, noise, steps=adam_steps, **search)
+    if adam_steps is not None:
+        search["steps"] = adam_steps
+    if lbfgs_steps is not None:
+        search["lbfgs_steps"] = lbfgs_steps
+    return design_protocol(terms, n_positions, minutes, criterion, noise, **search)

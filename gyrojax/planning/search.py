@@ -40,20 +40,55 @@ def adam_scan(value_and_grad, p0, steps: int, learning_rate, *args, keep_best: b
     return (best[0], history, best[1]) if keep_best else (p, history)
 
 
-def lbfgs_scan(loss, p0, steps: int):
-    """``steps`` L-BFGS iterations (optax, zoom line search) from ``p0`` on ``loss(p)``; returns (p, the loss at
-    each iteration). Pure."""
+def _lbfgs(loss):
+    """(optax L-BFGS with its zoom line search, one iteration (p, state) ↦ (p, state, loss at p)) on ``loss``."""
     opt = optax.lbfgs()
     vg_state = optax.value_and_grad_from_state(loss)
 
-    def step(carry, _):
-        p, state = carry
+    def iterate(p, state):
         val, g = vg_state(p, state=state)
         upd, state = opt.update(g, state, p, value=val, grad=g, value_fn=loss)
-        return (optax.apply_updates(p, upd), state), val
+        return optax.apply_updates(p, upd), state, val
+
+    return opt, iterate
+
+
+def lbfgs_scan(loss, p0, steps: int):
+    """``steps`` L-BFGS iterations (optax, zoom line search) from ``p0`` on ``loss(p)``; returns (p, the loss at
+    each iteration). Pure."""
+    opt, iterate = _lbfgs(loss)
+
+    def step(carry, _):
+        p, state, val = iterate(*carry)
+        return (p, state), val
 
     (p, _), history = jax.lax.scan(step, (p0, opt.init(p0)), None, length=steps)
     return p, history
+
+
+def lbfgs_while(loss, p0, max_steps: int, rtol: float = CONVERGED_RTOL * 1e-3):
+    """L-BFGS iterations (optax, zoom line search) from ``p0`` on ``loss(p)`` until the loss falls by at most
+    ``rtol`` (relative) over :data:`CONVERGED_WINDOW` iterations, or ``max_steps``; returns (p, the loss at each
+    iteration, NaN after the last). A ``jax.lax.while_loop``: under ``vmap`` it runs until every lane has stopped,
+    each lane frozen once its own test holds. Pure."""
+    opt, iterate = _lbfgs(loss)
+
+    def settled(hist, i):
+        back = jnp.where(i > CONVERGED_WINDOW, hist[jnp.maximum(i - CONVERGED_WINDOW - 1, 0)], jnp.inf)
+        return back - hist[jnp.maximum(i - 1, 0)] <= rtol * jnp.maximum(1.0, jnp.abs(hist[jnp.maximum(i - 1, 0)]))
+
+    def go(carry):
+        _, _, hist, i = carry
+        return (i < max_steps) & ~settled(hist, i) & jnp.isfinite(hist[jnp.maximum(i - 1, 0)])
+
+    def step(carry):
+        p, state, hist, i = carry
+        p, state, val = iterate(p, state)
+        return p, state, hist.at[i].set(val), i + 1
+
+    hist0 = jnp.full(max_steps, jnp.nan).at[0].set(loss(p0))
+    p, _, hist, _ = jax.lax.while_loop(go, step, (p0, opt.init(p0), hist0, 0))
+    return p, hist
 
 
 def minimise(loss, p0, adam_steps: int, lbfgs_steps: int, learning_rate, grad_norm: bool = True):

@@ -8,8 +8,10 @@ C_k R(v_k) and its Up in the body frame C_{k+1}ᵀ e_U. A move of Φ degrees tak
 Φ / :data:`HAND_RATE_DPS` seconds (a person's pace); the rests share what is left of the total time by a
 softmax, each at least a quarter of the equal share. The loss is a criterion (:mod:`gyrojax.planning.criteria`:
 ``D``, ``A``, ``E`` or ``c:NAME=w,…`` of per-channel coefficients, ``c:E_SF[x]``) of the triad's Fisher
-information (:mod:`gyrojax.planning.triad_fisher`), minimised by the one search of every design
-(:func:`gyrojax.planning.search.minimise`: Adam, then L-BFGS) from several random starts; the best is kept.
+information (:mod:`gyrojax.planning.triad_fisher`), minimised from several random starts by Adam
+(:func:`gyrojax.planning.search.adam_scan`), the best start of each structure then refined by L-BFGS until its
+loss settles (:func:`gyrojax.planning.search.lbfgs_while`); the best is kept. The loss is ill-conditioned (the rest
+times and nearly parallel moves barely change it), so a capped search can stop short: it then says so.
 
 **Known-angle turns** (Ferraris'): a few discrete structures are searched (:data:`TURN_PAIRS`): m pairs of 360°
 turns, one each way, about each body axis e_j, made on rest j (j = 0, 1, 2) with the box on face +e_j (the turn
@@ -195,20 +197,40 @@ def _kept_search(crit: Criterion, max_pairs: int, adam_steps: int, lbfgs_steps: 
 
 
 def _search(params, pairs, total_s, basis, noise, learning_rate, *, crit, max_pairs, adam_steps, lbfgs_steps):
-    """Every lane (a structure's ``pairs`` and a start) searched at once: the lanes' loss histories and final
-    losses, and their attitudes and parts at the end. The model and the session are arguments, not constants: one
-    compiled search serves every noise, site and duration of the same shapes."""
+    """Every lane (a structure's ``pairs`` and a start) searched at once by Adam (each lane keeping its iterate of
+    least loss); then the best lane of each structure refined by L-BFGS until its loss settles
+    (:func:`gyrojax.planning.search.lbfgs_while`, at most ``lbfgs_steps``). Returns the lanes' loss histories (NaN
+    where a lane was not iterated), final losses, and their attitudes and parts at the end. The model and the
+    session are arguments, not constants: one compiled search serves every noise, site and duration of the same
+    shapes."""
     p_total = basis[0].shape[-1]
 
-    def one(p0, k):
-        def loss(p):
-            return crit.loss(protocol_information(basis, design_parts(p, k, total_s, max_pairs)[1], noise), p_total)
+    def loss(p, k):
+        return crit.loss(protocol_information(basis, design_parts(p, k, total_s, max_pairs)[1], noise), p_total)
 
-        p, hist, val, _ = search.minimise(loss, p0, adam_steps, lbfgs_steps, learning_rate, grad_norm=False)
-        att, parts = design_parts(p, k, total_s, max_pairs)
-        return hist, val, (att, tuple(parts))  # plain tuples out: a kept trace's output tree
+    def adam(p0, k):
+        p, hist, val = search.adam_scan(jax.value_and_grad(loss), p0, adam_steps, learning_rate, k, keep_best=True)
+        return p, hist, val
 
-    return jax.vmap(one)(params, pairs)
+    p, hist, final = jax.vmap(adam)(params, pairs)
+    if lbfgs_steps:
+        hist = jnp.concatenate([hist, jnp.full((hist.shape[0], lbfgs_steps), jnp.nan)], axis=1)
+        best = jnp.stack([jnp.argmin(jnp.where(pairs == k, final, jnp.inf)) for k in range(max_pairs + 1)])
+
+        def refine(i):
+            pi = jax.tree_util.tree_map(lambda a: a[i], p)
+            p2, h2 = search.lbfgs_while(lambda q: loss(q, pairs[i]), pi, lbfgs_steps)
+            return p2, h2, loss(p2, pairs[i])
+
+        p2, h2, v2 = jax.vmap(refine)(best)
+        for r in range(max_pairs + 1):  # in turn: two absent structures may name the same lane
+            i = best[r]
+            good = jnp.isfinite(v2[r]) & (v2[r] < final[i])
+            p = jax.tree_util.tree_map(lambda a, b: a.at[i].set(jnp.where(good, b[r], a[i])), p, p2)
+            final = final.at[i].set(jnp.where(good, v2[r], final[i]))
+            hist = hist.at[i, adam_steps:].set(jnp.where(good, h2[r], hist[i, adam_steps:]))
+    att, parts = jax.vmap(lambda q, k: design_parts(q, k, total_s, max_pairs))(p, pairs)
+    return hist, final, (att, tuple(parts))  # plain tuples out: a kept trace's output tree
 
 
 @dataclass
@@ -236,7 +258,7 @@ class TriadProtocol:
     @property
     def convergence_note(self) -> str:
         """Why the search is not taken as converged ("" when it is; :mod:`gyrojax.planning.search`)."""
-        return search.convergence_note(self.history, self.loss, "raise --adam-steps / --lbfgs-steps")
+        return search.convergence_note(self.history, self.loss, "raise --lbfgs-steps (the L-BFGS refinement)")
 
     @property
     def converged(self) -> bool:
@@ -326,16 +348,17 @@ def design_protocol(
     noise: TriadNoise | None = None,
     *,
     starts: int = 8,
-    steps: int = 600,
-    lbfgs_steps: int = 0,
+    steps: int = 150,
+    lbfgs_steps: int = 400,
     learning_rate: float = 0.05,
     seed: int = 0,
     turn_pairs=TURN_PAIRS,
 ) -> TriadProtocol:
     """Design an ``n_poses`` protocol of ``minutes`` in total (rests and turns) minimising the criterion (module
     doc): every structure of ``turn_pairs`` (pairs of known-angle turns about each body axis) searched from the
-    same ``starts`` by ``steps`` Adam iterations (each start keeps its iterate of least loss) and ``lbfgs_steps``
-    L-BFGS ones, all in one compiled search, the best kept; refuses terms the protocol cannot fit, too few poses, or
+    same ``starts`` by ``steps`` Adam iterations (each start keeps its iterate of least loss), the best start of
+    each structure then by at most ``lbfgs_steps`` L-BFGS ones until its loss settles, all in one compiled search,
+    the best kept; refuses terms the protocol cannot fit, too few poses, or
     too little time."""
     model = triad_model(terms)
     noise = noise or TriadNoise()
@@ -379,7 +402,7 @@ def design_protocol(
         _design_steps(jax.tree_util.tree_map(lambda a: np.asarray(a[b]), parts), best_pairs),
         float(final[b]),
         by_structure[best_pairs],
-        np.asarray(hist[b]),
+        _iterated(hist[b]),
         best_pairs,
         {k: float(v.min()) for k, v in by_structure.items()},
         criterion if isinstance(criterion, str) else "",
@@ -387,6 +410,12 @@ def design_protocol(
     if not res.converged:
         warnings.warn(f"the protocol design did not converge: {res.convergence_note}", ConvergenceWarning, stacklevel=2)
     return res
+
+
+def _iterated(history) -> np.ndarray:
+    """A lane's loss history without the slots its search did not reach (NaN)."""
+    h = np.asarray(history, dtype=float)
+    return h[: h.size - int(np.argmax(~np.isnan(h[::-1])))] if np.isfinite(h).any() else h
 
 
 def _design_steps(parts: Parts, pairs: int) -> list[dict]:

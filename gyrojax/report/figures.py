@@ -363,12 +363,15 @@ def campaign_figure(result, title: str | None = None):
     target σ as a dotted line; right, the residual the noise does not explain, √(RMS² − floor²) (output units; the
     floor from successive differences, so it does not depend on the sample interval), of the loop's model after each
     test (the effects it added marked) and of the final model fitted to the classical sequence."""
+    from gyrojax.physics.effects import effect_of_coefficient
+
     fig, (ax, ar) = _figure(1, 2, figsize=(11.0, 4.0))
     names = list(result.last.terms)
     hours = [s.cumulative_hours for s in result.steps]
     colours = {}
     for eff in names:
-        coeffs = [c for c in result.last.fit.coefficient_names if _effect(c) == eff] if result.last.fit else [eff]
+        fit = result.last.fit
+        coeffs = [c for c in fit.coefficient_names if effect_of_coefficient(c) == eff] if fit else [eff]
         for c in coeffs:
             ys = [_state_sigma(s.state, c) for s in result.steps]
             line = ax.plot(hours, ys, "o-", lw=1.4, ms=4, label=c)[0]
@@ -412,13 +415,6 @@ def campaign_figure(result, title: str | None = None):
     ar.legend(fontsize=7)
     fig.tight_layout()
     return fig
-
-
-def _effect(coefficient: str) -> str:
-    """The effect that carries ``coefficient`` (conventions §6)."""
-    from gyrojax.physics import effects as fx
-
-    return fx.effect_of_coefficient(coefficient)
 
 
 def _state_sigma(state: dict, coefficient: str) -> float:

@@ -27,9 +27,9 @@ def _fmt(v: float, s: float | None = None) -> str:
 
 
 def fit_table(res: FitResult | TriadFit) -> str:
-    """Coefficient table: name, value ± std, unit, t statistic and significance at α (:data:`gyrojax.inference.
-    scoring.ALPHA`; CIGTF style); a triad fit's table
-    has one row per coefficient and channel (:func:`triad_fit_table`)."""
+    """Coefficient table: name, value ± std, unit, t statistic and significance at α
+    (:data:`gyrojax.inference.scoring.ALPHA`; CIGTF style); for a triad fit one row per coefficient and channel
+    (:func:`triad_fit_table`)."""
     if isinstance(res, TriadFit):
         return triad_fit_table(res)
     lines = [f"fit of {', '.join(res.model.terms)} to {len(res.record_names)} record(s), {res.n_samples} samples"]
@@ -122,7 +122,7 @@ def diagnosis_text(d: Diagnosis, add: str | None = None) -> str:
         return triad_diagnosis_text(d)
     lines = [
         f"verdict: {d.verdict}   (family-wise α = {d.alpha})",
-        f"model: {', '.join(d.fit.model.terms)}",
+        f"model: {', '.join(d.fit.terms)}",
         f"residual RMS {d.residual_rms:.6g} deg/h; white-noise floor {d.noise_floor:.6g} deg/h",
     ]
     lines.append(f"{'candidate':18s} {'statistic':>12s} {'df':>3s} {'p (Holm)':>10s} {'RMS after':>12s}  aliases")
@@ -137,7 +137,7 @@ def diagnosis_text(d: Diagnosis, add: str | None = None) -> str:
     top = next((c for c in d.candidates if c.name == d.proposal), None)
     if d.verdict == "missing-effect" and top is not None:
         name = add or top.name
-        terms = ",".join(d.fit.model.terms + (name,))
+        terms = ",".join(d.fit.terms + (name,))
         if name != top.name:
             why = (
                 f"an alias of the top candidate {top.name!r}: this plan cannot tell them apart"
@@ -175,6 +175,3 @@ def adequacy_lines(d) -> list[str]:
             "'NAME=EXPR') or look for its physical cause"
         )
     return lines
-
-
-# ---- residual views (matplotlib) --------------------------------------------------------------------------------

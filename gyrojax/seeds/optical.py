@@ -54,7 +54,6 @@ adding ``"fog"`` and ``"rlg"`` to their ``kinds`` would make the optical model c
 __all__ = [
     "FOG",
     "RLG",
-    "adler_mean_rate",
     "adler_phase",
     "fog_sagnac_phase",
     "ieee952_output",
@@ -82,11 +81,6 @@ def fog_sagnac_phase(rate_rad_s, coil_radius_m, fibre_length_m, wavelength_m=850
 def ieee952_output(w_x, w_y, w_z, scale_error=0.0, m_y=0.0, m_z=0.0, bias=0.0):
     """ω̃_x = (1 + S_x) ω_x + M_y ω_y + M_z ω_z + B_x (Titterton 5.16 / 8.4); S, M dimensionless, rates any unit."""
     return (1.0 + scale_error) * w_x + m_y * w_y + m_z * w_z + bias
-
-
-def adler_mean_rate(rate, lock_rate):
-    """Closed-form mean of ψ̇ for ψ̇ = Ω − Ω_L sin ψ (K = 1): the same as :func:`lockin_output`."""
-    return lockin_output(rate, lock_rate)
 
 
 def adler_phase(rate, lock_rate, dt, n, psi0=0.0):

@@ -140,19 +140,12 @@ _servo_integrate_jit = jax.jit(_servo_integrate, static_argnums=0)
 """Compiled once per model and record shape: a Monte Carlo of servo runs must not compile (and map code) per call."""
 
 
-def geometry_record(plan: Plan, run: Run, t0: float = 0.0) -> Record:
-    """A run's record with its table motion and zero current (mA): the geometry that regressors and design need.
-
-    ``t0`` is the run's start on the campaign clock, s.
-    """
-    return _run_columns(plan, run, t0)[0]
-
-
 def plan_records(plan: Plan) -> list[Record]:
-    """Geometry-only records of every run of a plan, on the campaign clock (no instrument output)."""
+    """Geometry-only records of every run of a plan, on the campaign clock (s): the table motion and zero current
+    (mA), what regressors and design need."""
     out, t0 = [], 0.0
     for run in plan.runs:
-        out.append(geometry_record(plan, run, t0))
+        out.append(_run_columns(plan, run, t0)[0])
         t0 += run.duration_s + plan.gap_between_runs_s
     return out
 

@@ -177,8 +177,7 @@ def simulate_ferraris(
         gravity_mps2=gravity_mps2,
         notes="simulated Ferraris session (gyrojax.simulation.triad)",
     )
-    if not earth_rate:
-        meta["earth_rate"] = False
+    meta["earth_rate"] = bool(earth_rate)
     return Record(meta, cols)
 
 
