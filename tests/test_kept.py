@@ -49,6 +49,19 @@ def test_a_saved_executable_is_loaded_without_tracing(where):
     np.testing.assert_allclose(np.asarray(g2), (x + 1.0), rtol=1e-15)
 
 
+def test_released_executables_are_read_again_from_their_files(where):
+    """:func:`gyrojax.runtime.kept.release` drops the executables held in this process (a long process' memory map
+    fills with their machine code); the next call reads its file again, without tracing, to the same bits."""
+    f, x = _fresh(), np.arange(7.0)  # a shape no other test traces (JAX keeps traces of _energy by shape)
+    y, g = f(x, 2.0)
+    assert kept.release() >= 1 and kept.release() == 0
+    TRACES.clear()
+    y2, g2 = f(x, 2.0)
+    assert TRACES == [] and float(y2) == float(y) == 2.0 * 91.0
+    np.testing.assert_array_equal(np.asarray(g2), np.asarray(g))
+    assert kept.release() >= 1
+
+
 def test_the_key_follows_shape_and_tree(where):
     f = _fresh()
     f(np.ones(3), 1.0)

@@ -36,6 +36,7 @@ import re
 import secrets
 import threading
 import warnings
+import weakref
 from functools import lru_cache
 from pathlib import Path
 
@@ -61,6 +62,7 @@ _UNNAMED = re.compile(r"^.+-[0-9a-f]{32}\.(bin|npz)$")  # the names before the d
 _PRUNED: set = set()
 _UNWRITABLE: set = set()  # folders a kept file could not be written to (said once)
 _LOCK = threading.RLock()  # an executable loaded (and the folder pruned) by one thread at a time
+_ALL: weakref.WeakSet = weakref.WeakSet()  # every Kept of the process (release)
 
 
 @lru_cache(maxsize=1)
@@ -202,6 +204,7 @@ class Kept:
     def __init__(self, name: str, fn):
         self.name, self.fn, self._calls = name, fn, {}
         self.__doc__ = getattr(fn, "__doc__", None)
+        _ALL.add(self)
 
     def _load(self, where: Path, tree, specs):
         """The executable of ``fn`` at the argument tree ``tree`` and flat ``specs``: read from its file when that
@@ -245,6 +248,21 @@ class Kept:
                     specs = [jax.ShapeDtypeStruct(x.shape, x.dtype) for x in leaves]
                     call = self._calls[key] = self._load(where, tree, specs)
         return call(*leaves)
+
+
+def release() -> int:
+    """Drop the executables every :class:`Kept` of this process holds; each is read again from its file at its next
+    call. Returns how many were dropped. For a long process that has met many functions and shapes (a test session, a
+    notebook's kernel running for days): the machine code of each executable XLA's CPU backend holds takes a few
+    entries of the process' memory map, Linux allows a process ``vm.max_map_count`` of them (65530 by default), and
+    XLA cannot compile once they are used up (``LLVM compilation error: Cannot allocate memory``, then a segmentation
+    fault). ``jax.clear_caches()`` drops those of the process' own jitted functions."""
+    with _LOCK:
+        kept = list(_ALL)
+        dropped = sum(len(k._calls) for k in kept)
+        for k in kept:
+            k._calls.clear()
+    return dropped
 
 
 CACHE_HIT = "/jax/compilation_cache/cache_hits"
