@@ -21,9 +21,9 @@ The package is a tree that follows the data flow::
 
 and below them the modules every package may import: ``errors``, ``units``, ``kinds`` (the instrument kinds),
 ``protocol`` (files and the result protocol) and ``runtime`` (how compiled code runs: gyrojax's cache folder, its
-kept traces, its threads). Importing the package sets JAX's x64 and, unless the process chose its own, JAX's
-persistent compilation cache (:func:`gyrojax.runtime.cache.default_for_import`). Imports point down a declared
-layer order (tests/test_layers.py).
+kept executables, its threads). Importing the package sets JAX's x64 and nothing else global: gyrojax keeps its own
+compiled functions (:mod:`gyrojax.runtime.kept`), and JAX's persistent compilation cache stays the process owner's
+choice. Imports point down a declared layer order (tests/test_layers.py).
 
 ``import gyrojax as gj`` gives the flat API: ``gj.simulate``, ``gj.load_records``, ``gj.fit``,
 ``gj.diagnose``, ``gj.add_and_refit``, ``gj.design``, ``gj.next_test``, ``gj.run_campaign``, ``gj.run_study`` …
@@ -43,7 +43,6 @@ from gyrojax.errors import (
     TruthError,
     UnknownNameError,
 )
-from gyrojax.runtime.cache import default_for_import
 
 
 def _enable_x64() -> None:
@@ -57,8 +56,6 @@ def _enable_x64() -> None:
 
 
 _enable_x64()
-
-default_for_import()
 
 __version__ = "0.2.0"
 

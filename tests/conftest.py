@@ -1,3 +1,4 @@
+import gc
 import json
 import os
 from pathlib import Path
@@ -14,6 +15,39 @@ single_threaded_blas()  # two test workers on two cores: BLAS threads would only
 # itself within one run (the suite took 5 min 24 s with it, 5 min 58 s without, on 2 cores)
 os.environ.setdefault("GYROJAX_CACHE_DIR", str(Path(__file__).resolve().parent.parent / ".pytest_cache" / "jax"))
 use_persistent_cache()
+
+MAPS = Path("/proc/self/maps")
+MAP_LIMIT = Path("/proc/sys/vm/max_map_count")
+
+
+def _map_entries() -> tuple[int, int] | None:
+    """(entries of this process' memory map, the most Linux allows it), or None where /proc does not tell."""
+    try:
+        with MAPS.open() as f:
+            used = sum(1 for _ in f)
+        return used, int(MAP_LIMIT.read_text())
+    except (OSError, ValueError):
+        return None
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _release_executables():
+    """The session is one process that compiles thousands of functions, and the machine code of every executable
+    held (by a jitted function's cache, by a kept function) takes a few entries of the process' memory map: once
+    Linux's vm.max_map_count (65530) of them are used, XLA cannot compile and the process dies. After a test module,
+    past half of the limit, the compiled executables are dropped (compiled again or read from the caches when met
+    again)."""
+    yield
+    maps = _map_entries()
+    if maps is not None and maps[0] > maps[1] // 2:
+        import jax  # imported by then (the modules that compile imported it)
+
+        from gyrojax.runtime import kept
+
+        jax.clear_caches()
+        kept.release()
+        gc.collect()
+
 
 DATA = Path(__file__).resolve().parent / "data"
 EXAMPLES = DATA / "examples"

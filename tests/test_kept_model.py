@@ -1,6 +1,6 @@
-"""The measurement model's traces kept across processes (gyrojax.inference.kept_model, issue 26): a built-in
-model's predict and Jacobian (one pass) through the kept trace equal the jitted functions bit for bit, a reload does not
-trace, a file of another function under the key's name is traced again (never called), and a model with an effect
+"""The measurement model's executables kept across processes (gyrojax.inference.kept_model): a built-in model's
+predict and Jacobian (one pass) through the kept executable equal the jitted functions bit for bit, a reload does not
+compile, a file of another function under the key's name is compiled again (never called), and a model with an effect
 the user registered is never kept."""
 
 import jax
@@ -26,7 +26,6 @@ def data():
 
 @pytest.fixture
 def where(tmp_path, monkeypatch):
-    pytest.importorskip("flatbuffers")
     monkeypatch.setattr(kept, "folder", lambda: tmp_path / "k")
     kept_model._kept.cache_clear()
     yield tmp_path / "k"
@@ -37,7 +36,7 @@ MODEL = Model(("D_F", "D_I", "D_S", "D_SS"))
 
 
 def _file(stem: str) -> str:
-    return kept_model.model_name(stem, MODEL) + "-*.bin"
+    return kept_model.model_name(stem, MODEL) + "-*.xla"
 
 
 def test_kept_model_functions_equal_the_jitted_ones_and_reload_without_tracing(data, where, monkeypatch):
@@ -49,21 +48,21 @@ def test_kept_model_functions_equal_the_jitted_ones_and_reload_without_tracing(d
     np.testing.assert_array_equal(np.asarray(kept_model.kept_predict(MODEL, theta, data)), np.asarray(y))
     kept_model._kept.cache_clear()  # as in a fresh process
 
-    def no_export(*a, **k):
-        raise AssertionError("traced again")
+    def no_compile(*a, **k):
+        raise AssertionError("compiled again")
 
-    monkeypatch.setattr(jax.export, "export", no_export)
+    monkeypatch.setattr(kept, "_compile", no_compile)
     np.testing.assert_array_equal(np.asarray(kept_model.kept_predict_and_jacobian(MODEL, 2 * theta, data)[1]), j)
 
 
-def test_a_foreign_file_under_the_key_is_traced_again(data, where):
+def test_a_foreign_file_under_the_key_is_compiled_again(data, where):
     theta = jnp.zeros(MODEL.size)
     kept_model.kept_predict_and_jacobian(MODEL, theta, data)
     (path,) = where.glob(_file("predict_jacobian"))
-    other = jax.export.export(jax.jit(lambda x: 2.0 * x))(jax.ShapeDtypeStruct((3,), np.float64))
-    path.write_bytes(other.serialize())  # a valid module of another function and shape
+    other = jax.jit(lambda x: 2.0 * x).lower(jax.ShapeDtypeStruct((3,), np.float64)).compile()
+    path.write_bytes(kept._written(other, "0" * 64))  # a valid executable of another function and shape
     kept_model._kept.cache_clear()
-    with pytest.warns(UserWarning, match="kept trace unreadable"):
+    with pytest.warns(UserWarning, match="another key"):
         _, j = kept_model.kept_predict_and_jacobian(MODEL, theta, data)
     np.testing.assert_array_equal(np.asarray(j), np.asarray(jacobian_jit(MODEL, theta, data)))
 

@@ -5,7 +5,7 @@ The layers, bottom first (a unit may import only from tiers below its own; units
     errors                                  the exception types
     units, kinds, protocol,                 unit conversions; instrument-kind names; files and the result protocol;
     optimize                                the searches and their status
-    runtime                                 how compiled code runs: the cache folder, kept traces, threads
+    runtime                                 how compiled code runs: the cache folder, kept executables, threads
     (package root)                          x64, the compilation cache, the flat API's table
     physics, noise                          the measurement model; noise descriptions, estimators and processes
     data                                    records, truth files, plans (data reads physics names and noise specs)

@@ -270,11 +270,49 @@ def test_compilation_cache_location_follows_the_environment(monkeypatch, tmp_pat
     assert cache_dir() is None
 
 
-_CACHE_PROBE = "import sys, gyrojax, jax; print(jax.config.jax_compilation_cache_dir)"
-_CACHE_PROBE_JAX_FIRST = (
-    "import jax; jax.config.update('jax_compilation_cache_dir', sys.argv[1]); import gyrojax; "
-    "print(jax.config.jax_compilation_cache_dir)"
-)
+_SETTINGS = "import jax; settings = lambda: {k: repr(v) for k, v in jax.config.values.items()}\n"
+_SETTINGS_PROBE = {
+    "jax-alone": _SETTINGS + "print(json.dumps({'after': settings()}))",
+    "jax-first": _SETTINGS + "before = settings()\nimport gyrojax\n",
+    "gyrojax-first": "import gyrojax\n" + _SETTINGS,
+}
+_KEPT_CALL = r"""
+import jax.numpy as jnp
+from gyrojax.runtime.kept import Kept
+Kept("probe", jax.jit(lambda a: jnp.linalg.cholesky(a)))(np.eye(2))  # compiled, saved and called
+print(json.dumps({"before": globals().get("before"), "after": settings(),
+                  "env": sorted(set(os.environ.items()) ^ set(env.items()))}))
+"""
+
+
+def _probe(tmp_path, order):
+    """JAX's settings (and the environment's change) in a fresh process: JAX alone with x64, or with gyrojax
+    imported after or before it and a kept function called."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("GYROJAX_", "JAX_", "XDG_CACHE"))}
+    env["GYROJAX_CACHE_DIR"] = str(tmp_path / "here")
+    code = "import json, os, sys\nimport numpy as np\nenv = dict(os.environ)\n" + _SETTINGS_PROBE[order]
+    if order == "jax-alone":
+        env["JAX_ENABLE_X64"] = "1"
+    else:
+        code += _KEPT_CALL
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    return json.loads(out.stdout.splitlines()[-1])
+
+
+def test_import_gyrojax_changes_no_jax_setting_but_x64(tmp_path):
+    """``import gyrojax`` in a fresh process (a notebook's kernel), after or before JAX's, and a kept function
+    compiled and called: every JAX setting is what JAX alone (with x64) has, the persistent compilation cache among
+    them; the one variable set is JAX_ENABLE_X64 (when JAX is not imported yet). gyrojax's executables are kept in
+    its own folder all the same."""
+    alone = _probe(tmp_path, "jax-alone")["after"]
+    assert alone["jax_compilation_cache_dir"] == "None" and alone["jax_enable_x64"] == "True"
+    jax_first = _probe(tmp_path, "jax-first")
+    assert {k for k in alone if jax_first["before"][k] != jax_first["after"][k]} == {"jax_enable_x64"}
+    assert jax_first["after"] == alone and jax_first["env"] == []
+    gyrojax_first = _probe(tmp_path, "gyrojax-first")
+    assert gyrojax_first["after"] == alone and gyrojax_first["env"] == [["JAX_ENABLE_X64", "1"]]
+    assert len(list((tmp_path / "here-kept").glob("probe-*.xla"))) == 1
+
 
 _CLI_PROBE = (
     "import jax; from gyrojax.cli.app import main; main(['plans']); print(jax.config.jax_compilation_cache_dir)"
@@ -282,25 +320,19 @@ _CLI_PROBE = (
 
 
 @pytest.mark.parametrize(
-    "env, code, want",
+    "env, want",
     [
-        ({"GYROJAX_CACHE_DIR": "{tmp}/here"}, _CACHE_PROBE, "{tmp}/here"),  # a notebook's import turns it on
-        ({"XDG_CACHE_HOME": "{tmp}/xdg"}, _CACHE_PROBE, "{tmp}/xdg/gyrojax/jax"),
-        ({"GYROJAX_NO_CACHE": "1", "GYROJAX_CACHE_DIR": "{tmp}/here"}, _CACHE_PROBE, "None"),
-        ({"JAX_COMPILATION_CACHE_DIR": "{tmp}/mine", "GYROJAX_CACHE_DIR": "{tmp}/here"}, _CACHE_PROBE, "{tmp}/mine"),
-        ({"GYROJAX_CACHE_DIR": "{tmp}/here"}, "import sys; " + _CACHE_PROBE_JAX_FIRST, "{tmp}/own"),
-        ({"GYROJAX_CACHE_DIR": "{tmp}/here"}, "import jax; " + _CACHE_PROBE, "{tmp}/here"),  # JAX first, no cache
-        ({"GYROJAX_CACHE_DIR": "{tmp}/here"}, _CLI_PROBE, "{tmp}/here"),  # the command's process
-        ({"GYROJAX_NO_CACHE": "1", "GYROJAX_CACHE_DIR": "{tmp}/here"}, _CLI_PROBE, "None"),
+        ({"GYROJAX_CACHE_DIR": "{tmp}/here"}, "{tmp}/here"),
+        ({"XDG_CACHE_HOME": "{tmp}/xdg"}, "{tmp}/xdg/gyrojax/jax"),
+        ({"GYROJAX_NO_CACHE": "1", "GYROJAX_CACHE_DIR": "{tmp}/here"}, "None"),
     ],
 )
-def test_import_gyrojax_turns_the_compilation_cache_on_unless_the_process_chose_one(tmp_path, env, code, want):
-    """``import gyrojax`` in a fresh process (a notebook's kernel) gets the command's persistent compilation cache,
-    so its first diagnosis loads what earlier processes compiled; a cache the process set itself (JAX's variable, or
-    JAX's config before the import) is kept, and GYROJAX_NO_CACHE=1 keeps it off."""
+def test_the_command_turns_the_compilation_cache_on_for_its_own_process(tmp_path, env, want):
+    """The command's process is gyrojax's alone: it keeps every compiled function in JAX's persistent cache at
+    gyrojax's cache folder, and GYROJAX_NO_CACHE=1 keeps it off."""
     base = {k: v for k, v in os.environ.items() if not k.startswith(("GYROJAX_", "JAX_COMPILATION", "XDG_CACHE"))}
     base.update({k: v.format(tmp=tmp_path) for k, v in env.items()})
     out = subprocess.run(
-        [sys.executable, "-c", code, str(tmp_path / "own")], env=base, capture_output=True, text=True, check=True
+        [sys.executable, "-c", _CLI_PROBE], env=base, capture_output=True, text=True, check=True
     ).stdout.strip()
     assert out.splitlines()[-1] == want.format(tmp=tmp_path)

@@ -7,9 +7,9 @@ Start-up imports only argparse: each command imports the part of the library it 
 
 The command's process is gyrojax's alone, so it turns JAX's persistent compilation cache on for every compiled
 function (:func:`gyrojax.runtime.cache.use_persistent_cache`: ``$XDG_CACHE_HOME/gyrojax/jax`` or
-``~/.cache/gyrojax/jax``; ``GYROJAX_NO_CACHE=1`` turns it off and ``GYROJAX_CACHE_DIR`` moves it); the traces of
-gyrojax's kept functions live beside it (:mod:`gyrojax.runtime.kept`), so a fresh process does not trace them
-again. The settings reach JAX through its environment variables when JAX is not yet imported: ``gyrojax --help``,
+``~/.cache/gyrojax/jax``; ``GYROJAX_NO_CACHE=1`` turns it off and ``GYROJAX_CACHE_DIR`` moves it); the executables of
+gyrojax's kept functions live beside it (:mod:`gyrojax.runtime.kept`), so a fresh process neither traces nor compiles
+them again. The settings reach JAX through its environment variables when JAX is not yet imported: ``gyrojax --help``,
 ``plans`` and ``import`` never import it.
 """
 

@@ -165,7 +165,7 @@ def linearize(model: Model, theta, campaign: Campaign) -> list[Linearized]:
     th = jnp.asarray(theta, dtype=jnp.float64)
     for d, lab, t in zip(campaign.data, campaign.labels, campaign.times):
         ok = lab >= 0
-        # traces kept across processes (built-in models: gyrojax.inference.kept_model)
+        # executables kept across processes (built-in models: gyrojax.inference.kept_model)
         if model.size:
             y, jac = kept_predict_and_jacobian(model, th, d)
             jac = np.asarray(jac)[ok]

@@ -1,12 +1,13 @@
 """The measurement model's compiled functions kept across processes: ``predict``, and ``predict_and_jacobian`` (the
 prediction and the Jacobian in one pass: what ``linearize`` needs), of a :class:`~gyrojax.physics.model.Model` (a
-static argument: one trace per model and record shape) called through their ``jax.export`` modules
-(:class:`gyrojax.runtime.kept.Kept`), so that the first diagnosis of a fresh process does not trace the model again.
+static argument: one executable per model and record shape) called through their kept executables
+(:class:`gyrojax.runtime.kept.Kept`), so that the first diagnosis of a fresh process neither traces nor compiles the
+model again.
 
-A model is kept only when every term is a built-in effect (:data:`gyrojax.physics.registry.BUILTIN`): the trace
+A model is kept only when every term is a built-in effect (:data:`gyrojax.physics.registry.BUILTIN`): the code
 of a built-in effect depends on the library source alone, which the key carries (with the model's kind and terms,
 the record's static fields and shapes, and the JAX version); an effect the user registered (``--effect``, an
-expression) is traced in each process, so that an edited expression can never meet an old trace. The arguments'
+expression) is compiled in each process, so that an edited expression can never meet an old executable. The arguments'
 tree carries the record's static fields (mode, servo and encoder axes), so records of other modes get other keys.
 
 The triad fit's compiled passes (:mod:`gyrojax.inference.triad_rows`: segment means and their Jacobian, the moves'
@@ -32,7 +33,7 @@ from gyrojax.runtime.kept import Kept
 
 
 def keepable(model: Model) -> bool:
-    """Whether traces of ``model`` may be kept on disk: all of its terms are built-in effects."""
+    """Whether executables of ``model`` may be kept on disk: all of its terms are built-in effects."""
     return set(model.terms) <= registry.BUILTIN
 
 
@@ -44,25 +45,25 @@ def model_name(stem: str, model: Model) -> str:
 
 @lru_cache(maxsize=64)
 def _kept(stem: str, model: Model, fn) -> Kept:
-    """The kept trace of ``fn(model, ...)`` under the name ``stem`` (one name per function: it keys the files)."""
+    """The kept executable of ``fn(model, ...)`` under the name ``stem`` (one name per function: it keys the files)."""
     return Kept(model_name(stem, model), jax.jit(partial(fn, model)))
 
 
 def kept_call(stem: str, fn, jitted, model: Model, *args):
-    """``fn(model, *args)`` compiled: through the kept trace named ``stem`` when :func:`keepable`, else by ``jitted``
-    (``fn`` jitted with ``model`` static), which a user effect is traced by in each process."""
+    """``fn(model, *args)`` compiled: through the kept executable named ``stem`` when :func:`keepable`, else by
+    ``jitted`` (``fn`` jitted with ``model`` static), which a user effect is traced by in each process."""
     if not keepable(model):
         return jitted(model, *args)
     return _kept(stem, model, fn)(*args)
 
 
 def kept_predict(model: Model, theta, data):
-    """:func:`gyrojax.physics.model.predict` of ``model`` (``predict_jit``), through a kept trace when
+    """:func:`gyrojax.physics.model.predict` of ``model`` (``predict_jit``), through a kept executable when
     :func:`keepable`."""
     return kept_call("predict", predict, predict_jit, model, theta, data)
 
 
 def kept_predict_and_jacobian(model: Model, theta, data):
     """:func:`gyrojax.physics.model.predict_and_jacobian` of ``model`` (one compiled pass: a fresh process loads one
-    executable per model instead of two), through a kept trace when :func:`keepable`."""
+    executable per model instead of two), through a kept executable when :func:`keepable`."""
     return kept_call("predict_jacobian", predict_and_jacobian, predict_and_jacobian_jit, model, theta, data)

@@ -189,7 +189,7 @@ def _vmapped_rows(model: Model, d, t, a):
 
 @lru_cache(maxsize=8)
 def _rows_jit(model: Model):
-    # kept across processes for built-in models (gyrojax.runtime.kept): the first diagnosis of a process skips the trace
+    # kept across processes for built-in models (gyrojax.runtime.kept): a process' first diagnosis skips the compile
     fn = jax.jit(partial(_vmapped_rows, model))
     return Kept(model_name("static_rows", model), fn) if keepable(model) else fn
 

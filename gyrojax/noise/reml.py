@@ -409,7 +409,7 @@ def objective(u, x, dt, restart, mask, reml, readout=None):
     return logs + quad + reml * logdet
 
 
-# compiled, and kept across processes per shape (gyrojax.runtime.kept: a fresh process does not trace them again)
+# compiled, and kept across processes per shape (gyrojax.runtime.kept: a fresh process neither traces nor compiles them)
 value_and_grad = Kept("value_and_grad", jax.jit(jax.value_and_grad(objective)))
 whiten_jit = Kept("whiten_scan", jax.jit(whiten_scan))
 """The compiled :func:`whiten_scan` (the one Kalman whitening filter, :func:`gyrojax.noise.whiten.kalman_whiten`)."""
