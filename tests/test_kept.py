@@ -367,8 +367,6 @@ KEPT_BY_A_DIAGNOSIS = {
     "predict_jacobian_sdfgyro",
     "static_rows_sdfgyro",
     "triad_segment_rows_sdfgyro",
-    "triad_segment_means_sdfgyro",
-    "triad_segment_jacobian_sdfgyro",
     "triad_linear_matrices_sdfgyro",
 }
 
