@@ -6,6 +6,7 @@ from pathlib import Path
 import pytest
 
 import gyrojax  # noqa: F401  (x64 is switched on by the package, once)
+from gyrojax.runtime import kept
 from gyrojax.runtime.cache import use_persistent_cache
 from gyrojax.runtime.threads import single_threaded_blas
 
@@ -16,19 +17,6 @@ single_threaded_blas()  # two test workers on two cores: BLAS threads would only
 os.environ.setdefault("GYROJAX_CACHE_DIR", str(Path(__file__).resolve().parent.parent / ".pytest_cache" / "jax"))
 use_persistent_cache()
 
-MAPS = Path("/proc/self/maps")
-MAP_LIMIT = Path("/proc/sys/vm/max_map_count")
-
-
-def _map_entries() -> tuple[int, int] | None:
-    """(entries of this process' memory map, the most Linux allows it), or None where /proc does not tell."""
-    try:
-        with MAPS.open() as f:
-            used = sum(1 for _ in f)
-        return used, int(MAP_LIMIT.read_text())
-    except (OSError, ValueError):
-        return None
-
 
 @pytest.fixture(autouse=True, scope="module")
 def _release_executables():
@@ -38,11 +26,9 @@ def _release_executables():
     past half of the limit, the compiled executables are dropped (compiled again or read from the caches when met
     again)."""
     yield
-    maps = _map_entries()
+    maps = kept.map_entries()
     if maps is not None and maps[0] > maps[1] // 2:
         import jax  # imported by then (the modules that compile imported it)
-
-        from gyrojax.runtime import kept
 
         jax.clear_caches()
         kept.release()

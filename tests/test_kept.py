@@ -9,6 +9,7 @@ import pickle
 import re
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import jax
@@ -60,6 +61,26 @@ def test_released_executables_are_read_again_from_their_files(where):
     assert TRACES == [] and float(y2) == float(y) == 2.0 * 91.0
     np.testing.assert_array_equal(np.asarray(g2), np.asarray(g))
     assert kept.release() >= 1
+
+
+def test_near_the_memory_map_limit_a_new_shape_drops_the_kept_executables_and_says_so(where, monkeypatch):
+    """Past 3/4 of vm.max_map_count XLA's next compile may die of the limit: a kept function's new shape first drops
+    the executables every kept function holds, with a warning that names the count and the limit; below it, nothing.
+    The count is this process' /proc/self/maps, one line an entry, where Linux has it."""
+    f, x = _fresh(), np.arange(5.0)
+    f(x, 1.0)
+    real = kept.map_entries()
+    if real is not None:
+        assert 0 < real[0] < real[1]
+    monkeypatch.setattr(kept, "map_entries", lambda: (60_000, 65_530))
+    with pytest.warns(RuntimeWarning, match="60000 of the 65530 memory-map entries"):
+        y, _ = f(np.arange(6.0), 1.0)
+    assert float(y) == 55.0 and kept.release() == 1  # only the new shape's executable is held again
+    monkeypatch.setattr(kept, "map_entries", lambda: (40_000, 65_530))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        f(np.arange(7.0), 1.0)
+    assert kept.release() == 1
 
 
 def test_the_key_follows_shape_and_tree(where):

@@ -245,6 +245,7 @@ class Kept:
             with _LOCK:
                 call = self._calls.get(key)
                 if call is None:
+                    make_room()
                     specs = [jax.ShapeDtypeStruct(x.shape, x.dtype) for x in leaves]
                     call = self._calls[key] = self._load(where, tree, specs)
         return call(*leaves)
@@ -263,6 +264,35 @@ def release() -> int:
         for k in kept:
             k._calls.clear()
     return dropped
+
+
+MAP_HEADROOM = 0.75
+"""The share of ``vm.max_map_count`` past which a new executable is preceded by :func:`release`."""
+
+
+def map_entries() -> tuple[int, int] | None:
+    """(entries of this process' memory map, the most Linux allows it), or None where /proc does not say."""
+    try:
+        with open("/proc/self/maps", "rb") as f:
+            used = sum(1 for _ in f)
+        return used, int(Path("/proc/sys/vm/max_map_count").read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def make_room() -> None:
+    """Before a kept function's new executable: past :data:`MAP_HEADROOM` of the memory-map limit (:func:`release`),
+    drop the kept executables and say so, rather than let XLA's next compile die of the limit."""
+    maps = map_entries()
+    if maps is not None and maps[0] > MAP_HEADROOM * maps[1]:
+        n = release()
+        warnings.warn(
+            f"this process holds {maps[0]} of the {maps[1]} memory-map entries Linux allows it (vm.max_map_count); "
+            f"XLA cannot compile past the limit, so gyrojax dropped its {n} kept executables (read again from their "
+            "files when called); jax.clear_caches() drops those of every other jitted function",
+            RuntimeWarning,
+            stacklevel=4,
+        )
 
 
 CACHE_HIT = "/jax/compilation_cache/cache_hits"
