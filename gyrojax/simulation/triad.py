@@ -68,8 +68,8 @@ def local_frame(latitude_deg: float, gravity_mps2: float | None, earth_rate: boo
 
 
 def session_record(name, segs, cols, notes, *, latitude_deg, fit_latitude, gravity_mps2, earth_rate) -> Record:
-    """A simulated session's ``imu-triad`` record: the latitude written only with ``fit_latitude`` (else ``null``,
-    unknown to the fit), the gravity used, and whether the Earth rate is in the motion."""
+    """A simulated session's ``imu-triad`` record: the latitude (deg) written only with ``fit_latitude`` (else
+    ``null``, unknown to the fit), the gravity used (m/s²), and whether the Earth rate is in the motion."""
     meta = triad_meta(
         name, segs, latitude_deg=latitude_deg if fit_latitude else None, gravity_mps2=gravity_mps2, notes=notes
     )
