@@ -47,8 +47,9 @@ from functools import lru_cache, partial
 import jax
 import jax.numpy as jnp
 import numpy as np
-from scipy import optimize, stats
+from scipy import optimize
 
+from gyrojax import tails
 from gyrojax.noise import gmwm_select as sel
 from gyrojax.noise import robust_wv as rwv
 from gyrojax.noise import wavelet as wv
@@ -414,7 +415,7 @@ def _fit_spec(spec: ModelSpec, est, omega, method, grid, n_steps, memo):
     cov[at_bound, at_bound] = np.inf
     objective = float(r @ r)
     dof = j - spec.n_params
-    p_value = float(stats.chi2.sf(objective, dof)) if dof > 0 and method == "gmwm" else None
+    p_value = float(tails.chi2_sf(objective, dof)) if dof > 0 and method == "gmwm" else None
     info = {
         "model": spec.label(),
         "objective": objective,

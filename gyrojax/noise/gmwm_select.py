@@ -62,8 +62,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy import optimize, stats
+from scipy import optimize
 
+from gyrojax import tails
 from gyrojax.noise import wavelet as wv
 from gyrojax.noise.spec import NoiseModelError, NoiseSpec
 
@@ -173,7 +174,7 @@ def rejection(ns: NoiseSpec) -> str:
 def linear_cost(level: float = COMPONENT_LEVEL) -> float:
     """c₁ = Φ⁻¹(1 − α₁)²: the drop of Q that a one-variance process must bring, its variance on the boundary 0
     under the smaller model (ΔQ ~ ½χ²₀ + ½χ²₁, Self & Liang 1987; P(ΔQ > c₁) = α₁); dimensionless."""
-    return float(stats.norm.isf(level)) ** 2
+    return float(tails.norm_isf(level)) ** 2
 
 
 def davies_cost(sweep: float, level: float = COMPONENT_LEVEL) -> float:
@@ -182,7 +183,7 @@ def davies_cost(sweep: float, level: float = COMPONENT_LEVEL) -> float:
     component must bring; c₁ of :func:`linear_cost` when V = 0."""
 
     def excess(u):
-        return stats.norm.sf(u) + sweep / (2.0 * math.pi) * math.exp(-0.5 * u * u) - level
+        return tails.norm_sf(u) + sweep / (2.0 * math.pi) * math.exp(-0.5 * u * u) - level
 
     return float(optimize.brentq(excess, 0.0, 40.0)) ** 2
 

@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 
+from gyrojax import tails
 from gyrojax.noise import headline
 from gyrojax.noise.spec import BI_FACTOR, UNITS, NoiseModelError, NoiseSpec, adev_jacobian
 from gyrojax.units import SECONDS_PER_HOUR
@@ -118,7 +119,6 @@ def mata_interval(values, stds, weights, level: float = headline.TWO_SIGMA) -> t
     2809–2815; Buckland, S. T., Burnham, K. P. & Augustin, N. H. (1997), Model selection: an integral part of
     inference, Biometrics 53, 603–618."""
     from scipy.optimize import brentq
-    from scipy.stats import norm
 
     a = (1.0 - level) / 2.0
     w = np.asarray(weights, float)
@@ -132,10 +132,10 @@ def mata_interval(values, stds, weights, level: float = headline.TWO_SIGMA) -> t
     span = lv.min() - 40.0 * sv.max(), lv.max() + 40.0 * sv.max()
 
     def upper_tail(x):  # Σ w_i Φ((ln θ̂_i − x)/s_i) − α/2, falling in x
-        return float(wp @ norm.cdf((lv - x) / sv)) - a
+        return float(wp @ tails.norm_cdf((lv - x) / sv)) - a
 
     def lower_tail(x):  # w0 + Σ w_i [1 − Φ((ln θ̂_i − x)/s_i)] − α/2, rising in x
-        return w0 + float(wp @ norm.sf((lv - x) / sv)) - a
+        return w0 + float(wp @ tails.norm_sf((lv - x) / sv)) - a
 
     hi = math.exp(brentq(upper_tail, *span, xtol=1e-12))
     lo = 0.0 if w0 >= a else math.exp(brentq(lower_tail, *span, xtol=1e-12))
