@@ -36,10 +36,9 @@ in at most :data:`FALSE_COMPONENT_LEVEL` of the records of every null case of th
 a flicker-like sum of GMs, white + a 1/f floor; the union of the one-component alternatives makes the rate exceed
 α₁, the admissibility rules below make it less).
 
-Measured (benchmarks/study_gmwm_selection.py --draws 200, 2^17 samples, 2026-12-02; binomial sd ≈ 0.015):
-false-component rate white 0.030, white + GM 0.040, flicker-like GM sum 0.040, white + 1/f floor 0.045 (the
-former flat c = 3 per parameter on the same records: 0.045, 0.060, 0.045, 0.080); power, white + 1/f floor + random
-walk with both found: 0.915 (flat c = 3: 0.885).
+Measured (benchmarks/study_gmwm_selection.py --draws 200, 2^17 samples; binomial sd ≈ 0.015): false-component
+rate white 0.030, white + GM 0.040, flicker-like GM sum 0.040, white + 1/f floor 0.045; power, white + 1/f floor +
+random walk with both found: 0.915.
 
 **Adequacy gate.** The candidate chosen is then fitted with its own efficient weights Ω(θ̂); when its J test
 (Hansen; Q(θ̂) ~ χ²(J − p) under the model) rejects it at :data:`J_TEST_LEVEL`, the next admissible candidate by

@@ -368,7 +368,7 @@ def predict(model: Model, theta, data: RecordData, trig=None):
         if data.encoder_axis == s:
             # the readout error's change over the interval, the trapezoid of dh/dθ times the predicted increment: the
             # read increment carries the measurement's own noise, so h at the next read angle would make a regressor
-            # of the measurement itself (issue 28); dh/dθ at both ends keeps the readout noise of the angles symmetric
+            # of the measurement itself; dh/dθ at both ends keeps the readout noise of the angles symmetric
             _, slope = encoder_error(setup["encoder"], data.angles[:, s])
             dh = 0.5 * (slope[1:] + slope[:-1]) * mean_rate
         return (mean_rate + dh) / units.DEG_PER_H * data.weight
