@@ -9,7 +9,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
-from functools import lru_cache, partial
+from functools import lru_cache
 
 import jax
 import jax.numpy as jnp
@@ -184,14 +184,10 @@ def static_rows(model: Model, data, triad, angles_rad):
     return jacobian(model, jnp.zeros(model.size), d).reshape(n, model.size)
 
 
-def _vmapped_rows(model: Model, d, t, a):
-    return jax.vmap(lambda tt: static_rows(model, d, tt, a))(t)
-
-
 @lru_cache(maxsize=8)
 def _rows_jit(model: Model):
     # kept across processes for built-in models (gyrojax.runtime.kept): a process' first diagnosis skips the compile
-    fn = jax.jit(partial(_vmapped_rows, model))
+    fn = jax.jit(lambda d, t, a: jax.vmap(lambda tt: static_rows(model, d, tt, a))(t))
     return Kept(model_name("static_rows", model), fn) if keepable(model) else fn
 
 

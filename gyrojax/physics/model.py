@@ -100,10 +100,6 @@ class Model:
                 raise ModelError(f"unknown coefficient {k!r}; valid: {', '.join(idx)}")
         return np.array([float(coefficients.get(c, 0.0)) for c in self.coefficient_names])
 
-    def unpack(self, theta) -> dict:
-        """Coefficient name -> value (report units) from a flat θ; the inverse of :meth:`pack`."""
-        return {c: float(v) for c, v in zip(self.coefficient_names, np.asarray(theta))}
-
     def extend(self, *terms) -> "Model":
         """This model with effect (or coefficient) names appended; names already present are kept once."""
         return Model.of(self.terms + tuple(terms), self.kind)
