@@ -156,8 +156,7 @@ def _mapped_plain_csv(csv_path: Path):
 
 NUMPY_READ_MAX_BYTES = 16 * 2**20
 """Plain CSV files up to this size are read by numpy (:func:`_numpy_columns`): its reader is slower per byte than
-pandas' (about 10 against 4 ms per MB), but importing pandas costs a process about 0.25 s of CPU, which only files
-of some 40 MB repay."""
+pandas', but importing pandas costs a process more than that below this size."""
 
 
 def _numpy_columns(csv_path: Path, n_columns: int):
