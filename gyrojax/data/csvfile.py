@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -164,8 +165,6 @@ def _numpy_columns(csv_path: Path, n_columns: int):
     row per column (n_columns, rows), or ``None`` when it is not the plain case: a cell that is not a finite number
     (quoted, empty, text), a row whose length is not the header's, no sample row. The caller then takes the paths
     that name what is wrong."""
-    import warnings
-
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # "input contained no data": refused below
