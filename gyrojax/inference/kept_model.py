@@ -3,10 +3,10 @@ prediction and the Jacobian in one pass: what ``linearize`` needs), of a :class:
 static argument) called through their kept executables (:class:`gyrojax.runtime.kept.Kept`), so that the first
 diagnosis of a fresh process neither traces nor compiles the model again.
 
-A record is evaluated in pieces of a few fixed numbers of measurements (:func:`over_rows`: the chunks of
+A record is evaluated in pieces of one fixed number of measurements (:func:`over_rows`: the chunks of
 :mod:`gyrojax.runtime.rows`, each piece a record of its own, :func:`gyrojax.physics.model.measurement_rows`), so that
-one executable per model and chunk size serves records of every length: a campaign of a length never seen before
-loads what an earlier one compiled.
+one executable per model serves records of every length: a campaign of lengths never seen before loads what an
+earlier one compiled.
 
 A model is kept only when every term is a built-in effect (:data:`gyrojax.physics.registry.BUILTIN`): the code
 of a built-in effect depends on the library source alone, which the key carries (with the model's kind and terms,
@@ -80,7 +80,7 @@ def over_rows(call, data: RecordData, blocks: int = 1):
 
 def kept_rows(stem: str, fn, jitted, model: Model, theta, data: RecordData):
     """``fn(model, theta, data)``, whose outputs are per measurement (TDF: both channels), compiled: through the kept
-    executable named ``stem`` piece by piece (:func:`over_rows`: one executable per chunk size) when
+    executable named ``stem`` piece by piece (:func:`over_rows`: one executable for every length) when
     :func:`keepable`, else by ``jitted`` on the whole record."""
     if not keepable(model) or measurements(data) == 0:
         return jitted(model, theta, data)
@@ -97,5 +97,5 @@ def kept_predict(model: Model, theta, data):
 
 def kept_predict_and_jacobian(model: Model, theta, data):
     """:func:`gyrojax.physics.model.predict_and_jacobian` of ``model`` (one compiled pass: a fresh process loads one
-    executable per model and chunk size instead of two), through a kept executable when :func:`keepable`."""
+    executable per model instead of two), through a kept executable when :func:`keepable`."""
     return kept_rows("predict_jacobian", predict_and_jacobian, predict_and_jacobian_jit, model, theta, data)
