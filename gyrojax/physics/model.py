@@ -180,9 +180,9 @@ def measurement_rows(data: RecordData, first: int, rows: int) -> RecordData:
     own (numpy arrays), those past the record's end copies of its last one (to be dropped from the outputs).
 
     A measurement depends on its own sample alone (rebalance: the balance equation at the sample) or on the two
-    samples of its interval (servo: the table rate that nulls the pickoff, Hu 3-59, integrated over the interval),
-    so :func:`predict` of the pieces, put together, is that of the whole record. A servo piece holds the samples
-    ``first … first + rows`` (one more than its intervals); a TDF piece's measurements are channel X's, then
+    samples of its interval (servo: the table rate, rad/s, that nulls the pickoff, Hu 3-59, integrated over the
+    interval), so :func:`predict` of the pieces, put together, is that of the whole record. A servo piece holds the
+    samples ``first … first + rows`` (one more than its intervals); a TDF piece's measurements are channel X's, then
     channel Y's, of its samples.
     """
     n = int(data.time_s.shape[0])
