@@ -14,7 +14,7 @@ from gyrojax.inference.campaign import Campaign
 from gyrojax.physics import expression as ex
 from gyrojax.physics.model import Model, jacobian_jit, measurements, predict_jit
 from gyrojax.report.demo import TRUTH
-from gyrojax.runtime import kept
+from gyrojax.runtime import kept, rows
 from gyrojax.simulation.simulator import simulate
 
 
@@ -97,7 +97,6 @@ def test_a_record_in_pieces_predicts_as_the_whole_record(plan, kind, mode, where
     Jacobian of the whole record, jitted on it at once, to rounding (the compiled pieces may vectorise the sums of
     the model's terms in another order)."""
     from gyrojax.physics import effects as fx
-    from gyrojax.runtime import rows
 
     monkeypatch.setattr(rows, "CHUNK_ROWS", 37)
     data = _plan_data(plan())
@@ -114,9 +113,11 @@ def test_a_record_in_pieces_predicts_as_the_whole_record(plan, kind, mode, where
 
 
 def test_records_of_any_length_share_one_executable(where, monkeypatch):
-    """Two records of other lengths call one executable per model (the chunk size's), none compiled for the second."""
+    """Two records of other lengths, each at least a chunk, call one executable per model (the chunk size's), none
+    compiled for the second."""
     short, long = (_plan_data(plans.tumble(revolutions=1.0, dt_s=s)) for s in (60.0, 20.0))
     assert short.time_s.shape != long.time_s.shape
+    monkeypatch.setattr(rows, "CHUNK_ROWS", min(measurements(short), measurements(long)) // 2)
     kept_model.kept_predict_and_jacobian(MODEL, np.zeros(MODEL.size), short)
 
     def no_compile(*a, **k):

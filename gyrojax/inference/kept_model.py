@@ -3,10 +3,10 @@ prediction and the Jacobian in one pass: what ``linearize`` needs), of a :class:
 static argument) called through their kept executables (:class:`gyrojax.runtime.kept.Kept`), so that the first
 diagnosis of a fresh process neither traces nor compiles the model again.
 
-A record is evaluated in pieces of one fixed number of measurements (:func:`over_rows`: the chunks of
-:mod:`gyrojax.runtime.rows`, each piece a record of its own, :func:`gyrojax.physics.model.measurement_rows`), so that
-one executable per model serves records of every length: a campaign of lengths never seen before loads what an
-earlier one compiled.
+A record is evaluated in pieces of a few fixed numbers of measurements (:func:`over_rows`: the chunks of
+:mod:`gyrojax.runtime.rows`, each piece a record of its own, :func:`gyrojax.physics.model.measurement_rows`), so
+that one executable per model and chunk size serves records of every length: a campaign of lengths never seen before
+loads what an earlier one compiled.
 
 A model is kept only when every term is a built-in effect (:data:`gyrojax.physics.registry.BUILTIN`): the code
 of a built-in effect depends on the library source alone, which the key carries (with the model's kind and terms,

@@ -1,8 +1,9 @@
-"""Rows in chunks of one fixed size: a compiled function of a record's rows is called chunk by chunk, so that it has
-one executable (:class:`gyrojax.runtime.kept.Kept` keeps it), never one per record length, and a campaign of lengths
-never seen before calls what an earlier one compiled. A record of m rows is cut into chunks of :data:`CHUNK_ROWS`, the
-last one padded by the caller (copies of a real row, :func:`clamped`) and the padding dropped from the outputs
-(:func:`joined`).
+"""Rows in chunks of a few fixed sizes: a compiled function of a record's rows is called chunk by chunk, so that it
+has a few executables (:class:`gyrojax.runtime.kept.Kept` keeps them), never one per record length, and a campaign of
+lengths never seen before calls what an earlier one compiled. A record of m rows is cut into chunks of
+:data:`CHUNK_ROWS`, the last one padded by the caller (copies of a real row, :func:`clamped`) and the padding dropped
+from the outputs (:func:`joined`); a record shorter than one chunk is one chunk of the next power of two (at least
+:data:`MIN_ROWS`), so that a short record is not evaluated at many times its length.
 """
 
 from __future__ import annotations
@@ -14,9 +15,17 @@ CHUNK_ROWS = 1024
 calls are few."""
 
 
+MIN_ROWS = 64
+"""The smallest chunk: a record of fewer rows is one chunk of this many."""
+
+
 def chunks(m: int) -> list[tuple[int, int]]:
-    """(first row, rows) of the chunks that cover m rows: :data:`CHUNK_ROWS` each, at least one."""
-    return [(k, CHUNK_ROWS) for k in range(0, max(int(m), 1), CHUNK_ROWS)]
+    """(first row, rows) of the chunks that cover m rows: :data:`CHUNK_ROWS` each, or one chunk of the next power
+    of two (at least :data:`MIN_ROWS`) when m is less than :data:`CHUNK_ROWS`."""
+    m = max(int(m), 1)
+    if m < CHUNK_ROWS:
+        return [(0, max(MIN_ROWS, 1 << (m - 1).bit_length()))]
+    return [(k, CHUNK_ROWS) for k in range(0, m, CHUNK_ROWS)]
 
 
 def clamped(first: int, rows: int, last: int) -> np.ndarray:
