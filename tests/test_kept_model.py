@@ -12,9 +12,9 @@ from gyrojax.data import plans
 from gyrojax.inference import kept_model
 from gyrojax.inference.campaign import Campaign
 from gyrojax.physics import expression as ex
-from gyrojax.physics.model import Model, jacobian_jit, predict_jit
+from gyrojax.physics.model import Model, jacobian_jit, measurements, predict_jit
 from gyrojax.report.demo import TRUTH
-from gyrojax.runtime import kept
+from gyrojax.runtime import kept, rows
 from gyrojax.simulation.simulator import simulate
 
 
@@ -74,3 +74,56 @@ def test_a_model_with_a_user_effect_is_not_kept(data, where):
         _, j = kept_model.kept_predict_and_jacobian(model, jnp.zeros(2), data)
         np.testing.assert_array_equal(np.asarray(j), np.asarray(jacobian_jit(model, jnp.zeros(2), data)))
     assert not where.exists()
+
+
+def _plan_data(plan):
+    from gyrojax.data.arrays import record_data
+    from gyrojax.simulation.simulator import plan_records
+
+    return record_data(plan_records(plan)[0])
+
+
+@pytest.mark.parametrize(
+    "plan, kind, mode",
+    [
+        (lambda: plans.tumble(revolutions=1.0, dt_s=60.0), "sdf-gyro", "rebalance"),
+        (lambda: plans.servo(hours=0.1, dt_s=1.0), "sdf-gyro", "servo"),  # the pieces share their end samples
+        (lambda: plans.tdf_tumble(), "tdf-gyro", "rebalance"),  # channel X's rows, then channel Y's
+        (lambda: plans.accel_tumble(positions=8, dwell_s=20.0), "pendulous-accel", "rebalance"),
+    ],
+)
+def test_a_record_in_pieces_predicts_as_the_whole_record(plan, kind, mode, where, monkeypatch):
+    """Every mode and kind through pieces of a few rows (many pieces, the last one padded): the prediction and the
+    Jacobian of the whole record, jitted on it at once, to rounding (the compiled pieces may vectorise the sums of
+    the model's terms in another order)."""
+    from gyrojax.physics import effects as fx
+
+    monkeypatch.setattr(rows, "CHUNK_ROWS", 37)
+    data = _plan_data(plan())
+    model = Model(tuple(t for t in fx.names(kind) if t not in fx.TEMPERATURE_EFFECTS), kind)
+    theta = np.random.default_rng(0).normal(0.0, 0.3, model.size)
+    y, j = kept_model.kept_predict_and_jacobian(model, theta, data)
+    assert data.mode == mode and data.kind == kind and measurements(data) > 3 * rows.CHUNK_ROWS
+    y0, j0 = predict_jit(model, theta, data), jacobian_jit(model, theta, data)
+    assert y.shape == y0.shape and j.shape == j0.shape
+    scale = float(np.max(np.abs(np.asarray(y0)))) + 1.0
+    np.testing.assert_allclose(y, np.asarray(y0), rtol=0, atol=1e-13 * scale)
+    np.testing.assert_allclose(j, np.asarray(j0), rtol=0, atol=1e-13 * (float(np.max(np.abs(np.asarray(j0)))) + 1.0))
+    assert len(list(where.glob(kept_model.model_name("predict_jacobian", model) + "-*.xla"))) == 1
+
+
+def test_records_of_any_length_share_one_executable(where, monkeypatch):
+    """Two records of other lengths, each at least a chunk, call one executable per model (the chunk size's), none
+    compiled for the second."""
+    short, long = (_plan_data(plans.tumble(revolutions=1.0, dt_s=s)) for s in (60.0, 20.0))
+    assert short.time_s.shape != long.time_s.shape
+    monkeypatch.setattr(rows, "CHUNK_ROWS", min(measurements(short), measurements(long)) // 2)
+    kept_model.kept_predict_and_jacobian(MODEL, np.zeros(MODEL.size), short)
+
+    def no_compile(*a, **k):
+        raise AssertionError("compiled again")
+
+    monkeypatch.setattr(kept, "_compile", no_compile)
+    _, j = kept_model.kept_predict_and_jacobian(MODEL, np.zeros(MODEL.size), long)
+    np.testing.assert_allclose(j, np.asarray(jacobian_jit(MODEL, np.zeros(MODEL.size), long)), rtol=0, atol=1e-12)
+    assert len(list(where.glob(_file("predict_jacobian")))) == 1

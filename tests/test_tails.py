@@ -99,3 +99,18 @@ def test_the_laws_from_scipy_special_are_scipy_stats_bit_for_bit():
     ]
     for i, (got, want) in enumerate(pairs):
         np.testing.assert_array_equal(np.asarray(got).view(np.int64), np.asarray(want).view(np.int64), err_msg=str(i))
+
+
+def test_the_score_power_is_scipy_stats_noncentral_tail():
+    """The power of a score test (1 − the noncentral χ² CDF of scipy.special, no scipy.stats import) is
+    ``scipy.stats.ncx2.sf`` above the central critical value to rounding, over the noncentralities where a power is
+    read (α … 1), and α itself at no noncentrality."""
+    from gyrojax import tails
+
+    for df in (1, 2, 3, 6, 11):
+        for alpha in (0.01, 0.05):
+            x = stats.chi2.isf(alpha, df)
+            for lam in np.concatenate([[1e-300], np.geomspace(1e-3, 300.0, 60)]):
+                want = stats.ncx2.sf(x, df, lam)
+                assert abs(tails.score_power(lam, df, alpha) - want) <= 1e-12 * want, (df, alpha, lam)
+            assert abs(tails.score_power(1e-300, df, alpha) - alpha) <= 1e-12

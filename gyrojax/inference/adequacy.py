@@ -36,6 +36,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyrojax.inference.drift_rows import rows_of, servo_state
+from gyrojax.inference.kept_model import over_rows
 from gyrojax.inference.scoring import collinear, score
 from gyrojax.inference.solver import stack_whitened
 from gyrojax.inference.subspace import UNSEEN, WhitenedSystem, basis, perp
@@ -67,9 +68,14 @@ def _harmonic(p: dict, axis: str, k: int) -> np.ndarray:
 @partial(Kept, "inputs_without_setup")  # kept across processes (gyrojax.runtime.kept)
 @jax.jit
 def _inputs_without_setup(d):
-    """:func:`gyrojax.physics.model.instrument_inputs` of a record with no set-up error (one compiled function, not
-    a few hundred dispatched operations per record)."""
     return instrument_inputs(d, {"delta": jnp.zeros(3), "encoder": jnp.zeros(4)})
+
+
+def inputs_without_setup(d) -> dict:
+    """:func:`gyrojax.physics.model.instrument_inputs` of a rebalance record with no set-up error, per sample (one
+    compiled function, not a few hundred dispatched operations per record; one executable for every length,
+    :func:`gyrojax.inference.kept_model.over_rows`)."""
+    return over_rows(_inputs_without_setup, d)
 
 
 def shapes(campaign, result=None) -> list[tuple]:
@@ -90,7 +96,7 @@ def shapes(campaign, result=None) -> list[tuple]:
             x, gain, tr = servo_state(d, result)
             rate = {a: tr[:, i] for i, a in enumerate(rec.axis_names)}
         else:
-            x = {k: np.asarray(v) for k, v in _inputs_without_setup(d).items()}
+            x = inputs_without_setup(d)
             gain = None
             rate = {a: rec.rates_dps[:, i] * 3600.0 for i, a in enumerate(rec.axis_names)}
         rows = rows_of(d, ok, gain)

@@ -8,7 +8,6 @@ import json
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
-import jax.numpy as jnp
 import numpy as np
 
 from gyrojax.data.arrays import record_data
@@ -162,7 +161,7 @@ class Linearized(NamedTuple):
 def linearize(model: Model, theta, campaign: Campaign) -> list[Linearized]:
     """The :class:`Linearized` rows of every record at ``theta`` (report units); measurement rows only."""
     out = []
-    th = jnp.asarray(theta, dtype=jnp.float64)
+    th = np.asarray(theta, dtype=np.float64)  # numpy: a jnp array of a new shape compiles a staging function
     for d, lab, t in zip(campaign.data, campaign.labels, campaign.times):
         ok = lab >= 0
         # executables kept across processes (built-in models: gyrojax.inference.kept_model)

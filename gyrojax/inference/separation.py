@@ -23,7 +23,7 @@ from gyrojax.inference.lstsq import lstsq_normal
 from gyrojax.inference.scoring import ALPHA
 from gyrojax.physics import effects as fx
 from gyrojax.physics import registry
-from gyrojax.physics.model import Model, jacobian
+from gyrojax.physics.model import Model, jacobian, measurement_rows
 from gyrojax.runtime.kept import Kept, kept_arrays
 
 
@@ -231,11 +231,11 @@ def designed_entry(a: str, b: str, campaign, lin, full: Model, result, candidate
         dt = np.asarray(d.dt)
         jj = j[:, keep]
         f_rec += jj.T @ jj * (float(np.median(dt)) if dt.size else 1.0) / (60.0 * w) ** 2
-    d0 = campaign.data[0]
-    k = int(np.asarray(d0.angles).shape[1])
-    ang = jnp.asarray(np.random.default_rng(0).uniform(0.0, 2.0 * math.pi, (ENTRY_POSITIONS, k)))
-    triads = jnp.asarray(np.einsum("mij,jk->mik", case_turns(), np.asarray(d0.triad)))
-    rows = np.asarray(_rows_jit(sub)(d0, triads, ang))
+    table = measurement_rows(campaign.data[0], 0, 1)  # the table and mounting (static_rows sets the samples)
+    k = int(table.angles.shape[1])
+    ang = np.random.default_rng(0).uniform(0.0, 2.0 * math.pi, (ENTRY_POSITIONS, k))
+    triads = np.einsum("mij,jk->mik", case_turns(), np.asarray(table.triad))
+    rows = np.asarray(_rows_jit(sub)(table, triads, ang))
     per_sample = ENTRY_HOURS * 3600.0 / ENTRY_POSITIONS / (60.0 * float(np.sqrt(np.mean(np.square(white))))) ** 2
     best, bi = 0.0, np.arange(len(base))
     for r in rows:

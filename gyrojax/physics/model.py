@@ -18,6 +18,7 @@ of ``Model.coefficient_names``.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from functools import partial
 
@@ -29,6 +30,7 @@ from gyrojax import units
 from gyrojax.errors import ModelError
 from gyrojax.physics import effects as fx
 from gyrojax.physics import frames, kinematics
+from gyrojax.runtime.rows import clamped
 
 
 @dataclass(frozen=True)
@@ -165,6 +167,55 @@ class RecordData:
     servo_axis: int | None = None
     encoder_axis: int = 0
     rates_derived: bool = False
+
+
+def measurements(data: RecordData) -> int:
+    """Number of measurement rows of a record per channel: its samples, in servo mode its sample intervals."""
+    n = int(data.time_s.shape[0])
+    return max(n - 1, 0) if data.mode == "servo" else n
+
+
+def measurement_rows(data: RecordData, first: int, rows: int) -> RecordData:
+    """Measurements ``first … first + rows − 1`` of a record (per channel, :func:`measurements`) as a record of their
+    own (numpy arrays), those past the record's end copies of its last one (to be dropped from the outputs).
+
+    A measurement depends on its own sample alone (rebalance: the balance equation at the sample) or on the two
+    samples of its interval (servo: the table rate, rad/s, that nulls the pickoff, Hu 3-59, integrated over the
+    interval), so :func:`predict` of the pieces, put together, is that of the whole record. A servo piece holds the
+    samples ``first … first + rows`` (one more than its intervals); a TDF piece's measurements are channel X's, then
+    channel Y's, of its samples.
+    """
+    n = int(data.time_s.shape[0])
+    servo = data.mode == "servo"
+    ix = clamped(first, rows + 1 if servo else rows, n - 1)
+    gaps = np.minimum(ix[:-1], max(n - 2, 0))  # the interval after each sample of the piece but its last
+
+    def samples(a):
+        return np.asarray(a)[ix]
+
+    def intervals(a):
+        a = np.asarray(a)
+        return a[gaps] if a.size else np.zeros(gaps.shape + a.shape[1:])
+
+    def rows_of(a):
+        if servo:
+            return intervals(a)
+        a = np.asarray(a)
+        if data.kind == fx.TDF:
+            return np.concatenate([a[:n][ix], a[n:][ix]])
+        return a[ix]
+
+    return dataclasses.replace(
+        data,
+        time_s=samples(data.time_s),
+        angles=samples(data.angles),
+        rates=samples(data.rates),
+        temperature=samples(data.temperature),
+        command=samples(data.command),
+        y=rows_of(data.y),
+        weight=rows_of(data.weight),
+        dt=intervals(data.dt),
+    )
 
 
 # ---- the physics of one sample set ----------------------------------------------------------------------------

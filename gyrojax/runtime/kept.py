@@ -238,7 +238,7 @@ class Kept:
         if where is None or any(isinstance(x, jax.core.Tracer) for x in leaves):
             return self.fn(*args)
         leaves = [x if isinstance(x, jax.Array) else np.asarray(x) for x in leaves]
-        key = (where, tree, tuple((x.shape, str(x.dtype)) for x in leaves))
+        key = (where, tree, tuple((x.shape, x.dtype) for x in leaves))  # dtype objects: str() of each is slow
         call = self._calls.get(key)
         if call is None:
             # worker threads (gyrojax.runtime.threads.parallel_map) at a new shape: one loads, the others wait
