@@ -6,9 +6,9 @@
    plausible) is added and the records diagnosed again, until it proposes nothing. A proposal the records cannot
    tell from other candidates (its ``aliases`` or ``indistinguishable``, plausible ones) is *not* added: naming one
    member of an alias group would be a guess, and the next test is designed to separate the group instead. So is
-   a proposal outside the goal's watched effects that is no longer significant beside the significant watched
-   candidates fitted together (:func:`_rivals`): two missing effects can together look like a third. When those
-   candidates stay significant beside it, the records prefer them, and the strongest of them is added instead.
+   a proposal that is no longer significant beside the other significant watched candidates fitted together
+   (:func:`_rivals`): two missing effects can together look like a third, or one take the other's signal. When
+   those candidates stay significant beside it, the records prefer them, and the strongest of them is added instead.
 2. **Require.** What stands between the data and the goal (:mod:`gyrojax.adaptive.requirements`): σ of the model's
    coefficients (the fit's own standard errors), σ of each watched candidate were it added (detection of every size
    that matters), σ of the alias group's members in one fit.
@@ -219,20 +219,23 @@ def _named_aliases(c, plausible, terms, kind: str) -> tuple:
 
 
 def _rivals(records, terms, c, d, alpha: float, goal: Goal, kind: str, plausible) -> tuple[tuple, bool]:
-    """(rivals, preferred) of the proposal ``c``, an effect outside the goal's watch: the significant, plausible
-    watched candidates R when ``c`` is no longer significant (level ``alpha``) in the fit of the model with all of
-    R; ``preferred`` when R, in turn, is still significant beside ``c`` (Holm over R): the records then single out
-    R, not ``c``. ((), False) when ``c`` holds, is watched, or has no rival. The one-at-a-time tests rank candidates
-    by what each alone explains: two missing effects can together look like a third, one that no single test names
-    (a scale-factor asymmetry |ω_I| at Earth rate follows a_O and a_S² across a set of static positions; a table
-    azimuth error follows several g-sensitive terms of a multi-position test)."""
+    """(rivals, preferred) of the proposal ``c``: the significant, plausible watched candidates R other than ``c``
+    when ``c`` is no longer significant (level ``alpha``) in the fit of the model with all of R; ``preferred`` when
+    R, in turn, is still significant beside ``c`` (Holm over R): the records then single out R, not ``c``. ((), False)
+    when ``c`` holds or has no rival. The one-at-a-time tests rank candidates by what each alone explains: two
+    missing effects can together look like a third, one that no single test names (a scale-factor asymmetry |ω_I|
+    at Earth rate follows a_O and a_S² across a set of static positions; a table azimuth error follows several
+    g-sensitive terms of a multi-position test), and one watched effect can take another's signal where a test tells
+    them apart only in part (D_II beside a missing D_SS: a_I² + a_S² nearly constant over its positions)."""
     watched = goal.watched(kind)
-    if c.name in watched:
-        return (), False
     rivals = [
         x.name
         for x in d.candidates
-        if x.name in watched and x.name in plausible and x.name not in terms and x.p_adjusted < alpha
+        if x.name in watched
+        and x.name != c.name
+        and x.name in plausible
+        and x.name not in terms
+        and x.p_adjusted < alpha
     ]
     if not rivals:
         return (), False
