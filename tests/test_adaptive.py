@@ -427,23 +427,3 @@ def test_a_watched_effect_that_holds_only_for_a_missing_one_is_not_added():
     nt = next_test(records, ["D_F", "D_I", "D_S"], Goal(sigma=0.003), lab, looks=1, starts=1, steps=40)
     assert "D_II" not in nt.terms
     assert {"D_SS", "D_O"} <= set(nt.terms)
-
-
-def test_an_alias_group_is_separated_to_the_detection_level():
-    """Naming the member of an alias group that carries the signal needs each member detectable at the size that
-    matters in one fit with the group: σ = size/√λ*, √λ* solving Φ(√λ − z) + Φ(−√λ − z) = power (the χ²₁ test,
-    z = z_{α/2}; no noncentral χ² involved). The final σ target applies once the member is named, in the model
-    without the others (and where it is looser than the detection level, it is the target)."""
-    from scipy import optimize
-
-    alpha, kind = 0.025, "sdf-gyro"
-    for target in (0.003, 0.5):
-        goal = Goal(sigma=target)
-        reqs = rq.build(("D_F", "D_I", "D_S"), goal, kind, alpha, ("D_II", "D_SS"))
-        z = stats.norm.isf(alpha / 2)
-        root = optimize.brentq(lambda x: stats.norm.cdf(x - z) + stats.norm.cdf(-x - z) - goal.power, 0.0, 50.0)
-        sep = {r.coefficient: r for r in reqs if r.kind == "separate"}
-        assert set(sep) == {"D_II", "D_SS"}
-        for c, r in sep.items():
-            assert r.effects == ("D_F", "D_I", "D_S", "D_II", "D_SS")
-            assert r.target == pytest.approx(max(target, goal.detect_size(c, kind) / root), rel=1e-9)

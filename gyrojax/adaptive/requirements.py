@@ -9,11 +9,9 @@ Each requirement asks that one coefficient be known to its target σ in one sub-
                test at level α detects it with power P once |c| ≥ √λ*·σ_c (:mod:`gyrojax.adaptive.goal`); its
                target is the size that matters (by default the plausible size) over √λ*
 ``separate``   the watched (or explicitly targeted) members of an alias group G that the diagnosis found
-               significant but cannot name (the records cannot tell them apart), read in M ∪ G: each member
-               detectable at the size that matters in one fit with the whole group (the ``detect`` target; the
-               σ target where it is looser) tells which it is — the member named, its σ target applies in the
-               model, without the others; the other members (a test-set effect, D_OO) are in the sub-model but
-               carry no target of their own
+               significant but cannot name (the records cannot tell them apart), read in M ∪ G: known to S in one
+               fit with the whole group tells which it is; the other members (a test-set effect, D_OO) are in the
+               sub-model but carry no target of their own
 =============  ==============================================================================================
 
 The ratio of a requirement is q = σ²/(m·S)² with σ² = [F_K⁻¹]_ii and m the design margin; a requirement is met
@@ -92,7 +90,6 @@ def build(terms, goal, kind: str, alpha: float, alias_group=()) -> list[Requirem
         for c, u in zip(eff.coefficients, eff.units):
             s = goal.target(c)
             if s is not None and (e in watched or c in goal.targets):
-                s = max(s, goal.detect_sigma(c, alpha, kind) or s)
                 out.append(Requirement("separate", c, terms + group, s, u, tuple(g for g in group if g != e)))
     return out
 
