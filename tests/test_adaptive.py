@@ -333,6 +333,23 @@ def test_no_test_holds_its_positions_for_less_than_the_settle_time(first_records
     assert test.dwell_hours == pytest.approx(lab.positions * shortest / 3600.0, rel=1e-6)
 
 
+def tumble_then(truth, positions, seed):
+    """The study's records of a campaign seed: its first test (the polar tumble, 30 s samples) and then static
+    ``positions`` ((outer, inner) deg, dwell s) on its two-axis table, noise keys as the campaign draws them; and
+    that lab."""
+    import jax
+
+    first = plans.tumble(revolutions=2.0, earth_rates=20.0, dt_s=30.0, flip=False, both_directions=False)
+    key = jax.random.PRNGKey(seed)
+    records = simulate(first, truth, key=jax.random.fold_in(key, 0))
+    lab = Lab.from_records(records, axes=plans.TWO_AXIS, turn_case=False, mountings_per_test=1)
+    ang = np.array([[a for a, _ in positions]], dtype=float)
+    dwell = np.array([[d for _, d in positions]], dtype=float)
+    plan = lab.plan("test-2", lab.triad[None], ang, dwell, "the loop's second test")
+    clock = float(records[0].time_s[-1]) + lab.settle_s
+    return records + simulate(plan, truth, key=jax.random.fold_in(key, 1), start_s=clock), lab
+
+
 # the study's truth 10 (benchmarks/study_campaign.py): D_SS and D_O hidden from the first test (a polar tumble), and
 # the 12 static positions the loop designed next: (outer, inner) deg and dwell s
 RIVAL_TRUTH = {
@@ -352,17 +369,7 @@ def test_two_missing_effects_that_look_like_a_third_are_not_named_by_it():
     Earth rate, it follows a_O and a_S² across the positions) above D_O and D_SS, the effects the truth holds; the
     asymmetry is not significant beside them, so the step must not add it (a false effect) but name the group the
     next test separates, the truth's effects among it."""
-    import jax
-
-    first = plans.tumble(revolutions=2.0, earth_rates=20.0, dt_s=30.0, flip=False, both_directions=False)
-    key = jax.random.PRNGKey(10)
-    records = simulate(first, RIVAL_TRUTH, key=jax.random.fold_in(key, 0))
-    lab = Lab.from_records(records, axes=plans.TWO_AXIS, turn_case=False, mountings_per_test=1)
-    ang = np.array([[a for a, _ in RIVAL_POSITIONS]], dtype=float)
-    dwell = np.array([[d for _, d in RIVAL_POSITIONS]], dtype=float)
-    plan = lab.plan("test-2", lab.triad[None], ang, dwell, "the loop's second test")
-    clock = float(records[0].time_s[-1]) + lab.settle_s
-    records = records + simulate(plan, RIVAL_TRUTH, key=jax.random.fold_in(key, 1), start_s=clock)
+    records, lab = tumble_then(RIVAL_TRUTH, RIVAL_POSITIONS, 10)
     nt = next_test(records, ["D_F", "D_I", "D_S"], Goal(sigma=0.003), lab, looks=1, starts=1, steps=40)
     assert "sf_asymmetry" not in nt.terms
     assert {"D_O", "D_SS"} <= set(nt.terms) | set(nt.alias)
@@ -413,17 +420,7 @@ def test_a_watched_effect_that_holds_only_for_a_missing_one_is_not_added():
     strongest proposal (≈ +0.09 ± 0.01 deg/h/g², the truth 0); beside D_SS and D_O, the significant watched
     candidates, it is nothing, and they hold beside it: the step adds D_SS and D_O and never D_II (a false effect
     no later look removes)."""
-    import jax
-
-    first = plans.tumble(revolutions=2.0, earth_rates=20.0, dt_s=30.0, flip=False, both_directions=False)
-    key = jax.random.PRNGKey(31)
-    records = simulate(first, PARTIAL_TRUTH, key=jax.random.fold_in(key, 0))
-    lab = Lab.from_records(records, axes=plans.TWO_AXIS, turn_case=False, mountings_per_test=1)
-    ang = np.array([[a for a, _ in PARTIAL_POSITIONS]], dtype=float)
-    dwell = np.array([[d for _, d in PARTIAL_POSITIONS]], dtype=float)
-    plan = lab.plan("test-2", lab.triad[None], ang, dwell, "the loop's second test")
-    clock = float(records[0].time_s[-1]) + lab.settle_s
-    records = records + simulate(plan, PARTIAL_TRUTH, key=jax.random.fold_in(key, 1), start_s=clock)
+    records, lab = tumble_then(PARTIAL_TRUTH, PARTIAL_POSITIONS, 31)
     nt = next_test(records, ["D_F", "D_I", "D_S"], Goal(sigma=0.003), lab, looks=1, starts=1, steps=40)
     assert "D_II" not in nt.terms
     assert {"D_SS", "D_O"} <= set(nt.terms)
