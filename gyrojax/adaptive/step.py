@@ -422,8 +422,25 @@ def next_test(
     last_end = max(float(r.time_s[-1]) for r in records)
     start = last_end + lab.settle_s if start_s is None else float(start_s)
     cap, draws = min(lab.hours_per_test, left), _draws(uni, res, POSTERIOR_DRAWS, seed)
-    search = {"budget_hours": left, "starts": starts, "steps": steps, "seed": seed}
-    test = design_test(uni, rq.arrays(reqs, uni), f_rec, lab, noise, cap, start, goal.margin, draws, **search)
+    # a test that takes all the hours a test may is shaped for the models the records may turn out to hold
+    anticipated = _anticipated(reqs, sigma_now, goal, terms, alias)
+    shape = rq.arrays(anticipated, uni) if anticipated is not None else None
+    test = design_test(
+        uni,
+        rq.arrays(reqs, uni),
+        f_rec,
+        lab,
+        noise,
+        cap,
+        start,
+        goal.margin,
+        draws,
+        budget_hours=left,
+        starts=starts,
+        steps=steps,
+        seed=seed,
+        shape=shape,
+    )
     if test.hours_needed is None or test.hours_needed > left:
         factor = math.sqrt(max(test.ratio_at_budget, 0.0)) * goal.margin
         if test.hours_needed is None:
@@ -439,13 +456,7 @@ def next_test(
             + _unmet_text(out, unmet)
         )
         return out
-    anticipated = _anticipated(reqs, sigma_now, goal, terms, alias)
-    if anticipated is not None and test.hours_needed > cap:
-        # the test takes the hours of a whole test either way: shaped for the models the records may turn out to hold
-        shaped = design_test(
-            uni, rq.arrays(anticipated, uni), f_rec, lab, noise, cap, start, goal.margin, draws, **search
-        )
-        test = replace(shaped, hours_needed=test.hours_needed, ratio_at_budget=test.ratio_at_budget)
+    if shape is not None and test.hours_needed > cap:
         unseen = dict.fromkeys(r.effect for r, x in zip(reqs, sigma_now) if r.kind == "detect" and not math.isfinite(x))
         out.notes.append(
             "the test takes all the hours a test may, so it is shaped for the models the records may turn out to "
