@@ -115,22 +115,40 @@ def test_the_tumble_cannot_see_d_o_and_the_d_oo_goal_is_refused(first_records):
 
 
 def test_designed_sigma_matches_the_fit_that_follows():
-    # a model that holds every effect of the truth: the Fisher prediction of the designed test (position means,
-    # white noise) against the GLS fit of the records simulated from it — independent paths, agreeing to the σ
-    # estimate's own scatter (relative ≈ 1/√(2·dof), a few %) and the rounding of dwells to whole samples
+    """A model that holds every effect of the truth: the Fisher prediction of the designed test (position means,
+    white noise) against the GLS fit of the records simulated from it — independent paths, agreeing to the σ
+    estimate's own scatter (relative ≈ 1/√(2·dof), a few %) and the rounding of dwells to whole samples.
+
+    The test is capped at one hour (the goal needs several), so it is shaped for the model that holds D_O, a
+    candidate the tumble never excites (OA along the polar axis holds a_O at s = g·sin φ: it measures D_F + s·D_O
+    and nothing of D_O beyond D_F), at its σ target, not for D_O's detection alone. Closed form: samples of total
+    time H with |a_O| ≤ g add at most H·(g + s)²/N² of information on D_O beyond D_F + s·D_O, so in any model that
+    holds D_F and D_O, σ_O ≥ N/((g + s)·√H) whatever the test; the fit after the shaped test comes within 2× of it
+    (a test shaped for detection alone: 2.5×), never below it beyond the white-noise estimate's own scatter (a few
+    % over some hundred samples)."""
     truth = {"coefficients": {"D_F": 0.4, "D_I": 0.6, "D_S": -0.3}, "noise": {"white": 0.005}}
     records = simulate(first_plan(), truth, seed=1)
-    goal = Goal(sigma=0.004)
-    nt = next_test(records, ["D_F", "D_I", "D_S"], goal, fast_lab(records), starts=1, steps=120)
+    lab = fast_lab(records, hours_per_test=1.0)
+    nt = next_test(records, ["D_F", "D_I", "D_S"], Goal(sigma=0.003), lab, starts=1, steps=120)
     assert nt.status == "test" and "D_O could hide" in nt.reason
-    start = float(records[0].time_s[-1]) + 30.0
-    both = records + simulate(nt.plan, truth, seed=2, start_s=start)
+    assert nt.design.hours_needed > 2.0 and nt.design.dwell_hours == pytest.approx(1.0, rel=1e-6)
+    shaped = [n.split("(not seen by the records so far)")[0] for n in nt.notes if "not seen by the records" in n]
+    assert shaped and "D_O" in shaped[0].split(": ")[-1].split(", ")
+    start = float(records[0].time_s[-1]) + lab.settle_s
+    new = simulate(nt.plan, truth, seed=2, start_s=start)
     predicted = {(r.kind, r.coefficient): x for r, x in zip(nt.requirements, nt.sigma_after)}
-    model = fit(both, ["D_F", "D_I", "D_S"]).stds
+    model = fit(records + new, ["D_F", "D_I", "D_S"]).stds
     for c in ("D_F", "D_I", "D_S"):
         assert model[c] == pytest.approx(predicted[("sigma", c)], rel=0.15)
     # a candidate the tumble could not see: its σ were it added, read in the fit with it
-    assert fit(both, ["D_F", "D_I", "D_S", "D_O"]).stds["D_O"] == pytest.approx(predicted[("detect", "D_O")], rel=0.15)
+    sigma_o = fit(records + new, ["D_F", "D_I", "D_S", "D_O"]).stds["D_O"]
+    assert sigma_o == pytest.approx(predicted[("detect", "D_O")], rel=0.15)
+    site = records[0].meta["site"]
+    g = site["gravity_mps2"] / 9.80665  # standard g, the unit of a_O
+    s = g * math.sin(math.radians(site["latitude_deg"]))
+    hours = sum(r.n * float(np.median(np.diff(r.time_s))) for r in new) / 3600.0
+    closed = truth["noise"]["white"] / ((g + s) * math.sqrt(hours))
+    assert 0.9 * closed <= sigma_o <= 2.0 * closed
 
 
 def test_a_pair_this_table_cannot_separate_is_refused_naming_the_table_that_would(first_records):
@@ -373,32 +391,6 @@ def test_two_missing_effects_that_look_like_a_third_are_not_named_by_it():
     nt = next_test(records, ["D_F", "D_I", "D_S"], Goal(sigma=0.003), lab, looks=1, starts=1, steps=40)
     assert "sf_asymmetry" not in nt.terms
     assert {"D_O", "D_SS"} <= set(nt.terms) | set(nt.alias)
-
-
-def test_a_test_that_takes_all_its_hours_is_shaped_for_the_unseen_candidate_at_its_target(first_records):
-    """The tumble never excites D_O: OA along the polar axis holds a_O at s = g·sin φ, so it measures D_F + s·D_O
-    and nothing of D_O beyond D_F. A test capped at one hour (the goal needs several) is shaped for the model that
-    holds D_O at its σ target, not for D_O's detection alone. Closed form: samples of total time H with
-    |a_O| ≤ g add at most H·(g + s)²/N² of information on D_O beyond D_F + s·D_O, so in any model that holds D_F
-    and D_O, σ_O ≥ N/((g + s)·√H) whatever the test; the fit after the shaped test comes within 2× of it (a test
-    shaped for detection alone: 2.5×, measured on these records), never below it beyond the white-noise estimate's
-    own scatter (a few % over some hundred samples)."""
-    goal = Goal(sigma=0.003)
-    lab = fast_lab(first_records, hours_per_test=1.0)
-    nt = next_test(first_records, ["D_F", "D_I", "D_S"], goal, lab, starts=1, steps=120)
-    assert nt.status == "test" and nt.design.hours_needed > 2.0
-    assert nt.design.dwell_hours == pytest.approx(1.0, rel=1e-6)
-    shaped = [n.split("(not seen by the records so far)")[0] for n in nt.notes if "not seen by the records" in n]
-    assert shaped and "D_O" in shaped[0].split(": ")[-1].split(", ")
-    start = float(first_records[0].time_s[-1]) + lab.settle_s
-    new = simulate(nt.plan, TRUTH, seed=2, start_s=start)
-    sigma_o = fit(first_records + new, ["D_F", "D_I", "D_S", "D_O"]).stds["D_O"]
-    site = first_records[0].meta["site"]
-    g = site["gravity_mps2"] / 9.80665  # standard g, the unit of a_O
-    s = g * math.sin(math.radians(site["latitude_deg"]))
-    hours = sum(r.n * float(np.median(np.diff(r.time_s))) for r in new) / 3600.0
-    closed = TRUTH["noise"]["white"] / ((g + s) * math.sqrt(hours))
-    assert 0.9 * closed <= sigma_o <= 2.0 * closed
 
 
 # the study's truth 31: D_SS and D_O hidden from the tumble, and 12 static positions shaped for the models the records
