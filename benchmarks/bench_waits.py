@@ -84,29 +84,38 @@ def gyrojax(root: Path, args, cache: Path | None, cwd: Path) -> tuple[float, flo
     return run_process([python_of(root), "-m", "gyrojax", *map(str, args)], env=env_of(root, cache), ok=(0, 1), cwd=cwd)
 
 
-def inputs(tmp: Path) -> dict:
-    """The rows' records, written by this checkout: Xsens imported, the TDF campaign and two tumbles simulated."""
+def inputs(tmp: Path, rows) -> dict:
+    """The records of ``rows``, written by this checkout: Xsens imported, the TDF campaign, the campaign study's
+    first test and two tumbles simulated."""
     from gyrojax.data import plans
     from gyrojax.data.planfile import save_plan
 
-    data = HERE / "tests" / "data" / "imutk"
-    xs = tmp / "xsens"
-    args = ["import", "imutk", data / "xsens_acc.mat.gz", data / "xsens_gyro.mat.gz", "--gyro-scale", XSENS_SCALE]
-    gyrojax(HERE, [*args, "--gravity", "9.81744", "--out", xs], None, tmp)
-    plan = plans.multiposition(24, minutes=10.0, dt_s=1.0, mount=plans.tdf_mount((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)))
-    save_plan(plan, tmp / "tdf24-plan.json", force=True)
-    (tmp / "tdf-truth.json").write_text(json.dumps(TDF_TRUTH))
-    tdf = tmp / "tdf"
-    gyrojax(HERE, ["simulate", tmp / "tdf24-plan.json", "--truth", tmp / "tdf-truth.json", "--out", tdf], None, tmp)
-    from gyrojax.report.demo import TRUTH
+    out = {}
+    if "xsens" in rows:
+        data = HERE / "tests" / "data" / "imutk"
+        xs = tmp / "xsens"
+        args = ["import", "imutk", data / "xsens_acc.mat.gz", data / "xsens_gyro.mat.gz", "--gyro-scale", XSENS_SCALE]
+        gyrojax(HERE, [*args, "--gravity", "9.81744", "--out", xs], None, tmp)
+        out["xsens"] = sorted(xs.glob("*.json"))
+    if "tdf" in rows:
+        mount = plans.tdf_mount((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))
+        save_plan(plans.multiposition(24, minutes=10.0, dt_s=1.0, mount=mount), tmp / "tdf24-plan.json", force=True)
+        (tmp / "tdf-truth.json").write_text(json.dumps(TDF_TRUTH))
+        tdf = tmp / "tdf"
+        gyrojax(HERE, ["simulate", tmp / "tdf24-plan.json", "--truth", tmp / "tdf-truth.json", "--out", tdf], None, tmp)
+        out["tdf"] = sorted(tdf.glob("*.json"))
+    if "next" in rows:
+        out["study"] = study(tmp)
+    if "notebook" in rows:
+        from gyrojax.report.demo import TRUTH
 
-    (tmp / "tumble-truth.json").write_text(json.dumps(TRUTH))
-    tumbles = {}
-    for name, opts in (("tumble", ("revolutions=2", "dt_s=2")), ("tumble-other", ("revolutions=1", "dt_s=10"))):
-        o = [x for v in opts for x in ("-o", v)]
-        gyrojax(HERE, ["simulate", "tumble", *o, "--truth", tmp / "tumble-truth.json", "--out", tmp / name], None, tmp)
-        tumbles[name] = tmp / name
-    return {"xsens": sorted(xs.glob("*.json")), "tdf": sorted(tdf.glob("*.json")), "study": study(tmp), **tumbles}
+        (tmp / "tumble-truth.json").write_text(json.dumps(TRUTH))
+        for name, opts in (("tumble", ("revolutions=2", "dt_s=2")), ("tumble-other", ("revolutions=1", "dt_s=10"))):
+            o = [x for v in opts for x in ("-o", v)]
+            args = ["simulate", "tumble", *o, "--truth", tmp / "tumble-truth.json", "--out", tmp / name]
+            gyrojax(HERE, args, None, tmp)
+            out[name] = tmp / name
+    return out
 
 
 def study(tmp: Path, truth: int = 13) -> Path:
@@ -223,7 +232,7 @@ def main(argv=None):
     rows = args.rows.split(",")
     with tempfile.TemporaryDirectory() as t:
         tmp = Path(t)
-        rec = inputs(tmp)
+        rec = inputs(tmp, rows)
         print(f"load average {' '.join(f'{x:.1f}' for x in os.getloadavg())} (1, 5, 15 min) on {os.cpu_count()} cores")
         if "xsens" in rows:
             print("== gyrojax diagnose --json of imu_tk's Xsens session (51 175 samples), as a process ==")

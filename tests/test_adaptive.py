@@ -388,7 +388,8 @@ def test_two_missing_effects_that_look_like_a_third_are_not_named_by_it():
     asymmetry is not significant beside them, so the step must not add it (a false effect) but name the group the
     next test separates, the truth's effects among it."""
     records, lab = tumble_then(RIVAL_TRUTH, RIVAL_POSITIONS, 10)
-    nt = next_test(records, ["D_F", "D_I", "D_S"], Goal(sigma=0.003), lab, looks=1, starts=1, steps=40)
+    nt = next_test(records, ["D_F", "D_I", "D_S"], Goal(sigma=0.003), lab, looks=1, hours_spent=lab.budget_hours)
+    assert "budget" in nt.reason  # the model updated, no test designed: the budget is spent
     assert "sf_asymmetry" not in nt.terms
     assert {"D_O", "D_SS"} <= set(nt.terms) | set(nt.alias)
 
@@ -413,6 +414,7 @@ def test_a_watched_effect_that_holds_only_for_a_missing_one_is_not_added():
     candidates, it is nothing, and they hold beside it: the step adds D_SS and D_O and never D_II (a false effect
     no later look removes)."""
     records, lab = tumble_then(PARTIAL_TRUTH, PARTIAL_POSITIONS, 31)
-    nt = next_test(records, ["D_F", "D_I", "D_S"], Goal(sigma=0.003), lab, looks=1, starts=1, steps=40)
+    nt = next_test(records, ["D_F", "D_I", "D_S"], Goal(sigma=0.003), lab, looks=1, hours_spent=lab.budget_hours)
+    assert "budget" in nt.reason  # the model updated, no test designed: the budget is spent
     assert "D_II" not in nt.terms
     assert {"D_SS", "D_O"} <= set(nt.terms)
