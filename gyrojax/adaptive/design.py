@@ -25,7 +25,9 @@ gm_mean_factor`); the covariance between positions is left out of the search (th
 scaled in time: every ratio falls as H grows), at least :attr:`gyrojax.adaptive.lab.Lab.min_dwell_s` a position
 on average and at most the hours the lab allows one test; the design of fewest
 table hours (dwell, settling, remounting) is re-designed at its H* and kept. When no design meets every ratio
-within the cap, the one with the smallest worst ratio is kept: the test makes the most progress the hours allow.
+within the cap, the one with the smallest worst ratio is kept: the test makes the most progress the hours allow;
+or, given stricter requirements to shape such a test for (``shape`` of :func:`design_test`), the one the same search
+makes for them, its hours still those of the requirements.
 :attr:`TestDesign.hours_needed` is the dwell a test of the kept shape would need to meet every requirement (up to
 :data:`MAX_HOURS`; None beyond): what the campaign's budget is checked against.
 """
