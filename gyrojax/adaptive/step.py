@@ -425,22 +425,8 @@ def next_test(
     # a test that takes all the hours a test may is shaped for the models the records may turn out to hold
     anticipated = _anticipated(reqs, sigma_now, goal, terms, alias)
     shape = rq.arrays(anticipated, uni) if anticipated is not None else None
-    test = design_test(
-        uni,
-        rq.arrays(reqs, uni),
-        f_rec,
-        lab,
-        noise,
-        cap,
-        start,
-        goal.margin,
-        draws,
-        budget_hours=left,
-        starts=starts,
-        steps=steps,
-        seed=seed,
-        shape=shape,
-    )
+    search = {"budget_hours": left, "starts": starts, "steps": steps, "seed": seed, "shape": shape}
+    test = design_test(uni, rq.arrays(reqs, uni), f_rec, lab, noise, cap, start, goal.margin, draws, **search)
     if test.hours_needed is None or test.hours_needed > left:
         factor = math.sqrt(max(test.ratio_at_budget, 0.0)) * goal.margin
         if test.hours_needed is None:
