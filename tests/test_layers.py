@@ -4,7 +4,7 @@ The layers, bottom first (a unit may import only from tiers below its own; units
 
     errors                                  the exception types
     units, kinds, protocol,                 unit conversions; instrument-kind names; files and the result protocol;
-    optimize                                the searches and their status
+    optimize, tails                         the searches and their status; the laws' tails and quantiles
     runtime                                 how compiled code runs: the cache folder, kept executables, threads
     (package root)                          x64, the compilation cache, the flat API's table
     physics, noise                          the measurement model; noise descriptions, estimators and processes
@@ -42,7 +42,7 @@ PACKAGE = "gyrojax"
 
 LAYERS = (
     ("errors",),
-    ("units", "kinds", "protocol", "optimize"),
+    ("units", "kinds", "protocol", "optimize", "tails"),
     ("runtime",),
     ("",),  # the package root (gyrojax/__init__.py): x64 and the compilation cache of runtime
     ("physics", "noise"),

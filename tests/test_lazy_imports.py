@@ -84,7 +84,7 @@ def test_a_triad_fit_process_loads_neither_scipy_stats_nor_scipy_signal(tmp_path
 
 def test_a_triad_diagnose_process_loads_neither_pandas_nor_scipy_stats(tmp_path):
     # a diagnosis of a hand session as a process: its CSV read by numpy, its tails and quantiles by scipy.special
-    # (gyrojax.inference.tails, the same bits as scipy.stats); the command did diagnose (rc 0, or 1: inadequate)
+    # (gyrojax.tails, the same bits as scipy.stats); the command did diagnose (rc 0, or 1: inadequate)
     from gyrojax.data.records import save_record
     from gyrojax.montecarlo.triad import mems_truth
     from gyrojax.simulation.triad import simulate_multiposition

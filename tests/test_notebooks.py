@@ -14,6 +14,8 @@ from pathlib import Path
 
 import pytest
 
+from gyrojax.runtime.cache import persistent_cache_settings
+
 jupytext = pytest.importorskip("jupytext")
 nbclient = pytest.importorskip("nbclient")
 pytest.importorskip("ipykernel")
@@ -31,7 +33,11 @@ def kernel_env(tmp_path_factory):
         check=True,
         capture_output=True,
     )
-    saved = {k: os.environ.get(k) for k in ("JUPYTER_PATH", "MPLBACKEND", "PYTHONPATH")}
+    # a kernel is a process of the suite's alone: JAX's persistent cache of the session (tests/conftest.py) serves
+    # it as it serves the command lines the tests run, for every function however small (gyrojax.runtime.cache)
+    cache = {name.upper(): str(v) for name, v in (persistent_cache_settings() or {}).items()}
+    saved = {k: os.environ.get(k) for k in ("JUPYTER_PATH", "MPLBACKEND", "PYTHONPATH", *cache)}
+    os.environ.update(cache)
     os.environ["JUPYTER_PATH"] = os.pathsep.join(
         filter(None, [str(prefix / "share" / "jupyter"), saved["JUPYTER_PATH"]])
     )

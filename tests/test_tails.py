@@ -1,4 +1,4 @@
-"""The χ² and F log tails of the diagnosis (gyrojax.inference.tails) against closed forms nobody here wrote: χ²₁ by
+"""The χ² and F log tails of the diagnosis (gyrojax.tails) against closed forms nobody here wrote: χ²₁ by
 scipy's log_ndtr (P = 2Φ(−√x)), χ²₂ exactly −x/2, F(2, d) exactly −(d/2)·ln(1 + 2x/d), and scipy itself where its
 value is finite; far beyond where scipy's logsf returns −inf."""
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy import special, stats
 
-from gyrojax.inference.tails import chi2_logsf, f_logsf, f_logsf_many, log_incomplete_beta, log_upper_gamma
+from gyrojax.tails import chi2_logsf, f_logsf, f_logsf_many, log_incomplete_beta, log_upper_gamma
 
 REL = 1e-12  # continued fractions stop at 1e-15 per step; a few hundred steps and the logs of Γ, B keep this
 
@@ -71,7 +71,7 @@ def test_the_batched_f_tail_is_the_scalar_one():
 def test_the_laws_from_scipy_special_are_scipy_stats_bit_for_bit():
     """The tails and quantiles taken from scipy.special (no scipy.stats import) are scipy.stats' own values, bit for
     bit, on both sides of the median and at the support's edges (0, below 0, +∞, NaN)."""
-    from gyrojax.inference import tails
+    from gyrojax import tails
 
     rng = np.random.default_rng(0)
     x = np.concatenate([[0.0, -1.0, -0.0, np.inf, np.nan, 1e-300, 1e300], 10 ** rng.uniform(-6, 4, 3000)])
@@ -90,6 +90,12 @@ def test_the_laws_from_scipy_special_are_scipy_stats_bit_for_bit():
         (tails.t_ppf(q, nu), stats.t.ppf(q, nu)),
         (tails.norm_ppf(q), stats.norm.ppf(q)),
         (tails.chi2_isf(q, df[: q.size]), stats.chi2.isf(q, df[: q.size])),
+        (tails.chi2_sf(x, df), stats.chi2.sf(x, df)),
+        (tails.chi2_ppf(q, df[: q.size]), stats.chi2.ppf(q, df[: q.size])),
+        (tails.chi2_pdf(x[7:], df[7:]), stats.chi2.pdf(x[7:], df[7:])),
+        (tails.norm_isf(q), stats.norm.isf(q)),
+        (tails.norm_cdf(t), stats.norm.cdf(t)),
+        (tails.norm_pdf(np.delete(t, 3)), stats.norm.pdf(np.delete(t, 3))),  # NaN in: a NaN of another sign bit
     ]
     for i, (got, want) in enumerate(pairs):
         np.testing.assert_array_equal(np.asarray(got).view(np.int64), np.asarray(want).view(np.int64), err_msg=str(i))

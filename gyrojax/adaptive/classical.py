@@ -202,7 +202,7 @@ def classical_hours(truth, terms, goal, kind: str, seed: int = 0, latitude_deg: 
         )
     best_split = _best_split(infos, measure, targets, idx)
     if best_split is not None:
-        best_split += sum(_gap_hours(p) for _, p in base) + _between_runs_hours(base)
+        best_split += sum(_gap_hours(p) for _, p in base) + joined(base).gap_between_runs_s * (len(base) - 1) / 3600.0
     key = jax.random.fold_in(jax.random.PRNGKey(seed), 7919)
     sigma = {}
     for _ in range(CHECKS):
@@ -227,10 +227,6 @@ def _gap_hours(plan) -> float:
     """Unscaled gaps of a plan: between positions and between its runs (h)."""
     gaps = sum(r.gap_s * (len(r.segments) - 1) for r in plan.runs) + plan.gap_between_runs_s * (len(plan.runs) - 1)
     return gaps / 3600.0
-
-
-def _between_runs_hours(tests) -> float:
-    return joined(tests).gap_between_runs_s * (len(tests) - 1) / 3600.0
 
 
 def _path(recs, tests, model: Model, last) -> list:

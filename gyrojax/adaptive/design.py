@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import jax
 import jax.numpy as jnp
@@ -83,10 +84,6 @@ class TestDesign:
         """Why the search is not taken as converged ("" when it is; :mod:`gyrojax.planning.search`)."""
         h = np.asarray(self.history)
         return search.convergence_note(h, float(h[-1]) if h.size else math.nan, "raise steps")
-
-
-def _pad(n: int) -> int:
-    return max(8, -(-n // 8) * 8)
 
 
 GM_TERMS = 2
@@ -162,20 +159,17 @@ class _Problem:
         self.fractions = jax.jit(lambda z: dwell_from_logits(z, 1.0, m_frac).reshape(runs, n))
 
 
-_COMPILED: dict = {}
-
-
+@lru_cache(maxsize=8)
 def _problem(uni, runs, n, limits, steps, learning_rate) -> _Problem:
-    key = (uni, runs, n, limits, steps, learning_rate)
-    if key not in _COMPILED:
-        _COMPILED[key] = _Problem(*key)
-    return _COMPILED[key]
+    """The compiled search of one problem shape (the most recent ones are kept)."""
+    return _Problem(uni, runs, n, limits, steps, learning_rate)
 
 
 def _arrays(reqs_arrays, f_rec, lab, noise, start_s, margin, thetas, rows: int = 0) -> dict:
     masks, index, target = reqs_arrays
     r, p = masks.shape
-    rp = _pad(max(r, rows))
+    m = max(r, rows)
+    rp = max(8, -(-m // 8) * 8)  # requirement rows padded to a multiple of 8 (fewer shapes to compile)
     k = len(lab.axes)
     gm = np.array(list(noise.gauss_markov)[:GM_TERMS] + [(0.0, 1.0)] * GM_TERMS)[:GM_TERMS]
     if len(noise.gauss_markov) > GM_TERMS:

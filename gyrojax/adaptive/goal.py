@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from gyrojax import tails
 from gyrojax.errors import ModelError
 from gyrojax.physics import effects as fx
 from gyrojax.physics import plausibility
@@ -64,20 +65,17 @@ def look_alpha(look: int, alpha: float = ALPHA) -> float:
 
 def noncentrality_for_power(alpha: float, power: float = POWER, df: int = 1) -> float:
     """λ* at which the χ²_df test at level ``alpha`` has power ``power``: P(χ²_df(λ*) > χ²_{df,1−α}) = power."""
-    from scipy import optimize, stats
+    from scipy import optimize
 
-    crit = stats.chi2.isf(alpha, df)
-    return float(optimize.brentq(lambda lam: stats.ncx2.sf(crit, df, lam) - power, 1e-9, 1e4))
+    return float(optimize.brentq(lambda lam: tails.score_power(lam, df, alpha) - power, 1e-9, 1e4))
 
 
 def detection_power(size: float, sigma: float, alpha: float) -> float:
     """Power of the χ²₁ score test at level ``alpha`` for an effect of ``size`` whose σ, were it added, is
     ``sigma`` (same unit): noncentrality (size/σ)²."""
-    from scipy import stats
-
     if not math.isfinite(sigma) or sigma <= 0:
         return alpha if math.isinf(sigma) else 1.0
-    return float(stats.ncx2.sf(stats.chi2.isf(alpha, 1), 1, (size / sigma) ** 2))
+    return tails.score_power((size / sigma) ** 2, 1, alpha)
 
 
 @dataclass(frozen=True)

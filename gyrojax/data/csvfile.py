@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -156,8 +157,7 @@ def _mapped_plain_csv(csv_path: Path):
 
 NUMPY_READ_MAX_BYTES = 16 * 2**20
 """Plain CSV files up to this size are read by numpy (:func:`_numpy_columns`): its reader is slower per byte than
-pandas' (about 10 against 4 ms per MB), but importing pandas costs a process about 0.25 s of CPU, which only files
-of some 40 MB repay."""
+pandas', but importing pandas costs a process more than that below this size."""
 
 
 def _numpy_columns(csv_path: Path, n_columns: int):
@@ -165,8 +165,6 @@ def _numpy_columns(csv_path: Path, n_columns: int):
     row per column (n_columns, rows), or ``None`` when it is not the plain case: a cell that is not a finite number
     (quoted, empty, text), a row whose length is not the header's, no sample row. The caller then takes the paths
     that name what is wrong."""
-    import warnings
-
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # "input contained no data": refused below

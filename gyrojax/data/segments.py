@@ -20,8 +20,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import optimize, special
+from scipy import optimize
 
+from gyrojax import tails
 from gyrojax.data.timebase import true_runs
 from gyrojax.errors import RecordError
 
@@ -60,7 +61,7 @@ def default_threshold(dof: float) -> float:
     """The default rest threshold, in multiples of the rest noise variance, for windows whose variance has ``dof``
     degrees of freedom: the ratio that one window of rest noise, χ²_dof/dof, exceeds with probability
     :data:`FALSE_ALARM` (3.27 for the 20 of a 0.2 s window of white noise at 100 Hz)."""
-    return float(special.chdtri(dof, FALSE_ALARM) / dof)  # scipy.stats.chi2.isf, without scipy.stats
+    return float(tails.chi2_isf(FALSE_ALARM, dof) / dof)
 
 
 def window_dof(ratio: np.ndarray, m: int) -> float:
@@ -145,7 +146,7 @@ def _noise_variance(v: np.ndarray, m: int, rest: np.ndarray | None, floor: np.nd
     of χ²_{m−1}/(m−1); at least ``floor`` (the quantisation noise, LSB²/12: a sensor quieter than its LSB)."""
     q = 0.5 if rest is not None and rest.sum() >= m else 0.1
     sel = v[rest] if q == 0.5 else v
-    level = np.quantile(sel, q, axis=0) * (m - 1) / (2.0 * special.gammaincinv((m - 1) / 2, q))  # χ² quantile
+    level = np.quantile(sel, q, axis=0) * (m - 1) / tails.chi2_ppf(q, m - 1)
     return np.maximum(level, np.maximum(floor, 1e-300))
 
 

@@ -112,10 +112,6 @@ def _float_tf(p, s):
     return (p.H * DPH / p.I_float) / (s * (s + p.C_damp / p.I_float))
 
 
-def _lead_lag_gain(tau_lead, tau_lag, w):
-    return abs((1j * w * tau_lead + 1) / (1j * w * tau_lag + 1))
-
-
 def lead_lag_centred(wc: float, lead_ratio: float) -> tuple[float, float]:
     """Lead-lag time constants whose zero and pole sit a factor √ratio either side of ω_c (maximum phase at ω_c)."""
     r = math.sqrt(lead_ratio)
@@ -152,7 +148,8 @@ def default_rebalance(crossover_hz: float = 30.0, lead_ratio: float = 10.0, **ov
     wc = 2 * math.pi * crossover_hz
 
     def gain(p):
-        return abs(_float_tf(p, 1j * wc)) * p.K_pickoff * p.S_nom * _lead_lag_gain(p.tau_lead, p.tau_lag, wc)
+        lead_lag = (1j * wc * p.tau_lead + 1) / (1j * wc * p.tau_lag + 1)
+        return abs(_float_tf(p, 1j * wc)) * p.K_pickoff * p.S_nom * abs(lead_lag)
 
     return _tuned(RebalanceParams, base, wc, lead_ratio, gain, overrides)
 

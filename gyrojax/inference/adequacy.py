@@ -39,11 +39,11 @@ from gyrojax.inference.drift_rows import rows_of, servo_state
 from gyrojax.inference.scoring import collinear, score
 from gyrojax.inference.solver import stack_whitened
 from gyrojax.inference.subspace import UNSEEN, WhitenedSystem, basis, perp
-from gyrojax.inference.tails import chi2_isf
 from gyrojax.inference.verdict import POWERS, Structure
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import instrument_inputs
 from gyrojax.runtime.kept import Kept
+from gyrojax.tails import chi2_isf
 
 HARMONICS = 6
 """Highest harmonic of a table angle tested (cycles per revolution)."""

@@ -30,7 +30,7 @@ from gyrojax.errors import ModelError
 from gyrojax.inference.campaign import linearize
 from gyrojax.inference.solver import solve, stack_whitened
 from gyrojax.inference.subspace import perp
-from gyrojax.inference.tails import chi2_logsf
+from gyrojax.tails import chi2_logsf
 
 KNEES = 41
 """Knees of the grid over the input's recorded range."""

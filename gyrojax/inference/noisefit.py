@@ -7,9 +7,9 @@ import warnings
 
 import numpy as np
 
+from gyrojax import tails
 from gyrojax.data.timebase import interval_key
 from gyrojax.errors import ConvergenceWarning
-from gyrojax.inference import tails
 from gyrojax.inference.campaign import Campaign, Linearized
 from gyrojax.inference.solver import solve, stack_whitened
 from gyrojax.noise import reml

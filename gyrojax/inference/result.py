@@ -10,11 +10,10 @@ from pathlib import Path
 import jax.numpy as jnp
 import numpy as np
 
-from gyrojax import protocol
+from gyrojax import protocol, tails
 from gyrojax.data.arrays import record_data
 from gyrojax.data.record import Record
 from gyrojax.errors import FormatError, ModelError
-from gyrojax.inference import tails
 from gyrojax.inference.formats import LEGACY_FORMAT, RESULT_FORMAT, RESULT_VERSION, fit_kind
 from gyrojax.inference.noisefit import small_sample_factor
 from gyrojax.inference.scoring import ALPHA

@@ -26,8 +26,8 @@ import numpy as np
 
 from gyrojax.inference.lstsq import lstsq
 from gyrojax.inference.subspace import UNSEEN, basis, perp, perp_basis
-from gyrojax.inference.tails import chi2_logsf, f_logsf_many
 from gyrojax.physics import effects as fx
+from gyrojax.tails import chi2_logsf, f_logsf_many
 
 ALPHA = 0.01
 """The significance level of every decision the diagnosis takes (family-wise, Holm) and of the fit's per-coefficient

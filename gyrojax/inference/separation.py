@@ -9,12 +9,13 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
-from functools import lru_cache, partial
+from functools import lru_cache
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from gyrojax import tails
 from gyrojax.data.arrays import record_data
 from gyrojax.inference.identifiability import ALIAS_TOL
 from gyrojax.inference.kept_model import keepable, model_name
@@ -183,14 +184,10 @@ def static_rows(model: Model, data, triad, angles_rad):
     return jacobian(model, jnp.zeros(model.size), d).reshape(n, model.size)
 
 
-def _vmapped_rows(model: Model, d, t, a):
-    return jax.vmap(lambda tt: static_rows(model, d, tt, a))(t)
-
-
 @lru_cache(maxsize=8)
 def _rows_jit(model: Model):
     # kept across processes for built-in models (gyrojax.runtime.kept): a process' first diagnosis skips the compile
-    fn = jax.jit(partial(_vmapped_rows, model))
+    fn = jax.jit(lambda d, t, a: jax.vmap(lambda tt: static_rows(model, d, tt, a))(t))
     return Kept(model_name("static_rows", model), fn) if keepable(model) else fn
 
 
@@ -207,8 +204,6 @@ def designed_entry(a: str, b: str, campaign, lin, full: Model, result, candidate
     campaign's table, its dwell shared by :data:`ENTRY_POSITIONS` random chain angles at the best of the 24 case
     mountings, at the sizes of the current estimates ("" when the pair is not in ``full``, not estimated, or the
     power is below :data:`ENTRY_MIN_POWER`). A bound from below on what ``gyrojax design --separate`` designs."""
-    from scipy import stats
-
     sl = full.slices()
     model = result.model
     if a not in sl or b not in sl or not campaign.data:
@@ -248,7 +243,7 @@ def designed_entry(a: str, b: str, campaign, lin, full: Model, result, candidate
         lam_a = schur_noncentrality(f, ia, np.concatenate([bi, ib]), sizes[a])
         best = max(best, min(lam_a, schur_noncentrality(f, ib, np.concatenate([bi, ia]), sizes[b])))
     q = max(sizes[a].size, sizes[b].size)
-    pw = float(stats.ncx2.sf(stats.chi2.isf(ALPHA, q), q, max(best, 1e-300)))
+    pw = tails.score_power(max(best, 1e-300), q, ALPHA)
     if pw < ENTRY_MIN_POWER:  # not worth naming: the set-up measurements or built-in plans speak instead
         return ""
     return (

@@ -46,9 +46,8 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-from scipy import special
 
-from gyrojax import units
+from gyrojax import tails, units
 from gyrojax.data.record import Record
 from gyrojax.data.triad import TRIAD_KIND
 from gyrojax.data.triad_segments import triad_segments
@@ -311,7 +310,8 @@ def fit_triad_unchecked(
             "also M_O, M_S times it in D_O, D_S); the horizontal Earth rate (unknown heading) is marginalised with "
             "its mean square over the sites of the sphere, (2/3) (15.04 deg/h)^2"
         )
-    if dof > 0 and special.chdtrc(dof, chi2) < ALPHA:  # the χ² tail (scipy.stats.chi2.sf), without scipy.stats
+    p_scatter = float(tails.chi2_sf(chi2, dof)) if dof > 0 else 1.0
+    if p_scatter < ALPHA:
         comp = components_report(tau2, s_fit)
         if any(v > 0 for v in comp.values()):
             tail = "the standard errors include the variance components estimated by REML: " + ", ".join(
@@ -322,7 +322,7 @@ def fit_triad_unchecked(
         drivers = ", ".join(f"{r['name']} ({r['chi2']:.3g})" for r in sorted(seg_rows, key=lambda r: -r["chi2"])[:3])
         notes.append(
             f"the segment means scatter more than the sample noise explains (chi2 {chi2:.3g} on {dof} dof, "
-            f"p {special.chdtrc(dof, chi2):.2g}; largest shares: {drivers}): bias shifts between poses, hand-move "
+            f"p {p_scatter:.2g}; largest shares: {drivers}): bias shifts between poses, hand-move "
             f"errors or a missing effect; {tail}"
         )
     if walk_note:

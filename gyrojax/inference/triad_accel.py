@@ -16,9 +16,8 @@ poses is refused.
 from __future__ import annotations
 
 import numpy as np
-from scipy import special
 
-from gyrojax import units
+from gyrojax import tails, units
 from gyrojax.data.accelcheck import ACC_CALIBRATED_TOL, determinacy
 from gyrojax.data.segments import ellipsoid_accelerometer, imutk_acc_jacobian, imutk_acc_model
 from gyrojax.data.triad import acc_g
@@ -94,7 +93,7 @@ def fit_accelerometer(records) -> dict | None:
         "cov": cov * birge,
         "chi2": chi2,
         "dof": dof,
-        "p_value": float(special.chdtrc(dof, chi2)) if dof > 0 else float("nan"),
+        "p_value": float(tails.chi2_sf(chi2, dof)) if dof > 0 else float("nan"),
         "birge": birge,
         "max_rest_magnitude_error": before,
         "n_poses": len(means),

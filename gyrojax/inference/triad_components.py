@@ -28,8 +28,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import linalg, special
+from scipy import linalg
 
+from gyrojax import tails
 from gyrojax.optimize import difference_curvature, minimize
 
 LOG_RANGE = 30.0  # log τ² searched within ± this of its natural scale (exp(−30): a component of zero)
@@ -258,7 +259,7 @@ def estimate_components(groups, kinds=("pose", "move")) -> tuple[dict, str]:
 def boundary_p(lr: float) -> float:
     """The p-value of a variance component's likelihood ratio against zero, on the boundary of its parameter space:
     ½ P(χ²₁ > LR) (Self & Liang 1987)."""
-    return 0.5 * float(special.chdtrc(1, lr)) if lr > 0 else 1.0
+    return 0.5 * float(tails.chi2_sf(lr, 1)) if lr > 0 else 1.0
 
 
 def column_scale(groups) -> np.ndarray:

@@ -8,9 +8,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy import special
 
-from gyrojax import protocol, units
+from gyrojax import protocol, tails, units
 from gyrojax.data.records import Record
 from gyrojax.data.triad import TRIAD_KIND, acc_g, gyro_dph
 from gyrojax.errors import FormatError, ModelError
@@ -107,7 +106,7 @@ class TriadFit(Estimates):
     @property
     def chi2_p_value(self) -> float:
         """P(χ²_dof > χ²) of the white-noise model (NaN without degrees of freedom)."""
-        return float(special.chdtrc(self.dof, self.chi2)) if self.dof > 0 else float("nan")
+        return float(tails.chi2_sf(self.chi2, self.dof)) if self.dof > 0 else float("nan")
 
     def matrices(self) -> dict:
         """b (deg/h), S, G (deg/h/g) of ω_ind = S ω + G a + b (:func:`gyrojax.physics.triad.matrices`)."""

@@ -42,7 +42,6 @@ from gyrojax.inference.scoring import ALPHA, residual_variance, rms_after, score
 from gyrojax.inference.separation import separating_plans, setup_measurements
 from gyrojax.inference.solver import solve, stack_whitened
 from gyrojax.inference.subspace import WhitenedSystem, basis
-from gyrojax.inference.tails import chi2_logsf, f_sf
 from gyrojax.inference.verdict import Candidate
 from gyrojax.noise import reml
 from gyrojax.noise.readout import white_beside_readout
@@ -52,6 +51,7 @@ from gyrojax.physics import effects as fx
 from gyrojax.physics import plausibility
 from gyrojax.physics.model import Model
 from gyrojax.runtime.threads import parallel_map
+from gyrojax.tails import chi2_logsf, f_sf
 
 SLOW = ("bias_trend", "bias_temperature")
 """Candidates that vary slowly in time and so compete with long-memory drift for the same residual structure. They

@@ -73,7 +73,7 @@ from gyrojax.physics.model import (
 )
 
 
-def nominal_records(plan, kind: str | None = None) -> list[Record]:
+def nominal_records(plan) -> list[Record]:
     """Noise-free records of a perfect instrument on ``plan``: its geometry and sample times (s)."""
     from gyrojax.simulation.simulator import simulate
 
@@ -115,11 +115,6 @@ class Pipeline:
     def n_measurements(self) -> int:
         """Number of measurements of one draw, summed over the records."""
         return int(sum(float(np.asarray(d.weight).sum()) for d in self.data))
-
-    def truth_index(self) -> np.ndarray:
-        """Position of every fitted coefficient in the truth model's θ (integer indices)."""
-        names = self.truth_model.coefficient_names
-        return np.array([names.index(c) for c in self.fit_model.coefficient_names])
 
     @property
     def fit_method(self) -> str:

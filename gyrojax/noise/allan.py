@@ -29,8 +29,9 @@ from dataclasses import dataclass, replace
 import jax
 import jax.numpy as jnp
 import numpy as np
-from scipy import optimize, stats
+from scipy import optimize
 
+from gyrojax import tails
 from gyrojax.errors import GyrojaxError
 from gyrojax.noise.spec import LINEAR, UNITS, NoiseSpec, gauss_markov_avar, term_basis
 
@@ -203,8 +204,8 @@ def confidence_interval(adev, edf, ci: float = ONE_SIGMA):
     """
     adev, edf = np.asarray(adev, float), np.maximum(np.asarray(edf, float), 1e-3)
     lo_q, hi_q = (1.0 - ci) / 2.0, (1.0 + ci) / 2.0
-    low = adev * np.sqrt(edf / stats.chi2.ppf(hi_q, edf))
-    high = adev * np.sqrt(edf / stats.chi2.ppf(lo_q, edf))
+    low = adev * np.sqrt(edf / tails.chi2_ppf(hi_q, edf))
+    high = adev * np.sqrt(edf / tails.chi2_ppf(lo_q, edf))
     return low, high
 
 

@@ -1,5 +1,5 @@
 """Glitches of a static rate log — spikes and stuck (repeated) values — found, reported and masked, so that a few
-bad samples do not create noise terms (issue 25).
+bad samples do not create noise terms.
 
 **Spikes.** A sample whose distance d_t = y_t − med_t from the median of its 2·:data:`SPIKE_HALF_WINDOW`
 neighbours (the sample itself left out, so that neither the spike nor a tie with itself sets its reference)

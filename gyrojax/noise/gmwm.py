@@ -47,8 +47,9 @@ from functools import lru_cache, partial
 import jax
 import jax.numpy as jnp
 import numpy as np
-from scipy import optimize, stats
+from scipy import optimize
 
+from gyrojax import tails
 from gyrojax.noise import gmwm_select as sel
 from gyrojax.noise import robust_wv as rwv
 from gyrojax.noise import wavelet as wv
@@ -164,7 +165,7 @@ def _nnls(basis, nu_hat, p_mat):
     return c / scale, rn * rn
 
 
-def _bounds(spec: ModelSpec, m, nu_hat, n_samples):
+def _bounds(spec: ModelSpec, m, nu_hat):
     """Box for θ: each variance between 1e-10 and 1e4 times the value that explains ν̂ on its own at its most
     constraining scale; AR1 rates a = Δt/T with T inside what the scales can identify (:func:`gm_tau_limits`)."""
     lo, hi = [], []
@@ -197,7 +198,7 @@ def gm_tau_limits(m) -> tuple[float, float]:
     return max(TAU_MIN_SAMPLES, float(m.min())), max(float(m.max()), 2.0 * TAU_MIN_SAMPLES)
 
 
-def starting_values(spec: ModelSpec, m, nu_hat, p_mat, n_samples, memo: dict | None = None) -> np.ndarray:
+def starting_values(spec: ModelSpec, m, nu_hat, p_mat, memo: dict | None = None) -> np.ndarray:
     """θ₀: the AR1 correlation times T (in samples, dimensionless) chosen greedily on a log grid, each new one
     with the earlier ones fixed; the variances ((deg/h)²) by weighted NNLS for those T; a variance the NNLS sets to
     zero starts at 1e-6 of its scale.
@@ -225,7 +226,7 @@ def starting_values(spec: ModelSpec, m, nu_hat, p_mat, n_samples, memo: dict | N
             memo[key] = best[1]
         rates.append(best[1])
     c, _ = _nnls(_basis(spec, m, rates), nu_hat, p_mat)
-    lo, hi = _bounds(spec, m, nu_hat, n_samples)
+    lo, hi = _bounds(spec, m, nu_hat)
     var_lo = np.exp(lo) * 1e4  # 1e-6 of the full scale
     n_lin = spec.n_params - 2 * spec.n_gm
     th = []
@@ -398,7 +399,7 @@ def _fit_spec(spec: ModelSpec, est, omega, method, grid, n_steps, memo):
     j = len(est.m)
     mask = spec_mask(spec)
     idx = np.flatnonzero(mask)
-    r = _weighted_residual(spec, theta, est, p_mat, m)
+    r = np.asarray(p_mat @ (est.nu2 - np.asarray(model_wv(spec, theta, m))[:j]))  # P(ν̂ − ν(θ)) at the J scales
     d = np.asarray(full_wv_jacobian(expand(spec, theta), mask, m))[:j, idx]
     pd = p_mat @ d
     # parameters pinned at a bound carry no information (their standard error is reported as infinite)
@@ -414,7 +415,7 @@ def _fit_spec(spec: ModelSpec, est, omega, method, grid, n_steps, memo):
     cov[at_bound, at_bound] = np.inf
     objective = float(r @ r)
     dof = j - spec.n_params
-    p_value = float(stats.chi2.sf(objective, dof)) if dof > 0 and method == "gmwm" else None
+    p_value = float(tails.chi2_sf(objective, dof)) if dof > 0 and method == "gmwm" else None
     info = {
         "model": spec.label(),
         "objective": objective,
@@ -430,11 +431,6 @@ def _fit_spec(spec: ModelSpec, est, omega, method, grid, n_steps, memo):
     reason = "" if converged else f"Levenberg-Marquardt stopped at its iteration limit ({iters}) before converging"
     band = (float(est.taus_s[0]), float(est.taus_s[-1]))
     return to_noise_spec(spec, theta, cov, est.dt, method, info, converged, reason, band), om
-
-
-def _weighted_residual(spec: ModelSpec, theta, est: WaveletVariance, p_mat, m_padded) -> np.ndarray:
-    """P(ν̂ − ν(θ)) at the J scales of ``est`` (``m_padded`` the padded half-widths of the compiled ν)."""
-    return np.asarray(p_mat @ (est.nu2 - np.asarray(model_wv(spec, theta, m_padded))[: len(est.m)]))
 
 
 def _fit_theta(spec: ModelSpec, est: WaveletVariance, omega, method: str, grid, n_steps: int, memo):
@@ -457,7 +453,7 @@ def _fit_theta(spec: ModelSpec, est: WaveletVariance, omega, method: str, grid, 
         d = robust_scaling(th, mask, est)
         return om * np.outer(d, d)
 
-    lo, hi = _bounds(spec, est.m, est.nu2, est.n_samples)
+    lo, hi = _bounds(spec, est.m, est.nu2)
     if spec.n_params > len(est.m):
         raise NoiseModelError(f"model {spec.label()} has {spec.n_params} parameters for {len(est.m)} scales")
     diag = np.diag(est.nu2**2 * est.m / est.counts / (est.efficiency or 1.0))
@@ -471,7 +467,7 @@ def _fit_theta(spec: ModelSpec, est: WaveletVariance, omega, method: str, grid, 
     idx = np.flatnonzero(mask)
     lo_f = _scatter(idx, lo)
     hi_f = _scatter(idx, hi)
-    theta = expand(spec, starting_values(spec, est.m, est.nu2, p_mat, est.n_samples, memo))
+    theta = expand(spec, starting_values(spec, est.m, est.nu2, p_mat, memo))
     theta, _, ok, it = levenberg_marquardt(theta, mask, nu, m, padp(p_mat), lo_f, hi_f)
     om = omega
     if method == "gmwm" and omega is None:

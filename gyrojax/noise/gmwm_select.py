@@ -36,10 +36,9 @@ in at most :data:`FALSE_COMPONENT_LEVEL` of the records of every null case of th
 a flicker-like sum of GMs, white + a 1/f floor; the union of the one-component alternatives makes the rate exceed
 α₁, the admissibility rules below make it less).
 
-Measured (benchmarks/study_gmwm_selection.py --draws 200, 2^17 samples, 2026-12-02; binomial sd ≈ 0.015):
-false-component rate white 0.030, white + GM 0.040, flicker-like GM sum 0.040, white + 1/f floor 0.045 (the
-former flat c = 3 per parameter on the same records: 0.045, 0.060, 0.045, 0.080); power, white + 1/f floor + random
-walk with both found: 0.915 (flat c = 3: 0.885).
+Measured (benchmarks/study_gmwm_selection.py --draws 200, 2^17 samples; binomial sd ≈ 0.015): false-component
+rate white 0.030, white + GM 0.040, flicker-like GM sum 0.040, white + 1/f floor 0.045; power, white + 1/f floor +
+random walk with both found: 0.915.
 
 **Adequacy gate.** The candidate chosen is then fitted with its own efficient weights Ω(θ̂); when its J test
 (Hansen; Q(θ̂) ~ χ²(J − p) under the model) rejects it at :data:`J_TEST_LEVEL`, the next admissible candidate by
@@ -62,8 +61,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy import optimize, stats
+from scipy import optimize
 
+from gyrojax import tails
 from gyrojax.noise import wavelet as wv
 from gyrojax.noise.spec import NoiseModelError, NoiseSpec
 
@@ -173,7 +173,7 @@ def rejection(ns: NoiseSpec) -> str:
 def linear_cost(level: float = COMPONENT_LEVEL) -> float:
     """c₁ = Φ⁻¹(1 − α₁)²: the drop of Q that a one-variance process must bring, its variance on the boundary 0
     under the smaller model (ΔQ ~ ½χ²₀ + ½χ²₁, Self & Liang 1987; P(ΔQ > c₁) = α₁); dimensionless."""
-    return float(stats.norm.isf(level)) ** 2
+    return float(tails.norm_isf(level)) ** 2
 
 
 def davies_cost(sweep: float, level: float = COMPONENT_LEVEL) -> float:
@@ -182,7 +182,7 @@ def davies_cost(sweep: float, level: float = COMPONENT_LEVEL) -> float:
     component must bring; c₁ of :func:`linear_cost` when V = 0."""
 
     def excess(u):
-        return stats.norm.sf(u) + sweep / (2.0 * math.pi) * math.exp(-0.5 * u * u) - level
+        return tails.norm_sf(u) + sweep / (2.0 * math.pi) * math.exp(-0.5 * u * u) - level
 
     return float(optimize.brentq(excess, 0.0, 40.0)) ** 2
 

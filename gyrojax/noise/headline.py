@@ -51,8 +51,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy import stats
 
+from gyrojax import tails
 from gyrojax.noise.allan import confidence_interval, local_slope
 from gyrojax.noise.spec import BI_FACTOR
 from gyrojax.units import SECONDS_PER_HOUR
@@ -144,7 +144,7 @@ def upper_bound(adev: float, edf: float, looks: int, level: float = BOUND_LEVEL)
     """The one-sided χ² upper bound of an Allan deviation σ̂ with ``edf`` degrees of freedom, at the Bonferroni
     level 1 − (1 − ``level``)/``looks`` (module doc): σ̂·√(ν/χ²_{(1−level)/looks}(ν)), NIST SP 1065 eq. 45."""
     tail = (1.0 - level) / max(int(looks), 1)
-    return float(adev * math.sqrt(edf / stats.chi2.ppf(tail, max(float(edf), 1e-3))))
+    return float(adev * math.sqrt(edf / tails.chi2_ppf(tail, max(float(edf), 1e-3))))
 
 
 def curve_readoffs(res) -> dict:

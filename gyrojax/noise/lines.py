@@ -49,6 +49,8 @@ import math
 
 import numpy as np
 
+from gyrojax import tails
+
 LEVEL = 0.01
 """Family-wise false-line rate per record (Bonferroni over the bins tested), dimensionless."""
 
@@ -169,16 +171,14 @@ def level_edf(nu: float, offsets: np.ndarray, rbin: np.ndarray) -> float:
     """ν_L of the local level: Ŝ/S ≈ χ²_{ν_L}/ν_L for the median of the periodogram bins at ``offsets`` (bins,
     relative to the tested one) with bin correlations ``rbin`` (:func:`bin_correlations`), each bin χ²_ν/ν
     (module doc), dimensionless."""
-    from scipy.stats import chi2
-
     d = np.abs(offsets[:, None] - offsets[None, :])
     r = np.where(d < len(rbin), rbin[np.minimum(d, len(rbin) - 1)], 0.0)
     cov = np.arcsin(np.clip(r, -1.0, 1.0)) / (2.0 * math.pi)
     np.fill_diagonal(cov, 0.25)
     n = len(offsets)
     var_ind = float(cov.sum()) / n**2
-    c = chi2.median(nu) / nu
-    dens = chi2.pdf(c * nu, nu) * nu
+    c = tails.chi2_ppf(0.5, nu) / nu
+    dens = tails.chi2_pdf(c * nu, nu) * nu
     var_med = var_ind / dens**2
     return 2.0 * c**2 / var_med
 
@@ -207,7 +207,6 @@ def ratio_sf(r: float, mu: np.ndarray, nu_l: float) -> float:
     the saddlepoint (Lugannani–Rice 1980) tail of Y = Q − rV at 0, its cumulant generating function
     K(s) = −Σ_j ln(1 − μ_j s) − (ν_L/2)·ln(1 + 2rs/ν_L) (dimensionless)."""
     from scipy.optimize import brentq
-    from scipy.stats import norm
 
     b = nu_l / 2.0
 
@@ -228,7 +227,7 @@ def ratio_sf(r: float, mu: np.ndarray, nu_l: float) -> float:
     u = s * math.sqrt(k2(s))
     if w < 1e-6:  # the saddlepoint at the mean: the formula's limit is ½
         return 0.5
-    return float(min(1.0, max(norm.sf(w) + norm.pdf(w) * (1.0 / u - 1.0 / w), 0.0)))
+    return float(min(1.0, max(tails.norm_sf(w) + tails.norm_pdf(w) * (1.0 / u - 1.0 / w), 0.0)))
 
 
 def periodograms(segments, tau0: float, nperseg: int):
@@ -267,7 +266,6 @@ def find_lines(segments, tau0: float, level: float = LEVEL, nperseg: int | None 
     ``power_ratio`` (P/Ŝ at the peak bin), ``p_value`` (per bin, under F(ν, ν_L)) and ``p_family`` (× N, capped at
     1), strongest first."""
     from scipy.signal import get_window
-    from scipy.stats import f as f_dist
 
     lengths = [len(s) for s in segments]
     nper = nperseg or choose_nperseg(lengths)
@@ -286,9 +284,7 @@ def find_lines(segments, tau0: float, level: float = LEVEL, nperseg: int | None 
     pw = p.mean(axis=1)
     df = float(freqs[1] - freqs[0])
     nb = len(freqs)
-    from scipy.stats import chi2
-
-    c_nu = chi2.median(nu) / nu
+    c_nu = tails.chi2_ppf(0.5, nu) / nu
     half = np.minimum(HALF_WINDOW, np.floor(MAX_SPAN * np.arange(nb)).astype(int) - GUARD)
     top = nb - 1 - GUARD - HALF_WINDOW
     tested = np.flatnonzero((half >= MIN_HALF_WINDOW) & (np.arange(nb) <= top))
@@ -304,7 +300,7 @@ def find_lines(segments, tau0: float, level: float = LEVEL, nperseg: int | None 
     with np.errstate(divide="ignore", invalid="ignore"):  # a level of 0 (a constant stretch) tests nothing
         stat = np.where(s_hat > 0, pw / s_hat, 0.0)
     pval = np.ones(nb)
-    pval[tested] = f_dist.sf(stat[tested], nu, nu_l[tested])  # F(ν, ν_L): a light-tailed screen
+    pval[tested] = tails.f_sf(stat[tested], nu, nu_l[tested])  # F(ν, ν_L): a light-tailed screen
     mu = piece_weights(lengths, nper, window)
     n_test = int(tested.size)
     for k in tested[pval[tested] <= 100.0 * level / n_test]:  # the exact weights' saddlepoint tail decides

@@ -22,9 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyrojax import units
-from gyrojax.noise.spec import BI_FACTOR, TRUTH_KEYS, NoiseModelError, NoiseSpec
-
-NOISE_NAMES = TRUTH_KEYS
+from gyrojax.noise.spec import BI_FACTOR, NoiseModelError, NoiseSpec
 
 
 def white(key, n, dt_s, arw):

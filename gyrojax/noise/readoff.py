@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 
+from gyrojax import tails
 from gyrojax.noise import headline
 from gyrojax.noise.spec import BI_FACTOR, UNITS, NoiseModelError, NoiseSpec, adev_jacobian
 from gyrojax.units import SECONDS_PER_HOUR
@@ -118,7 +119,6 @@ def mata_interval(values, stds, weights, level: float = headline.TWO_SIGMA) -> t
     2809–2815; Buckland, S. T., Burnham, K. P. & Augustin, N. H. (1997), Model selection: an integral part of
     inference, Biometrics 53, 603–618."""
     from scipy.optimize import brentq
-    from scipy.stats import norm
 
     a = (1.0 - level) / 2.0
     w = np.asarray(weights, float)
@@ -132,10 +132,10 @@ def mata_interval(values, stds, weights, level: float = headline.TWO_SIGMA) -> t
     span = lv.min() - 40.0 * sv.max(), lv.max() + 40.0 * sv.max()
 
     def upper_tail(x):  # Σ w_i Φ((ln θ̂_i − x)/s_i) − α/2, falling in x
-        return float(wp @ norm.cdf((lv - x) / sv)) - a
+        return float(wp @ tails.norm_cdf((lv - x) / sv)) - a
 
     def lower_tail(x):  # w0 + Σ w_i [1 − Φ((ln θ̂_i − x)/s_i)] − α/2, rising in x
-        return w0 + float(wp @ norm.sf((lv - x) / sv)) - a
+        return w0 + float(wp @ tails.norm_sf((lv - x) / sv)) - a
 
     hi = math.exp(brentq(upper_tail, *span, xtol=1e-12))
     lo = 0.0 if w0 >= a else math.exp(brentq(lower_tail, *span, xtol=1e-12))
@@ -174,17 +174,14 @@ def with_selection(figs: dict, cands: list, tau_min: float, tau_max: float, curv
     """The chosen model's read-offs ``figs`` (:func:`derived`) with intervals that carry the selection: per figure
     of :data:`SELECTION_FIGURES` read, ``ci`` the MATA-Wald interval (:func:`mata_interval`) over the candidates
     ``cands`` (:func:`candidate_fits`), each read as :func:`derived` reads it (B at ``curve_b_tau`` where a
-    candidate's ADEV has no minimum, as the headline does), ``std`` value·ln(θ_U/θ_L)/4 (the ±2σ width in ln;
-    value·ln(θ_U/value)/2 when θ_L = 0); ``std_given_model`` and ``ci_given_model`` the chosen model's own.
-    Unchanged with fewer than two candidates.
+    candidate's ADEV has no minimum, as the headline does; ``tau_min``, ``tau_max``, ``curve_b_tau`` in s), ``std``
+    value·ln(θ_U/θ_L)/4 (the ±2σ width in ln; value·ln(θ_U/value)/2 when θ_L = 0); ``std_given_model`` and
+    ``ci_given_model`` the chosen model's own. Unchanged with fewer than two candidates.
 
-    The shortfall this mends: with the selection in the loop the ±2σ coverage of the model's figures was 0.914–
-    0.937 on white + GM + RW and white + RW records (a spurious quantization term, a dropped random walk), with
-    the model fixed 0.95. On the same 300 draws each (benchmarks/study_noise_readoff_coverage.py, binomial sd
-    0.011–0.016), the chosen model's own interval → this one: white+GM+RW N 0.920 → 0.933, B 0.921 → 0.938, K
-    0.936 → 0.962; white+RW N 0.933 → 0.960, B 0.936 → 0.942, K 0.938 → 0.938. The MATA interval over Buckland's
-    unconditional variance: on the same draws (180–280 each) Buckland's ln-scale interval gave B 0.981 on white +
-    RW (over), MATA 0.967. It costs a refit of each candidate: a 2^18-sample report 0.4 → 1.0 s CPU."""
+    With the selection in the loop the chosen model's own ±2σ intervals cover less than their level (a spurious
+    quantization term, a dropped random walk); this one carries the selection, and MATA rather than Buckland's
+    unconditional variance, which over-covers (coverage: benchmarks/study_noise_readoff_coverage.py). It costs a
+    refit of each candidate."""
     if len(cands) < 2:
         return figs
     reads = [derived(f, tau_min, tau_max) for _, f in cands]

@@ -59,7 +59,9 @@ import math
 from functools import lru_cache
 
 import numpy as np
-from scipy import optimize, signal, stats
+from scipy import optimize, signal
+
+from gyrojax import tails
 
 DEFAULT_EFFICIENCY = 0.9
 """Gaussian efficiency of the robust wavelet variance of ``gyrojax noise --robust`` (independent coefficients)."""
@@ -90,8 +92,8 @@ def truncated_moment(k: int, c: float) -> float:
     (integration by parts); 0 for odd k."""
     if k % 2:
         return 0.0
-    out = 2.0 * stats.norm.cdf(c) - 1.0
-    phi = stats.norm.pdf(c)
+    out = 2.0 * tails.norm_cdf(c) - 1.0
+    phi = tails.norm_pdf(c)
     for j in range(2, k + 1, 2):
         out = (j - 1) * out - 2.0 * c ** (j - 1) * phi
     return float(out)

@@ -46,11 +46,6 @@ ADEV_KEYS = {"adev_deg_per_h": "adev_mps2", "adev_model_deg_per_h": "adev_model_
 """The ADEV arrays' keys of a gyro report and of an accelerometer report (values in deg/h and in m/s²)."""
 
 
-def _param_units(name: str) -> tuple[str, float]:
-    """Unit and factor of a model parameter (``white``, ``gm1_sigma``, ``gm1_tau``, ``ar1`` …)."""
-    return ACCEL_UNITS.get(name, ACCEL_UNITS.get(name.rsplit("_", 1)[-1], ACCEL_UNITS["ar"]))  # as NoiseSpec.unit
-
-
 def _scaled(fig: dict, name: str) -> dict:
     """One read-off (``value``, ``std``, ``unit`` …) in accelerometer units; one not read keeps its reason."""
     unit, f = ACCEL_UNITS[name]
@@ -87,7 +82,7 @@ def accelerometer_report(out: dict) -> dict:
     if "model" in out:
         out["model"]["rate_unit"] = RATE_UNIT
         for k, p in out["model"].get("parameters", {}).items():
-            unit, f = _param_units(k)
+            unit, f = ACCEL_UNITS.get(k, ACCEL_UNITS.get(k.rsplit("_", 1)[-1], ACCEL_UNITS["ar"]))  # as NoiseSpec.unit
             p["unit"] = unit
             for key in ("value", "std"):
                 if p.get(key) is not None:

@@ -69,15 +69,11 @@ class ExpressionError(ModelError):
     """An effect expression that cannot be accepted (bad token, unknown input or function, bad NAME=EXPR)."""
 
 
-def _token(node: ast.AST, text: str) -> str:
-    seg = ast.get_source_segment(text, node)
-    return seg if seg is not None else type(node).__name__
-
-
 def _bad(node: ast.AST, text: str, why: str) -> ExpressionError:
     col = getattr(node, "col_offset", None)
     where = f" at column {col + 1}" if col is not None else ""
-    return ExpressionError(f"effect expression {text!r}: {why} {_token(node, text)!r}{where}")
+    token = ast.get_source_segment(text, node) or type(node).__name__
+    return ExpressionError(f"effect expression {text!r}: {why} {token!r}{where}")
 
 
 def compile_expression(text: str, kind: str = fx.SDF):

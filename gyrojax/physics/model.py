@@ -100,10 +100,6 @@ class Model:
                 raise ModelError(f"unknown coefficient {k!r}; valid: {', '.join(idx)}")
         return np.array([float(coefficients.get(c, 0.0)) for c in self.coefficient_names])
 
-    def unpack(self, theta) -> dict:
-        """Coefficient name -> value (report units) from a flat θ; the inverse of :meth:`pack`."""
-        return {c: float(v) for c, v in zip(self.coefficient_names, np.asarray(theta))}
-
     def extend(self, *terms) -> "Model":
         """This model with effect (or coefficient) names appended; names already present are kept once."""
         return Model.of(self.terms + tuple(terms), self.kind)
@@ -368,7 +364,7 @@ def predict(model: Model, theta, data: RecordData, trig=None):
         if data.encoder_axis == s:
             # the readout error's change over the interval, the trapezoid of dh/dθ times the predicted increment: the
             # read increment carries the measurement's own noise, so h at the next read angle would make a regressor
-            # of the measurement itself (issue 28); dh/dθ at both ends keeps the readout noise of the angles symmetric
+            # of the measurement itself; dh/dθ at both ends keeps the readout noise of the angles symmetric
             _, slope = encoder_error(setup["encoder"], data.angles[:, s])
             dh = 0.5 * (slope[1:] + slope[:-1]) * mean_rate
         return (mean_rate + dh) / units.DEG_PER_H * data.weight

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import jax.numpy as jnp
 import numpy as np
 
+from gyrojax import tails
 from gyrojax.errors import ModelError
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model
@@ -128,9 +129,7 @@ def noncentrality(f_full, p: int, delta):
 
 def detect_power(lam: float, df: int = 1, alpha: float = 0.01) -> float:
     """Power of the χ²_df score test at level α for noncentrality λ."""
-    from scipy import stats
-
-    return float(stats.ncx2.sf(stats.chi2.isf(alpha, df), df, max(lam, 1e-300)))
+    return tails.score_power(max(lam, 1e-300), df, alpha)
 
 
 def criterion_values(f, model: Model, extra: dict | None = None) -> dict:

@@ -129,8 +129,9 @@ def dwell_from_logits(z, total_s: float, min_fraction: float):
     return total_s * (min_fraction + (1.0 - n * min_fraction) * jax.nn.softmax(z))
 
 
+KEEP_COMPILED = 8
+"""Compiled optimisers a process keeps, the most recent (a repeated design skips compilation)."""
 _COMPILED: dict = {}
-"""Compiled optimisers by configuration and argument shapes (a repeated design skips compilation)."""
 
 
 def _optimiser(model, crit, n_positions, total, m, free_dwell, noise, dt_s, adam_steps, lbfgs_steps, learning_rate):
@@ -212,6 +213,8 @@ def design(
     ckey = (config, jax.tree_util.tree_structure(args), tuple(x.shape for x in jax.tree_util.tree_leaves(args)))
     t0 = time.perf_counter()
     if ckey not in _COMPILED:
+        if len(_COMPILED) >= KEEP_COMPILED:
+            del _COMPILED[next(iter(_COMPILED))]  # the oldest: each holds an executable
         _COMPILED[ckey] = jax.jit(_optimiser(*config)).lower(*args).compile()
     t1 = time.perf_counter()
     (ang, z), hist, vals, gn = jax.block_until_ready(_COMPILED[ckey](*args))

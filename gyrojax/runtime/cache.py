@@ -28,17 +28,23 @@ def cache_dir() -> str | None:
     return os.path.join(base, "gyrojax", "jax")
 
 
+def persistent_cache_settings() -> dict | None:
+    """JAX's config values of :func:`use_persistent_cache` by name (the folder, and every compiled function kept
+    however small or quick to compile; seconds, bytes), ``None`` when the cache is switched off."""
+    path = cache_dir()
+    return None if path is None else dict(zip(JAX_SETTINGS, (path, 0.0, 0)))
+
+
 def use_persistent_cache() -> None:
     """Turn on JAX's persistent compilation cache at :func:`cache_dir` (nothing when it is switched off) for every
     compiled function however small: for a process that is gyrojax's alone (the command line, the test suite),
     never on import. Before JAX's import its variables are set, after it its config is updated."""
-    path = cache_dir()
-    if path is None:
+    settings = persistent_cache_settings()
+    if settings is None:
         return
-    values = (path, 0.0, 0)
     if "jax" in sys.modules:
-        for name, value in zip(JAX_SETTINGS, values):
+        for name, value in settings.items():
             sys.modules["jax"].config.update(name, value)
     else:  # JAX reads them when (and if) it is imported: `gyrojax plans` and `import` never do
-        for name, value in zip(JAX_SETTINGS, values):
+        for name, value in settings.items():
             os.environ[name.upper()] = str(value)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import re
 import threading
+from functools import partial
 
 import jax
 import jax.numpy as jnp
@@ -21,66 +22,22 @@ TARGET = re.compile(r'custom_call_target="([^"]+)"')
 """A custom call in an executable's HLO text."""
 
 
-def _lu(a):
-    return linalg.lu(a)
-
-
-def _solve_triangular(a):
-    return linalg.triangular_solve(a, a, left_side=True, lower=True)
-
-
-def _qr(a):
-    return linalg.qr(a, full_matrices=False)
-
-
-def _qr_pivoted(a):
-    return linalg.qr(a, pivoting=True, full_matrices=False)
-
-
-def _ormqr(a):
-    return linalg.ormqr(a, jnp.ones(2, a.dtype), a)
-
-
-def _svd_qr(a):
-    return linalg.svd(a, full_matrices=False, algorithm=linalg.SvdAlgorithm.QR)
-
-
-def _svd(a):
-    return linalg.svd(a, full_matrices=False, algorithm=linalg.SvdAlgorithm.DIVIDE_AND_CONQUER)
-
-
-def _eig(a):
-    return linalg.eig(a, compute_left_eigenvectors=False)
-
-
-def _schur(a):
-    return linalg.schur(a)
-
-
-def _hessenberg(a):
-    return linalg.hessenberg(a)
-
-
-def _tridiagonal(a):
-    return linalg.tridiagonal(a)
-
-
 # LAPACK's name of each routine for real and complex matrices, and the public operation that lowers to it
 _ROUTINES = (
     ("potrf", "potrf", linalg.cholesky),
-    ("getrf", "getrf", _lu),
-    ("trsm", "trsm", _solve_triangular),
-    ("geqrf", "geqrf", _qr),
-    ("orgqr", "ungqr", _qr),
-    ("ormqr", "unmqr", _ormqr),
-    ("geqp3", "geqp3", _qr_pivoted),
+    ("getrf", "getrf", linalg.lu),
+    ("trsm", "trsm", lambda a: linalg.triangular_solve(a, a, left_side=True, lower=True)),
+    ("geqrf", "geqrf", partial(linalg.qr, full_matrices=False)),
+    ("orgqr", "ungqr", partial(linalg.qr, full_matrices=False)),
+    ("ormqr", "unmqr", lambda a: linalg.ormqr(a, jnp.ones(2, a.dtype), a)),
+    ("geqp3", "geqp3", partial(linalg.qr, pivoting=True, full_matrices=False)),
     ("syevd", "heevd", linalg.eigh),
-    ("gesdd", "gesdd", _svd),
-    ("gesvd", "gesvd", _svd_qr),
-    ("geev", "geev", _eig),
-    ("gees", "gees", _schur),
-    ("gehrd", "gehrd", _hessenberg),
-    ("sytrd", "hetrd", _tridiagonal),
+    ("gesdd", "gesdd", partial(linalg.svd, full_matrices=False, algorithm=linalg.SvdAlgorithm.DIVIDE_AND_CONQUER)),
+    ("gesvd", "gesvd", partial(linalg.svd, full_matrices=False, algorithm=linalg.SvdAlgorithm.QR)),
+    ("geev", "geev", partial(linalg.eig, compute_left_eigenvectors=False)),
+    ("gees", "gees", linalg.schur),
+    ("gehrd", "gehrd", linalg.hessenberg),
+    ("sytrd", "hetrd", linalg.tridiagonal),
 )
 _TYPES = (("s", "float32", False), ("d", "float64", False), ("c", "complex64", True), ("z", "complex128", True))
 

@@ -4,16 +4,13 @@ compiled computations (the noise fits of separate records, the points of a likel
 
 The matrices of a fit and a diagnosis are tall and narrow (samples × a few dozen regressors): QR, projections and
 least squares on them gain little from BLAS threads, while OpenBLAS threads that spin between calls take the cores
-JAX's compiled likelihood runs on. Measured on 2 cores (the demo campaign's warm fit + diagnose,
-``benchmarks/bench_mainloop.py``): 3.2–4.0 s CPU with numpy's default two threads, 2.7–3.1 s with one, the wall
-time 0–15 % shorter. The command line sets this for its whole process (:func:`single_threaded_blas`); the library's
-entry points (:func:`narrow_blas`) set it for the call and restore the caller's setting after it, so a notebook's
-own numpy keeps its threads.
+JAX's compiled likelihood runs on (``benchmarks/bench_mainloop.py``). The command line sets this for its whole process
+(:func:`single_threaded_blas`); the library's entry points (:func:`narrow_blas`) set it for the call and restore
+the caller's setting after it, so a notebook's own numpy keeps its threads.
 
 One compiled evaluation of the REML likelihood keeps about one core busy, and JAX releases the GIL while it runs, so
-independent evaluations dispatched from two threads run side by side: the four per-record noise fits of the demo
-campaign took 0.27–0.29 s one after the other and 0.17–0.19 s on two threads, with bit-identical results (each
-computation is the same; only when it runs changes).
+independent evaluations dispatched from two threads run side by side, with bit-identical results (each computation is
+the same; only when it runs changes).
 """
 
 from __future__ import annotations
@@ -123,7 +120,7 @@ def single_threaded_blas() -> None:
 
 
 def _limits():
-    """The threadpoolctl controller of the BLAS libraries loaded now (found once: 2 ms; each limit then 0.05 ms)."""
+    """The threadpoolctl controller of the BLAS libraries loaded now (found once)."""
     global _controller
     if _controller is None:
         from threadpoolctl import ThreadpoolController

@@ -1,4 +1,4 @@
-"""Log tail probabilities of the χ² and F laws that never underflow.
+"""Tails and quantiles of the χ², F, t and normal laws, and log tails of the χ² and F laws that never underflow.
 
 ``scipy.stats.chi2.logsf`` and ``scipy.stats.f.logsf`` take the log of a survival function computed in double
 precision, so beyond p ≈ 1e-308 they return −inf: a strong missing effect (a score statistic of ~1800 on one degree of
@@ -8,8 +8,8 @@ log space by the continued fractions of the regularised incomplete gamma and bet
 value is returned as it is.
 
 scipy's values are taken from ``scipy.special`` as ``scipy.stats`` evaluates them (the same functions, the same
-branches, so the same bits), without importing ``scipy.stats``: its import costs a process about 0.3 s of CPU. The
-survival functions and quantiles of the t and normal laws that the intervals and p-values need are here too.
+branches, so the same bits), without importing ``scipy.stats`` (a costly import for a command-line process). Every
+module takes its tails and quantiles from here.
 """
 
 from __future__ import annotations
@@ -102,6 +102,32 @@ def chi2_isf(p, df):
     return special.chdtri(df, p)
 
 
+def chi2_sf(x, df):
+    """P(χ²_df > x), ``scipy.stats.chi2.sf`` from ``scipy.special.chdtrc`` (1 at or below 0)."""
+    x = np.asarray(x, dtype=float)
+    with np.errstate(invalid="ignore"):
+        return np.where(x <= 0, 1.0, special.chdtrc(df, x))
+
+
+def chi2_ppf(q, df):
+    """The χ²_df quantile at q (0 < q < 1), ``scipy.stats.chi2.ppf``: 2·P⁻¹(df/2, q)."""
+    return 2 * special.gammaincinv(np.asarray(df, dtype=float) / 2, q)
+
+
+def chi2_pdf(x, df):
+    """The χ²_df density at x > 0, ``scipy.stats.chi2.pdf``: exp((df/2 − 1) ln x − x/2 − ln Γ(df/2) − (df/2) ln 2)."""
+    x, df = np.asarray(x, dtype=float), np.asarray(df, dtype=float)
+    return np.exp(special.xlogy(df / 2.0 - 1, x) - x / 2.0 - special.gammaln(df / 2.0) - (np.log(2) * df) / 2.0)
+
+
+def score_power(lam, df, alpha):
+    """Power of the χ²_df score test at level ``alpha`` for noncentrality ``lam`` (dimensionless): the noncentral χ²
+    tail above the central law's 1 − α quantile (``scipy.stats.ncx2``, imported on first use)."""
+    from scipy import stats
+
+    return float(stats.ncx2.sf(chi2_isf(alpha, df), df, lam))
+
+
 def t_sf(x, df):
     """P(t_df > x), ``scipy.stats.t.sf``: ``scipy.special.stdtr(df, −x)``."""
     return special.stdtr(df, -np.asarray(x, dtype=float))
@@ -120,6 +146,22 @@ def norm_sf(x):
 def norm_ppf(q):
     """The standard normal quantile at q (0 < q < 1), ``scipy.stats.norm.ppf``: ``scipy.special.ndtri``."""
     return special.ndtri(q)
+
+
+def norm_isf(q):
+    """The standard normal value exceeded with probability q, ``scipy.stats.norm.isf``: −``scipy.special.ndtri(q)``."""
+    return -special.ndtri(q)
+
+
+def norm_cdf(x):
+    """P(Z ≤ x) of the standard normal law, ``scipy.stats.norm.cdf``: ``scipy.special.ndtr``."""
+    return special.ndtr(np.asarray(x, dtype=float))
+
+
+def norm_pdf(x):
+    """The standard normal density, ``scipy.stats.norm.pdf``: exp(−x²/2)/√(2π)."""
+    x = np.asarray(x, dtype=float)
+    return np.exp(-(x**2) / 2.0) / np.sqrt(2 * np.pi)
 
 
 def chi2_logsf(x: float, df: float) -> float:
