@@ -9,6 +9,9 @@ one (the versions of its lock; :func:`benchmarks.timing.python_of`):
   imu_tk's scale and gravity), the persistent compilation cache warm (filled by a run before);
 * ``gyrojax diagnose --json`` of a two-axis TDF campaign: the 24-position set of ``multiposition`` with a TDF gyro
   (X East-ish, Y, spin Z; two channels), 10 min per position at 1 s, simulated here; cache warm;
+* ``gyrojax next --json`` after the first test of the campaign study's truth 13 (:mod:`benchmarks.study_campaign`:
+  its polar tumble, 30 s samples, D_SS and D_IO hidden), on the study's two-axis table: a step whose test takes all
+  the hours a test may; cache empty (the compiling apart: cold − warm) and warm;
 * the first ``gj.diagnose`` of a script that imports gyrojax, on the demo's campaign (a polar tumble, 4 records,
   34 464 samples), against the second call in the same process: gyrojax's cache (``GYROJAX_CACHE_DIR``, a fresh
   folder) filled by a diagnosis of a campaign of another shape (the same tumble at 1 revolution, 10 s steps) and
@@ -18,7 +21,7 @@ one (the versions of its lock; :func:`benchmarks.timing.python_of`):
 Each diagnosis' JSON of ``new`` is compared with ``old``'s: the verdicts, the candidates' order and every number,
 the largest relative change printed.
 
-    python -m benchmarks.bench_waits --baseline-dir DIR [--repeat N] [--rows xsens,tdf,notebook]
+    python -m benchmarks.bench_waits --baseline-dir DIR [--repeat N] [--rows xsens,tdf,next,notebook]
 """
 
 from __future__ import annotations
@@ -81,29 +84,55 @@ def gyrojax(root: Path, args, cache: Path | None, cwd: Path) -> tuple[float, flo
     return run_process([python_of(root), "-m", "gyrojax", *map(str, args)], env=env_of(root, cache), ok=(0, 1), cwd=cwd)
 
 
-def inputs(tmp: Path) -> dict:
-    """The rows' records, written by this checkout: Xsens imported, the TDF campaign and two tumbles simulated."""
+def inputs(tmp: Path, rows) -> dict:
+    """The records of ``rows``, written by this checkout: Xsens imported, the TDF campaign, the campaign study's
+    first test and two tumbles simulated."""
     from gyrojax.data import plans
     from gyrojax.data.planfile import save_plan
 
-    data = HERE / "tests" / "data" / "imutk"
-    xs = tmp / "xsens"
-    args = ["import", "imutk", data / "xsens_acc.mat.gz", data / "xsens_gyro.mat.gz", "--gyro-scale", XSENS_SCALE]
-    gyrojax(HERE, [*args, "--gravity", "9.81744", "--out", xs], None, tmp)
-    plan = plans.multiposition(24, minutes=10.0, dt_s=1.0, mount=plans.tdf_mount((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)))
-    save_plan(plan, tmp / "tdf24-plan.json", force=True)
-    (tmp / "tdf-truth.json").write_text(json.dumps(TDF_TRUTH))
-    tdf = tmp / "tdf"
-    gyrojax(HERE, ["simulate", tmp / "tdf24-plan.json", "--truth", tmp / "tdf-truth.json", "--out", tdf], None, tmp)
-    from gyrojax.report.demo import TRUTH
+    out = {}
+    if "xsens" in rows:
+        data = HERE / "tests" / "data" / "imutk"
+        xs = tmp / "xsens"
+        args = ["import", "imutk", data / "xsens_acc.mat.gz", data / "xsens_gyro.mat.gz", "--gyro-scale", XSENS_SCALE]
+        gyrojax(HERE, [*args, "--gravity", "9.81744", "--out", xs], None, tmp)
+        out["xsens"] = sorted(xs.glob("*.json"))
+    if "tdf" in rows:
+        mount = plans.tdf_mount((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))
+        save_plan(plans.multiposition(24, minutes=10.0, dt_s=1.0, mount=mount), tmp / "tdf24-plan.json", force=True)
+        (tmp / "tdf-truth.json").write_text(json.dumps(TDF_TRUTH))
+        tdf = tmp / "tdf"
+        gyrojax(HERE, ["simulate", tmp / "tdf24-plan.json", "--truth", tmp / "tdf-truth.json", "--out", tdf], None, tmp)
+        out["tdf"] = sorted(tdf.glob("*.json"))
+    if "next" in rows:
+        out["study"] = study(tmp)
+    if "notebook" in rows:
+        from gyrojax.report.demo import TRUTH
 
-    (tmp / "tumble-truth.json").write_text(json.dumps(TRUTH))
-    tumbles = {}
-    for name, opts in (("tumble", ("revolutions=2", "dt_s=2")), ("tumble-other", ("revolutions=1", "dt_s=10"))):
-        o = [x for v in opts for x in ("-o", v)]
-        gyrojax(HERE, ["simulate", "tumble", *o, "--truth", tmp / "tumble-truth.json", "--out", tmp / name], None, tmp)
-        tumbles[name] = tmp / name
-    return {"xsens": sorted(xs.glob("*.json")), "tdf": sorted(tdf.glob("*.json")), **tumbles}
+        (tmp / "tumble-truth.json").write_text(json.dumps(TRUTH))
+        for name, opts in (("tumble", ("revolutions=2", "dt_s=2")), ("tumble-other", ("revolutions=1", "dt_s=10"))):
+            o = [x for v in opts for x in ("-o", v)]
+            args = ["simulate", "tumble", *o, "--truth", tmp / "tumble-truth.json", "--out", tmp / name]
+            gyrojax(HERE, args, None, tmp)
+            out[name] = tmp / name
+    return out
+
+
+def study(tmp: Path, truth: int = 13) -> Path:
+    """The first test of the campaign study's ``truth`` as its campaign simulates it (noise key of test 0)."""
+    import jax
+    import numpy as np
+
+    from benchmarks import study_campaign
+    from gyrojax.data.records import save_record
+    from gyrojax.simulation.simulator import simulate
+
+    t = study_campaign.draw_truth(np.random.default_rng([0, truth]))
+    key = jax.random.fold_in(jax.random.PRNGKey(truth), 0)
+    out = tmp / "study"
+    for r in simulate(study_campaign.first_test(), t, key=key):
+        save_record(r, out)
+    return out
 
 
 def numbers(doc, path=""):
@@ -197,13 +226,13 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--baseline-dir", type=Path, help="another checkout to run beside this one")
     ap.add_argument("--repeat", type=int, default=1)
-    ap.add_argument("--rows", default="xsens,tdf,notebook")
+    ap.add_argument("--rows", default="xsens,tdf,next,notebook")
     args = ap.parse_args(argv)
     roots = {"new": HERE} | ({"old": args.baseline_dir.resolve()} if args.baseline_dir else {})
     rows = args.rows.split(",")
     with tempfile.TemporaryDirectory() as t:
         tmp = Path(t)
-        rec = inputs(tmp)
+        rec = inputs(tmp, rows)
         print(f"load average {' '.join(f'{x:.1f}' for x in os.getloadavg())} (1, 5, 15 min) on {os.cpu_count()} cores")
         if "xsens" in rows:
             print("== gyrojax diagnose --json of imu_tk's Xsens session (51 175 samples), as a process ==")
@@ -211,6 +240,11 @@ def main(argv=None):
         if "tdf" in rows:
             print("== gyrojax diagnose --json of a 24-position two-axis TDF campaign (two channels), as a process ==")
             process_row("tdf", roots, ["diagnose", *rec["tdf"], "--json"], tmp, args.repeat)
+        if "next" in rows:
+            print("== gyrojax next --json after the campaign study's first test (truth 13: a capped step) ==")
+            cmd = ["next", rec["study"], "--terms", "D_F,D_I,D_S", "--target-sigma", "0.003", "--table", "two-axis"]
+            cmd += ["--no-turn", "--mountings", "1", "--seed", "14", "--json", "--out", tmp / "next.json", "--force"]
+            process_row("next", roots, cmd, tmp, args.repeat)
         if "notebook" in rows:
             print("== first gj.diagnose of a script on the demo campaign (4 records, 34 464 samples) / warm call ==")
             notebook_row(roots, rec, tmp, args.repeat)

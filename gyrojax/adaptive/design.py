@@ -25,7 +25,9 @@ gm_mean_factor`); the covariance between positions is left out of the search (th
 scaled in time: every ratio falls as H grows), at least :attr:`gyrojax.adaptive.lab.Lab.min_dwell_s` a position
 on average and at most the hours the lab allows one test; the design of fewest
 table hours (dwell, settling, remounting) is re-designed at its H* and kept. When no design meets every ratio
-within the cap, the one with the smallest worst ratio is kept: the test makes the most progress the hours allow.
+within the cap, the one with the smallest worst ratio is kept: the test makes the most progress the hours allow;
+or, given stricter requirements to shape such a test for (``shape`` of :func:`design_test`), the one the same search
+makes for them, its hours still those of the requirements.
 :attr:`TestDesign.hours_needed` is the dwell a test of the kept shape would need to meet every requirement (up to
 :data:`MAX_HOURS`; None beyond): what the campaign's budget is checked against.
 """
@@ -163,10 +165,11 @@ def _problem(uni, runs, n, limits, steps, learning_rate) -> _Problem:
     return _Problem(uni, runs, n, limits, steps, learning_rate)
 
 
-def _arrays(reqs_arrays, f_rec, lab, noise, start_s, margin, thetas) -> dict:
+def _arrays(reqs_arrays, f_rec, lab, noise, start_s, margin, thetas, rows: int = 0) -> dict:
     masks, index, target = reqs_arrays
     r, p = masks.shape
-    rp = max(8, -(-r // 8) * 8)  # requirement rows padded to a multiple of 8 (fewer shapes to compile)
+    m = max(r, rows)
+    rp = max(8, -(-m // 8) * 8)  # requirement rows padded to a multiple of 8 (fewer shapes to compile)
     k = len(lab.axes)
     gm = np.array(list(noise.gauss_markov)[:GM_TERMS] + [(0.0, 1.0)] * GM_TERMS)[:GM_TERMS]
     if len(noise.gauss_markov) > GM_TERMS:
@@ -204,6 +207,7 @@ def design_test(
     steps: int = STEPS,
     seed: int = 0,
     learning_rate: float = LEARNING_RATE,
+    shape=None,
 ) -> TestDesign:
     """Design the next test (module doc) of at most ``hours`` dwell on ``lab``'s table.
 
@@ -211,9 +215,16 @@ def design_test(
     information on ``uni``; ``noise`` the noise of the new test (a :class:`~gyrojax.noise.spec.NoiseSpec`);
     ``start_s`` its start on the campaign clock (s); ``margin`` the design margin m; ``thetas`` (D, p) posterior
     draws (default θ = 0, exact for linear effects); ``budget_hours`` the dwell the campaign has left (default
-    ``hours``), at which :attr:`TestDesign.ratio_at_budget` is read."""
+    ``hours``), at which :attr:`TestDesign.ratio_at_budget` is read.
+
+    ``shape``: arrays of requirements at least as strict as ``reqs_arrays`` (every test that meets them meets
+    ``reqs_arrays``) for which a test that cannot meet ``reqs_arrays`` within ``hours`` is shaped instead: the same
+    search from the same random starts, its largest ratio lowered at ``hours``; :attr:`TestDesign.hours_needed`,
+    :attr:`TestDesign.ratio_at_budget` and :attr:`TestDesign.ratio_after` stay those of ``reqs_arrays``. Both sets
+    are padded to one row count, so one compiled search serves them."""
     r = reqs_arrays[0].shape[0]
-    a = _arrays(reqs_arrays, f_rec, lab, noise, start_s, margin, thetas)
+    rows = max(r, shape[0].shape[0] if shape is not None else 0)
+    a = _arrays(reqs_arrays, f_rec, lab, noise, start_s, margin, thetas, rows)
     limits, n, k = lab.limited(), lab.positions, len(lab.axes)
     template = lab.table().template
     mounts = np.asarray(lab.mountings())
@@ -233,14 +244,14 @@ def design_test(
         tries every mounting once."""
         return n_m * starts if runs == 1 else n_m
 
-    def optimise(runs, u0, z0, mi, total_h):
+    def optimise(runs, u0, z0, mi, total_h, arrays=a):
         prob = _problem(uni, runs, n, limits, steps, learning_rate)
         k0 = len(u0)
         take = np.arange(batch(runs)) % k0  # the starts repeated and perturbed: a local multi-start, and no new shape
         u0, z0, mi = np.array(u0)[take], np.asarray(z0)[take], np.asarray(mi)[take]
         u0[k0:] += rng.normal(0.0, 0.3, u0[k0:].shape)
         tri = jnp.asarray(mounts[mi])
-        (u, z), hist, vals = prob.search((jnp.asarray(u0), jnp.asarray(z0)), tri, template, total_h * 3600.0, a)
+        (u, z), hist, vals = prob.search((jnp.asarray(u0), jnp.asarray(z0)), tri, template, total_h * 3600.0, arrays)
         vals = np.where(np.isfinite(np.asarray(vals)), np.asarray(vals), np.inf)
         b = int(np.argmin(vals))
         return {
@@ -253,10 +264,10 @@ def design_test(
             "hist": np.asarray(hist[b]),
         }
 
-    def worst(d, h):
+    def worst(d, h, arrays=a, r=r):
         prob = _problem(uni, d["runs"], n, limits, steps, learning_rate)
         dwell = jnp.asarray(d["frac"] * h * 3600.0)
-        q = np.asarray(prob.ratios(template, jnp.asarray(mounts[d["mi"]]), jnp.asarray(d["ang"]), dwell, a))
+        q = np.asarray(prob.ratios(template, jnp.asarray(mounts[d["mi"]]), jnp.asarray(d["ang"]), dwell, arrays))
         return float(q[:r].max()) if r else 0.0
 
     def shortest(d, cap):
@@ -278,15 +289,29 @@ def design_test(
         return h + overhead / 3600.0
 
     mi1 = np.repeat(np.arange(n_m), starts)[:, None]
-    candidates = [optimise(1, random_u(n_m * starts, 1), np.zeros((n_m * starts, n)), mi1, hours)]
-    for runs in range(2, min(lab.mountings_per_test, n_m) + 1):  # one run more, at every other mounting
-        prev = candidates[-1]
-        new = np.array([m for m in range(n_m) if m not in prev["mi"]])
-        u0 = random_u(len(new), runs)
-        u0[:, : runs - 1] = prev["u"]
-        z0 = np.tile(np.concatenate([prev["z"], np.zeros(n)]), (len(new), 1))
-        mi = np.column_stack([np.tile(prev["mi"], (len(new), 1)), new])
-        candidates.append(optimise(runs, u0, z0, mi, hours))
+
+    def designs(arrays):
+        """The search's best design of every run count at ``hours``, run by run."""
+        out = [optimise(1, random_u(n_m * starts, 1), np.zeros((n_m * starts, n)), mi1, hours, arrays)]
+        for runs in range(2, min(lab.mountings_per_test, n_m) + 1):  # one run more, at every other mounting
+            prev = out[-1]
+            new = np.array([m for m in range(n_m) if m not in prev["mi"]])
+            u0 = random_u(len(new), runs)
+            u0[:, : runs - 1] = prev["u"]
+            z0 = np.tile(np.concatenate([prev["z"], np.zeros(n)]), (len(new), 1))
+            mi = np.column_stack([np.tile(prev["mi"], (len(new), 1)), new])
+            out.append(optimise(runs, u0, z0, mi, hours, arrays))
+        return out
+
+    def most_progress(candidates, arrays=a, r=r):
+        """The design that lowers the largest ratio most for the same table hours."""
+        base = table_hours(candidates[0], 0.0)
+        return min(
+            candidates,
+            key=lambda c: worst(c, max(hours - (table_hours(c, 0.0) - base), 0.1 * hours), arrays, r),
+        )
+
+    candidates = designs(a)
     needs = [shortest(d, hours) for d in candidates]
     longer = None
     if any(x is not None for x in needs):
@@ -300,10 +325,7 @@ def design_test(
             d, need = again, need2
         use, total_need = need, need
     else:  # none meets them within the hours of a test: the most progress for the same table hours
-        d = min(
-            candidates,
-            key=lambda c: worst(c, max(hours - (table_hours(c, 0.0) - table_hours(candidates[0], 0.0)), 0.1 * hours)),
-        )
+        d = most_progress(candidates)
         use = hours
         # what the goal needs: the test of most runs designed at the hours the budget leaves
         cap = max(hours, budget_hours if budget_hours is not None else hours)
@@ -325,12 +347,17 @@ def design_test(
             if total_need is not None:
                 near = optimise(far["runs"], far["u"][None], far["z"][None], np.asarray(far["mi"])[None], total_need)
                 total_need = min(total_need, shortest(near, MAX_HOURS) or math.inf)
-    prob = _problem(uni, d["runs"], n, limits, steps, learning_rate)
-    dwell = d["frac"] * use * 3600.0
-    q = np.asarray(prob.ratios(template, jnp.asarray(mounts[d["mi"]]), jnp.asarray(d["ang"]), jnp.asarray(dwell), a))
     at_budget = worst(d, budget_hours if budget_hours is not None else hours)
     if longer is not None and budget_hours is not None:
         at_budget = min(at_budget, worst(longer, budget_hours))
+    if shape is not None and longer is not None and (total_need is None or total_need > hours):
+        # the test takes all its hours either way: shaped for ``shape``, from the starts the search above drew
+        s = _arrays(shape, f_rec, lab, noise, start_s, margin, thetas, rows)
+        rng = np.random.default_rng(seed)
+        d = most_progress(designs(s), s, shape[0].shape[0])
+    prob = _problem(uni, d["runs"], n, limits, steps, learning_rate)
+    dwell = d["frac"] * use * 3600.0
+    q = np.asarray(prob.ratios(template, jnp.asarray(mounts[d["mi"]]), jnp.asarray(d["ang"]), jnp.asarray(dwell), a))
     deg = np.rad2deg(d["ang"])
     free = np.array([lim is None for lim in limits])
     deg[..., free] = np.mod(deg[..., free], 360.0)

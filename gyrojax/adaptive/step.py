@@ -6,9 +6,9 @@
    plausible) is added and the records diagnosed again, until it proposes nothing. A proposal the records cannot
    tell from other candidates (its ``aliases`` or ``indistinguishable``, plausible ones) is *not* added: naming one
    member of an alias group would be a guess, and the next test is designed to separate the group instead. So is
-   a proposal outside the goal's watched effects that is no longer significant beside the significant watched
-   candidates fitted together (:func:`_rivals`): two missing effects can together look like a third. When those
-   candidates stay significant beside it, the records prefer them, and the strongest of them is added instead.
+   a proposal that is no longer significant beside the other significant watched candidates fitted together
+   (:func:`_rivals`): two missing effects can together look like a third, or one take the other's signal. When
+   those candidates stay significant beside it, the records prefer them, and the strongest of them is added instead.
 2. **Require.** What stands between the data and the goal (:mod:`gyrojax.adaptive.requirements`): σ of the model's
    coefficients (the fit's own standard errors), σ of each watched candidate were it added (detection of every size
    that matters), σ of the alias group's members in one fit.
@@ -16,13 +16,17 @@
    requirement no orientation of the table reaches, or a goal the hours left cannot reach, is refused with the
    reason and what would reach it (:mod:`gyrojax.adaptive.reach`). Otherwise the test is designed by gradients
    (:mod:`gyrojax.adaptive.design`) and written as a plan on the lab's table, with the σ predicted after it and
-   why it was chosen: the requirements it was designed to meet, worst first.
+   why it was chosen: the requirements it was designed to meet, worst first. A test that takes all the hours a
+   test may (the requirements need more) is shaped for the models the records may turn out to hold
+   (:func:`_anticipated`): a watched candidate no record has excited is asked at its σ target as if it were in the
+   model, beside each member of the alias group; not at its detection level alone, which a present candidate
+   outgrows as soon as it is added. Its hours stay those of the test the requirements ask for.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -219,20 +223,23 @@ def _named_aliases(c, plausible, terms, kind: str) -> tuple:
 
 
 def _rivals(records, terms, c, d, alpha: float, goal: Goal, kind: str, plausible) -> tuple[tuple, bool]:
-    """(rivals, preferred) of the proposal ``c``, an effect outside the goal's watch: the significant, plausible
-    watched candidates R when ``c`` is no longer significant (level ``alpha``) in the fit of the model with all of
-    R; ``preferred`` when R, in turn, is still significant beside ``c`` (Holm over R): the records then single out
-    R, not ``c``. ((), False) when ``c`` holds, is watched, or has no rival. The one-at-a-time tests rank candidates
-    by what each alone explains: two missing effects can together look like a third, one that no single test names
-    (a scale-factor asymmetry |ω_I| at Earth rate follows a_O and a_S² across a set of static positions; a table
-    azimuth error follows several g-sensitive terms of a multi-position test)."""
+    """(rivals, preferred) of the proposal ``c``: the significant, plausible watched candidates R other than ``c``
+    when ``c`` is no longer significant (level ``alpha``) in the fit of the model with all of R; ``preferred`` when
+    R, in turn, is still significant beside ``c`` (Holm over R): the records then single out R, not ``c``. ((), False)
+    when ``c`` holds or has no rival. The one-at-a-time tests rank candidates by what each alone explains: two
+    missing effects can together look like a third, one that no single test names (a scale-factor asymmetry |ω_I|
+    at Earth rate follows a_O and a_S² across a set of static positions; a table azimuth error follows several
+    g-sensitive terms of a multi-position test), and one watched effect can take another's signal where a test tells
+    them apart only in part (D_II beside a missing D_SS: a_I² + a_S² nearly constant over its positions)."""
     watched = goal.watched(kind)
-    if c.name in watched:
-        return (), False
     rivals = [
         x.name
         for x in d.candidates
-        if x.name in watched and x.name in plausible and x.name not in terms and x.p_adjusted < alpha
+        if x.name in watched
+        and x.name != c.name
+        and x.name in plausible
+        and x.name not in terms
+        and x.p_adjusted < alpha
     ]
     if not rivals:
         return (), False
@@ -414,21 +421,12 @@ def next_test(
         )
     last_end = max(float(r.time_s[-1]) for r in records)
     start = last_end + lab.settle_s if start_s is None else float(start_s)
-    test = design_test(
-        uni,
-        rq.arrays(reqs, uni),
-        f_rec,
-        lab,
-        noise,
-        min(lab.hours_per_test, left),
-        start,
-        goal.margin,
-        _draws(uni, res, POSTERIOR_DRAWS, seed),
-        budget_hours=left,
-        starts=starts,
-        steps=steps,
-        seed=seed,
-    )
+    cap, draws = min(lab.hours_per_test, left), _draws(uni, res, POSTERIOR_DRAWS, seed)
+    # a test that takes all the hours a test may is shaped for the models the records may turn out to hold
+    anticipated = _anticipated(reqs, sigma_now, goal, terms, alias)
+    shape = rq.arrays(anticipated, uni) if anticipated is not None else None
+    search = {"budget_hours": left, "starts": starts, "steps": steps, "seed": seed, "shape": shape}
+    test = design_test(uni, rq.arrays(reqs, uni), f_rec, lab, noise, cap, start, goal.margin, draws, **search)
     if test.hours_needed is None or test.hours_needed > left:
         factor = math.sqrt(max(test.ratio_at_budget, 0.0)) * goal.margin
         if test.hours_needed is None:
@@ -444,6 +442,13 @@ def next_test(
             + _unmet_text(out, unmet)
         )
         return out
+    if shape is not None and test.hours_needed > cap:
+        unseen = dict.fromkeys(r.effect for r, x in zip(reqs, sigma_now) if r.kind == "detect" and not math.isfinite(x))
+        out.notes.append(
+            "the test takes all the hours a test may, so it is shaped for the models the records may turn out to "
+            f"hold: {', '.join(unseen)} (not seen by the records so far) at their σ target as if in the model"
+            + (f", beside each of {', '.join(alias)}" if alias else "")
+        )
     if test.convergence_note:
         out.notes.append(f"design search: {test.convergence_note}")
     description = f"{len(test.mountings)}×{lab.positions}-position test designed by gyrojax next for {', '.join(terms)}"
@@ -452,6 +457,35 @@ def next_test(
     out.sigma_after = _predicted(uni, reqs, f_rec, lab, noise, plan, res, start)
     out.reason = _why(out, unmet)
     return out
+
+
+def _anticipated(reqs, sigma_now, goal: Goal, terms=(), alias=()) -> list | None:
+    """The requirements with every watched candidate c the records have not seen at all (σ = ∞: nothing so far
+    excites it) asked at its σ target, as if it were in the model; None when there is none. Nothing has lowered
+    the chance that such a candidate is present, and a present one, once a test excites it, is added and must then
+    reach that target: a test shaped for its detection alone leaves most of that to later tests. With an alias
+    group G to separate, each model the records may hold is asked for: c and the member g both at target in
+    M ∪ {g, c}, for every g of G."""
+    members = [g for g in alias if g not in terms]
+    out, changed = [], False
+    for r, x in zip(reqs, sigma_now):
+        s = goal.target(r.coefficient)
+        if not (r.kind == "detect" and not math.isfinite(x) and s is not None and s < r.target):
+            out.append(r)
+            continue
+        changed = True
+        if not members:
+            out.append(replace(r, target=s))
+        for g in members:
+            sub = tuple(terms) + (g, r.effect)
+            out.append(replace(r, target=s, effects=sub))
+            eff = fx.get(g)
+            out += [
+                rq.Requirement("sigma", c, sub, goal.target(c), u)
+                for c, u in zip(eff.coefficients, eff.units)
+                if goal.target(c) is not None
+            ]
+    return out if changed else None
 
 
 def _predicted(uni, reqs, f_rec, lab, noise, plan, res, start) -> np.ndarray:
