@@ -4,14 +4,15 @@ line, a notebook's kernel) neither traces, lowers nor compiles it again. Nothing
 persistent compilation cache stays the process owner's choice (the command line turns it on for itself,
 :func:`gyrojax.runtime.cache.use_persistent_cache`).
 
-A kept executable is keyed by the function's name, the argument tree, shapes and dtypes (the callers pad records to a
-few lengths, :func:`gyrojax.noise.reml.series`), the digest of the whole ``gyrojax`` source (its version included), the
-JAX and jaxlib versions, the backend, the host CPU (:func:`host_cpu`: XLA compiles for the instruction set of the
-machine it runs on, so a cache shared over a network or copied to an older machine must never run code for features
-that CPU lacks) and the XLA flags (which may hold XLA to another instruction set). Any edit of the library makes new
-keys, so a stale executable is never called. The file holds its whole key, checked on reading, and the LAPACK kernels
-it calls, made ready before it is loaded (:mod:`gyrojax.runtime.lapack`); a loaded executable whose inputs are not the
-call's, a file that cannot be read, or one of another key is compiled again with a warning and replaced, never called.
+A kept executable is keyed by the function's name, the argument tree, shapes and dtypes (a record's rows reach them in
+chunks of a few sizes, :mod:`gyrojax.runtime.rows`, or padded to a few lengths, :func:`gyrojax.noise.reml.bucket_rows`),
+the digest of the whole ``gyrojax`` source (its version included), the JAX and jaxlib versions, the backend, the host
+CPU (:func:`host_cpu`: XLA compiles for the instruction set of the machine it runs on, so a cache shared over a network
+or copied to an older machine must never run code for features that CPU lacks) and the XLA flags (which may hold XLA to
+another instruction set). Any edit of the library makes new keys, so a stale executable is never called. The file holds
+its whole key, checked on reading, and the LAPACK kernels it calls, made ready before it is loaded
+(:mod:`gyrojax.runtime.lapack`); a loaded executable whose inputs are not the call's, a file that cannot be read, or one
+of another key is compiled again with a warning and replaced, never called.
 
 The file name carries the first :data:`DIGEST_CHARS` hex digits of the source digest, and the first use of the folder
 in a process deletes the files of other library sources (:func:`prune`) but those of the :data:`KEEP_OTHER_SOURCES`
