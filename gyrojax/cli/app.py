@@ -329,10 +329,10 @@ def main(argv=None) -> int:
 def console() -> None:
     """The ``gyrojax`` command as a process (the console script and ``python -m gyrojax``): :func:`main` on
     ``sys.argv``, then the process' end without the interpreter's teardown of every object (JAX's compiled code and
-    arrays that nobody sees). Before it ends, the output is flushed,
-    the worker pool stopped and every exit handler run (``atexit``: JAX waits for pending effects, shuts down
-    ``jax.distributed`` and clears its backends). The ordinary exit is taken instead when a flush fails (a closed
-    pipe keeps Python's own handling) or a thread other than the idle workers is still alive."""
+    arrays that nobody sees). Before it ends, the output is flushed, the worker pool stopped and every exit handler
+    run (``atexit``: JAX waits for pending effects, shuts down ``jax.distributed`` and clears its backends). The
+    ordinary exit is taken instead when a flush fails (a closed pipe keeps Python's own handling) or a thread other
+    than the idle workers is still alive."""
     rc = main()
     try:
         sys.stdout.flush()

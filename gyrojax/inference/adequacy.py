@@ -73,8 +73,8 @@ def _inputs_without_setup(d):
 
 def inputs_without_setup(d) -> dict:
     """:func:`gyrojax.physics.model.instrument_inputs` of a rebalance record with no set-up error, per sample (one
-    compiled function, not a few hundred dispatched operations per record; one executable for every length,
-    :func:`gyrojax.inference.kept_model.over_rows`)."""
+    compiled function, not a few hundred dispatched operations per record; one executable per chunk size, whatever
+    the length, :func:`gyrojax.inference.kept_model.over_rows`)."""
     return over_rows(_inputs_without_setup, d)
 
 

@@ -80,8 +80,8 @@ def over_rows(call, data: RecordData, blocks: int = 1):
 
 def kept_rows(stem: str, fn, jitted, model: Model, theta, data: RecordData):
     """``fn(model, theta, data)``, whose outputs are per measurement (TDF: both channels), compiled: through the kept
-    executable named ``stem`` piece by piece (:func:`over_rows`: one executable for every length) when
-    :func:`keepable`, else by ``jitted`` on the whole record."""
+    executable named ``stem`` piece by piece (:func:`over_rows`: one executable per chunk size, whatever the length)
+    when :func:`keepable`, else by ``jitted`` on the whole record."""
     if not keepable(model) or measurements(data) == 0:
         return jitted(model, theta, data)
     kept = _kept(stem, model, fn)
