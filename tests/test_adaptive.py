@@ -229,6 +229,16 @@ def test_next_on_the_campaign_records(campaign, tmp_path, capsys):
     nt = json.loads(capsys.readouterr().out)
     assert nt["status"] == "test" and nt["plan_file"]
     assert any(r["coefficient"] == "D_O" and r["sigma_after"] for r in nt["requirements"])
+    # the stated power is the look's for a lone missing candidate among its m tests, Holm's first step at α/m
+    # (scipy's noncentral χ²), not that of one test at α: m is the diagnosis' family of candidates and shapes
+    m = nt["holm_family"]
+    assert m > 1
+    crit = stats.chi2.isf(nt["alpha_next_look"] / m, 1)
+    detect = [r for r in nt["requirements"] if r["kind"] == "detect" and r["sigma_after"]]
+    assert detect
+    for r in detect:
+        lam = (r["size_that_matters"] / r["sigma_after"]) ** 2
+        assert r["power_after"] == pytest.approx(stats.ncx2.sf(crit, 1, lam), rel=1e-9, abs=1e-12)
     assert simulate(load_plan(tmp_path / "next.json"), TRUTH, seed=2)
     # every record: the goal is met, nothing is written
     argv = ["next", str(records), "--terms", ",".join(j["terms"]), "--target-sigma", str(TARGET), "--json"]

@@ -16,6 +16,11 @@ with power P, i.e. σ_c ≤ detect/√λ*. A candidate the records do not excite
 ∞), could hide at any plausible size: the next test must make it visible. By default the loop does not try to rule
 out candidates smaller than plausible sizes: that is the precision goal's job once they are in the model.
 
+**Many tests in one look.** A look tests every candidate and model-free shape together (Holm at the look's level):
+a lone missing candidate among m tests is declared once its p-value is below α/m, Holm's first step
+(:func:`detect_level`). The sizes that matter are read at that level, so the stated power is the least the look
+has, not that of a single test at α.
+
 **Error budget over the campaign.** Every diagnosis of the campaign is a look at the data for a missing effect;
 look j (1, 2, …) tests at the family-wise level α_j = α/(j(j+1)) (Holm over the candidates within the look,
 :func:`gyrojax.diagnose`), an alpha-spending rule whose levels sum to α (Σ 1/(j(j+1)) = 1). By the union bound
@@ -68,6 +73,15 @@ def noncentrality_for_power(alpha: float, power: float = POWER, df: int = 1) -> 
     from scipy import optimize
 
     return float(optimize.brentq(lambda lam: tails.score_power(lam, df, alpha) - power, 1e-9, 1e4))
+
+
+def detect_level(alpha: float, family: int) -> float:
+    """The level at which a look at family-wise level ``alpha`` tests a lone missing candidate among ``family``
+    tests: Holm's first step, α/m. Its power is the least the look has for that candidate (later steps are at
+    α/(m − k)), so sizes that matter read at this level are detected with at least the stated power."""
+    if family < 1:
+        raise ValueError(f"a Holm family has at least one test, got {family}")
+    return alpha / family
 
 
 def detection_power(size: float, sigma: float, alpha: float) -> float:

@@ -32,7 +32,7 @@ import numpy as np
 
 from gyrojax.adaptive import requirements as rq
 from gyrojax.adaptive.design import MAX_HOURS, STARTS, STEPS, design_test
-from gyrojax.adaptive.goal import Goal, detection_power, look_alpha, noncentrality_for_power
+from gyrojax.adaptive.goal import Goal, detect_level, detection_power, look_alpha, noncentrality_for_power
 from gyrojax.adaptive.information import (
     RESOLVED_CORRELATION_TIMES,
     record_information,
@@ -69,6 +69,7 @@ class NextTest:
     alpha_next: float
     looks: int
     goal: Goal
+    family: int = 1
     reason: str = ""
     design: object = None
     plan: object = None
@@ -78,9 +79,15 @@ class NextTest:
     notes: list = field(default_factory=list)
 
     @property
+    def alpha_detect(self) -> float:
+        """The level a lone missing candidate is tested at in the next look: Holm over its ``family`` tests starts at
+        α/m (:func:`gyrojax.adaptive.goal.detect_level`)."""
+        return detect_level(self.alpha_next, self.family)
+
+    @property
     def lam(self) -> float:
-        """λ*: the noncentrality at which the next look detects with the goal's power."""
-        return noncentrality_for_power(self.alpha_next, self.goal.power)
+        """λ*: the noncentrality at which the next look detects a lone missing candidate with the goal's power."""
+        return noncentrality_for_power(self.alpha_detect, self.goal.power)
 
     @property
     def goal_met(self) -> bool:
@@ -100,10 +107,10 @@ class NextTest:
             if r.kind == "detect":
                 size = self.goal.detect_size(r.coefficient, self.kind)
                 row["size_that_matters"] = size
-                row["power_now"] = detection_power(size, self.sigma_now[i], self.alpha_next)
+                row["power_now"] = detection_power(size, self.sigma_now[i], self.alpha_detect)
                 row["detected_above_now"] = _num(self.sigma_now[i] * root)
                 if self.sigma_after is not None:
-                    row["power_after"] = detection_power(size, self.sigma_after[i], self.alpha_next)
+                    row["power_after"] = detection_power(size, self.sigma_after[i], self.alpha_detect)
                     row["detected_above_after"] = _num(self.sigma_after[i] * root)
             out.append(row)
         return out
@@ -120,6 +127,7 @@ class NextTest:
             "alias": list(self.alias),
             "looks": self.looks,
             "alpha_next_look": self.alpha_next,
+            "holm_family": self.family,
             "verdict": d.verdict if d is not None else None,
             "residual_rms_deg_per_h": d.residual_rms if d is not None else None,
             "noise_floor_deg_per_h": d.noise_floor if d is not None else None,
@@ -265,11 +273,20 @@ def _rivals(records, terms, c, d, alpha: float, goal: Goal, kind: str, plausible
     return tuple(rivals), any(x.p_adjusted < alpha for x in back.candidates if x.name in rivals)
 
 
-def _assess(records, terms, goal, kind, alias, res, alpha_next):
-    """The requirements of the model ``terms`` and ``alias`` group, their universe, the records' information on it
-    (with its scale κ and the saturated fit it came from) and every requirement's σ now (the fit's own σ for the
-    model's coefficients)."""
-    reqs = rq.build(terms, goal, kind, alpha_next, alias)
+def _family(d, goal, kind: str, terms) -> int:
+    """The number of tests in the next look's Holm family, taken as the last diagnosis' (named candidates and
+    model-free shapes); without a diagnosis (the records cannot identify the model), the watched candidates outside
+    the model."""
+    if d is not None and d.tests:
+        return int(d.tests)
+    return max(sum(1 for e in goal.watched(kind) if e not in terms), 1)
+
+
+def _assess(records, terms, goal, kind, alias, res, alpha_detect):
+    """The requirements of the model ``terms`` and ``alias`` group (candidates detected at level ``alpha_detect``),
+    their universe, the records' information on it (with its scale κ and the saturated fit it came from) and every
+    requirement's σ now (the fit's own σ for the model's coefficients)."""
+    reqs = rq.build(terms, goal, kind, alpha_detect, alias)
     uni = rq.universe(terms, goal, kind, alias)
     sat = _noise_fit(records, uni, res)
     f_rec, kappa = record_information(uni, records, sat, _theta(uni, res))
@@ -357,7 +374,9 @@ def next_test(
         added += more
         notes += [note] if note else []
         alpha_next = look_alpha(looks + 1, goal.alpha)
-        reqs, uni, f_rec, kappa, sat, sigma_now = _assess(records, terms, goal, kind, alias, res, alpha_next)
+        family = _family(d, goal, kind, terms)
+        alpha_detect = detect_level(alpha_next, family)
+        reqs, uni, f_rec, kappa, sat, sigma_now = _assess(records, terms, goal, kind, alias, res, alpha_detect)
         unwatched = tuple(g for g in alias if g not in goal.watched(kind))
         if unwatched and out_of_reach(uni, [r for r in reqs if r.kind == "separate"], f_rec, lab):
             # a member no test on the table separates from the model and the group (D_OO beside D_F, D_II, D_SS at
@@ -384,10 +403,24 @@ def next_test(
                     )
                     terms = terms + alias
                     continue
-            reqs, uni, f_rec, kappa, sat, sigma_now = _assess(records, terms, goal, kind, alias, res, alpha_next)
+            reqs, uni, f_rec, kappa, sat, sigma_now = _assess(records, terms, goal, kind, alias, res, alpha_detect)
         break
     out = NextTest(
-        "test", terms, kind, res, d, added, alias, reqs, sigma_now, alpha_next, looks, goal, kappa=kappa, notes=notes
+        "test",
+        terms,
+        kind,
+        res,
+        d,
+        added,
+        alias,
+        reqs,
+        sigma_now,
+        alpha_next,
+        looks,
+        goal,
+        family,
+        kappa=kappa,
+        notes=notes,
     )
     unmet = [i for i, (r, x) in enumerate(zip(reqs, sigma_now)) if not x <= r.target]
     clean = d is not None and d.verdict == "adequate" and not alias
@@ -507,7 +540,7 @@ def _predicted(uni, reqs, f_rec, lab, noise, plan, res, start) -> np.ndarray:
 
 def _unmet_text(out: NextTest, unmet) -> str:
     order = sorted(unmet, key=lambda i: -_ratio(out.sigma_now[i], out.requirements[i].target))
-    return "; ".join(rq.describe(out.requirements[i], out.sigma_now[i], out.alpha_next, out.goal) for i in order)
+    return "; ".join(rq.describe(out.requirements[i], out.sigma_now[i], out.alpha_detect, out.goal) for i in order)
 
 
 def _ratio(sigma, target) -> float:
@@ -521,7 +554,7 @@ def _why(out: NextTest, unmet) -> str:
     for i in order[:6]:
         r = out.requirements[i]
         after = out.sigma_after[i]
-        parts.append(f"{rq.describe(r, out.sigma_now[i], out.alpha_next, out.goal)} → {after:.3g} after it")
+        parts.append(f"{rq.describe(r, out.sigma_now[i], out.alpha_detect, out.goal)} → {after:.3g} after it")
     more = f" (and {len(order) - 6} more)" if len(order) > 6 else ""
     kinds = {out.requirements[i].kind for i in unmet}
     head = []

@@ -159,7 +159,10 @@ def cmd_next(args) -> int:
     if args.json:
         print(json.dumps(strict(j), indent=1))
         return 0
-    print(f"status: {nt.status}   model: {', '.join(nt.terms)}   looks: {nt.looks} (next at α = {nt.alpha_next:.2g})")
+    print(
+        f"status: {nt.status}   model: {', '.join(nt.terms)}   looks: {nt.looks} (next at α = {nt.alpha_next:.2g}; "
+        f"a lone missing candidate among its {nt.family} tests at α/{nt.family} = {nt.alpha_detect:.2g})"
+    )
     for a in nt.added:
         print(f"  added {a['effect']} (look {a['look']}, Holm-adjusted p = {a['p_adjusted']:.2g} < {a['alpha']:.2g})")
     if nt.alias:
