@@ -17,6 +17,5 @@ RLG = "rlg"
 """Ring-laser gyro (IEEE 647), axes ``ia``, ``oa``, ``sa`` as the SDF gyro."""
 INSTRUMENT_KINDS = (SDF, TDF, ACCEL, FOG, RLG)
 """conventions §5 kinds, extended by the optical gyros (IEEE 952/647 form, axes ``ia``, ``oa``, ``sa`` as the SDF)."""
-OPTICAL = (FOG, RLG)
 TRIAD_KIND = "imu-triad"
 """Instrument kind of a three-axis IMU record (conventions §5 extension, :mod:`gyrojax.data.triad`)."""

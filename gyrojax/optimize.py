@@ -9,6 +9,7 @@ work done and, when it did not converge, why.
 * :func:`least_squares`: Levenberg–Marquardt (MINPACK's, by ``scipy.optimize.least_squares``) on the exact Jacobian
   that the caller computes (``jax.jacfwd`` of the measurement model), its trust region measured in the coefficients'
   own units.
+* :func:`bisect`: the bracket where a monotone yes/no question turns to yes (the shortest dwell that suffices).
 """
 
 from __future__ import annotations
@@ -190,3 +191,15 @@ def least_squares(system, x0, max_nfev: int) -> Solution:
         status = Status.ITERATION_LIMIT if sol.status == 0 else Status.NOT_FINITE
         why = f"Levenberg–Marquardt stopped after {sol.nfev} evaluations: {sol.message}"
     return Solution(np.asarray(sol.x, dtype=float), 2.0 * float(sol.cost), status, int(sol.nfev), why)
+
+
+def bisect(ok, lo: float, hi: float) -> tuple[float, float]:
+    """(lo, hi) halved until ``hi`` − ``lo`` < 10⁻³ ``hi`` (at most 40 halvings), ``ok`` a predicate true at and
+    above some point of [lo, hi] (the caller knows ``ok(hi)``): ``hi`` passes, ``lo`` does not (unless it is the
+    start); in the units of ``lo`` and ``hi``."""
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if ok(mid) else (mid, hi)
+        if hi - lo < 1e-3 * hi:
+            break
+    return lo, hi

@@ -25,6 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyrojax.adaptive.reach import mounting_rows
+from gyrojax.optimize import bisect
 
 GRID_DEG = 10.0
 """Step (deg) of the grid of each table axis' angles the bound is taken over."""
@@ -128,14 +129,6 @@ def dwell_lower_bound(f0, h, white: float, targets, cap: float = 1.0e4) -> tuple
 
     def worst(xi, hh):
         return float(_ratios(f0, h, xi, hh, white, targets)[0].max())
-
-    def bisect(ok, lo, hi):
-        for _ in range(40):
-            mid = 0.5 * (lo + hi)
-            lo, hi = (lo, mid) if ok(mid) else (mid, hi)
-            if hi - lo < 1e-3 * hi:
-                break
-        return lo, hi
 
     # the hours a rough design needs, then the design near them and the bound it certifies
     k = h.shape[0]

@@ -222,9 +222,3 @@ def run_campaign(
                 simulate(first, {"coefficients": {}}), nt.terms, goal, lab, truth.noise.white
             )
     return result
-
-
-def hours_ratio(result: CampaignResult) -> float:
-    """The campaign's table hours over the classical sequence's (NaN when the sequence does not reach the goal)."""
-    c = result.classical
-    return result.table_hours / c.hours if c is not None and c.hours else math.nan

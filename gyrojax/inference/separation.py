@@ -7,7 +7,6 @@ and, for a pair on an SDF campaign, the predicted power of a follow-up test on t
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import math
 from functools import lru_cache
 
@@ -17,6 +16,7 @@ import numpy as np
 
 from gyrojax import tails
 from gyrojax.data.arrays import record_data
+from gyrojax.data.importclues import signed_permutations
 from gyrojax.inference.identifiability import ALIAS_TOL
 from gyrojax.inference.kept_model import keepable, model_name
 from gyrojax.inference.lstsq import lstsq_normal
@@ -152,15 +152,7 @@ ENTRY_MIN_POWER = 0.5  # below it the entry is left out
 def case_turns() -> np.ndarray:
     """The 24 proper rotations by multiples of 90° (signed permutation matrices, det +1), identity first: the
     mountings reachable by turning an instrument's case on its faces (rows act on the instrument axes)."""
-    out = []
-    for perm in itertools.permutations(range(3)):
-        for signs in itertools.product((1.0, -1.0), repeat=3):
-            p = np.zeros((3, 3))
-            p[range(3), perm] = signs
-            if np.linalg.det(p) > 0:
-                out.append(p)
-    out.sort(key=lambda p: -np.trace(p))
-    return np.array(out)
+    return np.array([p for p in signed_permutations() if np.linalg.det(p) > 0])
 
 
 def static_rows(model: Model, data, triad, angles_rad):

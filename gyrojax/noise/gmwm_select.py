@@ -242,11 +242,6 @@ def ranked(rows) -> list:
     return sorted(ok, key=lambda i: rows[i]["criterion"])
 
 
-def choose(rows) -> int:
-    """Index of the admissible row of least criterion (:func:`ranked`), before the adequacy gate."""
-    return ranked(rows)[0]
-
-
 def passes_j_test(ns: NoiseSpec) -> bool:
     """Whether a fit with its own efficient weights passes its J test at :data:`J_TEST_LEVEL` (no test: True)."""
     p = ns.info.get("p_value")

@@ -10,7 +10,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 from gyrojax import units
-from gyrojax.kinds import ACCEL, FOG, INSTRUMENT_KINDS, OPTICAL, RLG, SDF, TDF
+from gyrojax.kinds import ACCEL, FOG, INSTRUMENT_KINDS, RLG, SDF, TDF
 from gyrojax.physics import registry
 from gyrojax.physics.registry import (
     Effect,
@@ -25,7 +25,6 @@ __all__ = [
     "ACCEL",
     "FOG",
     "INSTRUMENT_KINDS",
-    "OPTICAL",
     "RLG",
     "SDF",
     "TDF",
@@ -35,8 +34,6 @@ __all__ = [
     "get",
     "names",
     "register",
-    "SDF_DRIFT_TERMS",
-    "RANDOM_DRIFT",
     "TEMPERATURE_EFFECTS",
 ]
 
@@ -278,12 +275,6 @@ for _name, _unit, _what, _f in _ACCEL_TERMS:
             reference="Hu 3-38 to 3-46",
         )
     )
-
-SDF_DRIFT_TERMS = ("D_F", "D_I", "D_O", "D_S", "D_II", "D_OO", "D_SS", "D_IO", "D_IS", "D_OS")
-"""The ten-term mathematical drift model of the SDF gyro (Hu 2-45)."""
-
-RANDOM_DRIFT = ("white", "gauss_markov", "random_walk", "quantization")
-"""Names of the random-drift processes (conventions §6), kept apart from the deterministic effects."""
 
 
 # ---- optical gyros (Titterton ch. 5) ------------------------------------------------------------------------

@@ -41,6 +41,7 @@ from gyrojax.data import plans
 from gyrojax.errors import ConvergenceWarning, ModelError
 from gyrojax.inference.separation import case_turns
 from gyrojax.noise.spec import NoiseSpec
+from gyrojax.optimize import bisect
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model, jacobian
 from gyrojax.planning import search
@@ -354,13 +355,7 @@ def _shortest(powers, tri, ang, dwell, hours: float, cap: float) -> float | None
 
     if not ok(cap):
         return None
-    lo, hi = 0.0, cap
-    for _ in range(40):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (lo, mid) if ok(mid) else (mid, hi)
-        if hi - lo < 1e-3 * hi:
-            break
-    return hi
+    return bisect(ok, 0.0, cap)[1]
 
 
 def design_separation(

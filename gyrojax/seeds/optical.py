@@ -23,8 +23,9 @@ output rate (in input-rate units) is
 dead band.
 ``Model`` and ``indicated_output`` accept the new kind unchanged (it takes the SDF input names ω_I, ω_O, ω_S and
 the base output ω_I). Records declare ``"kind": "fog"`` or ``"rlg"`` with ``ia``, ``oa``, ``sa`` like an SDF gyro, and
-the bias, scale-factor, misalignment, trend and temperature effects of conventions §6 apply to them
-(:data:`REUSABLE_EFFECTS`); g-sensitive drift terms do not.
+the bias, scale-factor, misalignment, trend and temperature effects of conventions §6 apply to them (``D_F``,
+``sf_error``, ``sf_asymmetry``, ``sf_quadratic``, ``ia_misalignment``, ``bias_trend``, ``bias_temperature``: the
+terms of Titterton 5.16 / IEEE 952); g-sensitive drift terms do not.
 
 Units: rates in deg/h at the surface (any consistent unit for the pure functions), SI for lengths and wavelengths.
 """
@@ -38,18 +39,6 @@ from gyrojax.physics.effects import FOG, RLG, lockin_output
 
 C_LIGHT = 299_792_458.0
 """Speed of light, m/s."""
-
-REUSABLE_EFFECTS = (
-    "D_F",
-    "sf_error",
-    "sf_asymmetry",
-    "sf_quadratic",
-    "ia_misalignment",
-    "bias_trend",
-    "bias_temperature",
-)
-"""Existing effects that are exactly the terms of Titterton 5.16 / IEEE 952 (B_x, S_x, M_y, M_z and their trends);
-adding ``"fog"`` and ``"rlg"`` to their ``kinds`` would make the optical model complete without new names."""
 
 __all__ = [
     "FOG",
