@@ -324,6 +324,28 @@ def test_dwell_lower_bound_against_the_mean_of_white_noise(first_records):
     assert low == pytest.approx(closed, rel=0.01) and up == pytest.approx(closed, rel=0.01)
 
 
+def test_dwell_lower_bound_of_a_detection_reads_its_sub_model(first_records):
+    """A requirement read in a sub-model (detect D_I beside D_F, :mod:`gyrojax.adaptive.requirements`) in a
+    universe that also holds D_S: the sub-model's σ_I alone binds, so the bound is the two-coefficient closed form
+    (N/(g·S))² of the test above, whatever D_S's column; read in the whole universe (D_S estimated beside it) it
+    needs at least as much."""
+    from gyrojax.adaptive.bound import dwell_lower_bound, grid_rows
+    from gyrojax.adaptive.requirements import Requirement, arrays
+
+    white, target = 0.005, 0.001
+    lab = Lab.from_records(first_records, axes=plans.TWO_AXIS, turn_case=False)
+    uni = Model(("D_F", "D_I", "D_S"), "sdf-gyro")
+    h, f0 = grid_rows(uni, lab), np.zeros((3, 3))
+    g = first_records[0].meta["site"]["gravity_mps2"] / 9.80665
+    closed = (white / target) ** 2 / g**2
+    detect = Requirement("detect", "D_I", ("D_F", "D_I"), target, "deg/h/g")
+    low, up = dwell_lower_bound(f0, h, white, arrays([detect], uni))
+    assert low <= closed * (1 + 1e-3) and up >= closed * (1 - 1e-3)
+    assert low == pytest.approx(closed, rel=0.01) and up == pytest.approx(closed, rel=0.01)
+    whole = Requirement("sigma", "D_I", uni.terms, target, "deg/h/g")
+    assert dwell_lower_bound(f0, h, white, arrays([whole], uni))[1] >= low
+
+
 def test_a_slow_drift_the_records_cannot_resolve_does_not_set_the_hours(first_records):
     """A Gauss–Markov term whose τ the records hold fewer than ten times in their longest continuous segment (the
     tumble: one segment of its whole duration) is left out of the designed test's noise and said; one they resolve

@@ -1,20 +1,23 @@
-"""The fewest dwell hours any static test on the lab's table needs to bring a model's σ to target: a lower bound.
+"""The fewest dwell hours any static test on the lab's table needs to meet a campaign's requirements: a lower bound.
 
 Positions x of the table (angles of its axes at one of its mountings) held T_x hours add information
-Σ_x T_x·h_x h_xᵀ/N² (h_x the regressor row of the model at x, N the white noise in deg/√h: a position mean over T
-hours has σ = N/√T) to the records' F₀. With H = Σ T_x and the design ξ_x = T_x/H, the requirement
-σ_j² = [F⁻¹]_jj ≤ S_j² for every coefficient j reads max_j r_j(ξ, H) ≤ 1, r_j = [F⁻¹]_jj/S_j². Each r_j is convex
-in ξ, and so is Φ_λ = Σ_j λ_j r_j for weights λ_j ≥ 0 summing to 1, with min_ξ max_j r_j ≥ min_ξ Φ_λ. For a convex
-function on the simplex the Frank–Wolfe gap bounds the minimum from any design ξ:
+Σ_x T_x·h_x h_xᵀ/N² (h_x the regressor row of the universe at x, N the white noise in deg/√h: a position mean over
+T hours has σ = N/√T) to the records' F₀. Each requirement j (:mod:`gyrojax.adaptive.requirements`: a σ of the
+model, the detection of a watched candidate, the separation of an alias) asks σ_j² = [F_K⁻¹]_ii ≤ S_j² for its
+coefficient i in its sub-model K. With H = Σ T_x and the design ξ_x = T_x/H the requirements read
+max_j r_j(ξ, H) ≤ 1, r_j = [F_K⁻¹]_ii/S_j². Each r_j is convex in ξ (the inverse of a matrix linear in ξ, read
+through a principal block), and so is Φ_λ = Σ_j λ_j r_j for weights λ_j ≥ 0 summing to 1, with
+min_ξ max_j r_j ≥ min_ξ Φ_λ. For a convex function on the simplex the Frank–Wolfe gap bounds the minimum from any
+design ξ:
 
-    min Φ_λ ≥ Φ_λ(ξ) − (H/N²)·(max_x d_x − Σ_x ξ_x d_x),   d_x = Σ_j λ_j (F⁻¹h_x)_j²/S_j²,
+    min Φ_λ ≥ Φ_λ(ξ) − (H/N²)·(max_x d_x − Σ_x ξ_x d_x),   d_x = Σ_j λ_j (h_x,K·F_K⁻¹e_i)²/S_j²,
 
-so when that bound exceeds 1 no design of H hours meets every target, and the largest such H (bisection) is a lower
-bound on the dwell any test needs — whatever its positions, count or order, and before any time to move and settle.
-ξ comes from a multiplicative algorithm (Silvey, Titterington & Torsney) refined by the minimax itself, λ from a
-linear programme that maximises the bound; they only make the bound tight, its validity does not rest on them.
-The positions are a grid of the table's angles
-(:data:`GRID_DEG`), so the bound holds for designs on that grid (the rows vary smoothly with the angles).
+so when that bound exceeds 1 no design of H hours meets every requirement, and the largest such H (bisection) is a
+lower bound on the dwell any test needs — whatever its positions, count or order, and before any time to move and
+settle. ξ comes from a multiplicative algorithm (Silvey, Titterington & Torsney) refined by the minimax itself, λ
+from a linear programme that maximises the bound; they only make the bound tight, its validity does not rest on
+them. The positions are a grid of the table's angles (:data:`GRID_DEG`), so the bound holds for designs on that grid
+(the rows vary smoothly with the angles).
 """
 
 from __future__ import annotations
@@ -45,37 +48,47 @@ def grid_rows(uni, lab) -> np.ndarray:
     return np.asarray(h).reshape(-1, uni.size)
 
 
-def _ratios(f0, h, xi, hours, white, targets):
+def _directions(f0, h, xi, hours, white, need):
+    """(r (R,), U (p, R)) of the requirements ``need`` = (masks (R, p), index (R,), targets (R,)) at design ``xi``:
+    r_j = [F_K⁻¹]_ii/S_j² and U's column j = F_K⁻¹e_i (zero outside K), so that −∂r_j/∂ξ_x = (H/N²)(h_x·U_j)²/S_j²."""
+    masks, index, targets = need
     f = f0 + hours * (h.T * xi) @ h / white**2
-    inv = np.linalg.inv(f)
-    return np.diag(inv) / targets**2, inv
+    u = np.zeros((f.shape[0], len(index)))
+    for m in np.unique(masks, axis=0):
+        k = np.flatnonzero(m)
+        inv = np.linalg.inv(f[np.ix_(k, k)])
+        for j in np.flatnonzero((masks == m).all(axis=1)):
+            u[k, j] = inv[:, int(np.flatnonzero(k == index[j])[0])]
+    return u[index, np.arange(len(index))] / targets**2, u
 
 
-def design(f0, h, hours, white, targets) -> np.ndarray:
-    """A design ξ (K,) on the grid rows ``h`` for ``hours`` of dwell that nearly minimises max_j r_j: the
-    multiplicative algorithm on the soft maximum, then the minimax itself (SLSQP, epigraph form) on its support."""
+def design(f0, h, hours, white, need) -> np.ndarray:
+    """A design ξ (K,) on the grid rows ``h`` for ``hours`` of dwell that nearly minimises max_j r_j of the
+    requirements ``need`` (:func:`_directions`): the multiplicative algorithm on the soft maximum, then the minimax
+    itself (SLSQP, epigraph form) on its support."""
     from scipy import optimize
 
+    targets = need[2]
     k = h.shape[0]
     xi = np.full(k, 1.0 / k)
     for _ in range(ITERATIONS):
-        r, inv = _ratios(f0, h, xi, hours, white, targets)
+        r, u = _directions(f0, h, xi, hours, white, need)
         lam = np.exp((r - r.max()) * 20.0 / max(r.max(), 1e-300))
-        d = ((h @ inv) ** 2 * (lam / lam.sum() / targets**2)).sum(axis=1)
+        d = ((h @ u) ** 2 * (lam / lam.sum() / targets**2)).sum(axis=1)
         xi = xi * np.sqrt(d / (xi @ d))
         xi /= xi.sum()
     keep = np.argsort(xi)[::-1][:SUPPORT]
     hk, c = h[keep], hours / white**2
 
     def ratios(v):
-        return _ratios(f0, hk, v[:-1], hours, white, targets)
+        return _directions(f0, hk, v[:-1], hours, white, need)
 
     def cons(v):
         return v[-1] - ratios(v)[0]
 
     def cons_jac(v):
-        r, inv = ratios(v)
-        g = (hk @ inv) ** 2 * c / targets**2  # −∂r_j/∂ξ_x, (K, p)
+        r, u = ratios(v)
+        g = (hk @ u) ** 2 * c / targets**2  # −∂r_j/∂ξ_x, (K, R)
         return np.column_stack([g.T, np.ones(len(r))])
 
     x0 = np.append(xi[keep] / xi[keep].sum(), 0.0)
@@ -98,13 +111,14 @@ def design(f0, h, hours, white, targets) -> np.ndarray:
     return out / out.sum()
 
 
-def gap_bound(f0, h, xi, hours, white, targets) -> float:
-    """A lower bound on min over designs of max_j r_j at ``hours`` of dwell, from the design ``xi``: the Frank–Wolfe
-    bound of Φ_λ maximised over λ (a linear programme; module doc). Valid for any ξ."""
+def gap_bound(f0, h, xi, hours, white, need) -> float:
+    """A lower bound on min over designs of max_j r_j of the requirements ``need`` (:func:`_directions`) at ``hours``
+    of dwell, from the design ``xi``: the Frank–Wolfe bound of Φ_λ maximised over λ (a linear programme; module
+    doc). Valid for any ξ."""
     from scipy import optimize
 
-    r, inv = _ratios(f0, h, xi, hours, white, targets)
-    dd = (h @ inv) ** 2 / targets**2  # D_xj: d_x = Σ_j λ_j D_xj
+    r, u = _directions(f0, h, xi, hours, white, need)
+    dd = (h @ u) ** 2 / need[2] ** 2  # D_xj: d_x = Σ_j λ_j D_xj
     e = xi @ dd
     c = hours / white**2
     p = len(r)
@@ -121,42 +135,44 @@ def gap_bound(f0, h, xi, hours, white, targets) -> float:
     return float(-res.fun) if res.status == 0 else -math.inf
 
 
-def dwell_lower_bound(f0, h, white: float, targets, cap: float = 1.0e4) -> tuple[float, float]:
+def dwell_lower_bound(f0, h, white: float, need, cap: float = 1.0e4) -> tuple[float, float]:
     """(lower, achieved): the largest dwell H (h) at which :func:`gap_bound` still exceeds 1 — every static test on
-    the grid needs more — and the dwell at which the design found meets every target (an upper bound; the two
-    bracket the fewest hours). ``cap`` when the bound is beyond it."""
-    targets = np.asarray(targets, dtype=float)
+    the grid needs more to meet the requirements ``need`` (:func:`_directions`; or targets (p,) alone: the σ of every
+    coefficient in the whole model) — and the dwell at which the design found meets every one (an upper bound; the
+    two bracket the fewest hours). ``cap`` when the bound is beyond it."""
+    if not isinstance(need, tuple):
+        targets = np.asarray(need, dtype=float)
+        need = (np.ones((targets.size, f0.shape[0])), np.arange(targets.size), targets)
 
     def worst(xi, hh):
-        return float(_ratios(f0, h, xi, hh, white, targets)[0].max())
+        return float(_directions(f0, h, xi, hh, white, need)[0].max())
 
     # the hours a rough design needs, then the design near them and the bound it certifies
     k = h.shape[0]
     flat = np.full(k, 1.0 / k)
-    if worst(flat, cap) > 1.0 and gap_bound(f0, h, flat, cap, white, targets) > 1.0:
+    if worst(flat, cap) > 1.0 and gap_bound(f0, h, flat, cap, white, need) > 1.0:
         return cap, math.inf
     _, rough = bisect(lambda hh: worst(flat, hh) <= 1.0, 0.0, cap)
-    xi = design(f0, h, rough, white, targets)
+    xi = design(f0, h, rough, white, need)
     _, up = bisect(lambda hh: worst(xi, hh) <= 1.0, 0.0, rough)
-    xi = design(f0, h, up, white, targets)
+    xi = design(f0, h, up, white, need)
     _, up2 = bisect(lambda hh: worst(xi, hh) <= 1.0, 0.0, max(up, rough))
-    lo, _ = bisect(lambda hh: gap_bound(f0, h, xi, hh, white, targets) <= 1.0, 0.0, up2)
+    lo, _ = bisect(lambda hh: gap_bound(f0, h, xi, hh, white, need) <= 1.0, 0.0, up2)
     return lo, up2
 
 
-def table_hours_bound(records, terms, goal, lab, white: float) -> dict:
-    """What any campaign that starts with ``records`` needs of static dwell on ``lab``'s table to bring every
-    coefficient of the model ``terms`` to ``goal``'s σ target, at white noise ``white`` (deg/√h; a drift's
-    Gauss–Markov terms only add to it, so the bound holds for them too): ``dwell_lower`` h (no test does with less,
-    module doc) and ``dwell_design`` h (a design on the grid that meets the targets with that dwell: the bracket's
-    upper end). Only the σ targets of the final model enter — no detection, no alias, no move or settle time — so
-    a loop that must also find and rule out effects needs more."""
+def table_hours_bound(records, requirements, universe, lab, white: float) -> dict:
+    """What any campaign that starts with ``records`` needs of static dwell on ``lab``'s table to meet
+    ``requirements`` (:class:`~gyrojax.adaptive.requirements.Requirement` s over the model ``universe``: the σ
+    targets of the final model, the detection of the watched candidates outside it, the separation of an alias), at
+    white noise ``white`` (deg/√h; a drift's Gauss–Markov terms only add to it, so the bound holds for them too):
+    ``dwell_lower`` h (no test does with less, module doc) and ``dwell_design`` h (a design on the grid that meets them
+    with that dwell: the bracket's upper end). No move or settle time enters, so every campaign needs more."""
+    from gyrojax.adaptive.requirements import arrays
     from gyrojax.noise.spec import NoiseSpec
-    from gyrojax.physics.model import Model
     from gyrojax.planning.fisher import record_fisher
 
-    model = Model.of(terms, lab.kind)
-    targets = np.array([goal.target(c) or math.inf for c in model.coefficient_names])
-    f0 = record_fisher(model, list(records), NoiseSpec(white=white))
-    lo, up = dwell_lower_bound(f0, grid_rows(model, lab), white, targets)
-    return {"dwell_lower": lo, "dwell_design": up, "grid_deg": GRID_DEG, "white": white}
+    f0 = record_fisher(universe, list(records), NoiseSpec(white=white))
+    lo, up = dwell_lower_bound(f0, grid_rows(universe, lab), white, arrays(requirements, universe))
+    kinds = sorted({r.kind for r in requirements})
+    return {"dwell_lower": lo, "dwell_design": up, "grid_deg": GRID_DEG, "white": white, "requirements": kinds}

@@ -6,7 +6,7 @@ simulated from the same truth on the campaign's clock (test k draws its noise fr
 fitted jointly with everything before, until the goal is met, refused as unreachable, blocked, or ``max_tests`` tests
 have run. Its table hours are compared with Hu's classical sequence scaled to reach the same σ on the same truth
 (:mod:`gyrojax.adaptive.classical`), and with the fewest table hours any campaign from the same first test needs
-for the final model's σ (:mod:`gyrojax.adaptive.bound`).
+to meet the requirements of the loop's last look (:mod:`gyrojax.adaptive.bound`).
 """
 
 from __future__ import annotations
@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 
 import jax
 
+from gyrojax.adaptive import requirements as rq
 from gyrojax.adaptive.bound import table_hours_bound
 from gyrojax.adaptive.classical import ClassicalResult, classical_hours
 from gyrojax.adaptive.goal import Goal
@@ -66,11 +67,11 @@ class CampaignResult:
     lab: Lab
     classical: ClassicalResult | None = None
     first_hours: float = 0.0
-    bound: dict | None = None  # :func:`gyrojax.adaptive.bound.table_hours_bound` of the final model
+    bound: dict | None = None  # :func:`gyrojax.adaptive.bound.table_hours_bound` of the last look's requirements
 
     def hours_bound(self) -> dict | None:
         """The table hours no campaign from the same first test can go below (the first test's hours plus the
-        dwell bound of the final model's σ targets), the ratio to the classical sequence they imply, and whether
+        dwell bound of the last look's requirements), the ratio to the classical sequence they imply, and whether
         ≤ 1/3 of the classical hours is possible at all."""
         if self.bound is None:
             return None
@@ -79,10 +80,12 @@ class CampaignResult:
         ratio = low / c if c else None
         out = {**self.bound, "table_hours_lower": low, "ratio_lower": ratio}
         if ratio is not None:
+            watched = sorted({r.effect for r in self.last.requirements if r.kind == "detect"})
             out["one_third_possible"] = bool(ratio <= 1.0 / 3.0)
             out["statement"] = (
-                f"no campaign that starts with this first test can bring {', '.join(self.last.terms)} to the "
-                f"targets in fewer than {low:.3g} table hours (the first test's {self.first_hours:.3g} h and "
+                f"no campaign that starts with this first test can bring {', '.join(self.last.terms)} to the targets"
+                + (f" and rule out {', '.join(watched)} at the sizes that matter" if watched else "")
+                + f" in fewer than {low:.3g} table hours (the first test's {self.first_hours:.3g} h and "
                 f"{self.bound['dwell_lower']:.3g} h of dwell, a bound over every static design on a "
                 f"{self.bound['grid_deg']:g}° grid of the table's angles; a design of "
                 f"{self.bound['dwell_design']:.3g} h meets them): {ratio:.3f} of the classical sequence's {c:.3g} h"
@@ -219,6 +222,10 @@ def run_campaign(
             result.classical = ClassicalResult(None, None, {}, reason=str(e))
         if result.classical.hours and truth.noise.white > 0:
             result.bound = table_hours_bound(
-                simulate(first, {"coefficients": {}}), nt.terms, goal, lab, truth.noise.white
+                simulate(first, {"coefficients": {}}),
+                nt.requirements,
+                rq.universe(nt.terms, goal, nt.kind, nt.alias),
+                lab,
+                truth.noise.white,
             )
     return result
