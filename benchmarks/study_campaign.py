@@ -21,7 +21,8 @@ step cheap; white-noise information depends on the time, not the interval).
 Per truth: whether the goal was met, the loop's table hours and those of Hu's classical sequence scaled to the same
 σ on the same truth (:mod:`gyrojax.adaptive.classical`), effects added that the truth does not hold (false
 effects), true effects missed, and whether θ̂ ± 2σ covers the truth for every coefficient of the final model.
-Beside it, the fewest table hours any campaign from the same first test needs for the final model's σ
+Beside it, the fewest table hours any campaign from the same first test needs to meet the requirements of the loop's
+last look — the final model's σ and ruling out the watched candidates at the sizes that matter
 (:mod:`gyrojax.adaptive.bound`): where that bound is above 1/3 of the classical hours, 1/3 cannot be reached by any
 design. The ratio is summarised overall, per truth class (the two hidden effects) and over the truths where 1/3 is
 possible. Prints the summary and writes every truth's row to ``--out``.
