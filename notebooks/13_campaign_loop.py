@@ -76,7 +76,8 @@ cl = result.classical
 print(f"\nloop: {result.table_hours:.1f} table hours; Hu's classical sequence scaled to the same σ: {cl.hours:.1f} h")
 print(f"(its best split of time among its three tests, Fisher only: {cl.best_split_hours:.1f} h)")
 # and what no campaign from the same first test can go below: the fewest hours of static dwell on this table that
-# bring the final model to target (a convex-duality bound over every design on a 10° grid of the table's angles)
+# meet the last look's requirements — the final model's σ and ruling out the watched candidates at the sizes that
+# matter (a convex-duality bound over every design on a 10° grid of the table's angles)
 print(result.hours_bound()["statement"])
 fit = result.last.fit
 for c in fit.coefficient_names:
