@@ -32,9 +32,14 @@ from gyrojax.optimize import bisect
 
 GRID_DEG = 10.0
 """Step (deg) of the grid of each table axis' angles the bound is taken over."""
-ITERATIONS = 200
-SUPPORT = 60
+ITERATIONS = 400
+SHARPNESS = 40.0
+"""The multiplicative algorithm's weights λ_j ∝ r_j^SHARPNESS: a soft maximum of the requirements' ratios."""
+SUPPORT = 80
 """Grid positions (the heaviest of the multiplicative algorithm's design) the minimax design is refined on."""
+ROUNDS = 4
+BRACKET = 0.98
+"""The designs are refined (at most :data:`ROUNDS` times) until the bound is this share of the hours they need."""
 
 
 def grid_rows(uni, lab) -> np.ndarray:
@@ -71,12 +76,17 @@ def design(f0, h, hours, white, need) -> np.ndarray:
     targets = need[2]
     k = h.shape[0]
     xi = np.full(k, 1.0 / k)
+    best, best_r = xi, math.inf
     for _ in range(ITERATIONS):
         r, u = _directions(f0, h, xi, hours, white, need)
-        lam = np.exp((r - r.max()) * 20.0 / max(r.max(), 1e-300))
+        if r.max() < best_r:  # the weights chase the largest ratio and can overshoot: keep the best iterate
+            best, best_r = xi, r.max()
+        log_r = np.log(np.maximum(r, 1e-300))
+        lam = np.exp((log_r - log_r.max()) * SHARPNESS)
         d = ((h @ u) ** 2 * (lam / lam.sum() / targets**2)).sum(axis=1)
         xi = xi * np.sqrt(d / (xi @ d))
         xi /= xi.sum()
+    xi = best
     keep = np.argsort(xi)[::-1][:SUPPORT]
     hk, c = h[keep], hours / white**2
 
@@ -106,9 +116,11 @@ def design(f0, h, hours, white, need) -> np.ndarray:
         options={"maxiter": 200},
     )
     out = np.zeros(k)
-    v = res.x if np.all(np.isfinite(res.x)) else x0
-    out[keep] = np.maximum(v[:-1], 0.0)
-    return out / out.sum()
+    out[keep] = np.maximum(res.x[:-1], 0.0) if np.all(np.isfinite(res.x)) else x0[:-1]
+    out /= out.sum()
+    # the refined design where it is better than the multiplicative one on the whole grid (on a truncated support
+    # a sub-model can be nearly singular, and SLSQP lose its way)
+    return out if _directions(f0, h, out, hours, white, need)[0].max() <= best_r else best
 
 
 def gap_bound(f0, h, xi, hours, white, need) -> float:
@@ -152,13 +164,17 @@ def dwell_lower_bound(f0, h, white: float, need, cap: float = 1.0e4) -> tuple[fl
     flat = np.full(k, 1.0 / k)
     if worst(flat, cap) > 1.0 and gap_bound(f0, h, flat, cap, white, need) > 1.0:
         return cap, math.inf
-    _, rough = bisect(lambda hh: worst(flat, hh) <= 1.0, 0.0, cap)
-    xi = design(f0, h, rough, white, need)
-    _, up = bisect(lambda hh: worst(xi, hh) <= 1.0, 0.0, rough)
-    xi = design(f0, h, up, white, need)
-    _, up2 = bisect(lambda hh: worst(xi, hh) <= 1.0, 0.0, max(up, rough))
-    lo, _ = bisect(lambda hh: gap_bound(f0, h, xi, hh, white, need) <= 1.0, 0.0, up2)
-    return lo, up2
+    _, up = bisect(lambda hh: worst(flat, hh) <= 1.0, 0.0, cap)
+    lo = 0.0
+    for _ in range(ROUNDS):  # the design at the hours the last one needed, until the bracket closes
+        xi = design(f0, h, up, white, need)
+        if worst(xi, up) > 1.0:
+            break  # no better than the design before: the bracket stays as it is
+        _, up = bisect(lambda hh: worst(xi, hh) <= 1.0, 0.0, up)
+        lo = max(lo, bisect(lambda hh: gap_bound(f0, h, xi, hh, white, need) <= 1.0, 0.0, up)[0])
+        if lo >= BRACKET * up:
+            break
+    return lo, up
 
 
 def table_hours_bound(records, requirements, universe, lab, white: float) -> dict:
