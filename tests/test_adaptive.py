@@ -317,7 +317,7 @@ def test_dwell_lower_bound_against_the_mean_of_white_noise(first_records):
     model = Model(("D_F", "D_I"), "sdf-gyro")
     h = grid_rows(model, lab)
     g = first_records[0].meta["site"]["gravity_mps2"] / 9.80665  # a_I with IA vertical, in standard g
-    assert np.abs(h[:, 1]).max() == pytest.approx(g, abs=1e-9)  # the grid holds IA vertical
+    assert np.abs(h[:, 0, 1]).max() == pytest.approx(g, abs=1e-9)  # the grid holds IA vertical
     low, up = dwell_lower_bound(np.zeros((2, 2)), h, white, [target, target])
     closed = (white / target) ** 2 / g**2  # D_I binds: σ_I² = N²/(H·g²)
     assert low <= closed * (1 + 1e-3) and up >= closed * (1 - 1e-3)

@@ -1,23 +1,25 @@
 """The fewest dwell hours any static test on the lab's table needs to meet a campaign's requirements: a lower bound.
 
 Positions x of the table (angles of its axes at one of its mountings) held T_x hours add information
-Σ_x T_x·h_x h_xᵀ/N² (h_x the regressor row of the universe at x, N the white noise in deg/√h: a position mean over
-T hours has σ = N/√T) to the records' F₀. Each requirement j (:mod:`gyrojax.adaptive.requirements`: a σ of the
-model, the detection of a watched candidate, the separation of an alias) asks σ_j² = [F_K⁻¹]_ii ≤ S_j² for its
-coefficient i in its sub-model K. With H = Σ T_x and the design ξ_x = T_x/H the requirements read
-max_j r_j(ξ, H) ≤ 1, r_j = [F_K⁻¹]_ii/S_j². Each r_j is convex in ξ (the inverse of a matrix linear in ξ, read
-through a principal block), and so is Φ_λ = Σ_j λ_j r_j for weights λ_j ≥ 0 summing to 1, with
-min_ξ max_j r_j ≥ min_ξ Φ_λ. For a convex function on the simplex the Frank–Wolfe gap bounds the minimum from any
-design ξ:
+Σ_x T_x·G_x/N², G_x = Σ_c h_xc h_xcᵀ (h_xc the regressor row of the universe's channel c at x — one for an SDF gyro
+or an accelerometer, X and Y for a TDF gyro, read together while the table holds x; N the white noise in deg/√h: a
+position mean over T hours has σ = N/√T) to the records' F₀. Each requirement j
+(:mod:`gyrojax.adaptive.requirements`: a σ of the model, the detection of a watched candidate, the separation of an
+alias) asks σ_j² = [F_K⁻¹]_ii ≤ S_j² for its coefficient i in its sub-model K. With H = Σ T_x and the design
+ξ_x = T_x/H the requirements read max_j r_j(ξ, H) ≤ 1, r_j = [F_K⁻¹]_ii/S_j². Each r_j is convex in ξ (the inverse
+of a matrix linear in ξ, read through a principal block), and so is Φ_λ = Σ_j λ_j r_j for weights λ_j ≥ 0 summing
+to 1, with min_ξ max_j r_j ≥ min_ξ Φ_λ. For a convex function on the simplex the Frank–Wolfe gap bounds the minimum
+from any design ξ:
 
-    min Φ_λ ≥ Φ_λ(ξ) − (H/N²)·(max_x d_x − Σ_x ξ_x d_x),   d_x = Σ_j λ_j (h_x,K·F_K⁻¹e_i)²/S_j²,
+    min Φ_λ ≥ Φ_λ(ξ) − (H/N²)·(max_x d_x − Σ_x ξ_x d_x),   d_x = Σ_j λ_j Σ_c (h_xc,K·F_K⁻¹e_i)²/S_j²,
 
 so when that bound exceeds 1 no design of H hours meets every requirement, and the largest such H (bisection) is a
 lower bound on the dwell any test needs — whatever its positions, count or order, and before any time to move and
 settle. ξ comes from a multiplicative algorithm (Silvey, Titterington & Torsney) refined by the minimax itself, λ
 from a linear programme that maximises the bound; they only make the bound tight, its validity does not rest on
 them. The positions are a grid of the table's angles (:data:`GRID_DEG`), so the bound holds for designs on that grid
-(the rows vary smoothly with the angles).
+(the rows vary smoothly with the angles). A design whose information is singular in a sub-model (a coefficient no
+position of its support sees) has every ratio infinite.
 """
 
 from __future__ import annotations
@@ -43,28 +45,40 @@ BRACKET = 0.98
 
 
 def grid_rows(uni, lab) -> np.ndarray:
-    """Regressor rows (K, p) of every grid position at every mounting the lab allows, report units."""
+    """Regressor rows (K, c, p) of every grid position at every mounting the lab allows, channel by channel, report
+    units."""
     axes = []
     for lim in lab.limited():
         lo, hi = (0.0, 360.0 - GRID_DEG) if lim is None else lim
         axes.append(np.arange(lo, hi + 1e-9, GRID_DEG))
     ang = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(axes))
     h = mounting_rows(uni)(lab.table().template, jnp.asarray(lab.mountings()), jnp.deg2rad(jnp.asarray(ang)))
-    return np.asarray(h).reshape(-1, uni.size)
+    h = np.asarray(h)  # (mountings, channels, positions, p)
+    return np.transpose(h, (0, 2, 1, 3)).reshape(-1, h.shape[1], uni.size)
 
 
 def _directions(f0, h, xi, hours, white, need):
-    """(r (R,), U (p, R)) of the requirements ``need`` = (masks (R, p), index (R,), targets (R,)) at design ``xi``:
-    r_j = [F_K⁻¹]_ii/S_j² and U's column j = F_K⁻¹e_i (zero outside K), so that −∂r_j/∂ξ_x = (H/N²)(h_x·U_j)²/S_j²."""
+    """(r (R,), U (p, R)) of the requirements ``need`` = (masks (R, p), index (R,), targets (R,)) at design ``xi``
+    over the positions ``h`` (K, c, p): r_j = [F_K⁻¹]_ii/S_j² and U's column j = F_K⁻¹e_i (zero outside K); r = ∞
+    and U None where a sub-model's information is singular."""
     masks, index, targets = need
-    f = f0 + hours * (h.T * xi) @ h / white**2
+    f = f0 + hours * np.einsum("k,kcp,kcq->pq", xi, h, h) / white**2
     u = np.zeros((f.shape[0], len(index)))
     for m in np.unique(masks, axis=0):
         k = np.flatnonzero(m)
-        inv = np.linalg.inv(f[np.ix_(k, k)])
+        try:
+            inv = np.linalg.inv(f[np.ix_(k, k)])
+        except np.linalg.LinAlgError:
+            return np.full(len(index), np.inf), None
         for j in np.flatnonzero((masks == m).all(axis=1)):
             u[k, j] = inv[:, int(np.flatnonzero(k == index[j])[0])]
-    return u[index, np.arange(len(index))] / targets**2, u
+    r = u[index, np.arange(len(index))] / targets**2
+    return (r, u) if np.all(r > 0) else (np.full(len(index), np.inf), None)
+
+
+def _sensitivity(h, u, targets) -> np.ndarray:
+    """D (K, R): D_xj = Σ_c (h_xc·U_j)²/S_j², the fall of r_j per unit weight at x (times N²/H)."""
+    return (np.einsum("kcp,pr->kcr", h, u) ** 2).sum(axis=1) / targets**2
 
 
 def design(f0, h, hours, white, need) -> np.ndarray:
@@ -79,11 +93,13 @@ def design(f0, h, hours, white, need) -> np.ndarray:
     best, best_r = xi, math.inf
     for _ in range(ITERATIONS):
         r, u = _directions(f0, h, xi, hours, white, need)
+        if u is None:
+            break
         if r.max() < best_r:  # the weights chase the largest ratio and can overshoot: keep the best iterate
             best, best_r = xi, r.max()
         log_r = np.log(np.maximum(r, 1e-300))
         lam = np.exp((log_r - log_r.max()) * SHARPNESS)
-        d = ((h @ u) ** 2 * (lam / lam.sum() / targets**2)).sum(axis=1)
+        d = _sensitivity(h, u, targets) @ (lam / lam.sum())
         xi = xi * np.sqrt(d / (xi @ d))
         xi /= xi.sum()
     xi = best
@@ -98,11 +114,13 @@ def design(f0, h, hours, white, need) -> np.ndarray:
 
     def cons_jac(v):
         r, u = ratios(v)
-        g = (hk @ u) ** 2 * c / targets**2  # −∂r_j/∂ξ_x, (K, R)
+        g = _sensitivity(hk, u, targets) * c  # −∂r_j/∂ξ_x, (K, R)
         return np.column_stack([g.T, np.ones(len(r))])
 
     x0 = np.append(xi[keep] / xi[keep].sum(), 0.0)
     x0[-1] = ratios(x0)[0].max()
+    if not np.isfinite(x0[-1]):
+        return xi
     res = optimize.minimize(
         lambda v: v[-1],
         x0,
@@ -130,7 +148,9 @@ def gap_bound(f0, h, xi, hours, white, need) -> float:
     from scipy import optimize
 
     r, u = _directions(f0, h, xi, hours, white, need)
-    dd = (h @ u) ** 2 / need[2] ** 2  # D_xj: d_x = Σ_j λ_j D_xj
+    if u is None:  # a singular design certifies nothing
+        return -math.inf
+    dd = _sensitivity(h, u, need[2])  # D_xj: d_x = Σ_j λ_j D_xj
     e = xi @ dd
     c = hours / white**2
     p = len(r)
@@ -162,8 +182,9 @@ def dwell_lower_bound(f0, h, white: float, need, cap: float = 1.0e4) -> tuple[fl
     # the hours a rough design needs, then the design near them and the bound it certifies
     k = h.shape[0]
     flat = np.full(k, 1.0 / k)
-    if worst(flat, cap) > 1.0 and gap_bound(f0, h, flat, cap, white, need) > 1.0:
-        return cap, math.inf
+    at_cap = worst(flat, cap)
+    if at_cap > 1.0 and (at_cap == math.inf or gap_bound(f0, h, flat, cap, white, need) > 1.0):
+        return cap, math.inf  # (the whole grid singular in a sub-model: so is every design on it)
     _, up = bisect(lambda hh: worst(flat, hh) <= 1.0, 0.0, cap)
     lo = 0.0
     for _ in range(ROUNDS):  # the design at the hours the last one needed, until the bracket closes
