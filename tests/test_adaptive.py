@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -317,11 +318,31 @@ def test_dwell_lower_bound_against_the_mean_of_white_noise(first_records):
     model = Model(("D_F", "D_I"), "sdf-gyro")
     h = grid_rows(model, lab)
     g = first_records[0].meta["site"]["gravity_mps2"] / 9.80665  # a_I with IA vertical, in standard g
-    assert np.abs(h[:, 1]).max() == pytest.approx(g, abs=1e-9)  # the grid holds IA vertical
+    assert np.abs(h[:, 0, 1]).max() == pytest.approx(g, abs=1e-9)  # the grid holds IA vertical
     low, up = dwell_lower_bound(np.zeros((2, 2)), h, white, [target, target])
     closed = (white / target) ** 2 / g**2  # D_I binds: σ_I² = N²/(H·g²)
     assert low <= closed * (1 + 1e-3) and up >= closed * (1 - 1e-3)
     assert low == pytest.approx(closed, rel=0.01) and up == pytest.approx(closed, rel=0.01)
+
+
+def test_dwell_lower_bound_reads_both_channels_of_a_tdf_position():
+    """A TDF gyro reads its X and Y channels together at every position: for DX_F and DY_F alone each position adds
+    H/N² to both, so σ² = N²/H for each and (N/S)² is the fewest hours — not twice that, as it would be were each
+    channel's row a position of its own. No position of the grid reads DX_XY's a_X·a_Y beside an unseen DX_F in a
+    model that holds it and no row: a singular design, infinite hours, no error."""
+    from gyrojax.adaptive.bound import dwell_lower_bound, grid_rows
+
+    white, target = 0.005, 0.001
+    lab = Lab(plans.TWO_AXIS, plans.tdf_mount((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)), 39.98, turn_case=False)
+    h = grid_rows(Model(("DX_F", "DY_F"), "tdf-gyro"), lab)
+    assert h.shape[1:] == (2, 2)
+    np.testing.assert_array_equal(h[:, 0], np.tile([1.0, 0.0], (len(h), 1)))  # channel X reads DX_F only
+    low, up = dwell_lower_bound(np.zeros((2, 2)), h, white, [target, target])
+    closed = (white / target) ** 2
+    assert low == pytest.approx(closed, rel=0.01) and up == pytest.approx(closed, rel=0.01)
+    one_axis = replace(lab, axes=(("base", (0.0, 0.0, 1.0)),))  # turning about Up: a_X·a_Y stays 0
+    rows = grid_rows(Model(("DX_F", "DX_XY"), "tdf-gyro"), one_axis)
+    assert dwell_lower_bound(np.zeros((2, 2)), rows, white, [target, target])[1] == math.inf
 
 
 def test_a_slow_drift_the_records_cannot_resolve_does_not_set_the_hours(first_records):
