@@ -1,7 +1,8 @@
 """Monte Carlo study of the campaign loop (:mod:`gyrojax.adaptive`) on simulated laboratories with hidden effects.
 
-``python -m benchmarks.study_campaign [--truths 50] [--seed 0] [--out study_campaign.json] [--per-process 5]``
-(worker processes of a few truths each, resumable from ``--out``); ``--only 10,16`` runs the chosen truths alone
+``python -m benchmarks.study_campaign [--kind sdf] [--truths 50] [--seed 0] [--out study_campaign.json]
+[--per-process 5]`` (worker processes of a few truths each, resumable from ``--out``); ``--only 10,16`` runs the
+chosen truths alone
 
 Each truth is an SDF gyro whose lab knows D_F, D_I, D_S (each drawn uniformly in ±[0.1, 1] deg/h or deg/h/g) and
 whose truth holds two effects hidden from the lab's first test, a single-mount polar tumble (2 revolutions at 20
@@ -26,6 +27,21 @@ last look — the final model's σ and ruling out the watched candidates at the 
 (:mod:`gyrojax.adaptive.bound`): where that bound is above 1/3 of the classical hours, 1/3 cannot be reached by any
 design. The ratio is summarised overall, per truth class (the two hidden effects) and over the truths where 1/3 is
 possible. Prints the summary and writes every truth's row to ``--out``.
+
+``--kind`` runs the same study on the loop's other instruments and tables (:data:`KINDS`), each truth with one
+effect its first test does not see:
+
+* ``sdf-one-axis``: the SDF study above, its tests designed on the first test's one-axis polar table with the case
+  turned on its faces (two mountings a test) instead of the two-axis table;
+* ``servo``: an SDF gyro whose first test is a 2 h polar servo run (IA along the servo axis: a_I = g·sin φ is
+  constant, so D_F and D_I read as one), hidden D_O, D_II or D_IS; tests on the two-axis table, σ ≤ 0.01;
+* ``tdf``: a TDF gyro whose lab knows DX_F, DY_F, DX_X, DX_Y, DY_X, DY_Y, first tested in Hu's eight positions
+  (10 min each, 30 s samples): every a of them lies along one case axis, so one cross term (DX_XY … DY_YZ) is
+  hidden; tests on the two-axis table, σ ≤ 0.01;
+* ``accel``: a pendulous accelerometer whose lab knows K_0, K_1, K_2 (K_1 within 10⁻³ of 1), first tested on the
+  dividing head with its output axis along the head axis (36 positions of 60 s, 10 s samples: a_O = 0), hidden K_IO;
+  noise 3·10⁻⁷ g·√h (60·N/√Δt ≈ 6 μg a sample), σ ≤ 2·10⁻⁶ in each coefficient's unit; tests on the dividing head
+  with the case turned.
 """
 
 from __future__ import annotations
@@ -44,36 +60,112 @@ TARGET = 0.003
 WHITE = 0.005
 
 
-def draw_truth(rng) -> dict:
-    """One truth (conventions §8 dict) of the study (module doc)."""
-    coeffs = {c: float(rng.choice([-1, 1]) * rng.uniform(0.1, 1.0)) for c in BASE}
-    for group in (ALIASED, UNEXCITED):
-        name = str(rng.choice(group))
-        coeffs[name] = float(rng.choice([-1, 1]) * TARGET * 10 ** rng.uniform(1.0, 2.0))
+TDF_BASE = ("DX_F", "DY_F", "DX_X", "DX_Y", "DY_X", "DY_Y")
+TDF_CROSS = tuple(f"D{c}_{t}" for c in "XY" for t in ("XY", "XZ", "YZ"))
+ACCEL_BASE = ("K_0", "K_1", "K_2")
+
+
+def _signed(rng, lo, hi) -> float:
+    return float(rng.choice([-1, 1]) * rng.uniform(lo, hi))
+
+
+def _hidden(rng, target) -> float:
+    return float(rng.choice([-1, 1]) * target * 10 ** rng.uniform(1.0, 2.0))
+
+
+def _sdf(rng, target, groups) -> dict:
+    coeffs = {c: _signed(rng, 0.1, 1.0) for c in BASE}
+    for group in groups:
+        name = str(rng.choice(group))  # drawn before its size: the truths of a seed stay those of earlier studies
+        coeffs[name] = _hidden(rng, target)
     return {"coefficients": coeffs, "noise": {"white": WHITE}}
 
 
-def first_test():
-    """The lab's first test: a single-mount polar tumble."""
+def _tdf(rng, target) -> dict:
+    coeffs = {c: _signed(rng, 0.1, 1.0) for c in TDF_BASE}
+    name = str(rng.choice(TDF_CROSS))
+    coeffs[name] = _hidden(rng, target)
+    return {"coefficients": coeffs, "noise": {"white": WHITE}}
+
+
+def _accel(rng, target) -> dict:
+    coeffs = {"K_0": _signed(rng, 1e-4, 1e-3), "K_1": 1.0 + _signed(rng, 1e-5, 1e-3), "K_2": _signed(rng, 1e-5, 1e-4)}
+    coeffs["K_IO"] = _hidden(rng, target)
+    return {"coefficients": coeffs, "noise": {"white": 3e-7}}
+
+
+def _plans():
     from gyrojax.data import plans
 
-    return plans.tumble(revolutions=2.0, earth_rates=20.0, dt_s=30.0, flip=False, both_directions=False)
+    return plans
 
 
-def one(truth: dict, seed: int) -> dict:
-    """Run one campaign and score it."""
+TWO_AXIS_ONE_MOUNT = {"turn_case": False, "mountings_per_test": 1}
+KINDS = {
+    # name: (truth drawer, first test, the lab's model, target σ, lab options beyond the first test's table)
+    "sdf": (
+        lambda rng: _sdf(rng, TARGET, (ALIASED, UNEXCITED)),
+        lambda p: p.tumble(revolutions=2.0, earth_rates=20.0, dt_s=30.0, flip=False, both_directions=False),
+        BASE,
+        TARGET,
+        lambda p: {"axes": p.TWO_AXIS, **TWO_AXIS_ONE_MOUNT},
+    ),
+    "sdf-one-axis": (
+        lambda rng: _sdf(rng, TARGET, (ALIASED, UNEXCITED)),
+        lambda p: p.tumble(revolutions=2.0, earth_rates=20.0, dt_s=30.0, flip=False, both_directions=False),
+        BASE,
+        TARGET,
+        lambda p: {"turn_case": True, "mountings_per_test": 2},
+    ),
+    "servo": (
+        lambda rng: _sdf(rng, 0.01, (("D_O", "D_II", "D_IS"),)),
+        lambda p: p.servo("polar", hours=2.0, dt_s=30.0),
+        BASE,
+        0.01,
+        lambda p: {"axes": p.TWO_AXIS, **TWO_AXIS_ONE_MOUNT},
+    ),
+    "tdf": (
+        lambda rng: _tdf(rng, 0.01),
+        lambda p: p.eight_position(10.0, dt_s=30.0, kind="tdf-gyro"),
+        TDF_BASE,
+        0.01,
+        lambda p: {"axes": p.TWO_AXIS, **TWO_AXIS_ONE_MOUNT},
+    ),
+    "accel": (
+        lambda rng: _accel(rng, 2e-6),
+        lambda p: p.accel_tumble(36, 60.0, 10.0),
+        ACCEL_BASE,
+        2e-6,
+        lambda p: {"turn_case": True, "mountings_per_test": 1},
+    ),
+}
+"""The study's laboratories (module doc)."""
+
+
+def draw_truth(rng, kind: str = "sdf") -> dict:
+    """One truth (conventions §8 dict) of the study of ``kind`` (module doc)."""
+    return KINDS[kind][0](rng)
+
+
+def first_test(kind: str = "sdf"):
+    """The lab's first test of ``kind`` (module doc)."""
+    return KINDS[kind][1](_plans())
+
+
+def one(truth: dict, seed: int, kind: str = "sdf") -> dict:
+    """Run one campaign of ``kind`` and score it."""
     from gyrojax.adaptive.goal import Goal
     from gyrojax.adaptive.simulated import run_campaign
-    from gyrojax.data import plans
 
+    _, _, base, target, lab = KINDS[kind]
     t0 = time.perf_counter()
     res = run_campaign(
         truth,
-        first_test(),
-        list(BASE),
-        Goal(sigma=TARGET),
+        first_test(kind),
+        list(base),
+        Goal(sigma=target),
         seed=seed,
-        lab_options={"axes": plans.TWO_AXIS, "turn_case": False, "mountings_per_test": 1},
+        lab_options=lab(_plans()),
     )
     wall = time.perf_counter() - t0
     true = set(truth["coefficients"])
@@ -86,7 +178,7 @@ def one(truth: dict, seed: int) -> dict:
             t = truth["coefficients"].get(c, 0.0)
             covered[c] = bool(abs(v - t) <= 2.0 * s)
             z[c] = (v - t) / s
-    added = sorted(terms - set(BASE))
+    added = sorted(terms - set(base))
     cl = res.classical
     return {
         "seed": seed,
@@ -100,14 +192,14 @@ def one(truth: dict, seed: int) -> dict:
         "classical_best_split_hours": cl.best_split_hours if cl else None,
         "ratio": res.table_hours / cl.hours if cl and cl.hours else None,
         "bound": res.hours_bound(),
-        "class": "+".join(c for c in truth["coefficients"] if c not in BASE),
+        "class": "+".join(c for c in truth["coefficients"] if c not in base),
         "terms": sorted(terms),
         "added": added,
         "false_effects": sorted(terms - true),
         "missed_effects": sorted(true - terms),
         "covered": covered,
         "z": z,
-        "sigma_over_target": {c: fit.stds[c] / TARGET for c in fit.coefficient_names} if fit else {},
+        "sigma_over_target": {c: fit.stds[c] / target for c in fit.coefficient_names} if fit else {},
         "looks": res.last.looks,
         "wall_s": wall,
         "steps": [{"plan": s.plan.name, "hours": s.hours, "reason": s.reason[:300]} for s in res.steps],
@@ -239,8 +331,8 @@ def worker(args) -> int:
     rows = _load(args.out)
     chosen = args.only if args.only is not None else range(len(rows), min(args.truths, len(rows) + args.per_process))
     for i in chosen:
-        truth = draw_truth(np.random.default_rng([args.seed, i]))
-        row = one(truth, args.seed * 1000 + i)
+        truth = draw_truth(np.random.default_rng([args.seed, i]), args.kind)
+        row = one(truth, args.seed * 1000 + i, args.kind)
         rows.append(row)
         print(
             f"{i + 1:3d}/{args.truths}  met={row['goal_met']!s:5s} tests={row['tests']} "
@@ -257,6 +349,7 @@ def worker(args) -> int:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--kind", default="sdf", choices=sorted(KINDS), help="the laboratory (module doc)")
     ap.add_argument("--truths", type=int, default=50)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", default="study_campaign.json")
@@ -281,6 +374,7 @@ def main(argv=None) -> int:
         before = len(_load(args.out))
         cmd = [sys.executable, "-m", "benchmarks.study_campaign", "--worker", "--truths", str(args.truths)]
         cmd += ["--seed", str(args.seed), "--out", args.out, "--per-process", str(args.per_process)]
+        cmd += ["--kind", args.kind]
         subprocess.run(cmd, check=False)
         if len(_load(args.out)) == before:
             print("a worker made no progress; stopping", file=sys.stderr)

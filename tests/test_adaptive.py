@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -153,12 +154,13 @@ def test_designed_sigma_matches_the_fit_that_follows():
 
 def test_a_pair_this_table_cannot_separate_is_refused_naming_the_table_that_would(first_records):
     # the records' single-axis table, the case not turned: OA stays along the polar axis in every position, a_O =
-    # sin φ is constant, so D_O reads as D_F whatever the table does (Hu 3-12); a two-axis table turns OA off it
+    # sin φ is constant, so D_O reads as D_F whatever the table does (Hu 3-12); the case turned on its faces on the
+    # same table (OA off the axis) separates them, and so would a two-axis table, but remounting is the lesser change
     lab = Lab.from_records(first_records, turn_case=False, mountings_per_test=1, positions=8)
     nt = next_test(first_records, ["D_F", "D_I", "D_S", "D_O"], Goal(sigma=TARGET), lab)
     assert nt.status == "unreachable" and nt.plan is None
     assert "no orientation of this table separates D_O" in nt.reason
-    assert "two-axis table" in nt.reason
+    assert "the case turned on its faces on this table" in nt.reason
     # the invisible combination is D_F·sin φ + D_O·(−1)·…: the ratio of its coefficients is sin φ of the site
     text = nt.reason.split("separates D_O: ")[1].split(" is invisible")[0]
     parts = dict(reversed(t.strip().split("·")) for t in text.split(" + "))
@@ -344,6 +346,26 @@ def test_dwell_lower_bound_of_a_detection_reads_its_sub_model(first_records):
     assert low == pytest.approx(closed, rel=0.01) and up == pytest.approx(closed, rel=0.01)
     whole = Requirement("sigma", "D_I", uni.terms, target, "deg/h/g")
     assert dwell_lower_bound(f0, h, white, arrays([whole], uni))[1] >= low
+
+
+def test_dwell_lower_bound_reads_both_channels_of_a_tdf_position():
+    """A TDF gyro reads its X and Y channels together at every position: for DX_F and DY_F alone each position adds
+    H/N² to both, so σ² = N²/H for each and (N/S)² is the fewest hours — not twice that, as it would be were each
+    channel's row a position of its own. No position of the grid reads DX_XY's a_X·a_Y beside an unseen DX_F in a
+    model that holds it and no row: a singular design, infinite hours, no error."""
+    from gyrojax.adaptive.bound import dwell_lower_bound, grid_rows
+
+    white, target = 0.005, 0.001
+    lab = Lab(plans.TWO_AXIS, plans.tdf_mount((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)), 39.98, turn_case=False)
+    h = grid_rows(Model(("DX_F", "DY_F"), "tdf-gyro"), lab)
+    assert h.shape[1:] == (2, 2)
+    np.testing.assert_array_equal(h[:, 0], np.tile([1.0, 0.0], (len(h), 1)))  # channel X reads DX_F only
+    low, up = dwell_lower_bound(np.zeros((2, 2)), h, white, [target, target])
+    closed = (white / target) ** 2
+    assert low == pytest.approx(closed, rel=0.01) and up == pytest.approx(closed, rel=0.01)
+    one_axis = replace(lab, axes=(("base", (0.0, 0.0, 1.0)),))  # turning about Up: a_X·a_Y stays 0
+    rows = grid_rows(Model(("DX_F", "DX_XY"), "tdf-gyro"), one_axis)
+    assert dwell_lower_bound(np.zeros((2, 2)), rows, white, [target, target])[1] == math.inf
 
 
 def test_a_slow_drift_the_records_cannot_resolve_does_not_set_the_hours(first_records):

@@ -2,6 +2,7 @@
 evaluated independently: scipy rotations and the conventions §4/§6 formulas written out in numpy here."""
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -117,6 +118,27 @@ def test_tdf_and_accelerometer_plans():
     t = ACC_TRUTH
     expect = t["K_0"] + t["K_1"] * ai + t["K_2"] * ai**2 + t["K_3"] * ai**3 + t["K_IP"] * ai * ap + t["K_IO"] * ai * ao
     np.testing.assert_allclose(rec.indicated, expect, rtol=0, atol=1e-12)
+
+
+def test_accelerometer_tumble_states_and_noise():
+    """Hu's two dividing-head states (Hu 3-42, 3-43): with the output axis along the head axis a_O = 0 and a_I·a_P
+    turns through g at 2θ; with the pendulous axis along it a_P = 0 and a_I·a_O does. The truth's noise reaches the
+    accelerometer in its output unit: the scatter about each position's mean is 60·N/√Δt g (conventions §9.6),
+    read from the samples alone."""
+    for along, zero, seen in (("oa", 2, 1), ("pa", 1, 2)):
+        rec = simulate(plans.accel_tumble(positions=8, dwell_s=2.0, head_along=along), {"coefficients": ACC_TRUTH})[0]
+        _, a = _inputs(rec)
+        assert np.abs(a[:, zero]).max() < 1e-12 and np.abs(a[:, 0] * a[:, seen]).max() > 0.49
+    with pytest.raises(PlanError, match="head_along"):
+        plans.accel_tumble(head_along="ia")
+    white, dt = 3e-7, 10.0
+    plan = plans.accel_tumble(positions=12, dwell_s=400.0, dt_s=dt)
+    rec = simulate(plan, {"coefficients": ACC_TRUTH, "noise": {"white": white}}, seed=3)[0]
+    y, seg = np.asarray(rec.indicated), np.asarray(rec.segment_id)
+    dev = np.concatenate([y[seg == s] - y[seg == s].mean() for s in np.unique(seg)])
+    dof = dev.size - len(np.unique(seg))
+    sd = math.sqrt(float(dev @ dev) / dof)
+    assert sd == pytest.approx(60.0 * white / math.sqrt(dt), rel=4.0 / math.sqrt(2.0 * dof))
 
 
 def test_plan_json_round_trip_and_errors(tmp_path):

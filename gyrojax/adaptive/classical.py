@@ -5,7 +5,8 @@ proportions: for an SDF gyro the 24-position static test on the two-axis table (
 position), then the polar tumble (``tumble``: 2 revolutions at 10 Earth rates, CCW and CW, upright and flipped),
 then the polar servo test (``servo``, 24 h); for a TDF gyro the eight-position test (``eight_position``, 10 min)
 then its polar tumble (``tdf_tumble``, 2 revolutions); for a pendulous accelerometer the dividing-head tumble
-(``accel_tumble``, 36 positions of 60 s).
+(``accel_tumble``, 36 positions of 60 s) in Hu's two states, the output axis and then the pendulous axis along the
+head axis (Hu 3-42, 3-43: one shows K_IP, the other K_IO).
 
 **Scaled to reach the σ.** Every measuring time of the sequence — the dwell of each position, the revolutions of
 each tumble, the hours of the servo run — is multiplied by one scale s (the settling and remounting gaps are not);
@@ -77,7 +78,11 @@ def sequence(kind: str, scale: float, latitude_deg: float = plans.DEFAULT_LATITU
         tb = plans.tdf_tumble(rev, dt_s=rev * turn_s / SAMPLES["tumble"], latitude_deg=latitude_deg)
         return [("eight-position", ep), ("tumble", tb)]
     if kind == fx.ACCEL:
-        return [("dividing-head tumble", plans.accel_tumble(36, 60.0 * s, 60.0 * s / SAMPLES["head"], latitude_deg))]
+        dwell, dt = 60.0 * s, 60.0 * s / SAMPLES["head"]
+        return [
+            ("dividing-head tumble, OA along the head", plans.accel_tumble(36, dwell, dt, latitude_deg, "oa")),
+            ("dividing-head tumble, PA along the head", plans.accel_tumble(36, dwell, dt, latitude_deg, "pa")),
+        ]
     raise ModelError(f"no classical sequence for a {kind}")
 
 

@@ -6,7 +6,8 @@ information plus the rows of ``samples`` random angle sets of the chain (within 
 mounting the lab allows, each part normalised to its largest entry. Random angles reach every direction a set of
 orientations can (a direction that some orientation sees is seen by almost every random draw).
 
-The message names the invisible combination in report units and what would reach it: a two-axis table
+The message names the invisible combination in report units and what would reach it: the case turned on its faces
+on the same table, when the lab keeps one mounting and turning it separates it; a two-axis table
 (``plans.TWO_AXIS``: trunnion East, platform Up) with the case turned on its faces, when that table separates it;
 else, for the acceleration terms of the drift model, a specific force other than 1 g (a_I² + a_O² + a_S² = 1 in
 every orientation on the ground: only a centrifuge changes it); else an outside measurement (levelling or
@@ -73,14 +74,18 @@ def out_of_reach(uni, reqs, f_rec, lab) -> list:
     bad = [r for r, x in zip(reqs, s) if not math.isfinite(x)]
     if not bad:
         return []
-    two = None
+    two = turned = None
     out = []
     for r in bad:
         combo = _null_combination(f, uni, r)
         if two is None:
             lab2 = replace(lab, axes=plans.TWO_AXIS, angle_limits_deg=(), turn_case=True)
             two = _normalised(f_rec) + reachable_information(uni, lab2)
-        if math.isfinite(sigmas(two, [r], uni)[0]):
+            if not lab.turn_case:
+                turned = _normalised(f_rec) + reachable_information(uni, replace(lab, turn_case=True))
+        if turned is not None and math.isfinite(sigmas(turned, [r], uni)[0]):
+            fix = "the case turned on its faces on this table (remounted between runs) separates it"
+        elif math.isfinite(sigmas(two, [r], uni)[0]):
             fix = "a two-axis table (trunnion East, platform Up) with the case turned on its faces separates it"
         elif {fx.effect_of_coefficient(c) for c, _ in combo} <= G_TERMS:
             fix = (

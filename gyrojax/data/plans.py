@@ -399,11 +399,26 @@ def tdf_tumble(
     return Plan("tdf-tumble", tuple(runs), latitude_deg, description="TDF polar tumble", reference="Hu 3-22 to 3-37")
 
 
-def accel_tumble(positions: int = 36, dwell_s: float = 60.0, dt_s: float = 1.0, latitude_deg=DEFAULT_LATITUDE) -> Plan:
-    """Accelerometer dividing-head tumble: IA turned through g in the vertical plane (Hu 3-38 to 3-46)."""
+def accel_tumble(
+    positions: int = 36,
+    dwell_s: float = 60.0,
+    dt_s: float = 1.0,
+    latitude_deg=DEFAULT_LATITUDE,
+    head_along: str = "oa",
+) -> Plan:
+    """Accelerometer dividing-head tumble: IA turned through g in the vertical plane about a horizontal head axis
+    (North), ``positions`` equally spaced positions of ``dwell_s`` s, sampled every ``dt_s`` s (Hu 3-38 to 3-46).
+
+    ``head_along`` names the instrument axis along the head axis, Hu's two test states: ``"oa"`` (a_O = 0, PA turns
+    with IA: the a_I·a_P term shows at 2θ, Hu 3-43) or ``"pa"`` (a_P = 0, OA turns with IA: the a_I·a_O term, Hu
+    3-42); K_0, K_1, K_2, K_3 show in both (Hu 3-46)."""
+    mounts = {"oa": accel_mount(U, E), "pa": accel_mount(U, N)}
+    if head_along not in mounts:
+        raise PlanError(f"accel-tumble head_along {head_along!r}; valid: {sorted(mounts)}")
     segs = tuple(Segment((360.0 * j / positions,), dwell_s, dt_s, label=j) for j in range(positions))
-    run = Run("accel-tumble", (("head", N),), accel_mount(U, E), segs, scale_factor=1e-3)
-    return Plan("accel-tumble", (run,), latitude_deg, description="accelerometer tumble", reference="Hu 3-38 to 3-46")
+    name = "accel-tumble" if head_along == "oa" else "accel-tumble-pa"
+    run = Run(name, (("head", N),), mounts[head_along], segs, scale_factor=1e-3)
+    return Plan(name, (run,), latitude_deg, description="accelerometer tumble", reference="Hu 3-38 to 3-46")
 
 
 BUILDERS = {

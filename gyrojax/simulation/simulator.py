@@ -323,9 +323,8 @@ def simulate_run(
     else:
         if params is not None:
             ind = _through_loop(ind, Record(meta, cols), params)
+        # an accelerometer's noise terms are in its output unit, g in place of deg/h (docs/conventions.md §9.6)
         noise = np.asarray(random_drift(key, t, truth.noise))
-        if kind == fx.ACCEL:
-            noise = noise * 0.0  # accelerometer noise: white in g is not part of the gyro noise names
         cols["current_mA"] = (ind + noise) / run.scale_factor
     return Record(meta, cols)
 
