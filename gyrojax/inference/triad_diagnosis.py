@@ -324,26 +324,21 @@ def whitened_system(data: dict, regs: list, cols: list):
     p0 = data["jac"].shape[1]
     if data["tau2"].get("walk", 0.0) > 0:  # the walk couples every row: whitened as one (triad_components)
         r_all, j_all = whiten_rows(_groups(data, cols), data["tau2"])
-        bounds = np.cumsum([p0] + [len(r.coefficients) for r in regs])
-        return r_all, j_all[:, :p0], [j_all[:, a:b] for a, b in zip(bounds[:-1], bounds[1:])], [sg for sg, _ in cols]
-    big = np.column_stack([data["jac"]] + [s for s, _ in cols]) if cols else data["jac"]
-    rw, jw = tf.whiten_segments(data["segments"], data["resid"], big, data["q"], data["s_mat"], data["tau2"]["pose"])
-    rw = rw - jw[:, :p0] @ np.zeros(p0)  # the rows are at θ̂ already
-    blocks_r, blocks_j = [rw], [jw]
-    if data["moves"]:
-        mx = []
-        for m, (p, sd) in enumerate(data["move_w"]):
-            mx.append(np.concatenate([p.T @ mv[m] / sd for _, mv in cols], axis=1) if cols else np.zeros((2, 0)))
-        blocks_r.append(data["move_r"])
-        blocks_j.append(np.column_stack([data["move_j"], np.concatenate(mx, axis=0)]))
-    r_all = np.concatenate(blocks_r)
-    j_all = np.concatenate(blocks_j, axis=0)
-    xs, i0 = [], p0
-    for r in regs:
-        k = len(r.coefficients)
-        xs.append(j_all[:, i0 : i0 + k])
-        i0 += k
-    return r_all, j_all[:, :p0], xs, [sg for sg, _ in cols]
+    else:
+        big = np.column_stack([data["jac"]] + [s for s, _ in cols]) if cols else data["jac"]
+        rw, jw = tf.whiten_segments(
+            data["segments"], data["resid"], big, data["q"], data["s_mat"], data["tau2"]["pose"]
+        )
+        blocks_r, blocks_j = [rw], [jw]
+        if data["moves"]:
+            mx = []
+            for m, (p, sd) in enumerate(data["move_w"]):
+                mx.append(np.concatenate([p.T @ mv[m] / sd for _, mv in cols], axis=1) if cols else np.zeros((2, 0)))
+            blocks_r.append(data["move_r"])
+            blocks_j.append(np.column_stack([data["move_j"], np.concatenate(mx, axis=0)]))
+        r_all, j_all = np.concatenate(blocks_r), np.concatenate(blocks_j, axis=0)
+    bounds = np.cumsum([p0] + [len(r.coefficients) for r in regs])
+    return r_all, j_all[:, :p0], [j_all[:, a:b] for a, b in zip(bounds[:-1], bounds[1:])], [sg for sg, _ in cols]
 
 
 def _groups(data: dict, extra: list) -> list:
