@@ -41,7 +41,7 @@ from gyrojax.inference.noisefit import (
 from gyrojax.inference.scoring import ALPHA, candidates, residual_variance, score_beside, score_tests
 from gyrojax.inference.separation import separating_plans, setup_measurements
 from gyrojax.inference.solver import solve, stack_whitened
-from gyrojax.inference.subspace import WhitenedSystem, basis
+from gyrojax.inference.subspace import WhitenedSystem, basis, perp
 from gyrojax.inference.verdict import Candidate
 from gyrojax.noise import reml
 from gyrojax.noise.readout import white_beside_readout
@@ -315,9 +315,9 @@ def _at_profile_knees(lin, full: Model, p0: int, knees: dict) -> list:
     for name, (_, cols) in knees.items():
         h = np.concatenate([c / s for c, s in zip(cols, scales)], axis=0)
         u0 = basis(np.column_stack([j0, h[:, -1]]))  # beside the model and the input's linear part
-        r0 = rw - u0 @ (u0.T @ rw)
+        r0 = perp(u0, rw)
         h = h[:, :-1]
-        hp = h - u0 @ (u0.T @ h)
+        hp = perp(u0, h)
         nn = (hp * hp).sum(axis=0)
         z2 = np.where(nn > 0, (hp.T @ r0) ** 2 / np.where(nn > 0, nn, 1.0), -1.0)
         j = int(np.argmax(z2))
@@ -393,7 +393,7 @@ def _noise_models(lin, cols, starts=None, readouts=None) -> list:
         blocks.append(np.column_stack([rec.jacobian[:, cols] / s, nu]))
     r_all = np.concatenate([rec.residual / s for rec, s in zip(lin, scales)])
     ub = basis(np.concatenate(blocks, axis=0))
-    res = r_all - ub @ (ub.T @ r_all)
+    res = perp(ub, r_all)
     bounds = np.cumsum([0] + [len(rec.residual) for rec in lin])
 
     def one(i):  # the records' fits are independent: they run side by side (gyrojax.runtime.threads.parallel_map)
@@ -462,7 +462,7 @@ def _sup_over_knee(c: Candidate, lin, noises, rw, j0w, knee_grid) -> tuple:
     if out is None:
         return c, None
     stat, j, lp, _ = out
-    hp = hw[:, j] - u0 @ (u0.T @ hw[:, j])
+    hp = perp(u0, hw[:, j])
     eff = fx.get(c.name)
     slope = float(hp @ r_perp) / float(hp @ hp)
     est = {eff.coefficients[0]: {"value": slope, "unit": eff.units[0]}}
