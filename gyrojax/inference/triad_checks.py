@@ -24,7 +24,6 @@ import numpy as np
 from gyrojax import units
 from gyrojax.data.importclues import MEMS_SCALE_BOUND, permutation_clue, ratio_clue, signed_permutations
 from gyrojax.errors import ModelError
-from gyrojax.physics import so3
 from gyrojax.physics import triad as tp
 from gyrojax.physics.plausibility import limit
 
@@ -109,6 +108,16 @@ def _nearest_permutation(s: np.ndarray) -> np.ndarray | None:
     return best if np.all(cos > math.cos(math.radians(30.0))) else None
 
 
+def _rodrigues(v: np.ndarray) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) of rotation vectors ``v`` (..., 3) rad."""
+    th = np.linalg.norm(v, axis=-1)[..., None, None]
+    k = v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
+    kx = np.zeros(v.shape[:-1] + (3, 3))
+    kx[..., 0, 1], kx[..., 0, 2], kx[..., 1, 2] = -k[..., 2], k[..., 1], -k[..., 0]
+    kx[..., 1, 0], kx[..., 2, 0], kx[..., 2, 1] = k[..., 2], -k[..., 1], k[..., 0]
+    return np.eye(3) + np.sin(th) * kx + (1 - np.cos(th)) * (kx @ kx)
+
+
 def _carried_misfit(moves, bias, p, k) -> np.ndarray:
     """Angle (deg) of each move between the next Up and the previous Up carried by k·P·(gyro − bias), integrated
     sample by sample (each step's rotation vector exact)."""
@@ -116,7 +125,7 @@ def _carried_misfit(moves, bias, p, k) -> np.ndarray:
     for m in moves:
         steps = (m.g - bias) @ p.T * (k * m.dt * units.DEG_PER_H)
         rot = np.eye(3)
-        for e in np.asarray(so3.exp(steps)):
+        for e in _rodrigues(steps):
             rot = rot @ e
         pred = rot.T @ m.u_from
         out.append(math.degrees(math.acos(max(-1.0, min(1.0, float(pred @ m.u_to))))))
@@ -158,7 +167,7 @@ def _move_evidence(moves, bias) -> tuple[np.ndarray, float, float, float] | None
     ks = np.exp(np.linspace(math.log(1e-4), math.log(1e4), 161))
     ranked = []
     for p in signed_permutations():
-        r = np.asarray(so3.exp(ks[:, None, None] * (v @ p.T)[None]))
+        r = _rodrigues(ks[:, None, None] * (v @ p.T)[None])
         pred = np.einsum("kmji,mj->kmi", r, uf)
         ang = np.degrees(np.arccos(np.clip((pred * ut).sum(-1), -1, 1)))
         med = np.median(ang, axis=1)
