@@ -41,7 +41,6 @@ from functools import lru_cache
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optax
 
 from gyrojax.adaptive.information import rows
 from gyrojax.adaptive.requirements import variances
@@ -141,16 +140,9 @@ class _Problem:
         taus = jnp.concatenate(
             [jnp.geomspace(TEMPERATURES[0], TEMPERATURES[1], fall), jnp.full(steps - fall, TEMPERATURES[1])]
         )
-        opt = optax.adam(learning_rate)
 
         def run(p0, triads, template, total, a):
-            def step(carry, tau):
-                p, state = carry
-                val, g = vg(p, tau, triads, template, total, a)
-                upd, state = opt.update(g, state, p)
-                return (optax.apply_updates(p, upd), state), val
-
-            (p, _), hist = jax.lax.scan(step, (p0, opt.init(p0)), taus)
+            p, hist = search.adam_scan(vg, p0, steps, learning_rate, triads, template, total, a, schedule=taus)
             return p, hist, loss(p, taus[-1], triads, template, total, a)
 
         self.search = jax.jit(jax.vmap(run, in_axes=(0, 0, None, None, None)))

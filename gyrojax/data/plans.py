@@ -499,7 +499,7 @@ def validate_plan(plan: Plan, where: str = "plan") -> Plan:
         meta = {
             "format": FORMAT,
             "name": run.name,
-            "site": {"latitude_deg": plan.latitude_deg, "gravity_mps2": plan.gravity_mps2 or 9.8},
+            "site": {"latitude_deg": plan.latitude_deg, "gravity_mps2": plan.gravity_mps2 or units.G0},
             "table": {"axes": [{"name": n, "axis_enu": list(u)} for n, u in run.axes]},
             "instrument": run.instrument,
             "mode": run.mode,

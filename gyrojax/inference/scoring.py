@@ -26,6 +26,7 @@ import numpy as np
 
 from gyrojax.inference.lstsq import lstsq
 from gyrojax.inference.subspace import UNSEEN, basis, perp, perp_basis
+from gyrojax.inference.verdict import Candidate
 from gyrojax.physics import effects as fx
 from gyrojax.tails import chi2_logsf, f_logsf_many
 
@@ -160,6 +161,24 @@ def rms_after(r_raw: np.ndarray, j0_raw: np.ndarray, x_raw: np.ndarray, s: Score
         return float("nan")
     delta = (x_raw - j0_raw @ s.model_part) @ s.coefficients
     return float(np.sqrt(np.mean((r_raw - delta) ** 2)))
+
+
+def candidates(names: list, tests: ScoreTests, coefficients: list, units: list, raw: tuple, aliases, rms_spanned):
+    """The :class:`~gyrojax.inference.verdict.Candidate` of each score test ``tests.scores[i]`` of ``names[i]`` (None
+    where not excited), and the orthonormal basis of each tested candidate's X⊥ (name -> basis). A candidate in the
+    model's span has df 0, the ``aliases(spanned_by)`` that span it and ``rms_spanned``; the others their statistic,
+    p-value, one-step estimate (``coefficients[i]`` -> value in ``units[i]``) and :func:`rms_after` from ``raw`` =
+    (raw residual, the model's raw regressors, [each candidate's raw regressors])."""
+    out, perps = [], {}
+    for i, (name, sc) in enumerate(zip(names, tests.scores)):
+        if sc is None or sc.df == 0:
+            out.append(None if sc is None else Candidate(name, 0.0, 0, 1.0, 1.0, aliases(sc.spanned_by), rms_spanned))
+            continue
+        rms = rms_after(raw[0], raw[1], raw[2][i], sc)
+        est = {n: {"value": float(v), "unit": u} for n, v, u in zip(coefficients[i], sc.coefficients, units[i])}
+        out.append(Candidate(name, sc.statistic, sc.df, sc.p_value, 1.0, [], rms, est, log10_p=sc.log10_p))
+        perps[name] = sc.basis
+    return out, perps
 
 
 def holm_log10(log10_p) -> np.ndarray:

@@ -43,7 +43,7 @@ from gyrojax.inference import triad as tf
 from gyrojax.inference.adequacy import near_aliases
 from gyrojax.inference.instrument import Rules, Session
 from gyrojax.inference.kept_model import kept_call
-from gyrojax.inference.scoring import ALPHA, residual_variance, rms_after, score, score_beside, score_tests
+from gyrojax.inference.scoring import ALPHA, candidates, residual_variance, score, score_beside, score_tests
 from gyrojax.inference.subspace import WhitenedSystem, basis
 from gyrojax.inference.triad_components import (
     boundary_p,
@@ -324,26 +324,21 @@ def whitened_system(data: dict, regs: list, cols: list):
     p0 = data["jac"].shape[1]
     if data["tau2"].get("walk", 0.0) > 0:  # the walk couples every row: whitened as one (triad_components)
         r_all, j_all = whiten_rows(_groups(data, cols), data["tau2"])
-        bounds = np.cumsum([p0] + [len(r.coefficients) for r in regs])
-        return r_all, j_all[:, :p0], [j_all[:, a:b] for a, b in zip(bounds[:-1], bounds[1:])], [sg for sg, _ in cols]
-    big = np.column_stack([data["jac"]] + [s for s, _ in cols]) if cols else data["jac"]
-    rw, jw = tf.whiten_segments(data["segments"], data["resid"], big, data["q"], data["s_mat"], data["tau2"]["pose"])
-    rw = rw - jw[:, :p0] @ np.zeros(p0)  # the rows are at θ̂ already
-    blocks_r, blocks_j = [rw], [jw]
-    if data["moves"]:
-        mx = []
-        for m, (p, sd) in enumerate(data["move_w"]):
-            mx.append(np.concatenate([p.T @ mv[m] / sd for _, mv in cols], axis=1) if cols else np.zeros((2, 0)))
-        blocks_r.append(data["move_r"])
-        blocks_j.append(np.column_stack([data["move_j"], np.concatenate(mx, axis=0)]))
-    r_all = np.concatenate(blocks_r)
-    j_all = np.concatenate(blocks_j, axis=0)
-    xs, i0 = [], p0
-    for r in regs:
-        k = len(r.coefficients)
-        xs.append(j_all[:, i0 : i0 + k])
-        i0 += k
-    return r_all, j_all[:, :p0], xs, [sg for sg, _ in cols]
+    else:
+        big = np.column_stack([data["jac"]] + [s for s, _ in cols]) if cols else data["jac"]
+        rw, jw = tf.whiten_segments(
+            data["segments"], data["resid"], big, data["q"], data["s_mat"], data["tau2"]["pose"]
+        )
+        blocks_r, blocks_j = [rw], [jw]
+        if data["moves"]:
+            mx = []
+            for m, (p, sd) in enumerate(data["move_w"]):
+                mx.append(np.concatenate([p.T @ mv[m] / sd for _, mv in cols], axis=1) if cols else np.zeros((2, 0)))
+            blocks_r.append(data["move_r"])
+            blocks_j.append(np.column_stack([data["move_j"], np.concatenate(mx, axis=0)]))
+        r_all, j_all = np.concatenate(blocks_r), np.concatenate(blocks_j, axis=0)
+    bounds = np.cumsum([p0] + [len(r.coefficients) for r in regs])
+    return r_all, j_all[:, :p0], [j_all[:, a:b] for a, b in zip(bounds[:-1], bounds[1:])], [sg for sg, _ in cols]
 
 
 def _groups(data: dict, extra: list) -> list:
@@ -503,10 +498,17 @@ class TriadSession(Session):
         return Round(**{**rnd.__dict__, "under_scatter": scatter})
 
     def _round(self, data: dict) -> Round:
+        """The score tests of every regressor (:func:`gyrojax.inference.scoring.candidates`) in the rows ``data``,
+        each coefficient of an estimate named with its regressor's channel (``E_A[x]``), the RMS after adding it
+        that of the segment-mean residuals (one step, deg/h)."""
         r, j0, xs, xr = whitened_system(data, self.regressors, self.columns)
-        raw = (data["resid"], data["jac"], xr)
-        scored, perps, dof = _score_all(r, j0, xs, self.regressors, list(self.fit.names), raw)
-        return Round(data, scored, self.n_named, perps, r, j0, xs, dof)
+        tests, regs, names = score_tests(r, j0, xs), self.regressors, list(self.fit.names)
+        coefs = [[f"{n}[{g.name.split('[')[1]}" if "[" in g.name else n for n in g.coefficients] for g in regs]
+        raw, aliases = (data["resid"], data["jac"], xr), lambda spanned_by: sorted({names[i] for i in spanned_by})
+        scored, perps = candidates(
+            [g.name for g in regs], tests, coefs, [g.units for g in regs], raw, aliases, math.nan
+        )
+        return Round(data, list(zip(regs, scored)), self.n_named, perps, r, j0, xs, tests.dof)
 
     def selectable(self, rnd: Round) -> list:
         """What competes to be taken into the components' fit: the named candidates and the shapes."""
@@ -618,28 +620,3 @@ class TriadSession(Session):
         the model's columns (the fit's θ is generalised least squares under its own components, not under a walk)."""
         r_perp, _s2, _dof = residual_variance(basis(rnd.j0), rnd.r)
         return float(r_perp @ r_perp), rnd.dof
-
-
-def _score_all(r, j0, xs, regs, model_names, raw=None):
-    """Score statistic and F p-value of every regressor (:func:`gyrojax.inference.scoring.score_tests`); with
-    ``raw`` = (segment residual, its Jacobian, each regressor's raw segment rows) the RMS of the segment-mean
-    residuals after adding it (one step, deg/h)."""
-    tests = score_tests(r, j0, xs)
-    out, perps = [], {}
-    for i_reg, (reg, sc) in enumerate(zip(regs, tests.scores)):
-        if sc is None:
-            out.append((reg, None))
-            continue
-        if sc.df == 0:
-            aliases = sorted({model_names[i] for i in sc.spanned_by})
-            out.append((reg, Candidate(reg.name, 0.0, 0, 1.0, 1.0, aliases, math.nan)))
-            continue
-        rms = math.nan if raw is None else rms_after(raw[0], raw[1], raw[2][i_reg], sc)
-        est = {
-            (f"{n}[{reg.name.split('[')[1]}" if "[" in reg.name else n): {"value": float(v), "unit": u}
-            for n, v, u in zip(reg.coefficients, sc.coefficients, reg.units)
-        }
-        cand = Candidate(reg.name, sc.statistic, sc.df, sc.p_value, 1.0, [], rms, est, log10_p=sc.log10_p)
-        out.append((reg, cand))
-        perps[reg.name] = sc.basis
-    return out, perps, tests.dof

@@ -38,10 +38,10 @@ from gyrojax.inference.noisefit import (
     satterthwaite_dof,
     small_sample_factor,
 )
-from gyrojax.inference.scoring import ALPHA, residual_variance, rms_after, score_beside, score_tests
+from gyrojax.inference.scoring import ALPHA, candidates, residual_variance, score_beside, score_tests
 from gyrojax.inference.separation import separating_plans, setup_measurements
 from gyrojax.inference.solver import solve, stack_whitened
-from gyrojax.inference.subspace import WhitenedSystem, basis
+from gyrojax.inference.subspace import WhitenedSystem, basis, perp
 from gyrojax.inference.verdict import Candidate
 from gyrojax.noise import reml
 from gyrojax.noise.readout import white_beside_readout
@@ -315,9 +315,9 @@ def _at_profile_knees(lin, full: Model, p0: int, knees: dict) -> list:
     for name, (_, cols) in knees.items():
         h = np.concatenate([c / s for c, s in zip(cols, scales)], axis=0)
         u0 = basis(np.column_stack([j0, h[:, -1]]))  # beside the model and the input's linear part
-        r0 = rw - u0 @ (u0.T @ rw)
+        r0 = perp(u0, rw)
         h = h[:, :-1]
-        hp = h - u0 @ (u0.T @ h)
+        hp = perp(u0, h)
         nn = (hp * hp).sum(axis=0)
         z2 = np.where(nn > 0, (hp.T @ r0) ** 2 / np.where(nn > 0, nn, 1.0), -1.0)
         j = int(np.argmax(z2))
@@ -393,7 +393,7 @@ def _noise_models(lin, cols, starts=None, readouts=None) -> list:
         blocks.append(np.column_stack([rec.jacobian[:, cols] / s, nu]))
     r_all = np.concatenate([rec.residual / s for rec, s in zip(lin, scales)])
     ub = basis(np.concatenate(blocks, axis=0))
-    res = r_all - ub @ (ub.T @ r_all)
+    res = perp(ub, r_all)
     bounds = np.cumsum([0] + [len(rec.residual) for rec in lin])
 
     def one(i):  # the records' fits are independent: they run side by side (gyrojax.runtime.threads.parallel_map)
@@ -427,23 +427,21 @@ def _score(lin, noises, res, full: Model, cand, knees=None) -> tuple:
     x_all = jw * ~residue
     cols = {c: np.arange(full.size)[sl[c]] for c in cand}
     tests = score_tests(rw, jw[:, :p0], [x_all[:, cols[c]] for c in cand])
-    r_raw = np.concatenate([rec.residual for rec in lin])
     j_raw = np.concatenate([rec.jacobian for rec in lin], axis=0)
-    tested, perps, unexcited = [], {}, []
-    for c, sc in zip(cand, tests.scores):
-        if sc is None:
-            unexcited.append(c)
-            continue
-        if sc.df == 0:
-            names = {fx.effect_of_coefficient(model.coefficient_names[k]) for k in sc.spanned_by}
-            tested.append(Candidate(c, 0.0, 0, 1.0, 1.0, sorted(names, key=model.terms.index), res.residual_rms))
-            continue
-        xr = j_raw[:, cols[c]] * ~residue[cols[c]]
-        rms = rms_after(r_raw, j_raw[:, :p0], xr, sc)
-        eff = fx.get(c)
-        est = {n: {"value": float(v), "unit": u} for n, v, u in zip(eff.coefficients, sc.coefficients, eff.units)}
-        tested.append(Candidate(c, sc.statistic, sc.df, sc.p_value, 1.0, [], rms, est, log10_p=sc.log10_p))
-        perps[c] = sc.basis
+    raw = (
+        np.concatenate([rec.residual for rec in lin]),
+        j_raw[:, :p0],
+        [j_raw[:, cols[c]] * ~residue[cols[c]] for c in cand],
+    )
+    effs = [fx.get(c) for c in cand]
+
+    def aliases(spanned_by):  # the model's effects whose columns span the candidate
+        return sorted({fx.effect_of_coefficient(model.coefficient_names[k]) for k in spanned_by}, key=model.terms.index)
+
+    coefs, units = [e.coefficients for e in effs], [e.units for e in effs]
+    scored, perps = candidates(cand, tests, coefs, units, raw, aliases, res.residual_rms)
+    tested = [c for c in scored if c is not None]
+    unexcited = [c for c, s in zip(cand, scored) if s is None]
     for i, c in enumerate(tested):
         if c.df > 0 and c.name in (knees or {}):
             tested[i], u = _sup_over_knee(c, lin, noises, rw, jw[:, :p0], knees[c.name])
@@ -464,7 +462,7 @@ def _sup_over_knee(c: Candidate, lin, noises, rw, j0w, knee_grid) -> tuple:
     if out is None:
         return c, None
     stat, j, lp, _ = out
-    hp = hw[:, j] - u0 @ (u0.T @ hw[:, j])
+    hp = perp(u0, hw[:, j])
     eff = fx.get(c.name)
     slope = float(hp @ r_perp) / float(hp @ hp)
     est = {eff.coefficients[0]: {"value": slope, "unit": eff.units[0]}}

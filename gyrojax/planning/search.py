@@ -16,16 +16,17 @@ CONVERGED_WINDOW = 10
 CONVERGED_RTOL = 1e-6
 
 
-def adam_scan(value_and_grad, p0, steps: int, learning_rate, *args, keep_best: bool = False):
+def adam_scan(value_and_grad, p0, steps: int, learning_rate, *args, keep_best: bool = False, schedule=None):
     """``steps`` Adam iterations from ``p0`` on ``value_and_grad(p, *args) -> (loss, grad)``; returns (p, the loss
-    at each iteration). With ``keep_best``, p is the iterate of least loss (Adam's loss need not fall at every
-    step) and a third value is that loss, with no evaluation beyond the iterations'. Pure (jit and vmap it over
-    starts); the loss is dimensionless, as the criteria's are."""
+    at each iteration). With ``schedule`` (an array of ``steps`` values: an annealed temperature), iteration i
+    calls ``value_and_grad(p, schedule[i], *args)``. With ``keep_best``, p is the iterate of least loss (Adam's loss
+    need not fall at every step) and a third value is that loss, with no evaluation beyond the iterations'. Pure
+    (jit and vmap it over starts); the loss is dimensionless, as the criteria's are."""
     opt = optax.adam(learning_rate)
 
-    def step(carry, _):
+    def step(carry, x):
         p, state, best = carry
-        val, g = value_and_grad(p, *args)
+        val, g = value_and_grad(p, *args) if schedule is None else value_and_grad(p, x, *args)
         upd, state = opt.update(g, state, p)
         if keep_best:
             better = val < best[1]  # a NaN loss is never the best
@@ -36,7 +37,7 @@ def adam_scan(value_and_grad, p0, steps: int, learning_rate, *args, keep_best: b
         return (optax.apply_updates(p, upd), state, best), val
 
     best0 = (p0, jnp.asarray(jnp.inf)) if keep_best else None
-    (p, _, best), history = jax.lax.scan(step, (p0, opt.init(p0), best0), None, length=steps)
+    (p, _, best), history = jax.lax.scan(step, (p0, opt.init(p0), best0), schedule, length=steps)
     return (best[0], history, best[1]) if keep_best else (p, history)
 
 
