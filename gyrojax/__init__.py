@@ -103,6 +103,7 @@ _FLAT = {
     # the campaign loop
     "Goal": "gyrojax.adaptive.goal:Goal",
     "Lab": "gyrojax.adaptive.lab:Lab",
+    "HandLab": "gyrojax.adaptive.hand:HandLab",
     "next_test": "gyrojax.adaptive.step:next_test",
     "run_campaign": "gyrojax.adaptive.simulated:run_campaign",
     # Monte Carlo
