@@ -106,6 +106,7 @@ _FLAT = {
     "HandLab": "gyrojax.adaptive.hand:HandLab",
     "next_test": "gyrojax.adaptive.step:next_test",
     "run_campaign": "gyrojax.adaptive.simulated:run_campaign",
+    "run_hand_campaign": "gyrojax.adaptive.simulated:run_hand_campaign",
     # Monte Carlo
     "Study": "gyrojax.montecarlo.study:Study",
     "load_study": "gyrojax.montecarlo.study:load_study",

@@ -165,3 +165,34 @@ def test_cli_next_writes_the_protocol_file(tmp_path, first, capsys):
     assert main(base + ["--out", str(out), "--force", "--positions", "20"]) == 2  # a turntable option on a hand session
     assert "--positions" in capsys.readouterr().err
     assert out.read_bytes() == good
+
+
+def test_simulated_hand_campaign_reaches_the_goal():
+    """The loop on a simulated hand lab: sessions designed and simulated from the truth, fitted jointly, until the
+    goal is met. The final fit's σ against the Fisher information of every session run, at the simulated noise (an
+    independent sum over the protocols' rests, turns and moves); each session's minutes against its steps and its
+    record's clock; the goal not met one step before."""
+    c0, steps = tpr.random_steps(7, 120.0, seed=2)
+    goal = Goal(targets={"D_F": 4.0, "E_SF": 250.0})
+    lab = HandLab(poses=8, max_minutes=6.0, turn_pairs=(0, 1), budget_minutes=40.0)
+    session = {"rate_hz": RATE, "gyro_noise_dps": GYRO_DPS, "placement_deg": PLACEMENT}
+    res = gj.run_hand_campaign(
+        mems_truth(), (c0, steps), TERMS, goal, lab, seed=1, max_tests=4, session=session, **SEARCH
+    )
+    assert res.status == "goal-met", res.reason
+    assert len(res.steps) >= 2 and len(res.records) == len(res.steps)
+    protocols = [(c0, steps)] + [(s.plan.start_attitude, s.plan.steps) for s in res.steps[1:]]
+    for step, (_, st), rec in zip(res.steps, protocols, res.records):
+        minutes = sum(s.get("rest_s", s.get("duration_s")) for s in st) / 60.0
+        assert step.hours * 60.0 == pytest.approx(minutes, rel=1e-9)
+        assert float(rec.time_s[-1] - rec.time_s[0]) / 60.0 == pytest.approx(minutes, rel=0.02)
+    assert res.table_hours == pytest.approx(sum(s.hours for s in res.steps))
+    f = sum(tpr.steps_fisher(_model(), c, st, NOISE) for c, st in protocols)
+    fisher = tpr.sigma(f, _model())
+    final = res.last.fit.stds
+    ratio = np.array([final[k] / fisher[k] for k in fisher])
+    assert np.all(np.abs(ratio - 1.0) < 0.15), np.round(ratio, 3)  # the fit's noise and components are estimates
+    before = res.steps[-2].state["coefficients"]
+    assert any(before[f"{c}[{ch}]"]["std"] > goal.target(c) for c in ("D_F", "E_SF") for ch in "xyz")
+    j = res.to_json()
+    assert j["goal_met"] and j["steps"][0]["plan"] == "first session" and j["lab"]["kind"] == "hand"

@@ -18,5 +18,6 @@ that meets them in the fewest table hours.
     step        one step: diagnose, add, require, design (``gj.next_test``, ``gyrojax next``)
     classical   the hours Hu's classical sequence needs for the same σ
     bound       the fewest hours any static test on the table needs for a model's σ (a convex-duality bound)
-    simulated   the loop end to end on a simulated laboratory (``gj.run_campaign``, ``gyrojax campaign``)
+    simulated   the loop end to end on a simulated laboratory (``gj.run_campaign``, ``gyrojax campaign``; a hand-held
+                triad's, ``gj.run_hand_campaign``)
 """
