@@ -11,6 +11,9 @@ the step predicts after the designed session?
    that ratio, √(1/(2(n−1))). The prediction is conditional on the first fit's noise estimate (its noisiest
    channel's ARW), so the ratios are expected at or a little below 1.
 
+Measured (80 seeds, 2-core machine): the session 2.72 min; ratios mean 1.009, from 0.846 (D_I[z]) to 1.179 (D_S[x],
+D_F[z]), sampling sd 0.080 each; next_test 99 s with the compile of its search.
+
 Run: PYTHONPATH=. python benchmarks/study_next_session.py [--seeds 100]
 """
 

@@ -21,6 +21,11 @@
    (:func:`_anticipated`): a watched candidate no record has excited is asked at its σ target as if it were in the
    model, beside each member of the alias group; not at its detection level alone, which a present candidate
    outgrows as soon as it is added. Its hours stay those of the test the requirements ask for.
+
+**A hand-held triad** (imu-triad records; the lab a person turning a box, :class:`~gyrojax.adaptive.hand.HandLab`):
+step 1 is the same (a triad candidate ``D_II[z]`` adds the effect ``D_II`` on every channel); the requirements are
+the σ of the model's channel coefficients that have a target; the next test is the shortest hand session whose
+information, added to the records', meets them (:mod:`gyrojax.adaptive.hand`), written as a protocol file.
 """
 
 from __future__ import annotations
@@ -59,7 +64,9 @@ POSTERIOR_DRAWS = 8
 class NextTest:
     """The outcome of one step: ``status`` ``"goal-met"``, ``"test"`` (a test is designed: :attr:`plan`),
     ``"unreachable"`` or ``"blocked"`` (the diagnosis finds what no named effect or test can resolve), with the
-    model, its fit and diagnosis, the requirements and their σ now and after the test (report units)."""
+    model, its fit and diagnosis, the requirements and their σ now and after the test (report units). On imu-triad
+    records the test is a hand session: :attr:`design` its protocol, :attr:`protocol` the protocol file's content,
+    :attr:`hours` its length (h)."""
 
     status: str
     terms: tuple
@@ -371,7 +378,8 @@ def next_test(
       records: the lab's records so far (one instrument).
       terms: the current model (effect names; default the fit's default model of the records' kind).
       goal: the :class:`~gyrojax.adaptive.goal.Goal` (target σ in report units, watched candidates, error budget).
-      lab: the :class:`~gyrojax.adaptive.lab.Lab` (default: the first record's table and mounting, default limits).
+      lab: the :class:`~gyrojax.adaptive.lab.Lab` (default: the first record's table and mounting, default limits);
+        for imu-triad records a :class:`~gyrojax.adaptive.hand.HandLab` (default one).
       looks: diagnoses the campaign has already made (their levels are spent: :func:`look_alpha`).
       hours_spent: table hours the campaign has already used (h), against ``lab.budget_hours``.
       name: the designed plan's name.
