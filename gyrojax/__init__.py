@@ -103,8 +103,10 @@ _FLAT = {
     # the campaign loop
     "Goal": "gyrojax.adaptive.goal:Goal",
     "Lab": "gyrojax.adaptive.lab:Lab",
+    "HandLab": "gyrojax.adaptive.hand:HandLab",
     "next_test": "gyrojax.adaptive.step:next_test",
     "run_campaign": "gyrojax.adaptive.simulated:run_campaign",
+    "run_hand_campaign": "gyrojax.adaptive.simulated:run_hand_campaign",
     # Monte Carlo
     "Study": "gyrojax.montecarlo.study:Study",
     "load_study": "gyrojax.montecarlo.study:load_study",

@@ -10,6 +10,7 @@ that meets them in the fewest table hours.
 
     goal        the goal (target σ per coefficient, the candidates to rule out) and the campaign's error budget
     lab         the laboratory's table: axes, mounting, limits, settle time, hours
+    hand        a hand-held triad's lab (a person turning a box) and its next session, designed after the records
     requirements  what stands between the data and the goal, as σ ratios of sub-models of one Fisher information
     information   Fisher information of the records so far and of a candidate test
     reach       what no orientation of the table can separate, and what table would
@@ -17,5 +18,6 @@ that meets them in the fewest table hours.
     step        one step: diagnose, add, require, design (``gj.next_test``, ``gyrojax next``)
     classical   the hours Hu's classical sequence needs for the same σ
     bound       the fewest hours any static test on the table needs for a model's σ (a convex-duality bound)
-    simulated   the loop end to end on a simulated laboratory (``gj.run_campaign``, ``gyrojax campaign``)
+    simulated   the loop end to end on a simulated laboratory (``gj.run_campaign``, ``gyrojax campaign``; a hand-held
+                triad's, ``gj.run_hand_campaign``)
 """

@@ -34,6 +34,7 @@ import math
 from dataclasses import dataclass, field
 
 from gyrojax import tails
+from gyrojax.data.triad import CHANNELS
 from gyrojax.errors import ModelError
 from gyrojax.physics import effects as fx
 from gyrojax.physics import plausibility
@@ -58,6 +59,12 @@ ALPHA = 0.05
 MARGIN = 0.95
 """Designs aim at σ ≤ MARGIN·target, so that the fitted σ (an estimate, a few % from its prediction) meets the
 target without a top-up test."""
+
+
+def _base(coefficient: str) -> str:
+    """The coefficient name of a triad channel's coefficient (``D_F`` of ``D_F[x]``); any other name unchanged."""
+    head, bracket, rest = coefficient.partition("[")
+    return head if bracket and rest[:-1] in CHANNELS and rest.endswith("]") else coefficient
 
 
 def look_alpha(look: int, alpha: float = ALPHA) -> float:
@@ -109,8 +116,11 @@ class Goal:
             raise ModelError(f"goal: key 'sigma' must be a finite number > 0, got {self.sigma!r}")
         index = fx.coefficient_index()
         for name, value in self.targets.items():
-            if name not in index:
-                raise ModelError(f"goal: key 'targets.{name}' is not a coefficient name (conventions §6)")
+            if _base(name) not in index:
+                raise ModelError(
+                    f"goal: key 'targets.{name}' is not a coefficient name (conventions §6), nor one of an imu-triad "
+                    "channel (D_F[x], E_SF[y], …)"
+                )
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ModelError(f"goal: key 'targets.{name}' must be a finite number > 0, got {value!r}")
         if self.sigma is None and not self.targets:
@@ -130,8 +140,11 @@ class Goal:
                 raise ModelError(f"goal: key 'detect{'.' + name if name else ''}' must be a number > 0, got {value!r}")
 
     def target(self, coefficient: str) -> float | None:
-        """Target σ of ``coefficient`` (report unit), None when the goal sets none."""
-        return self.targets.get(coefficient, self.sigma)
+        """Target σ of ``coefficient`` (report unit), None when the goal sets none. A triad channel's coefficient
+        (``D_F[x]``) takes its own target, else that of its name on every channel (``D_F``), else ``sigma``."""
+        if coefficient in self.targets:
+            return self.targets[coefficient]
+        return self.targets.get(_base(coefficient), self.sigma)
 
     def watched(self, kind: str) -> tuple:
         """The watched candidate effects for instruments of ``kind``."""

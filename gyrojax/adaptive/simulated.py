@@ -4,7 +4,8 @@ The lab's first test is simulated from the truth; then, step after step, :func:`
 diagnoses every record so far, adds what the data ask for and designs the next test on the lab's table, which is
 simulated from the same truth on the campaign's clock (test k draws its noise from ``fold_in(key(seed), k)``) and
 fitted jointly with everything before, until the goal is met, refused as unreachable, blocked, or ``max_tests`` tests
-have run. Its table hours are compared with Hu's classical sequence scaled to reach the same σ on the same truth
+have run. A hand-held triad's campaign (:func:`run_hand_campaign`) runs the same loop on sessions a person makes.
+Its table hours are compared with Hu's classical sequence scaled to reach the same σ on the same truth
 (:mod:`gyrojax.adaptive.classical`), and with the fewest table hours any campaign from the same first test needs
 to meet the requirements of the loop's last look (:mod:`gyrojax.adaptive.bound`).
 """
@@ -15,16 +16,19 @@ import math
 from dataclasses import dataclass, field
 
 import jax
+import numpy as np
 
 from gyrojax.adaptive import requirements as rq
 from gyrojax.adaptive.bound import table_hours_bound
 from gyrojax.adaptive.classical import ClassicalResult, classical_hours
 from gyrojax.adaptive.goal import Goal
+from gyrojax.adaptive.hand import HandLab
 from gyrojax.adaptive.lab import Lab
 from gyrojax.adaptive.step import NextTest, next_test
 from gyrojax.data.truth import Truth, truth_from_dict
 from gyrojax.errors import ModelError
 from gyrojax.simulation.simulator import simulate
+from gyrojax.simulation.triad_session import simulate_session
 
 MAX_TESTS = 8
 """Designed tests a simulated campaign runs at most."""
@@ -41,11 +45,12 @@ class CampaignStep:
     state: dict = field(default_factory=dict)  # terms, σ, residual RMS and verdict after this test's records
     file: str | None = None
     predicted: list = field(default_factory=list)  # σ the design predicted after it: coefficient, sub-model, σ
+    name: str | None = None  # the test's name where its plan has none (a hand session)
 
     def to_json(self) -> dict:
         """JSON: plan name (or file), hours, cumulative hours, reason and the state after it."""
         return {
-            "plan": self.file or self.plan.name,
+            "plan": self.file or self.name or self.plan.name,
             "hours": self.hours,
             "cumulative_hours": self.cumulative_hours,
             "reason": self.reason,
@@ -181,7 +186,38 @@ def run_campaign(
     records = simulate(first, truth, key=jax.random.fold_in(key, 0))
     lab = lab or Lab.from_records(records, **(lab_options or {}))
     hours = float(first.duration_s) / 3600.0
-    steps = [CampaignStep(first, hours, "the lab's first test", hours)]
+    first_step = CampaignStep(first, hours, "the lab's first test", hours)
+
+    def run(nt, k, records):
+        clock = max(float(r.time_s[-1]) for r in records) + lab.settle_s
+        return simulate(nt.plan, truth, key=jax.random.fold_in(key, k), start_s=clock), nt.plan
+
+    status, reason, steps, nt, records = _loop(
+        records, first_step, terms, goal, lab, run, seed, max_tests, on_step, search
+    )
+    result = CampaignResult(status, reason, steps, nt, records, goal, lab, first_hours=hours)
+    if classical:
+        try:
+            result.classical = classical_hours(truth, nt.terms, goal, nt.kind, seed, lab.latitude_deg)
+        except ModelError as e:
+            result.classical = ClassicalResult(None, None, {}, reason=str(e))
+        if result.classical.hours and truth.noise.white > 0:
+            result.bound = table_hours_bound(
+                simulate(first, {"coefficients": {}}),
+                nt.requirements,
+                rq.universe(nt.terms, goal, nt.kind, nt.alias),
+                lab,
+                truth.noise.white,
+            )
+    return result
+
+
+def _loop(records, first_step, terms, goal, lab, run, seed: int, max_tests: int, on_step, search: dict):
+    """The campaign's loop body, on any lab: :func:`~gyrojax.adaptive.step.next_test` on every record so far, then
+    ``run(nt, k, records)`` — the k-th designed test simulated, (its records, what :class:`CampaignStep` keeps) —
+    until the goal is met, refused, blocked, or ``max_tests`` tests have run. Returns (status, reason, steps, the last
+    :class:`NextTest`, records)."""
+    steps = [first_step]
     looks, current = 0, tuple(terms)
     for k in range(1, max_tests + 2):
         nt = next_test(
@@ -200,32 +236,71 @@ def run_campaign(
         steps[-1].state = state_of(nt)
         looks, current = nt.looks, nt.terms
         if nt.status != "test":
-            status, reason = nt.status, nt.reason
-            break
+            return nt.status, nt.reason, steps, nt, records
         if k > max_tests:
-            status, reason = "unreachable", f"the goal is not met after {max_tests} designed tests: " + nt.reason
-            break
-        clock = max(float(r.time_s[-1]) for r in records) + lab.settle_s
-        records = records + simulate(nt.plan, truth, key=jax.random.fold_in(key, k), start_s=clock)
+            reason = f"the goal is not met after {max_tests} designed tests: " + nt.reason
+            return "unreachable", reason, steps, nt, records
+        new, plan = run(nt, k, records)
+        records = records + new
         total = sum(s.hours for s in steps) + nt.hours
         predicted = [
             {"coefficient": r.coefficient, "sub_model": list(r.effects), "sigma": float(x)}
             for r, x in zip(nt.requirements, nt.sigma_after)
             if r.kind != "separate" and math.isfinite(x)
         ]
-        steps.append(CampaignStep(nt.plan, nt.hours, nt.reason, total, predicted=predicted))
-    result = CampaignResult(status, reason, steps, nt, records, goal, lab, first_hours=hours)
-    if classical:
-        try:
-            result.classical = classical_hours(truth, nt.terms, goal, nt.kind, seed, lab.latitude_deg)
-        except ModelError as e:
-            result.classical = ClassicalResult(None, None, {}, reason=str(e))
-        if result.classical.hours and truth.noise.white > 0:
-            result.bound = table_hours_bound(
-                simulate(first, {"coefficients": {}}),
-                nt.requirements,
-                rq.universe(nt.terms, goal, nt.kind, nt.alias),
-                lab,
-                truth.noise.white,
-            )
-    return result
+        steps.append(CampaignStep(plan, nt.hours, nt.reason, total, predicted=predicted))
+
+
+def run_hand_campaign(
+    truth: dict,
+    first,
+    terms,
+    goal: Goal,
+    lab: HandLab | None = None,
+    *,
+    seed: int = 0,
+    max_tests: int = MAX_TESTS,
+    session: dict | None = None,
+    on_step=None,
+    **search,
+) -> CampaignResult:
+    """The campaign loop on a hand-held triad simulated from ``truth`` (module doc; the lab a person turning a box,
+    :mod:`gyrojax.adaptive.hand`): the first session and every designed one simulated by
+    :func:`gyrojax.simulation.triad_session.simulate_session` (session k from the seed sequence (``seed``, k)) and
+    fitted jointly with every session before.
+
+    Args:
+      truth: per-channel coefficients (``{"D_F[x]": deg/h, "E_SF[y]": ppm, "M_O[z]": arcsec, …}``).
+      first: the first session, (start attitude body → ENU 3×3, steps) as
+        :func:`~gyrojax.planning.triad_protocol.ferraris_steps` gives it.
+      terms: the model before any session (effect names).
+      goal: the :class:`~gyrojax.adaptive.goal.Goal` (targets per channel coefficient).
+      lab: the :class:`~gyrojax.adaptive.hand.HandLab` (default one).
+      session: options of ``simulate_session`` for every session (``rate_hz``, ``gyro_noise_dps`` deg/s per sample,
+        ``acc_noise_g``, ``placement_deg``, ``latitude_deg`` …); its ``terms`` are the truth's.
+      search: ``starts``, ``steps``, ``lbfgs_steps`` of the session search.
+
+    Returns: a :class:`CampaignResult` (``table_hours``: the sessions' hours; no classical sequence beside it).
+    """
+    lab = lab or HandLab()
+    session = dict(session or {})
+    start, plan = first
+
+    def simulate_one(start, plan, k):
+        sub = int(np.random.SeedSequence([seed, k]).generate_state(1)[0])
+        return simulate_session(plan, truth, start_attitude=start, seed=sub, **session)
+
+    records = [simulate_one(start, plan, 0)]
+    hours = sum(float(s.get("rest_s", s.get("duration_s", 0.0))) for s in plan) / 3600.0
+    first_step = CampaignStep(None, hours, "the lab's first session", hours, name="first session")
+
+    def run(nt, k, records):
+        proto = nt.design
+        return [simulate_one(proto.start_attitude, proto.steps, k)], proto
+
+    status, reason, steps, nt, records = _loop(
+        records, first_step, terms, goal, lab, run, seed, max_tests, on_step, search
+    )
+    for k, step in enumerate(steps[1:], start=2):
+        step.name = f"session-{k}"
+    return CampaignResult(status, reason, steps, nt, records, goal, lab, first_hours=hours)

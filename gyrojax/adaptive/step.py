@@ -21,6 +21,11 @@
    (:func:`_anticipated`): a watched candidate no record has excited is asked at its σ target as if it were in the
    model, beside each member of the alias group; not at its detection level alone, which a present candidate
    outgrows as soon as it is added. Its hours stay those of the test the requirements ask for.
+
+**A hand-held triad** (imu-triad records; the lab a person turning a box, :class:`~gyrojax.adaptive.hand.HandLab`):
+step 1 is the same (a triad candidate ``D_II[z]`` adds the effect ``D_II`` on every channel); the requirements are
+the σ of the model's channel coefficients that have a target; the next test is the shortest hand session whose
+information, added to the records', meets them (:mod:`gyrojax.adaptive.hand`), written as a protocol file.
 """
 
 from __future__ import annotations
@@ -33,6 +38,7 @@ import numpy as np
 from gyrojax.adaptive import requirements as rq
 from gyrojax.adaptive.design import MAX_HOURS, STARTS, STEPS, design_test
 from gyrojax.adaptive.goal import Goal, detect_level, detection_power, look_alpha, noncentrality_for_power
+from gyrojax.adaptive.hand import HandLab, design_session, prior_information, session_comparison, session_noise
 from gyrojax.adaptive.information import (
     RESOLVED_CORRELATION_TIMES,
     record_information,
@@ -41,11 +47,14 @@ from gyrojax.adaptive.information import (
 )
 from gyrojax.adaptive.lab import Lab
 from gyrojax.adaptive.reach import out_of_reach
+from gyrojax.data.triad import TRIAD_KIND as TRIAD
 from gyrojax.errors import ModelError
 from gyrojax.inference.diagnose import diagnose, fit_with
 from gyrojax.inference.identify import DEFAULT_TERMS, fit
+from gyrojax.inference.triad import default_terms
 from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model
+from gyrojax.planning import triad_protocol as tpr
 
 POSTERIOR_DRAWS = 8
 """Posterior draws of θ over which a nonlinear universe's information is averaged."""
@@ -55,7 +64,9 @@ POSTERIOR_DRAWS = 8
 class NextTest:
     """The outcome of one step: ``status`` ``"goal-met"``, ``"test"`` (a test is designed: :attr:`plan`),
     ``"unreachable"`` or ``"blocked"`` (the diagnosis finds what no named effect or test can resolve), with the
-    model, its fit and diagnosis, the requirements and their σ now and after the test (report units)."""
+    model, its fit and diagnosis, the requirements and their σ now and after the test (report units). On imu-triad
+    records the test is a hand session: :attr:`design` its protocol, :attr:`protocol` the protocol file's content,
+    :attr:`hours` its length (h)."""
 
     status: str
     terms: tuple
@@ -77,6 +88,7 @@ class NextTest:
     sigma_after: np.ndarray | None = None
     kappa: float = 1.0
     notes: list = field(default_factory=list)
+    protocol: dict | None = None
 
     @property
     def alpha_detect(self) -> float:
@@ -148,6 +160,14 @@ class NextTest:
                 ],
                 "hours_needed_for_goal": self.design.hours_needed,
             }
+        if self.protocol is not None:
+            out["protocol"] = {
+                "minutes": self.hours * 60.0,
+                "poses": len(self.protocol["table"]),
+                "turn_pairs": self.protocol["search"]["turn_pairs"],
+                "table": self.protocol["table"],
+                "comparison": self.protocol["comparison"],
+            }
         return out
 
 
@@ -169,13 +189,7 @@ def _check_records(records) -> str:
     kinds = {r.kind for r in records}
     if len(kinds) != 1:
         raise ModelError(f"next test: the records mix instrument kinds {sorted(kinds)}")
-    kind = kinds.pop()
-    if kind == "imu-triad":
-        raise ModelError(
-            "next test: imu-triad records (a hand-held triad) are not supported yet; the loop designs turntable tests "
-            "(sdf-gyro, tdf-gyro, pendulous-accel, fog, rlg)"
-        )
-    return kind
+    return kinds.pop()
 
 
 def _update_model(records, terms, goal: Goal, looks: int, kind: str):
@@ -194,7 +208,7 @@ def _update_model(records, terms, goal: Goal, looks: int, kind: str):
         looks = look
         if d.proposal is None:
             return terms, res, d, added, (), looks, ""
-        c = next(x for x in d.candidates if x.name == d.proposal)
+        c = _proposed(d)
         plausible = {x.name for x in d.candidates if x.implausible is None and x.refused is None}
         rivals, preferred = _rivals(records, terms, c, d, a, goal, kind, plausible)
         if preferred:  # the records single out the watched rivals: the strongest of them is the proposal
@@ -204,22 +218,34 @@ def _update_model(records, terms, goal: Goal, looks: int, kind: str):
         if group:
             return terms, res, d, added, (c.name,) + group, looks, ""
         try:
-            new = fit_with(d, records, c.name)
+            new = fit_with(d, records, _effect(c))
         except ModelError:
             if not preferred:
                 raise
             # a preferred rival the fit refuses: the records hold a group to separate
             return terms, res, d, added, (d.proposal,) + rivals, looks, ""
-        res, terms = new, terms + (c.name,)
+        res, terms = new, terms + (_effect(c),)
         added.append(
             {
-                "effect": c.name,
+                "effect": _effect(c),
+                **({"candidate": c.name} if c.name != _effect(c) else {}),
                 "look": look,
                 "alpha": a,
                 "p_adjusted": c.p_adjusted,
                 "estimate": c.estimate,
             }
         )
+
+
+def _proposed(d):
+    """The candidate of the diagnosis' proposal: the candidate of that name, or on a triad the strongest of the
+    effect's channels (``D_II[z]`` for the proposal ``D_II``: the candidates are ranked)."""
+    return next(x for x in d.candidates if x.name == d.proposal or _effect(x) == d.proposal)
+
+
+def _effect(c) -> str:
+    """The effect a candidate adds (on a triad, on every channel: ``D_II`` of ``D_II[z]``)."""
+    return c.name.split("[")[0]
 
 
 def _named_aliases(c, plausible, terms, kind: str) -> tuple:
@@ -344,6 +370,7 @@ def next_test(
     seed: int = 0,
     starts: int = STARTS,
     steps: int = STEPS,
+    lbfgs_steps: int | None = None,
 ) -> NextTest:
     """One step of the campaign (module doc).
 
@@ -351,12 +378,15 @@ def next_test(
       records: the lab's records so far (one instrument).
       terms: the current model (effect names; default the fit's default model of the records' kind).
       goal: the :class:`~gyrojax.adaptive.goal.Goal` (target σ in report units, watched candidates, error budget).
-      lab: the :class:`~gyrojax.adaptive.lab.Lab` (default: the first record's table and mounting, default limits).
+      lab: the :class:`~gyrojax.adaptive.lab.Lab` (default: the first record's table and mounting, default limits);
+        for imu-triad records a :class:`~gyrojax.adaptive.hand.HandLab` (default one).
       looks: diagnoses the campaign has already made (their levels are spent: :func:`look_alpha`).
       hours_spent: table hours the campaign has already used (h), against ``lab.budget_hours``.
       name: the designed plan's name.
       start_s: the test's start on the campaign clock (s; default: after the last record, one settle time later).
       seed, starts, steps: the design search's random starts (per mounting), their seed and Adam iterations.
+      lbfgs_steps: imu-triad records: the L-BFGS refinement of the session's search at most (default that of
+        :func:`gyrojax.planning.triad_protocol.design_protocol`; 0: none, a quicker compile).
 
     Returns: a :class:`NextTest`.
     """
@@ -364,6 +394,11 @@ def next_test(
     kind = _check_records(records)
     if goal is None:
         raise ModelError("next test: give a goal (target σ)")
+    if kind == TRIAD:
+        search = {"seed": seed, "starts": starts, "steps": steps, "lbfgs_steps": lbfgs_steps}
+        return _next_session(records, terms, goal, lab, looks, hours_spent, search)
+    if isinstance(lab, HandLab):
+        raise ModelError(f"next test: a hand lab (a person turning a box) designs imu-triad sessions, not {kind} tests")
     lab = lab or Lab.from_records(records)
     if lab.kind != kind:
         raise ModelError(f"next test: the lab's instrument is a {lab.kind}, the records' a {kind}")
@@ -424,16 +459,11 @@ def next_test(
     )
     unmet = [i for i, (r, x) in enumerate(zip(reqs, sigma_now)) if not x <= r.target]
     clean = d is not None and d.verdict == "adequate" and not alias
-    if clean and not unmet:
-        out.status = "goal-met"
-        out.reason = (
-            f"goal met: the diagnosis at α = {d.alpha:.2g} finds nothing missing, every coefficient of the model is "
-            "known to its target σ, and no watched candidate could hide at a size that matters"
-        )
-        return out
-    if not unmet:
-        out.status = "blocked"
-        out.reason = "the diagnosis finds what no named effect or further test of the goal resolves: " + _findings(d)
+    met = (
+        ", every coefficient of the model is known to its target σ, and no watched candidate could hide at a size "
+        "that matters"
+    )
+    if _settled(out, unmet, clean, met, "test"):
         return out
     missing = out_of_reach(uni, [reqs[i] for i in unmet], f_rec, lab)
     if missing:
@@ -490,6 +520,144 @@ def next_test(
     out.sigma_after = _predicted(uni, reqs, f_rec, lab, noise, plan, res, start)
     out.reason = _why(out, unmet)
     return out
+
+
+def _next_session(records, terms, goal: Goal, lab, looks: int, hours_spent: float, search: dict) -> NextTest:
+    """One step on imu-triad records (module doc; the lab is a person turning a box, :mod:`gyrojax.adaptive.hand`):
+    diagnose and add as on a table; the requirements are the σ of the model's channel coefficients with a target;
+    the next test is the shortest hand session whose information, added to the records', meets them all."""
+    lab = HandLab() if lab is None else lab
+    if not isinstance(lab, HandLab):
+        raise ModelError("next test: imu-triad records are a hand session: give a HandLab, not a turntable's Lab")
+    terms = tuple(terms) if terms else tuple(default_terms(records))
+    terms, res, d, added, alias, looks, note = _update_model(records, terms, goal, looks, TRIAD)
+    if res is None:
+        raise ModelError(f"next test: {note}; design a first session (gyrojax design --instrument imu-triad)")
+    if not res.converged:
+        raise ModelError(f"next test: the triad fit did not converge ({res.convergence_note})")
+    units = res.units()
+    reqs = [
+        rq.Requirement("sigma", c, terms, goal.target(c), units[c]) for c in res.names if goal.target(c) is not None
+    ]
+    if not reqs:
+        raise ModelError(f"next test: the goal sets no target for a coefficient of the model ({', '.join(terms)})")
+    sigma_now = np.array([res.stds[r.coefficient] for r in reqs])
+    notes = [note] if note else []
+    if goal.watch:
+        notes.append(
+            "the watched candidates of a triad are every candidate the diagnosis tests at each look; the hand design "
+            "does not aim at detecting them"
+        )
+    out = NextTest(
+        "test",
+        terms,
+        TRIAD,
+        res,
+        d,
+        added,
+        alias,
+        reqs,
+        sigma_now,
+        look_alpha(looks + 1, goal.alpha),
+        looks,
+        goal,
+        _family(d, goal, TRIAD, terms),
+        notes=notes,
+    )
+    unmet = [i for i, (r, x) in enumerate(zip(reqs, sigma_now)) if not x <= r.target]
+    met = " and every channel coefficient with a target is known to it"
+    if _settled(out, unmet, d.verdict == "adequate" and not alias, met, "session"):
+        return out
+    try:
+        model = tpr.triad_model(terms)
+    except ModelError as e:
+        out.status = "unreachable"
+        out.reason = f"no hand session is designed for this model ({e}); unmet: " + _unmet_text(out, unmet)
+        return out
+    noise, more = session_noise(res, records, lab)
+    out.notes += more
+    prior = prior_information(res, model)
+    names = list(res.names)
+    targets = np.full(len(names), np.nan)
+    for r in reqs:
+        targets[names.index(r.coefficient)] = r.target
+    hd = design_session(model, targets, prior, noise, lab, goal.margin, **search)
+    out.notes += hd.notes
+    out.sigma_after = np.array([hd.sigma_after[names.index(r.coefficient)] for r in reqs])
+    left = math.inf if lab.budget_minutes is None else lab.budget_minutes - 60.0 * hours_spent
+    if hd.protocol is None and lab.budget_minutes is not None and hd.minutes_needed <= left:
+        # the budget holds more sessions: this one takes the longest a session may, the fit after it says the rest
+        hd.protocol, hd.minutes = hd.longest, lab.max_minutes
+        out.notes.append(
+            f"the goal needs about {hd.minutes_needed:.3g} min of hand session beyond the records: this session takes "
+            f"the longest a session may ({lab.max_minutes:g} min), and the campaign's {left:.3g} min left hold more"
+        )
+    if hd.protocol is None:
+        out.status = "unreachable"
+        sessions = math.ceil(hd.minutes_needed / lab.max_minutes)
+        factor = hd.ratio_at_longest / goal.margin
+        out.reason = (
+            f"the goal needs about {hd.minutes_needed:.3g} min of hand session beyond the records (by the best "
+            f"session the search finds at the lab's longest, {lab.max_minutes:g} min, the worst σ reaches "
+            f"{hd.ratio_at_longest:.3g} × its target): {sessions} sessions of {lab.max_minutes:g} min, one of "
+            f"{hd.minutes_needed:.3g} min, targets {factor:.3g} times larger or a gyro about {factor:.3g} times "
+            "quieter (ARW) would reach it"
+            + ("" if math.isinf(left) else f" (the campaign's budget leaves {max(left, 0.0):.3g} min)")
+            + ". Unmet: "
+            + _unmet_text(out, unmet)
+        )
+        return out
+    out.design, out.hours = hd.protocol, hd.minutes / 60.0
+    out.protocol = tpr.protocol_payload(hd.protocol, session_comparison(hd.protocol, prior, model, targets))
+    out.protocol["next"] = {
+        "prior": "the inverse of the fit's covariance of the records so far",
+        "minutes": hd.minutes,
+        "sigma_after": {r.coefficient: float(x) for r, x in zip(reqs, out.sigma_after)},
+        "targets": {r.coefficient: r.target for r in reqs},
+    }
+    out.reason = _why_session(out, unmet)
+    return out
+
+
+def _settled(out: NextTest, unmet, clean: bool, met: str, test: str) -> bool:
+    """Whether the step ends without a test, its status and reason set: the goal met (a ``clean`` diagnosis and
+    nothing ``unmet``; ``met`` ends the reason), or blocked (nothing unmet, but the diagnosis finds what no further
+    ``test`` resolves)."""
+    if unmet:
+        return False
+    d = out.diagnosis
+    if clean:
+        out.status = "goal-met"
+        out.reason = f"goal met: the diagnosis at α = {d.alpha:.2g} finds nothing missing{met}"
+    else:
+        out.status = "blocked"
+        out.reason = f"the diagnosis finds what no named effect or further {test} of the goal resolves: " + _findings(d)
+    return True
+
+
+def _why_session(out: NextTest, unmet) -> str:
+    """Why this session: the unmet requirements, worst first, and where the session takes them."""
+    order = sorted(unmet, key=lambda i: -_ratio(out.sigma_now[i], out.requirements[i].target))
+    parts = [
+        f"{rq.describe(out.requirements[i], out.sigma_now[i], out.alpha_detect, out.goal)} → "
+        f"{out.sigma_after[i]:.3g} after it"
+        for i in order[:6]
+    ]
+    more = f" (and {len(order) - 6} more)" if len(order) > 6 else ""
+    proto = out.design
+    rests = sum(s["type"] == "rest" for s in proto.steps)
+    turns = f", {proto.turn_pairs} pair(s) of known-angle turns about each body axis" if proto.turn_pairs else ""
+    met = all(out.sigma_after[i] <= out.requirements[i].target for i in unmet)
+    what = (
+        "the shortest hand session found whose information, added to the records', meets every target"
+        if met
+        else "the longest session a person runs, designed to bring the worst σ nearest its target (more follow)"
+    )
+    return (
+        f"to bring the model's σ to target: {what}: {rests} rests in {out.hours * 60.0:.3g} min{turns}; "
+        + "; ".join(parts)
+        + more
+    )
 
 
 def _anticipated(reqs, sigma_now, goal: Goal, terms=(), alias=()) -> list | None:

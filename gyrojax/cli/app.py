@@ -59,6 +59,13 @@ def _add_campaign_arguments(parser) -> None:
     add_lab_arguments(parser)
 
 
+def _add_hand_arguments(parser) -> None:
+    """The hand lab's options of ``next`` on imu-triad records (:func:`gyrojax.cli.campaign.add_hand_arguments`)."""
+    from gyrojax.cli.campaign import add_hand_arguments
+
+    add_hand_arguments(parser)
+
+
 def _command(name: str):
     """A lazy handler: imports :mod:`gyrojax.cli.commands` only when the sub-command runs."""
 
@@ -184,6 +191,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--force", action="store_true", help="overwrite an existing plan file")
     s.add_argument("--json", action="store_true")
     _add_campaign_arguments(s)
+    _add_hand_arguments(s)
     s.set_defaults(func=_campaign_command("next"))
 
     s = sub.add_parser("campaign", help="the test campaign loop on a laboratory simulated from a truth file")

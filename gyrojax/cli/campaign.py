@@ -37,6 +37,66 @@ def add_lab_arguments(s) -> None:
     s.add_argument("--steps", type=int, default=300, help="Adam iterations of the design search")
 
 
+def add_hand_arguments(s) -> None:
+    """The hand lab's options (``next`` on imu-triad records: a person turning a box)."""
+    g = s.add_argument_group("imu-triad records: the next hand session")
+    g.add_argument("--poses", type=int, help="rests of the designed session (default 12)")
+    g.add_argument("--minutes", type=float, help="the longest session a person runs, min (default 30)")
+    g.add_argument("--placement-deg", type=float, help="σ of the hand's placement about each axis, deg (default 1)")
+    g.add_argument("--acc-noise", type=float, help="accelerometer white noise, g per sample (default: the records')")
+    g.add_argument("--turn-pairs", help="known-angle turn structures searched, e.g. 0,1,2 (default 0,1,2)")
+    g.add_argument("--lbfgs-steps", type=int, help="L-BFGS refinement of the session search at most (default 400)")
+
+
+HAND_FLAGS = ("poses", "minutes", "placement_deg", "acc_noise", "turn_pairs", "lbfgs_steps")
+"""The hand lab's options (``args`` names): refused on turntable records."""
+TABLE_DEFAULTS = {
+    "table": "records",
+    "hours": 8.0,
+    "budget": 100.0,
+    "positions": 12,
+    "settle": 30.0,
+    "rate_limit": 10.0,
+    "angle_limit": None,
+    "no_turn": False,
+    "mountings": 3,
+    "remount": 900.0,
+    "dt": None,
+    "hours_spent": 0.0,
+}
+"""The table's options with their defaults: given otherwise with imu-triad records, they are refused."""
+
+
+def hand_lab_from_args(args):
+    """The :class:`~gyrojax.adaptive.hand.HandLab` of the options; a table option given is refused."""
+    from gyrojax.adaptive.hand import HandLab
+    from gyrojax.errors import ModelError
+
+    for key, default in TABLE_DEFAULTS.items():
+        if getattr(args, key, default) != default:
+            raise UsageError(f"--{key.replace('_', '-')} is an option of a turntable test, not of a hand session")
+    over = {}
+    for key, name in (("poses", "poses"), ("minutes", "max_minutes"), ("placement_deg", "placement_deg")):
+        if getattr(args, key) is not None:
+            over[name] = getattr(args, key)
+    if args.acc_noise is not None:
+        over["acc_noise_g"] = args.acc_noise
+    if args.turn_pairs is not None:
+        try:
+            over["turn_pairs"] = tuple(int(k) for k in parse_terms(args.turn_pairs))
+        except ValueError:
+            raise UsageError(f"--turn-pairs {args.turn_pairs!r}: expected integers, e.g. 0,1,2") from None
+    if args.lbfgs_steps is not None and args.lbfgs_steps < 0:
+        raise UsageError(f"--lbfgs-steps must be >= 0, got {args.lbfgs_steps}")
+    try:
+        return HandLab(**over)
+    except ModelError as e:
+        key = str(e).split("'")[1] if "'" in str(e) else ""
+        flag = {"poses": "--poses", "max_minutes": "--minutes", "placement_deg": "--placement-deg"}.get(key)
+        flag = flag or {"acc_noise_g": "--acc-noise", "turn_pairs": "--turn-pairs"}.get(key, "hand lab")
+        raise UsageError(f"{flag}: {e}") from None
+
+
 LAB_FLAGS = {
     "hours_per_test": "--hours",
     "budget_hours": "--budget",
@@ -137,7 +197,14 @@ def cmd_next(args) -> int:
     if out.exists() and not args.force:
         raise UsageError(f"{out}: exists; pass --force to overwrite")
     records = load_records(args.records)
-    lab = lab_from_args(args, records)
+    hand = bool(records) and records[0].kind == "imu-triad"
+    if hand:
+        lab, search = hand_lab_from_args(args), {"lbfgs_steps": args.lbfgs_steps}
+    else:
+        given = [f"--{k.replace('_', '-')}" for k in HAND_FLAGS if getattr(args, k) is not None]
+        if given:
+            raise UsageError(f"{given[0]} is an option of a hand session (imu-triad records), not of a turntable test")
+        lab, search = lab_from_args(args, records), {}
     nt = next_test(
         records,
         parse_terms(args.terms) or None,
@@ -149,6 +216,7 @@ def cmd_next(args) -> int:
         seed=args.seed,
         starts=args.starts,
         steps=args.steps,
+        **search,
     )
     if nt.status == "unreachable":
         raise ModelError(f"next: the goal cannot be reached: {nt.reason}")
@@ -156,6 +224,11 @@ def cmd_next(args) -> int:
     if nt.plan is not None:
         save_plan(nt.plan, out, force=args.force)
         j["plan_file"] = str(out)
+    if nt.protocol is not None:
+        from gyrojax.planning.triad_protocol import save_protocol
+
+        save_protocol(out, nt.protocol, force=args.force)
+        j["protocol_file"] = str(out)
     if args.json:
         print(json.dumps(strict(j), indent=1))
         return 0
@@ -173,6 +246,11 @@ def cmd_next(args) -> int:
     print(nt.reason)
     if nt.plan is not None:
         print(f"plan written to {out} ({nt.hours:.3g} table hours)")
+    if nt.protocol is not None:
+        from gyrojax.report.protocol_text import table_text
+
+        print(table_text(nt.protocol["table"]))
+        print(f"protocol written to {out} ({nt.hours * 60.0:.3g} min by hand)")
     return 0
 
 

@@ -9,6 +9,9 @@ score-test power of an omitted effect.
 ``E``              −λ_min(F) (unit-dependent: θ is in report units; non-smooth where eigenvalues cross, so
                    its final gradient norm need not vanish)
 ``c:C1=w1,...``    cᵀ F⁻¹ c: the variance of the combination cᵀθ
+``ratio``          (1/q) log Σ_i (w_i [F⁻¹]_ii)^q, q = :data:`RATIO_POWER`: a smooth maximum of the variances
+                   over their targets, w_i = 1/target_i² (0 for a coefficient without one; given to :meth:`loss`
+                   as ``weights``, so that one compiled search serves every goal); below 0 every σ is on target
 ``detect:NAME``    −log λ_NAME with λ = δᵀ (F_aa − F_aθ F_θθ⁻¹ F_θa) δ the noncentrality of the score test for the
                    omitted effect NAME at nominal magnitude δ (the information on NAME orthogonal to the model's
                    regressors); a small D term (weight 1/10 per coefficient) keeps the model itself estimable
@@ -24,6 +27,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -33,6 +37,8 @@ from gyrojax.physics import effects as fx
 from gyrojax.physics.model import Model
 from gyrojax.planning.fisher import static_fisher
 
+RATIO_POWER = 8.0
+"""The power of the ``ratio`` criterion's smooth maximum: (Σ r^q)^{1/q} exceeds max r by a factor ≤ n^{1/q}."""
 DEFAULT_MAGNITUDE = 0.05  # nominal size of an omitted effect for detect: (report units, e.g. deg/h/g²)
 
 
@@ -95,8 +101,9 @@ class Criterion:
         """The model whose Fisher information the criterion needs (the model plus the omitted effect)."""
         return model.extend(self.effect) if self.kind == "detect" else model
 
-    def loss(self, f, p: int):
-        """Loss to minimise from the Fisher information ``f`` of :meth:`design_model` (module doc)."""
+    def loss(self, f, p: int, weights=None):
+        """Loss to minimise from the Fisher information ``f`` of :meth:`design_model` (module doc); ``weights``
+        (p,) those of ``ratio`` (the others take none)."""
         if self.kind == "D":
             return -_logdet(f)
         if self.kind == "E":
@@ -107,6 +114,10 @@ class Criterion:
         if self.kind == "c":
             c = jnp.asarray(self.vector)
             return c @ jnp.linalg.solve(f, c)
+        if self.kind == "ratio":
+            r = jnp.asarray(weights) * jnp.diag(jnp.linalg.inv(f))
+            top = jax.lax.stop_gradient(jnp.max(r))  # scaled by the largest: no overflow of r^q
+            return jnp.log(top) + jnp.log(jnp.sum((r / top) ** RATIO_POWER)) / RATIO_POWER
         if self.kind == "detect":
             lam = noncentrality(f, p, jnp.asarray(self.magnitude))
             return -jnp.log(jnp.maximum(lam, 1e-300)) - self.d_weight * _logdet(f[:p, :p])

@@ -8,7 +8,8 @@ specific force a (:func:`gyrojax.physics.triad.affine_rows`: rows(ω, a) = B₀ 
 
 * **rest** k, Up u_k in the body frame, T_k s: the mean indicated rate, rows(Ω sin φ u_k or 0, |g| u_k) (the
   vertical Earth rate only with the latitude known); covariance (conventions §9.3, Hu 3-14 least squares)
-  ARW² / T_k I + ½ Ω_h² (I − u uᵀ) (the horizontal Earth rate of unknown heading);
+  (ARW² / T_k + τ_b²) I + ½ Ω_h² (I − u uᵀ) (the horizontal Earth rate of unknown heading; τ_b the per-pose bias
+  scatter, 0 unless given);
 * **known-angle turn** (imucal) by Θ about n in T s: the mean indicated rate, rows(Θ/T n + the vertical Earth rate
   along the mean Up, |g| × the mean of R(n, α)ᵀ u over the turn's profile); covariance ARW²/T I + σ_Θ²/T² n nᵀ +
   ½ Ω_h² |⟨e^{iα}⟩|² (I − n nᵀ), the angle error σ_Θ = √2 σ_placement;
@@ -22,7 +23,8 @@ specific force a (:func:`gyrojax.physics.triad.affine_rows`: rows(ω, a) = B₀ 
 
   the same numbers as ``jax.jacfwd`` of the fit's residual, to rounding; projected ⟂ u_to, variance ARW² T (the
   angle noise) + (Ω_h T)²/2 (Earth turning Up unseen) + the accelerometer noise of the two Up directions
-  σ_a² / (rate T_rest) each. The placement error of a rest does not enter a move: both Up directions are measured.
+  σ_a² / (rate T_rest) each + τ_m² (the per-move angle noise, 0 unless given). The placement error of a rest does
+  not enter a move: both Up directions are measured.
 
 Parts carry a weight (1, or 0 for padding): one compiled function serves protocols of different structure.
 ``F = Σ Jᵀ C⁻¹ J`` (3p × 3p, report units: deg/h, deg/h/g, ppm, arcsec), coefficients ``<name>[<channel>]``.
@@ -59,8 +61,10 @@ class TriadNoise:
     """What the design assumes about the session: the gyro's angle random walk ``arw`` (deg/√h, each channel), the
     accelerometer's white noise ``acc_noise_g`` (g per sample at ``rate_hz``), the site (``latitude_deg`` None:
     unknown to the fit, as in most hand calibrations; ``earth_rate`` False: no Earth rate; ``gravity_mps2`` None: the
-    site's, :func:`gyrojax.physics.gravity.site_gravity`) and the hand's ``placement_deg`` (σ of each placement about
-    each body axis, deg)."""
+    site's, :func:`gyrojax.physics.gravity.site_gravity`), the hand's ``placement_deg`` (σ of each placement about
+    each body axis, deg), and the fit's variance components between segments
+    (:mod:`gyrojax.inference.triad_components`): ``pose_scatter_dph`` (an independent bias level at each rest, σ in
+    deg/h on every axis) and ``move_angle_deg`` (an angle error of each move about each horizontal axis, σ in deg)."""
 
     arw: float = 1.2
     acc_noise_g: float = 0.002
@@ -69,6 +73,8 @@ class TriadNoise:
     earth_rate: bool = True
     placement_deg: float = 0.0
     gravity_mps2: float | None = None
+    pose_scatter_dph: float = 0.0
+    move_angle_deg: float = 0.0
 
     @classmethod
     def from_spec(cls, spec: NoiseSpec, where: str = "noise", **session) -> "TriadNoise":
@@ -109,14 +115,22 @@ class TriadNoise:
         """The numbers the information uses (arrays in a traced function: one compiled function for any noise)."""
         vertical, horizontal = self.earth()
         return NoiseNumbers(
-            self.arw, self.acc_noise_g, self.rate_hz, self.g, vertical or 0.0, horizontal, self.placement_deg
+            self.arw,
+            self.acc_noise_g,
+            self.rate_hz,
+            self.g,
+            vertical or 0.0,
+            horizontal,
+            self.placement_deg,
+            self.pose_scatter_dph,
+            self.move_angle_deg,
         )
 
 
 class NoiseNumbers(NamedTuple):
     """:class:`TriadNoise` as numbers: ``arw`` deg/√h, ``acc_noise_g`` g, ``rate_hz`` Hz, ``g`` (|g| in g), the
     modelled vertical Earth rate ``vertical`` (deg/h, 0 when unknown or off), the horizontal one ``horizontal``
-    (deg/h), ``placement_deg``."""
+    (deg/h), ``placement_deg``, ``pose_scatter_dph`` (deg/h), ``move_angle_deg`` (deg)."""
 
     arw: object
     acc_noise_g: object
@@ -125,6 +139,8 @@ class NoiseNumbers(NamedTuple):
     vertical: object
     horizontal: object
     placement_deg: object
+    pose_scatter_dph: object = 0.0
+    move_angle_deg: object = 0.0
 
 
 class Parts(NamedTuple):
@@ -185,6 +201,7 @@ def rest_information(basis, parts: Parts, noise: NoiseNumbers):
     up = parts.rest_up
     jac = _rows(basis, noise.vertical * up, up * noise.g)
     alpha = noise.arw**2 / (parts.rest_s / units.SECONDS_PER_HOUR)  # (deg/h)² of a rest mean
+    alpha = alpha + noise.pose_scatter_dph**2  # the rest's own bias level
     uu = up[:, :, None] * up[:, None, :]
     prec = uu / alpha[:, None, None] + (jnp.eye(3) - uu) / (alpha + 0.5 * noise.horizontal**2)[:, None, None]
     return information(jac, prec, parts.rest_w)
@@ -260,6 +277,7 @@ def move_information(basis, parts: Parts, noise: NoiseNumbers):
         var = (noise.arw * jnp.sqrt(span_h) * units.DEG) ** 2
         var = var + (noise.horizontal * span_h * units.SECONDS_PER_HOUR * units.DEG_PER_H) ** 2 / 2.0
         var = var + noise.acc_noise_g**2 / noise.rate_hz / noise.g**2 * (1.0 / t0 + 1.0 / t1)
+        var = var + (noise.move_angle_deg * units.DEG) ** 2  # the move's own angle error
         return jac, (jnp.eye(3) - u_to[:, None] * u_to[None, :]) / var
 
     args = (parts.move_up, parts.move_axis, parts.move_angle, parts.move_s, parts.move_rest_from, parts.move_rest_to)

@@ -195,17 +195,21 @@ def _kept_search(crit: Criterion, max_pairs: int, adam_steps: int, lbfgs_steps: 
     return Kept(f"triad_search_{digest}", jax.jit(partial(_search, **statics)))
 
 
-def _search(params, pairs, total_s, basis, noise, learning_rate, *, crit, max_pairs, adam_steps, lbfgs_steps):
+def _search(
+    params, pairs, total_s, basis, noise, learning_rate, prior, weights, *, crit, max_pairs, adam_steps, lbfgs_steps
+):
     """Every lane (a structure's ``pairs`` and a start) searched at once by Adam (each lane keeping its iterate of
     least loss); then the best lane of each structure refined by L-BFGS until its loss settles
     (:func:`gyrojax.planning.search.lbfgs_while`, at most ``lbfgs_steps``). Returns the lanes' loss histories (NaN
     where a lane was not iterated), final losses, and their attitudes and parts at the end. The model and the
     session are arguments, not constants: one compiled search serves every noise, site and duration of the same
-    shapes."""
+    shapes. ``prior`` (3p × 3p) is the information the protocol adds to (the sessions so far; zeros for none),
+    ``weights`` (3p,) the criterion's (:meth:`~gyrojax.planning.criteria.Criterion.loss`)."""
     p_total = basis[0].shape[-1]
 
     def loss(p, k):
-        return crit.loss(protocol_information(basis, design_parts(p, k, total_s, max_pairs)[1], noise), p_total)
+        f = prior + protocol_information(basis, design_parts(p, k, total_s, max_pairs)[1], noise)
+        return crit.loss(f, p_total, weights)
 
     def adam(p0, k):
         p, hist, val = search.adam_scan(jax.value_and_grad(loss), p0, adam_steps, learning_rate, k, keep_best=True)
@@ -352,13 +356,17 @@ def design_protocol(
     learning_rate: float = 0.05,
     seed: int = 0,
     turn_pairs=TURN_PAIRS,
+    prior=None,
+    weights=None,
 ) -> TriadProtocol:
     """Design an ``n_poses`` protocol of ``minutes`` in total (rests and turns) minimising the criterion (module
-    doc): every structure of ``turn_pairs`` (pairs of known-angle turns about each body axis) searched from the
-    same ``starts`` by ``steps`` Adam iterations (each start keeps its iterate of least loss), the best start of
-    each structure then by at most ``lbfgs_steps`` L-BFGS ones until its loss settles, all in one compiled search,
-    the best kept; refuses terms the protocol cannot fit, too few poses, or
-    too little time."""
+    doc) of the information it adds to ``prior`` (3p × 3p, report units, θ order of
+    :func:`~gyrojax.physics.triad.channel_names`: what the sessions so far know; default none), the criterion
+    ``ratio`` with its ``weights`` (3p,) (:mod:`gyrojax.planning.criteria`): every structure of ``turn_pairs``
+    (pairs of known-angle turns about each body axis) searched from the same ``starts`` by ``steps`` Adam
+    iterations (each start keeps its iterate of least loss), the best start of each structure then by at most
+    ``lbfgs_steps`` L-BFGS ones until its loss settles, all in one compiled search, the best kept; refuses terms
+    the protocol cannot fit, too few poses, or too little time."""
     model = triad_model(terms)
     noise = noise or TriadNoise()
     crit = criterion if isinstance(criterion, Criterion) else parse_criterion(criterion, model)
@@ -385,8 +393,18 @@ def design_protocol(
     lanes = len(structures) * starts
     params = (np.tile(x0, (len(structures), 1)), np.tile(v0, (len(structures), 1, 1)), np.zeros((lanes, n_poses)))
     pairs = np.repeat(np.array(structures), starts)
+    basis = rows_basis(model)
+    size = basis[0].shape[-1]
+    prior = np.zeros((size, size)) if prior is None else np.asarray(prior, dtype=float)
+    weights = np.ones(size) if weights is None else np.asarray(weights, dtype=float)
+    if prior.shape != (size, size) or weights.shape != (size,):
+        raise ModelError(
+            f"prior information {prior.shape} and weights {weights.shape}: the model has {size} coefficients"
+        )
+    if crit.kind == "ratio" and not (np.all(weights >= 0) and np.any(weights > 0)):
+        raise ModelError("criterion ratio: the weights are 1/target² >= 0, at least one > 0")
     kept_search = _kept_search(crit, max(structures), steps, lbfgs_steps)
-    hist, final, (att, parts) = kept_search(params, pairs, total, rows_basis(model), noise.numbers(), learning_rate)
+    hist, final, (att, parts) = kept_search(params, pairs, total, basis, noise.numbers(), learning_rate, prior, weights)
     parts = Parts(*parts)
     final = np.where(np.isfinite(np.asarray(final)), np.asarray(final), np.inf)
     by_structure = {k: final[i * starts : (i + 1) * starts] for i, k in enumerate(structures)}
@@ -565,6 +583,8 @@ def protocol_payload(proto: TriadProtocol, rows: list[dict]) -> dict:
             "earth_rate": n.earth_rate,
             "placement_deg": n.placement_deg,
             "gravity_g": n.g,
+            "pose_bias_scatter_deg_per_h": n.pose_scatter_dph,
+            "move_angle_noise_deg": n.move_angle_deg,
         },
         "pace": {"hand_rate_dps": HAND_RATE_DPS, "min_turn_s": MIN_TURN_S},
         "table": proto.table(),
