@@ -114,6 +114,8 @@ def design(f0, h, hours, white, need) -> np.ndarray:
 
     def cons_jac(v):
         r, u = ratios(v)
+        if u is None:  # a singular trial point: no direction to give (the result is checked below)
+            return np.column_stack([np.zeros((len(r), len(keep))), np.ones(len(r))])
         g = _sensitivity(hk, u, targets) * c  # −∂r_j/∂ξ_x, (K, R)
         return np.column_stack([g.T, np.ones(len(r))])
 
@@ -134,7 +136,7 @@ def design(f0, h, hours, white, need) -> np.ndarray:
         options={"maxiter": 200},
     )
     out = np.zeros(k)
-    out[keep] = np.maximum(res.x[:-1], 0.0) if np.all(np.isfinite(res.x)) else x0[:-1]
+    out[keep] = np.maximum(res.x[:-1], 0.0) if np.all(np.isfinite(res.x)) and res.x[:-1].max() > 0 else x0[:-1]
     out /= out.sum()
     # the refined design where it is better than the multiplicative one on the whole grid (on a truncated support
     # a sub-model can be nearly singular, and SLSQP lose its way)
