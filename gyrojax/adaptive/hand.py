@@ -35,9 +35,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gyrojax import units
 from gyrojax.data.triad import acc_g
 from gyrojax.errors import ConvergenceWarning, ModelError
+from gyrojax.inference.triad import components_tau2
+from gyrojax.noise.spec import SessionNoise
 from gyrojax.optimize import bisect
 from gyrojax.physics import triad as tp
 from gyrojax.planning import triad_protocol as tpr
@@ -122,39 +123,37 @@ def accelerometer_noise(records) -> float | None:
 
 def session_noise(fit, records, lab: HandLab) -> tuple[TriadNoise, list]:
     """(the next session's :class:`~gyrojax.planning.triad_fisher.TriadNoise`, notes) from the fit's noise and the
-    lab (module doc): the largest channel's ARW (deg/√h), the records' sample rate (Hz), site and Earth rate."""
+    lab (module doc): the largest channel's ARW (the white term of its long-run variance at the records' sample
+    interval, :meth:`~gyrojax.noise.spec.SessionNoise.of_sample_variances`, deg/√h), the variance components as the
+    fit estimated them (indicated units, :func:`~gyrojax.inference.triad.components_tau2`), the records' site and
+    Earth rate."""
     dt = float(np.median(np.concatenate([np.diff(np.asarray(r.time_s, dtype=float)) for r in records])))
     if not dt > 0:
         raise ModelError(f"next test: the records' sample interval is {dt} s; their time_s must increase")
-    rate = 1.0 / dt
-    q = np.asarray(fit.noise_q, dtype=float)
-    arw = np.sqrt(q / (units.SECONDS_PER_HOUR * rate))
+    arw = np.array([c.white for c in SessionNoise.of_sample_variances(fit.noise_q, dt).channels])
     acc = lab.acc_noise_g if lab.acc_noise_g is not None else accelerometer_noise(records)
-    notes = []
     if acc is None:
         raise ModelError("next test: the records hold no accelerometer rests; give the lab's acc_noise_g")
-    meta = records[0].meta
-    site = meta.get("site") or {}
-    earth = bool(meta.get("earth_rate", True))
-    lat = site.get("latitude_deg") if earth else None
-    comp = fit.variance_components or {}
-    scatter = float(comp.get("pose_bias_scatter_indicated_deg_per_h", comp.get("pose_bias_scatter_deg_per_h", 0.0)))
-    angle = float(comp.get("move_angle_noise_deg", 0.0))
-    if any(k.startswith("bias_walk") and v for k, v in comp.items()):
+    tau2 = components_tau2(fit.variance_components or {})
+    notes = []
+    if tau2.get("walk"):
         notes.append(
             "the fit finds a bias that walks from pose to pose: the session is designed without it, so its σ after "
             "are optimistic"
         )
+    meta = records[0].meta
+    site = meta.get("site") or {}
+    earth = bool(meta.get("earth_rate", True))
     noise = TriadNoise(
         arw=float(arw.max()),
         acc_noise_g=float(acc),
-        rate_hz=rate,
-        latitude_deg=lat,
+        rate_hz=1.0 / dt,
+        latitude_deg=site.get("latitude_deg") if earth else None,
         earth_rate=earth,
         placement_deg=lab.placement_deg,
         gravity_mps2=site.get("gravity_mps2"),
-        pose_scatter_dph=scatter,
-        move_angle_deg=angle,
+        pose_scatter_dph=math.sqrt(tau2.get("pose", 0.0)),
+        move_angle_deg=math.degrees(math.sqrt(tau2.get("move", 0.0))),
     )
     if arw.max() > 1.05 * arw.min():
         notes.append(

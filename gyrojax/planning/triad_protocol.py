@@ -583,7 +583,7 @@ def protocol_payload(proto: TriadProtocol, rows: list[dict]) -> dict:
             "earth_rate": n.earth_rate,
             "placement_deg": n.placement_deg,
             "gravity_g": n.g,
-            "pose_bias_scatter_deg_per_h": n.pose_scatter_dph,
+            "pose_bias_scatter_indicated_deg_per_h": n.pose_scatter_dph,
             "move_angle_noise_deg": n.move_angle_deg,
         },
         "pace": {"hand_rate_dps": HAND_RATE_DPS, "min_turn_s": MIN_TURN_S},
