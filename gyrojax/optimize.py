@@ -9,6 +9,8 @@ work done and, when it did not converge, why.
 * :func:`least_squares`: Levenberg–Marquardt (MINPACK's, by ``scipy.optimize.least_squares``) on the exact Jacobian
   that the caller computes (``jax.jacfwd`` of the measurement model), its trust region measured in the coefficients'
   own units.
+* :func:`minimize_scalar`: the minimum of a function of one variable within a bracket (Brent's bounded method, by
+  ``scipy.optimize.minimize_scalar``): a Gauss–Markov correlation time, a white level beside a readout, a scale.
 * :func:`bisect`: the bracket where a monotone yes/no question turns to yes (the shortest dwell that suffices).
 """
 
@@ -191,6 +193,21 @@ def least_squares(system, x0, max_nfev: int) -> Solution:
         status = Status.ITERATION_LIMIT if sol.status == 0 else Status.NOT_FINITE
         why = f"Levenberg–Marquardt stopped after {sol.nfev} evaluations: {sol.message}"
     return Solution(np.asarray(sol.x, dtype=float), 2.0 * float(sol.cost), status, int(sol.nfev), why)
+
+
+def minimize_scalar(f, lo: float, hi: float, xatol: float = 1e-5, what: str = "search") -> Solution:
+    """The minimum of ``f`` (one float → float) within [``lo``, ``hi``] by Brent's method (golden sections and
+    parabolic steps; ``scipy.optimize.minimize_scalar``, method ``"bounded"``) to ``xatol`` in x, at most 500
+    evaluations. ``x`` is a float array of shape (); ``what`` names the search in its reason."""
+    from scipy.optimize import minimize_scalar as brent
+
+    sol = brent(f, bounds=(lo, hi), method="bounded", options={"xatol": xatol})
+    if sol.success:
+        status, why = Status.CONVERGED, ""
+    else:
+        status = Status.NOT_FINITE if not np.isfinite(sol.fun) else Status.ITERATION_LIMIT
+        why = f"{what} stopped after {sol.nfev} evaluations: {sol.message}"
+    return Solution(np.asarray(sol.x, dtype=float), float(sol.fun), status, int(sol.nfev), why)
 
 
 def bisect(ok, lo: float, hi: float) -> tuple[float, float]:

@@ -24,6 +24,8 @@ import numpy as np
 from gyrojax import units
 from gyrojax.data.importclues import MEMS_SCALE_BOUND, permutation_clue, ratio_clue, signed_permutations
 from gyrojax.errors import ModelError
+from gyrojax.optimize import minimize_scalar
+from gyrojax.physics import so3
 from gyrojax.physics import triad as tp
 from gyrojax.physics.plausibility import limit
 
@@ -108,16 +110,6 @@ def _nearest_permutation(s: np.ndarray) -> np.ndarray | None:
     return best if np.all(cos > math.cos(math.radians(30.0))) else None
 
 
-def _rodrigues(v: np.ndarray) -> np.ndarray:
-    """Rotation matrices (..., 3, 3) of rotation vectors ``v`` (..., 3) rad."""
-    th = np.linalg.norm(v, axis=-1)[..., None, None]
-    k = v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
-    kx = np.zeros(v.shape[:-1] + (3, 3))
-    kx[..., 0, 1], kx[..., 0, 2], kx[..., 1, 2] = -k[..., 2], k[..., 1], -k[..., 0]
-    kx[..., 1, 0], kx[..., 2, 0], kx[..., 2, 1] = k[..., 2], -k[..., 1], k[..., 0]
-    return np.eye(3) + np.sin(th) * kx + (1 - np.cos(th)) * (kx @ kx)
-
-
 def _carried_misfit(moves, bias, p, k) -> np.ndarray:
     """Angle (deg) of each move between the next Up and the previous Up carried by k·P·(gyro − bias), integrated
     sample by sample (each step's rotation vector exact)."""
@@ -125,7 +117,7 @@ def _carried_misfit(moves, bias, p, k) -> np.ndarray:
     for m in moves:
         steps = (m.g - bias) @ p.T * (k * m.dt * units.DEG_PER_H)
         rot = np.eye(3)
-        for e in _rodrigues(steps):
+        for e in so3.exp(steps):
             rot = rot @ e
         pred = rot.T @ m.u_from
         out.append(math.degrees(math.acos(max(-1.0, min(1.0, float(pred @ m.u_to))))))
@@ -133,26 +125,15 @@ def _carried_misfit(moves, bias, p, k) -> np.ndarray:
 
 
 def _best_scale(moves, bias, p, k0) -> tuple[float, float]:
-    """(k, median misfit deg) minimising the moves' median misfit over k near ``k0`` (golden section in log k)."""
-    lo, hi = math.log(k0) - 0.4, math.log(k0) + 0.4
-    g = (math.sqrt(5) - 1) / 2
-
-    def f(x):
-        return float(np.median(_carried_misfit(moves, bias, p, math.exp(x))))
-
-    a, b = hi - g * (hi - lo), lo + g * (hi - lo)
-    fa, fb = f(a), f(b)
-    for _ in range(18):
-        if fa < fb:
-            hi, b, fb = b, a, fa
-            a = hi - g * (hi - lo)
-            fa = f(a)
-        else:
-            lo, a, fa = a, b, fb
-            b = lo + g * (hi - lo)
-            fb = f(b)
-    x = a if fa < fb else b
-    return math.exp(x), min(fa, fb)
+    """(k, median misfit deg) minimising the moves' median misfit over log k within ±0.4 of log ``k0``."""
+    sol = minimize_scalar(
+        lambda x: float(np.median(_carried_misfit(moves, bias, p, math.exp(x)))),
+        math.log(k0) - 0.4,
+        math.log(k0) + 0.4,
+        xatol=1e-4,
+        what="the search for the gyro scale",
+    )
+    return math.exp(float(sol.x)), sol.value
 
 
 def _move_evidence(moves, bias) -> tuple[np.ndarray, float, float, float] | None:
@@ -167,7 +148,7 @@ def _move_evidence(moves, bias) -> tuple[np.ndarray, float, float, float] | None
     ks = np.exp(np.linspace(math.log(1e-4), math.log(1e4), 161))
     ranked = []
     for p in signed_permutations():
-        r = _rodrigues(ks[:, None, None] * (v @ p.T)[None])
+        r = so3.exp(ks[:, None, None] * (v @ p.T)[None])
         pred = np.einsum("kmji,mj->kmi", r, uf)
         ang = np.degrees(np.arccos(np.clip((pred * ut).sum(-1), -1, 1)))
         med = np.median(ang, axis=1)

@@ -34,6 +34,7 @@ from scipy import optimize
 from gyrojax import tails
 from gyrojax.errors import GyrojaxError
 from gyrojax.noise.spec import LINEAR, UNITS, NoiseSpec, gauss_markov_avar, term_basis
+from gyrojax.optimize import minimize_scalar
 
 ONE_SIGMA = math.erf(1.0 / math.sqrt(2.0))
 """Confidence level of ±1σ (0.6827)."""
@@ -395,9 +396,9 @@ def fit_noise_model(
         sses = [for_t(math.log(t))[2] for t in gm_grid]
         k = int(np.argmin(sses))
         lo, hi = math.log(gm_grid[max(k - 1, 0)]), math.log(gm_grid[min(k + 1, len(gm_grid) - 1)])
-        res = optimize.minimize_scalar(lambda lt: for_t(lt)[2], bounds=(lo, hi), method="bounded")
-        status.append((bool(res.success), str(getattr(res, "message", ""))))
-        t_best = math.exp(res.x) if res.fun <= sses[k] else gm_grid[k]
+        res = minimize_scalar(lambda lt: for_t(lt)[2], lo, hi, what="the bounded search for the Gauss–Markov T")
+        status.append((res.converged, res.reason))
+        t_best = math.exp(float(res.x)) if res.value <= sses[k] else gm_grid[k]
         c, cov, sse = for_t(math.log(t_best))
         return c[:-1], cov, sse, (math.sqrt(max(c[-1], 0.0)), t_best)
 
@@ -425,7 +426,7 @@ def fit_noise_model(
         d = np.where(vals > 0, 1.0 / (2.0 * vals), np.inf)
     cov_nat = np.where(np.outer(d, d) == np.inf, np.inf, cov[: len(vals), : len(vals)] * np.outer(d, d))
     ok = all(st for st, _ in status)
-    reason = "" if ok else f"bounded search for the Gauss-Markov tau: {status[0][1]}"
+    reason = "" if ok else status[0][1]
     return NoiseSpec(
         **values,
         gauss_markov=(gm,) if gm is not None else (),

@@ -20,6 +20,8 @@ from dataclasses import replace
 
 import numpy as np
 
+from gyrojax.optimize import minimize_scalar
+
 GRID_TOL = 0.02
 """Largest |angle/q − round(angle/q)| (in steps) for every increment of a record quantised at q."""
 MIN_STEP_ARCSEC = 1e-4
@@ -81,8 +83,6 @@ def white_beside_readout(r, design, labels, times, gm):
     :class:`gyrojax.noise.spec.NoiseSpec` with ``readout_var``): σ_w² at its REML optimum (a bounded 1-D search in
     log σ_w²), the alternative against which a fitted drift is kept or dropped. ``r`` and the variances in one unit
     ((deg/h)²)."""
-    from scipy.optimize import minimize_scalar
-
     from gyrojax.noise.whiten import gm_reml
 
     tau, g, w = gm.whitening_theta()
@@ -93,10 +93,5 @@ def white_beside_readout(r, design, labels, times, gm):
             gm, white=math.sqrt(total * np.exp(u) * gm.dt_s) / 60.0, gauss_markov=((0.0, tau),), cov=(), cov_names=()
         )
 
-    sol = minimize_scalar(
-        lambda u: gm_reml(r, design, labels, times, spec(u)),
-        bounds=(np.log(1e-3), np.log(1e2)),
-        method="bounded",
-        options={"xatol": 1e-4},
-    )
+    sol = minimize_scalar(lambda u: gm_reml(r, design, labels, times, spec(u)), np.log(1e-3), np.log(1e2), xatol=1e-4)
     return spec(float(sol.x))

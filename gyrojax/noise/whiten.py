@@ -20,6 +20,8 @@ from dataclasses import replace
 
 import numpy as np
 
+from gyrojax.optimize import minimize_scalar
+
 from . import reml
 from .randomdrift import levinson_durbin, segment_autocovariance_sums, yule_walker_cov
 from .spec import NoiseSpec
@@ -265,8 +267,6 @@ def fit_gm(
     rounds) to start from instead of the moment estimate. ``readout_var``: a servo readout's known angle noise
     (:attr:`NoiseSpec.readout_var`), beside which the rate noise is fitted.
     """
-    from scipy.optimize import minimize_scalar
-
     bounds = segment_bounds(labels)
     lens = [e - s for s, e in bounds]
     if not lens or max(lens) < 8:
@@ -297,7 +297,7 @@ def fit_gm(
         phi = 1.0 - np.exp(u)
         return float(np.sum((g - amp(phi) * phi**k) ** 2))
 
-    sol = minimize_scalar(loss, bounds=(np.log(1e-7), np.log(0.999)), method="bounded")
+    sol = minimize_scalar(loss, np.log(1e-7), np.log(0.999), what="the moment fit of φ")
     phi = float(1.0 - np.exp(sol.x))
     a = amp(phi)
     if 0 < a < g0:

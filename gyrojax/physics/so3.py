@@ -1,5 +1,7 @@
-"""The rotation group SO(3) in JAX: the cross-product matrix, the exponential and its right Jacobian, for stacks of
-rotation vectors (..., 3) in rad, right-hand rule (conventions §3).
+"""The rotation group SO(3): the cross-product matrix, the exponential and its right Jacobian, for stacks of
+rotation vectors (..., 3) in rad, right-hand rule (conventions §3). One implementation for both array kinds: JAX
+arrays (and traces) are computed by ``jax.numpy``, anything else by ``numpy``, so a simulation or a check loop in
+numpy pays no dispatch and a fit or design differentiates through the same formulas.
 
     exp([v×]) = I + sin θ/θ [v×] + (1 − cos θ)/θ² [v×]²                                   (Rodrigues, θ = |v|)
     J_r(v)    = I − (1 − cos θ)/θ² [v×] + (θ − sin θ)/θ³ [v×]²,   exp([(v + δ)×]) ≈ exp([v×]) exp([(J_r δ)×])
@@ -11,6 +13,7 @@ so a fit or a design may differentiate through an attitude that passes the ident
 
 from __future__ import annotations
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -39,24 +42,31 @@ def compose(a, b):
     return (a[..., :, :, None] * b[..., None, :, :]).sum(axis=-2)
 
 
+def _namespace(v):
+    """``jax.numpy`` for a JAX array or trace, ``numpy`` for anything else."""
+    return jnp if isinstance(v, jax.Array) else np
+
+
 def _combine(v, small_at: float, coefficients):
-    """c₀ I + c₁ [v×] + c₂ v vᵀ with (c₀, c₁, c₂) = ``coefficients(θ², θ, small)``, ``small`` where θ² ≤
+    """c₀ I + c₁ [v×] + c₂ v vᵀ with (c₀, c₁, c₂) = ``coefficients(xp, θ², θ, small)``, ``small`` where θ² ≤
     ``small_at`` (θ is then 1, a placeholder the series forms do not use)."""
+    xp = _namespace(v)
+    v = xp.asarray(v, dtype=float)
     th2 = (v * v).sum(axis=-1)
     small = th2 <= small_at
-    th = jnp.sqrt(jnp.where(small, 1.0, th2))
-    c0, c1, c2 = coefficients(th2, th, small)
+    th = xp.sqrt(xp.where(small, 1.0, th2))
+    c0, c1, c2 = coefficients(xp, th2, th, small)
     return (
-        c0[..., None, None] * jnp.eye(3)
+        c0[..., None, None] * xp.eye(3)
         + c1[..., None, None] * hat(v)
         + c2[..., None, None] * (v[..., :, None] * v[..., None, :])
     )
 
 
-def _exp_coefficients(th2, th, small):
-    safe = jnp.where(small, 1.0, th2)
-    a = jnp.where(small, 1.0 - th2 / 6.0, jnp.sin(th) / th)
-    b = jnp.where(small, 0.5 - th2 / 24.0, (1.0 - jnp.cos(th)) / safe)
+def _exp_coefficients(xp, th2, th, small):
+    safe = xp.where(small, 1.0, th2)
+    a = xp.where(small, 1.0 - th2 / 6.0, xp.sin(th) / th)
+    b = xp.where(small, 0.5 - th2 / 24.0, (1.0 - xp.cos(th)) / safe)
     return 1.0 - b * th2, a, b
 
 
@@ -65,10 +75,10 @@ def exp(v):
     return _combine(v, EXP_SERIES_BELOW, _exp_coefficients)
 
 
-def _right_jacobian_coefficients(th2, th, small):
-    safe = jnp.where(small, 1.0, th2)
-    c1 = jnp.where(small, 0.5 - th2 / 24.0, (1.0 - jnp.cos(th)) / safe)
-    c2 = jnp.where(small, 1.0 / 6.0 - th2 / 120.0, (th - jnp.sin(th)) / (safe * th))
+def _right_jacobian_coefficients(xp, th2, th, small):
+    safe = xp.where(small, 1.0, th2)
+    c1 = xp.where(small, 0.5 - th2 / 24.0, (1.0 - xp.cos(th)) / safe)
+    c2 = xp.where(small, 1.0 / 6.0 - th2 / 120.0, (th - xp.sin(th)) / (safe * th))
     return 1.0 - c2 * th2, -c1, c2
 
 
@@ -79,4 +89,5 @@ def right_jacobian(v):
 
 def rotation(axis, angle):
     """R(n, α) = exp([α n×]): the rotation by ``angle`` (rad, shape (...)) about the unit vector ``axis`` (..., 3)."""
-    return exp(jnp.asarray(axis) * jnp.asarray(angle)[..., None])
+    xp = jnp if isinstance(axis, jax.Array) or isinstance(angle, jax.Array) else np
+    return exp(xp.asarray(axis, dtype=float) * xp.asarray(angle, dtype=float)[..., None])

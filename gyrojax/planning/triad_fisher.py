@@ -48,7 +48,6 @@ from gyrojax.physics import so3
 from gyrojax.physics import triad as tp
 from gyrojax.physics.gravity import site_gravity
 from gyrojax.planning.fisher import information
-from gyrojax.simulation.triad import rotation_matrix
 
 MOVE_SAMPLES = 24
 """Samples of a move's profile in its rows (between the rests before and after)."""
@@ -318,7 +317,7 @@ def steps_parts(start_attitude, steps) -> Parts:
             moves.append((up, ax, phi, float(s["duration_s"]), float(steps[i - 1]["rest_s"]), rest_to))
         elif s["type"] == "turn":
             turns.append((up, ax, phi, float(s["duration_s"])))
-        c = c @ rotation_matrix(ax, phi)
+        c = c @ so3.rotation(ax, phi)
 
     def cols(rows, widths):
         if not rows:

@@ -56,7 +56,7 @@ from gyrojax.planning.triad_fisher import (
     steps_parts,
 )
 from gyrojax.runtime.kept import Kept
-from gyrojax.simulation.triad import face_attitude, random_attitude, relative_turn, rotation_matrix
+from gyrojax.simulation.triad import face_attitude, random_attitude, relative_turn
 
 HAND_RATE_DPS = 90.0
 """Mean rate of a hand turn, deg/s (a 180° move takes 1 + 2 s)."""
@@ -307,7 +307,7 @@ def _step_attitudes(start_attitude, steps) -> list[np.ndarray]:
         out.append(c)
         if s["type"] != "rest":
             ax = np.asarray(s["axis"], dtype=float)
-            c = c @ rotation_matrix(ax / np.linalg.norm(ax), math.radians(float(s["angle_deg"])))
+            c = c @ so3.rotation(ax / np.linalg.norm(ax), math.radians(float(s["angle_deg"])))
     return out
 
 

@@ -20,18 +20,11 @@ from scipy.spatial.transform import Rotation
 from gyrojax import units
 from gyrojax.data.importers import triad_meta
 from gyrojax.data.record import Record
+from gyrojax.physics import so3
 from gyrojax.physics import triad as tp
 from gyrojax.physics.gravity import site_gravity
 
 FACES = (("x_p", 0, 1.0), ("x_a", 0, -1.0), ("y_p", 1, 1.0), ("y_a", 1, -1.0), ("z_p", 2, 1.0), ("z_a", 2, -1.0))
-
-
-def rotation_matrix(axis, angle):
-    """The rotation of rotation vector ``axis``·``angle`` (R(n, α) of conventions §3 for a unit ``axis`` (3,)), angle
-    in rad: a scalar → (3, 3), (n,) → (n, 3, 3); numpy, by scipy's rotation vectors."""
-    angle = np.asarray(angle, dtype=float)
-    vec = np.asarray(axis, dtype=float) * angle[..., None]
-    return Rotation.from_rotvec(vec.reshape(-1, 3)).as_matrix().reshape(angle.shape + (3, 3))
 
 
 def relative_turn(c0, c1) -> tuple[np.ndarray, float]:
@@ -51,10 +44,10 @@ def face_attitude(axis: int, sign: float, heading: float) -> np.ndarray:
     v = np.cross(up, z)
     c = float(up @ z)
     if np.linalg.norm(v) < 1e-12:
-        base = np.eye(3) if c > 0 else rotation_matrix([1.0, 0.0, 0.0], math.pi)
+        base = np.eye(3) if c > 0 else so3.rotation([1.0, 0.0, 0.0], math.pi)
     else:
-        base = rotation_matrix(v / np.linalg.norm(v), math.acos(max(-1.0, min(1.0, c))))
-    return rotation_matrix(z, heading) @ base
+        base = so3.rotation(v / np.linalg.norm(v), math.acos(max(-1.0, min(1.0, c))))
+    return so3.rotation(z, heading) @ base
 
 
 def local_frame(latitude_deg: float, gravity_mps2: float | None, earth_rate: bool) -> tuple:
@@ -89,7 +82,7 @@ def turn_samples(c0, axis, angle_rad: float, n: int, dt: float, omega_l, f_l):
     prof = np.sin(math.pi * t / (n * dt))
     rate = prof * angle_rad / (prof.sum() * dt)  # rad/s
     ang = np.cumsum(rate) * dt - 0.5 * rate * dt
-    ck = np.asarray(c0) @ rotation_matrix(axis, ang)
+    ck = np.asarray(c0) @ so3.rotation(axis, ang)
     w = np.einsum("kji,j->ki", ck, omega_l) + np.asarray(axis) * (rate / units.DEG_PER_H)[:, None]
     return w, np.einsum("kji,j->ki", ck, f_l)
 

@@ -29,8 +29,9 @@ from scipy.spatial.transform import Rotation
 
 from gyrojax.data.record import Record
 from gyrojax.errors import ModelError
+from gyrojax.physics import so3
 from gyrojax.physics import triad as tp
-from gyrojax.simulation.triad import local_frame, rotation_matrix, sensor_columns, session_record, turn_samples
+from gyrojax.simulation.triad import local_frame, sensor_columns, session_record, turn_samples
 
 STEP_TYPES = ("rest", "move", "turn", "reorient")
 AXIS_NAMES = {(1, 0, 0): "x", (-1, 0, 0): "-x", (0, 1, 0): "y", (0, -1, 0): "-y", (0, 0, 1): "z", (0, 0, -1): "-z"}
@@ -93,8 +94,8 @@ def simulate_session(
     omega_l, f_l, gravity_mps2 = local_frame(latitude_deg, gravity_mps2, earth_rate)
     psi = math.radians(heading_deg) if heading_deg is not None else rng.uniform(0.0, 2.0 * math.pi)
     c0 = np.eye(3) if start_attitude is None else np.asarray(start_attitude, dtype=float)
-    plan = rotation_matrix([0.0, 0.0, 1.0], psi) @ c0  # the attitude the person aims at
-    act = plan @ rotation_matrix(rng.standard_normal(3), math.radians(placement_deg)) if placement_deg else plan
+    plan = so3.rotation([0.0, 0.0, 1.0], psi) @ c0  # the attitude the person aims at
+    act = plan @ so3.rotation(rng.standard_normal(3), math.radians(placement_deg)) if placement_deg else plan
     sig = math.radians(placement_deg)
     ws, fs, labels, segs = [], [], [], []
     k_rest = 0
@@ -117,8 +118,8 @@ def simulate_session(
         if kind == "turn":
             extra = math.sqrt(2.0) * sig * rng.standard_normal()
             w, f = turn_samples(act, axis, phi + extra, n, dt, omega_l, f_l)
-            act = act @ rotation_matrix(axis, phi + extra)
-            plan = plan @ rotation_matrix(axis, phi)
+            act = act @ so3.rotation(axis, phi + extra)
+            plan = plan @ so3.rotation(axis, phi)
             segs.append(
                 {
                     "label": lab,
@@ -130,12 +131,12 @@ def simulate_session(
                 }
             )
         else:
-            plan = plan @ rotation_matrix(axis, phi)
-            target = plan @ rotation_matrix(rng.standard_normal(3), sig) if sig else plan
-            err = Rotation.from_matrix((act @ rotation_matrix(axis, phi)).T @ target).as_rotvec()
+            plan = plan @ so3.rotation(axis, phi)
+            target = plan @ so3.rotation(rng.standard_normal(3), sig) if sig else plan
+            err = Rotation.from_matrix((act @ so3.rotation(axis, phi)).T @ target).as_rotvec()
             tail = max(n // 20, 2) if sig else 0
             w, f = turn_samples(act, axis, phi, n - tail, dt, omega_l, f_l)
-            mid = act @ rotation_matrix(axis, phi)
+            mid = act @ so3.rotation(axis, phi)
             if tail:
                 e = float(np.linalg.norm(err))
                 w2, f2 = turn_samples(mid, err / e if e > 0 else axis, e, tail, dt, omega_l, f_l)
