@@ -24,27 +24,23 @@ JR_SERIES_BELOW = 1e-8
 (θ − sin θ)/θ³ loses its digits to cancellation first; both forms agree to rounding at the switch."""
 
 
-LEVI_CIVITA = np.array(
-    [[[0, 0, 0], [0, 0, 1], [0, -1, 0]], [[0, 0, -1], [0, 0, 0], [1, 0, 0]], [[0, 1, 0], [-1, 0, 0], [0, 0, 0]]],
-    dtype=float,
-)
-"""ε_ijk: [v×]_ij = −ε_ijk v_k."""
+def _namespace(v):
+    """``jax.numpy`` for a JAX array or trace, ``numpy`` for anything else."""
+    return jnp if isinstance(v, jax.Array) else np
 
 
 def hat(v):
     """[v×] of vectors ``v`` (..., 3): (..., 3, 3), so that [v×] w = v × w (each entry 0 or ±v_k, exactly)."""
-    return (-LEVI_CIVITA * v[..., None, None, :]).sum(axis=-1)
+    xp = _namespace(v)
+    x, y, z = v[..., 0], v[..., 1], v[..., 2]
+    o = xp.zeros_like(x)
+    return xp.stack([o, -z, y, z, o, -x, -y, x, o], axis=-1).reshape(v.shape[:-1] + (3, 3))
 
 
 def compose(a, b):
     """a @ b of stacks of 3×3 matrices (..., 3, 3) as broadcast products: XLA's CPU batched dot of many small
     matrices costs far more than their arithmetic."""
     return (a[..., :, :, None] * b[..., None, :, :]).sum(axis=-2)
-
-
-def _namespace(v):
-    """``jax.numpy`` for a JAX array or trace, ``numpy`` for anything else."""
-    return jnp if isinstance(v, jax.Array) else np
 
 
 def _combine(v, small_at: float, coefficients):
