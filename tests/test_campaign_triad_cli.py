@@ -19,11 +19,12 @@ import pytest
 
 from gyrojax.adaptive.classical import hand_classical_hours
 from gyrojax.adaptive.goal import Goal
+from gyrojax.adaptive.simulated import run_campaign
 from gyrojax.cli.app import main
 from gyrojax.data import plans
 from gyrojax.data.records import load_records
 from gyrojax.data.truth import TriadTruth, load_truth, save_truth, truth_from_dict
-from gyrojax.errors import TruthError
+from gyrojax.errors import ModelError, TruthError
 from gyrojax.montecarlo.triad import LATITUDE, with_vertical_earth_rate
 from gyrojax.planning import triad_protocol as tpr
 from gyrojax.planning.triad_fisher import TriadNoise
@@ -182,6 +183,8 @@ def test_triad_truth_file(tmp_path):
             truth_from_dict(bad)
     with pytest.raises(TruthError, match="imu-triad"):
         simulate(plans.build("tumble"), t)
+    with pytest.raises(ModelError, match="run_hand_campaign"):
+        run_campaign(t, plans.build("tumble"), ["D_F"], Goal(sigma=0.01))
 
 
 def test_first_session_repeated_to_the_same_sigma():

@@ -183,6 +183,8 @@ def run_campaign(
 
     Returns: a :class:`CampaignResult`.
     """
+    if isinstance(truth, TriadTruth):
+        raise ModelError("an imu-triad truth is a hand lab's: run_hand_campaign runs its sessions, not a turntable")
     truth = truth if isinstance(truth, Truth) else truth_from_dict(truth)
     key = jax.random.PRNGKey(seed)
     records = simulate(first, truth, key=jax.random.fold_in(key, 0))
