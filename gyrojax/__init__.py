@@ -80,6 +80,7 @@ _FLAT = {
     "load_records": "gyrojax.data.records:load_records",
     "save_record": "gyrojax.data.records:save_record",
     "Truth": "gyrojax.data.truth:Truth",
+    "TriadTruth": "gyrojax.data.truth:TriadTruth",
     "load_truth": "gyrojax.data.truth:load_truth",
     "truth_from_dict": "gyrojax.data.truth:truth_from_dict",
     "Plan": "gyrojax.data.plans:Plan",

@@ -19,6 +19,18 @@ while a fitted σ exceeds its target, s grows by the squared ratio (at most :dat
 interval scales with s, so every run keeps its number of samples: white-noise information depends on the measuring
 time, not the interval.
 
+**A hand-held triad's classical calibration** (:func:`hand_classical_hours`): the campaign's first session — with
+``--first ferraris`` imucal's Ferraris protocol, the standard hand calibration — repeated n times, each repetition a
+session of its own (a person does not hold a box still for hours: the session is repeated, not lengthened), fitted
+jointly with the campaign's final model. n is the fewest at which every σ reaches its target: from the Fisher
+information of one session at the truth's noise (:func:`gyrojax.planning.triad_protocol.steps_fisher`; n sessions
+carry n times it, so σ² ∝ 1/n), then checked by simulating the n sessions from the truth (their own seeds) and
+fitting (:func:`gyrojax.inference.triad.fit_triad`, which estimates the noise as the loop's fits do): while a fitted
+σ exceeds its target, n grows by the squared ratio (at most :data:`CHECKS` times). Beyond
+:data:`MAX_CHECKED_SESSIONS` sessions the hours stand on the Fisher information alone, and ``reason`` says so. A
+first session that does not identify a targeted coefficient of the final model (its information singular there:
+no number of repetitions reaches the target) gives no hours, with the reason.
+
 **The best split.** Beside the sequence in its own proportions, the hours of the most favourable split of time
 among its tests (the scale of each test chosen apart, minimising the total measuring time under the σ targets;
 Fisher information only): a lower bound on what any lab would spend on that sequence.
@@ -37,15 +49,18 @@ from gyrojax.errors import ModelError
 from gyrojax.inference.identify import fit
 from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics import effects as fx
+from gyrojax.physics import triad as tp
 from gyrojax.physics.model import Model
 from gyrojax.planning.fisher import record_fisher
 from gyrojax.simulation.simulator import simulate
 
 CHECKS = 3
+"""Simulated checks of the scale (each one a simulation and a fit of the whole sequence)."""
 MAX_CLASSICAL_HOURS = 1.0e5
 """Table hours (h, about 11 years) beyond which the classical sequence is reported as not a test anyone runs (its
 hours are then null, with the coefficient whose σ target asks for them), never as a number."""
-"""Simulated checks of the scale (each one a simulation and a fit of the whole sequence)."""
+MAX_CHECKED_SESSIONS = 40
+"""Repetitions of a hand session beyond which the classical hours are not checked by simulation (Fisher only)."""
 SAMPLES = {"position": 20, "tumble": 720, "servo": 1440, "head": 30}
 """Samples per static position, per tumble run, per servo run and per dividing-head position, at every scale."""
 
@@ -257,3 +272,99 @@ def _path(recs, tests, model: Model, last) -> list:
             }
         )
     return out
+
+
+def hand_classical_hours(truth, first, terms, goal, seed: int = 0) -> ClassicalResult:
+    """The :class:`ClassicalResult` of the hand calibration ``first`` — (start attitude, steps) of a
+    :class:`~gyrojax.data.truth.TriadTruth`'s first session — repeated until the model ``terms`` reaches ``goal``'s σ
+    targets on ``truth`` (module doc). ``scale`` is the number of sessions n, ``hours`` n times one session's."""
+    from gyrojax.inference.triad import fit_triad
+    from gyrojax.planning import triad_protocol as tpr
+    from gyrojax.planning.triad_fisher import TriadNoise
+    from gyrojax.simulation.triad_session import simulate_session
+
+    start, steps = first
+    session_h = sum(float(s.get("rest_s", s.get("duration_s", 0.0))) for s in steps) / 3600.0
+    try:
+        model = tpr.triad_model(terms)
+    except ModelError as e:
+        return ClassicalResult(None, None, {}, reason=f"the first session's hours for this model are not computed: {e}")
+    opts = truth.session_options()
+    noise = TriadNoise(
+        arw=truth.arw or 1e-6,
+        acc_noise_g=opts["acc_noise_g"] or 1e-6,
+        rate_hz=opts["rate_hz"],
+        latitude_deg=None,  # the simulated records leave the site unknown, as a hand session's
+        earth_rate=opts["earth_rate"],
+        placement_deg=opts["placement_deg"],
+    )
+    names = list(tp.channel_names(model))
+    targets = np.array([goal.target(c) or math.inf for c in names])
+    one = tpr.sigma(tpr.steps_fisher(model, start, steps, noise), model)
+    v1 = np.array([one[c] for c in names]) ** 2
+    bad = [c for c, v, t in zip(names, v1, targets) if not math.isfinite(v) and math.isfinite(t)]
+    if bad:
+        return ClassicalResult(
+            None,
+            None,
+            {},
+            reason=f"the first session does not identify {', '.join(bad[:6])}"
+            + (f" (and {len(bad) - 6} more)" if len(bad) > 6 else "")
+            + ": no number of its repetitions reaches their targets",
+        )
+    n = max(1, math.ceil(float(np.max(v1 / targets**2))))
+    if n * session_h > MAX_CLASSICAL_HOURS:
+        worst = names[int(np.argmax(v1 / targets**2))]
+        return ClassicalResult(
+            None,
+            None,
+            {},
+            reason=f"the first session hardly sees {worst} (σ {math.sqrt(v1[names.index(worst)]):.3g} after one): it "
+            f"would be repeated {float(n):.3g} times ({n * session_h:.3g} h) for its σ target {goal.target(worst):g}, "
+            f"beyond {MAX_CLASSICAL_HOURS:g} h, no calibration anyone runs",
+        )
+    if n > MAX_CHECKED_SESSIONS:
+        sigma = {c: float(math.sqrt(v / n)) for c, v in zip(names, v1)}
+        note = f"{n} sessions: beyond {MAX_CHECKED_SESSIONS}, the hours stand on the Fisher information alone"
+        return ClassicalResult(n, n * session_h, sigma, reason=note)
+    sim = truth.simulation_options()
+
+    def run(n):
+        recs = []
+        for i in range(n):
+            sub = int(np.random.SeedSequence([seed, 7919, i]).generate_state(1)[0])
+            recs.append(simulate_session(steps, truth.coefficients, start_attitude=start, seed=sub, **sim))
+        return recs, fit_triad(recs, list(model.terms))
+
+    for _ in range(CHECKS):
+        recs, res = run(n)
+        ratio = max(res.stds[c] / t for c, t in zip(names, targets))
+        if ratio <= 1.0:
+            break
+        tried, n = n, math.ceil(n * ratio**2 * 1.001)
+        if n > MAX_CHECKED_SESSIONS:
+            note = (
+                f"{tried} sessions simulated leave a σ {ratio:.3g} × its target: {n} sessions, beyond "
+                f"{MAX_CHECKED_SESSIONS}, are not checked by simulation"
+            )
+            return ClassicalResult(n, n * session_h, {}, reason=note)
+    else:
+        recs, res = run(n)
+    path = []
+    for k in sorted({1, n}):
+        try:
+            part = res if k == n else fit_triad(recs[:k], list(model.terms))
+            sig = {c: (v if math.isfinite(v) else None) for c, v in part.stds.items()}
+            rms, floor = part.residual_rms, part.noise_floor
+        except ModelError:
+            sig, rms, floor = {}, None, None
+        path.append(
+            {
+                "test": f"{k} × the first session",
+                "hours": k * session_h,
+                "sigma": sig,
+                "residual_rms": rms,
+                "noise_floor": floor,
+            }
+        )
+    return ClassicalResult(n, n * session_h, dict(res.stds), path)

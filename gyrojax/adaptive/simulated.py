@@ -6,8 +6,9 @@ simulated from the same truth on the campaign's clock (test k draws its noise fr
 fitted jointly with everything before, until the goal is met, refused as unreachable, blocked, or ``max_tests`` tests
 have run. A hand-held triad's campaign (:func:`run_hand_campaign`) runs the same loop on sessions a person makes.
 Its table hours are compared with Hu's classical sequence scaled to reach the same σ on the same truth
-(:mod:`gyrojax.adaptive.classical`), and with the fewest table hours any campaign from the same first test needs
-to meet the requirements of the loop's last look (:mod:`gyrojax.adaptive.bound`).
+(:mod:`gyrojax.adaptive.classical`; a triad's sessions with its first session repeated), and with the fewest table
+hours any campaign from the same first test needs to meet the requirements of the loop's last look
+(:mod:`gyrojax.adaptive.bound`).
 """
 
 from __future__ import annotations
@@ -20,12 +21,12 @@ import numpy as np
 
 from gyrojax.adaptive import requirements as rq
 from gyrojax.adaptive.bound import table_hours_bound
-from gyrojax.adaptive.classical import ClassicalResult, classical_hours
+from gyrojax.adaptive.classical import ClassicalResult, classical_hours, hand_classical_hours
 from gyrojax.adaptive.goal import Goal
 from gyrojax.adaptive.hand import HandLab
 from gyrojax.adaptive.lab import Lab
 from gyrojax.adaptive.step import NextTest, next_test
-from gyrojax.data.truth import Truth, truth_from_dict
+from gyrojax.data.truth import TriadTruth, Truth, truth_from_dict
 from gyrojax.errors import ModelError
 from gyrojax.simulation.simulator import simulate
 from gyrojax.simulation.triad_session import simulate_session
@@ -46,6 +47,7 @@ class CampaignStep:
     file: str | None = None
     predicted: list = field(default_factory=list)  # σ the design predicted after it: coefficient, sub-model, σ
     name: str | None = None  # the test's name where its plan has none (a hand session)
+    protocol: dict | None = None  # a designed hand session's protocol file content (NextTest.protocol)
 
     def to_json(self) -> dict:
         """JSON: plan name (or file), hours, cumulative hours, reason and the state after it."""
@@ -181,6 +183,8 @@ def run_campaign(
 
     Returns: a :class:`CampaignResult`.
     """
+    if isinstance(truth, TriadTruth):
+        raise ModelError("an imu-triad truth is a hand lab's: run_hand_campaign runs its sessions, not a turntable")
     truth = truth if isinstance(truth, Truth) else truth_from_dict(truth)
     key = jax.random.PRNGKey(seed)
     records = simulate(first, truth, key=jax.random.fold_in(key, 0))
@@ -248,11 +252,11 @@ def _loop(records, first_step, terms, goal, lab, run, seed: int, max_tests: int,
             for r, x in zip(nt.requirements, nt.sigma_after)
             if r.kind != "separate" and math.isfinite(x)
         ]
-        steps.append(CampaignStep(plan, nt.hours, nt.reason, total, predicted=predicted))
+        steps.append(CampaignStep(plan, nt.hours, nt.reason, total, predicted=predicted, protocol=nt.protocol))
 
 
 def run_hand_campaign(
-    truth: dict,
+    truth,
     first,
     terms,
     goal: Goal,
@@ -261,6 +265,7 @@ def run_hand_campaign(
     seed: int = 0,
     max_tests: int = MAX_TESTS,
     session: dict | None = None,
+    classical: bool = True,
     on_step=None,
     **search,
 ) -> CampaignResult:
@@ -270,25 +275,30 @@ def run_hand_campaign(
     fitted jointly with every session before.
 
     Args:
-      truth: per-channel coefficients (``{"D_F[x]": deg/h, "E_SF[y]": ppm, "M_O[z]": arcsec, …}``).
+      truth: a :class:`~gyrojax.data.truth.TriadTruth` (coefficients, ARW and the sessions' options), or its
+        per-channel coefficients alone (``{"D_F[x]": deg/h, "E_SF[y]": ppm, "M_O[z]": arcsec, …}``).
       first: the first session, (start attitude body → ENU 3×3, steps) as
         :func:`~gyrojax.planning.triad_protocol.ferraris_steps` gives it.
       terms: the model before any session (effect names).
       goal: the :class:`~gyrojax.adaptive.goal.Goal` (targets per channel coefficient).
       lab: the :class:`~gyrojax.adaptive.hand.HandLab` (default one).
       session: options of ``simulate_session`` for every session (``rate_hz``, ``gyro_noise_dps`` deg/s per sample,
-        ``acc_noise_g``, ``placement_deg``, ``latitude_deg`` …); its ``terms`` are the truth's.
+        ``acc_noise_g``, ``placement_deg``, ``latitude_deg`` …), over a TriadTruth's.
+      classical: also compute the hours of the first session repeated to the same σ
+        (:func:`~gyrojax.adaptive.classical.hand_classical_hours`; a TriadTruth's only: coefficients alone do not
+        state the noise it is simulated at, and ``classical`` then says so).
       search: ``starts``, ``steps``, ``lbfgs_steps`` of the session search.
 
-    Returns: a :class:`CampaignResult` (``table_hours``: the sessions' hours; no classical sequence beside it).
+    Returns: a :class:`CampaignResult` (``table_hours``: the sessions' hours).
     """
     lab = lab or HandLab()
-    session = dict(session or {})
+    coefficients = truth.coefficients if isinstance(truth, TriadTruth) else truth
+    session = {**(truth.simulation_options() if isinstance(truth, TriadTruth) else {}), **(session or {})}
     start, plan = first
 
     def simulate_one(start, plan, k):
         sub = int(np.random.SeedSequence([seed, k]).generate_state(1)[0])
-        return simulate_session(plan, truth, start_attitude=start, seed=sub, **session)
+        return simulate_session(plan, coefficients, start_attitude=start, seed=sub, **session)
 
     records = [simulate_one(start, plan, 0)]
     hours = sum(float(s.get("rest_s", s.get("duration_s", 0.0))) for s in plan) / 3600.0
@@ -303,4 +313,10 @@ def run_hand_campaign(
     )
     for k, step in enumerate(steps[1:], start=2):
         step.name = f"session-{k}"
-    return CampaignResult(status, reason, steps, nt, records, goal, lab, first_hours=hours)
+    result = CampaignResult(status, reason, steps, nt, records, goal, lab, first_hours=hours)
+    if classical and not isinstance(truth, TriadTruth):
+        why = "the truth gives coefficients alone, not the noise of the sessions (give a TriadTruth)"
+        result.classical = ClassicalResult(None, None, {}, reason=why)
+    elif classical:
+        result.classical = hand_classical_hours(truth, first, nt.terms, goal, seed)
+    return result

@@ -60,7 +60,8 @@ def _add_campaign_arguments(parser) -> None:
 
 
 def _add_hand_arguments(parser) -> None:
-    """The hand lab's options of ``next`` on imu-triad records (:func:`gyrojax.cli.campaign.add_hand_arguments`)."""
+    """The hand lab's options of ``next`` on imu-triad records and ``campaign`` on an imu-triad truth
+    (:func:`gyrojax.cli.campaign.add_hand_arguments`)."""
     from gyrojax.cli.campaign import add_hand_arguments
 
     add_hand_arguments(parser)
@@ -196,7 +197,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("campaign", help="the test campaign loop on a laboratory simulated from a truth file")
     s.add_argument("--simulate", metavar="TRUTH.json", help="the truth of the simulated laboratory (conventions §8)")
-    s.add_argument("--first", required=True, help="the lab's first test: a built-in plan name or a plan file")
+    s.add_argument("--first", required=True, help="the lab's first test: a built-in plan or hand session, or a file")
     s.add_argument("--option", "-o", action="append", metavar="NAME=VALUE", help="option of the first plan's builder")
     s.add_argument("--seed", type=int, default=0, help="noise seed of the campaign")
     s.add_argument("--max-tests", type=int, default=8, help="designed tests at most (default 8)")
@@ -204,6 +205,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--force", action="store_true", help="write into a non-empty --out")
     s.add_argument("--json", action="store_true")
     _add_campaign_arguments(s)
+    _add_hand_arguments(s)
     s.set_defaults(func=_campaign_command("campaign"))
 
     s = sub.add_parser("mc", help="Monte Carlo study: simulate and fit many gyros (docs/montecarlo.md)")

@@ -38,17 +38,19 @@ def add_lab_arguments(s) -> None:
 
 
 def add_hand_arguments(s) -> None:
-    """The hand lab's options (``next`` on imu-triad records: a person turning a box)."""
-    g = s.add_argument_group("imu-triad records: the next hand session")
+    """The hand lab's options (``next`` on imu-triad records, ``campaign`` on an imu-triad truth: a person turning a
+    box)."""
+    g = s.add_argument_group("a hand-held triad (imu-triad records or truth): the hand sessions")
     g.add_argument("--poses", type=int, help="rests of the designed session (default 12)")
     g.add_argument("--minutes", type=float, help="the longest session a person runs, min (default 30)")
     g.add_argument("--placement-deg", type=float, help="σ of the hand's placement about each axis, deg (default 1)")
     g.add_argument("--acc-noise", type=float, help="accelerometer white noise, g per sample (default: the records')")
     g.add_argument("--turn-pairs", help="known-angle turn structures searched, e.g. 0,1,2 (default 0,1,2)")
     g.add_argument("--lbfgs-steps", type=int, help="L-BFGS refinement of the session search at most (default 400)")
+    g.add_argument("--budget-minutes", type=float, help="minutes the campaign's sessions may take in all")
 
 
-HAND_FLAGS = ("poses", "minutes", "placement_deg", "acc_noise", "turn_pairs", "lbfgs_steps")
+HAND_FLAGS = ("poses", "minutes", "placement_deg", "acc_noise", "turn_pairs", "lbfgs_steps", "budget_minutes")
 """The hand lab's options (``args`` names): refused on turntable records."""
 TABLE_DEFAULTS = {
     "table": "records",
@@ -76,7 +78,8 @@ def hand_lab_from_args(args):
         if getattr(args, key, default) != default:
             raise UsageError(f"--{key.replace('_', '-')} is an option of a turntable test, not of a hand session")
     over = {}
-    for key, name in (("poses", "poses"), ("minutes", "max_minutes"), ("placement_deg", "placement_deg")):
+    pairs = (("poses", "poses"), ("minutes", "max_minutes"), ("placement_deg", "placement_deg"))
+    for key, name in pairs + (("budget_minutes", "budget_minutes"),):
         if getattr(args, key) is not None:
             over[name] = getattr(args, key)
     if args.acc_noise is not None:
@@ -93,6 +96,7 @@ def hand_lab_from_args(args):
     except ModelError as e:
         key = str(e).split("'")[1] if "'" in str(e) else ""
         flag = {"poses": "--poses", "max_minutes": "--minutes", "placement_deg": "--placement-deg"}.get(key)
+        flag = flag or {"budget_minutes": "--budget-minutes"}.get(key)
         flag = flag or {"acc_noise_g": "--acc-noise", "turn_pairs": "--turn-pairs"}.get(key, "hand lab")
         raise UsageError(f"{flag}: {e}") from None
 
@@ -254,36 +258,85 @@ def cmd_next(args) -> int:
     return 0
 
 
-def cmd_campaign(args) -> int:
-    """``gyrojax campaign --simulate TRUTH --first PLAN``: the loop on a simulated laboratory; prints the steps and the
-    comparison with the classical sequence, or ``--json``; writes the plans, records and figure into ``--out``."""
+HAND_FIRST = {"ferraris": ("minutes",), "random": ("poses", "minutes", "seed")}
+"""The built-in first sessions of a hand campaign and their ``--option`` names: imucal's Ferraris protocol
+(:func:`~gyrojax.planning.triad_protocol.ferraris_steps`) and imu_tk's random poses
+(:func:`~gyrojax.planning.triad_protocol.random_steps`)."""
+FIRST_MINUTES = 10.0
+"""A built-in first session's length, min (default)."""
+
+
+def hand_first_from_arg(arg: str, options: dict) -> tuple:
+    """The first session a hand campaign names: (start attitude, steps, protocol file content). A built-in session of
+    :data:`HAND_FIRST` with its ``--option`` values, or a protocol file (``design --instrument imu-triad``, ``next``;
+    options refused)."""
+    import numpy as np
+
+    from gyrojax.errors import FormatError, ModelError
+    from gyrojax.planning import triad_protocol as tpr
+
+    if arg in HAND_FIRST:
+        bad = [k for k in options if k not in HAND_FIRST[arg]]
+        if bad:
+            raise UsageError(f"--option {bad[0]}: the {arg} session takes {', '.join(HAND_FIRST[arg])}")
+        minutes = options.get("minutes", FIRST_MINUTES)
+        try:
+            if arg == "ferraris":
+                start, steps = tpr.ferraris_steps(60.0 * float(minutes))
+            else:
+                start, steps = tpr.random_steps(
+                    int(options.get("poses", 12)), 60.0 * float(minutes), int(options.get("seed", 0))
+                )
+        except (ModelError, TypeError, ValueError) as e:
+            raise UsageError(f"--first {arg}: {e}") from None
+        return start, steps, None
+    if options:
+        raise UsageError("--option applies to built-in sessions only, not to a protocol file")
+    p = Path(arg)
+    if not (p.suffix == ".json" or p.exists()):
+        raise UsageError(f"{arg!r} is neither a built-in hand session ({', '.join(HAND_FIRST)}) nor a protocol file")
+    try:
+        doc = tpr.load_protocol(p)
+    except FormatError as e:
+        raise UsageError(f"--first {arg}: {e}") from None
+    return np.asarray(doc["session"]["start_attitude"], dtype=float), list(doc["session"]["steps"]), doc
+
+
+def _first_payload(name: str, start, steps, truth, terms) -> dict:
+    """The protocol file of a built-in first session (the keys :func:`~gyrojax.planning.triad_protocol.load_protocol`
+    reads; its ``noise`` the truth's, at which it is simulated)."""
+    import numpy as np
+
+    opts = truth.session_options()
+    return {
+        "instrument": "imu-triad",
+        "name": name,
+        "terms": list(terms),
+        "total_s": sum(float(s.get("rest_s", s.get("duration_s", 0.0))) for s in steps),
+        "noise": {
+            "arw_deg_per_sqrt_h": truth.arw,
+            "acc_noise_g": opts["acc_noise_g"],
+            "rate_hz": opts["rate_hz"],
+            "placement_deg": opts["placement_deg"],
+            "earth_rate": opts["earth_rate"],
+        },
+        "session": {"start_attitude": np.asarray(start).tolist(), "steps": steps},
+    }
+
+
+def _table_campaign(args, truth, terms, goal, progress):
+    """The turntable plug-in of ``campaign``: the first plan and the table lab of the options, the loop
+    (:func:`~gyrojax.adaptive.simulated.run_campaign`) on them; (result, writer of its plan files)."""
     from gyrojax.adaptive.simulated import run_campaign
     from gyrojax.cli.commands import plan_from_arg
     from gyrojax.data.planfile import save_plan
-    from gyrojax.data.records import save_record
-    from gyrojax.data.truth import load_truth
-    from gyrojax.protocol import atomic_write_text, strict
     from gyrojax.simulation.simulator import simulate
 
-    if not args.simulate:
-        raise UsageError("campaign needs --simulate TRUTH.json (the laboratory is simulated from it)")
-    goal = goal_from_args(args)
-    truth = load_truth(args.simulate)
+    given = [f"--{k.replace('_', '-')}" for k in HAND_FLAGS if getattr(args, k) is not None]
+    if given:
+        raise UsageError(f"{given[0]} is an option of a hand session (an imu-triad truth), not of a turntable test")
     first = plan_from_arg(args.first, parse_options(args.option))
-    terms = parse_terms(args.terms)
-    if not terms:
-        raise UsageError("--terms: give the lab's model before any test, e.g. --terms D_F,D_I,D_S")
-    out = Path(args.out) if args.out else None
-    if out is not None and out.exists() and any(out.iterdir()) and not args.force:
-        raise UsageError(f"{out}: exists and is not empty; pass --force to overwrite")
-    if args.max_tests < 1:
-        raise UsageError(f"--max-tests must be at least 1, got {args.max_tests}")
     lab = lab_from_args(args, simulate(first, {"coefficients": {}}))
-
-    def progress(nt):
-        if not args.json:
-            print(f"  [{nt.status}] model {', '.join(nt.terms)}; {nt.reason[:160]}", flush=True)
-
     res = run_campaign(
         truth,
         first,
@@ -296,13 +349,85 @@ def cmd_campaign(args) -> int:
         starts=args.starts,
         steps=args.steps,
     )
+
+    def write(out):
+        for step in res.steps:
+            step.file = str(save_plan(step.plan, out / f"{step.plan.name}.plan.json", force=True))
+
+    return res, write
+
+
+def _hand_campaign(args, truth, terms, goal, progress):
+    """The hand-held triad plug-in of ``campaign``: the first session and the hand lab of the options (table options
+    refused), the loop (:func:`~gyrojax.adaptive.simulated.run_hand_campaign`) on them; (result, writer of its
+    protocol files). The sessions' budget defaults to ``--max-tests`` sessions of the longest a person runs."""
+    from dataclasses import replace
+
+    from gyrojax.adaptive.simulated import run_hand_campaign
+    from gyrojax.planning.triad_protocol import save_protocol
+
+    lab = hand_lab_from_args(args)
+    if lab.budget_minutes is None:
+        lab = replace(lab, budget_minutes=lab.max_minutes * args.max_tests)
+    start, steps, doc = hand_first_from_arg(args.first, parse_options(args.option))
+    search = {} if args.lbfgs_steps is None else {"lbfgs_steps": args.lbfgs_steps}
+    res = run_hand_campaign(
+        truth,
+        (start, steps),
+        terms,
+        goal,
+        lab,
+        seed=args.seed,
+        max_tests=args.max_tests,
+        on_step=progress,
+        starts=args.starts,
+        steps=args.steps,
+        **search,
+    )
+
+    def write(out):
+        first = doc if doc is not None else _first_payload(args.first, start, steps, truth, terms)
+        res.steps[0].file = str(save_protocol(out / "first.protocol.json", first, force=True))
+        for step in res.steps[1:]:
+            step.file = str(save_protocol(out / f"{step.name}.protocol.json", step.protocol, force=True))
+
+    return res, write
+
+
+def cmd_campaign(args) -> int:
+    """``gyrojax campaign --simulate TRUTH --first PLAN``: the loop on a simulated laboratory — a turntable, or a
+    person turning a box when the truth is an imu-triad's — prints the steps and the comparison with the classical
+    calibration, or ``--json``; writes the plans (protocols), records and figure into ``--out``."""
+    from gyrojax.data.records import save_record
+    from gyrojax.data.truth import TriadTruth, load_truth
+    from gyrojax.protocol import atomic_write_text, strict
+
+    if not args.simulate:
+        raise UsageError("campaign needs --simulate TRUTH.json (the laboratory is simulated from it)")
+    goal = goal_from_args(args)
+    truth = load_truth(args.simulate)
+    terms = parse_terms(args.terms)
+    if not terms:
+        raise UsageError("--terms: give the lab's model before any test, e.g. --terms D_F,D_I,D_S")
+    out = Path(args.out) if args.out else None
+    if out is not None and out.exists() and any(out.iterdir()) and not args.force:
+        raise UsageError(f"{out}: exists and is not empty; pass --force to overwrite")
+    if args.max_tests < 1:
+        raise UsageError(f"--max-tests must be at least 1, got {args.max_tests}")
+    hand = isinstance(truth, TriadTruth)  # the one place the instrument's plug-in is chosen
+    plug_in = _hand_campaign if hand else _table_campaign
+
+    def progress(nt):
+        if not args.json:
+            print(f"  [{nt.status}] model {', '.join(nt.terms)}; {nt.reason[:160]}", flush=True)
+
+    res, write = plug_in(args, truth, terms, goal, progress)
     j = res.to_json()
     if out is not None:
         from gyrojax.report.figures import campaign_figure, save
 
         out.mkdir(parents=True, exist_ok=True)
-        for step in res.steps:
-            step.file = str(save_plan(step.plan, out / f"{step.plan.name}.plan.json", force=True))
+        write(out)
         for r in res.records:
             save_record(r, out / "records", force=True)
         save(campaign_figure(res), out / "campaign.png")
@@ -317,10 +442,13 @@ def cmd_campaign(args) -> int:
     c = j["classical_table_hours"]
     ratio = j["hours_ratio"]
     why = (j["classical"] or {}).get("reason") or "not run"
+    what, which = ("session", "the first session repeated") if hand else ("table", "Hu's classical sequence")
     print(
-        f"table hours: loop {j['table_hours']:.3g} h; Hu's classical sequence for the same σ: "
+        f"{what} hours: loop {j['table_hours']:.3g} h; {which} for the same σ: "
         + (f"{c:.3g} h (ratio {ratio:.2f})" if c else f"not reached ({why})")
     )
+    if c and (j["classical"] or {}).get("reason"):
+        print(f"  note: {why}")
     bound = j["hours_lower_bound"]
     if bound and bound.get("statement"):
         print(f"lower bound: {bound['statement']}")

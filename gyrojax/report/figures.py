@@ -363,15 +363,14 @@ def campaign_figure(result, title: str | None = None):
     target σ as a dotted line; right, the residual the noise does not explain, √(RMS² − floor²) (output units; the
     floor from successive differences, so it does not depend on the sample interval), of the loop's model after each
     test (the effects it added marked) and of the final model fitted to the classical sequence."""
-    from gyrojax.physics.effects import effect_of_coefficient
-
     fig, (ax, ar) = _figure(1, 2, figsize=(11.0, 4.0))
     names = list(result.last.terms)
     hours = [s.cumulative_hours for s in result.steps]
+    what = "session" if result.lab.to_json().get("kind") == "hand" else "table"
     colours = {}
     for eff in names:
         fit = result.last.fit
-        coeffs = [c for c in fit.coefficient_names if effect_of_coefficient(c) == eff] if fit else [eff]
+        coeffs = [c for c in fit.coefficient_names if _effect_of(c) == eff] if fit else [eff]
         for c in coeffs:
             ys = [_state_sigma(s.state, c) for s in result.steps]
             line = ax.plot(hours, ys, "o-", lw=1.4, ms=4, label=c)[0]
@@ -391,10 +390,10 @@ def campaign_figure(result, title: str | None = None):
     for x in hours:
         ax.axvline(x, color="0.85", lw=0.6, zorder=0)
     ax.set_yscale("log")
-    ax.set_xlabel("table hours (h)")
+    ax.set_xlabel(f"{what} hours (h)")
     ax.set_ylabel("fitted σ (report units: deg/h, deg/h/g, deg/h/g²)")
     ax.set_title(
-        f"σ against table hours: loop {result.table_hours:.3g} h"
+        f"σ against {what} hours: loop {result.table_hours:.3g} h"
         + (f", classical {cl.hours:.3g} h" if cl and cl.hours else ""),
         fontsize=9,
     )
@@ -408,13 +407,28 @@ def campaign_figure(result, title: str | None = None):
     if cl is not None and cl.path:
         ys = [_excess(p["residual_rms"], p.get("noise_floor")) for p in cl.path]
         ar.plot([p["hours"] for p in cl.path], ys, "^--", color="C0", label="classical")
-    ar.set_xlabel("table hours (h)")
+    ar.set_xlabel(f"{what} hours (h)")
     ar.set_ylabel("residual beyond the noise (deg/h)")
     verdict = result.last.diagnosis.verdict if result.last.diagnosis else "—"
     ar.set_title(title or f"√(RMS² − floor²) of the model after each test; final verdict: {verdict}", fontsize=9)
     ar.legend(fontsize=7)
     fig.tight_layout()
     return fig
+
+
+def _effect_of(coefficient: str) -> str | None:
+    """The effect of a coefficient, a triad channel's (``D_F[x]``) as its name's; None for one of no effect of §6
+    (a triad's power-up steps ``D_F_step_1[x]``)."""
+    from gyrojax.errors import ModelError
+    from gyrojax.physics.effects import coefficient_index
+    from gyrojax.physics.triad import split_channel_name
+
+    try:
+        coefficient = split_channel_name(coefficient)[0]
+    except ModelError:
+        pass
+    entry = coefficient_index().get(coefficient)
+    return entry[0] if entry else None
 
 
 def _state_sigma(state: dict, coefficient: str) -> float:

@@ -21,8 +21,8 @@ from gyrojax.data.arrays import record_data
 from gyrojax.data.plans import Plan, Run
 from gyrojax.data.record import Record
 from gyrojax.data.schema import FORMAT
-from gyrojax.data.truth import Truth, truth_from_dict
-from gyrojax.errors import PlanError
+from gyrojax.data.truth import TriadTruth, Truth, truth_from_dict
+from gyrojax.errors import PlanError, TruthError
 from gyrojax.noise.processes import random_drift
 from gyrojax.physics import effects as fx
 from gyrojax.physics import frames
@@ -387,8 +387,13 @@ def simulate(
     """
     if dynamics not in ("quasi-static", "loop"):
         raise ValueError(f"dynamics must be 'quasi-static' or 'loop', got {dynamics!r}")
-    if not isinstance(truth, Truth):
+    if not isinstance(truth, (Truth, TriadTruth)):
         truth = truth_from_dict(truth)
+    if isinstance(truth, TriadTruth):
+        raise TruthError(
+            "an imu-triad truth is simulated by hand sessions (gyrojax.simulation.triad_session, gyrojax campaign), "
+            "not on a turntable plan"
+        )
     if key is None:
         key = jax.random.PRNGKey(seed)
     out, t0 = [], float(start_s)
