@@ -324,9 +324,10 @@ def _first_payload(name: str, start, steps, truth, terms) -> dict:
     }
 
 
-def _table_campaign(args, truth, terms, goal, progress):
+def _table_campaign(args, truth, terms, goal, loop):
     """The turntable plug-in of ``campaign``: the first plan and the table lab of the options, the loop
-    (:func:`~gyrojax.adaptive.simulated.run_campaign`) on them; (result, writer of its plan files)."""
+    (:func:`~gyrojax.adaptive.simulated.run_campaign`) on them with ``loop`` (seed, max_tests, on_step, starts,
+    steps); (result, writer of its plan files)."""
     from gyrojax.adaptive.simulated import run_campaign
     from gyrojax.cli.commands import plan_from_arg
     from gyrojax.data.planfile import save_plan
@@ -337,18 +338,7 @@ def _table_campaign(args, truth, terms, goal, progress):
         raise UsageError(f"{given[0]} is an option of a hand session (an imu-triad truth), not of a turntable test")
     first = plan_from_arg(args.first, parse_options(args.option))
     lab = lab_from_args(args, simulate(first, {"coefficients": {}}))
-    res = run_campaign(
-        truth,
-        first,
-        terms,
-        goal,
-        lab,
-        seed=args.seed,
-        max_tests=args.max_tests,
-        on_step=progress,
-        starts=args.starts,
-        steps=args.steps,
-    )
+    res = run_campaign(truth, first, terms, goal, lab, **loop)
 
     def write(out):
         for step in res.steps:
@@ -357,10 +347,11 @@ def _table_campaign(args, truth, terms, goal, progress):
     return res, write
 
 
-def _hand_campaign(args, truth, terms, goal, progress):
+def _hand_campaign(args, truth, terms, goal, loop):
     """The hand-held triad plug-in of ``campaign``: the first session and the hand lab of the options (table options
-    refused), the loop (:func:`~gyrojax.adaptive.simulated.run_hand_campaign`) on them; (result, writer of its
-    protocol files). The sessions' budget defaults to ``--max-tests`` sessions of the longest a person runs."""
+    refused), the loop (:func:`~gyrojax.adaptive.simulated.run_hand_campaign`) on them with ``loop``; (result,
+    writer of its protocol files). The sessions' budget defaults to ``--max-tests`` sessions of the longest a person
+    runs."""
     from dataclasses import replace
 
     from gyrojax.adaptive.simulated import run_hand_campaign
@@ -371,19 +362,7 @@ def _hand_campaign(args, truth, terms, goal, progress):
         lab = replace(lab, budget_minutes=lab.max_minutes * args.max_tests)
     start, steps, doc = hand_first_from_arg(args.first, parse_options(args.option))
     search = {} if args.lbfgs_steps is None else {"lbfgs_steps": args.lbfgs_steps}
-    res = run_hand_campaign(
-        truth,
-        (start, steps),
-        terms,
-        goal,
-        lab,
-        seed=args.seed,
-        max_tests=args.max_tests,
-        on_step=progress,
-        starts=args.starts,
-        steps=args.steps,
-        **search,
-    )
+    res = run_hand_campaign(truth, (start, steps), terms, goal, lab, **loop, **search)
 
     def write(out):
         first = doc if doc is not None else _first_payload(args.first, start, steps, truth, terms)
@@ -421,7 +400,8 @@ def cmd_campaign(args) -> int:
         if not args.json:
             print(f"  [{nt.status}] model {', '.join(nt.terms)}; {nt.reason[:160]}", flush=True)
 
-    res, write = plug_in(args, truth, terms, goal, progress)
+    loop = {"seed": args.seed, "max_tests": args.max_tests, "on_step": progress, "starts": args.starts}
+    res, write = plug_in(args, truth, terms, goal, {**loop, "steps": args.steps})
     j = res.to_json()
     if out is not None:
         from gyrojax.report.figures import campaign_figure, save
