@@ -305,3 +305,79 @@ def test_fit_with_reuses_the_vetting_refit_and_equals_a_new_fit():
     other = fit_with(d, [dataclasses.replace(r) for r in recs])
     assert other is not vetted and other.model.terms == fresh.model.terms
     np.testing.assert_allclose(other.theta, fresh.theta, rtol=1e-9, atol=1e-12)
+
+
+# An accelerometer first tumbled with OA along the head axis (a_O = 0: K_IO unseen), then in a turned mounting at
+# few-sample positions that excite a_I·a_O: the designed test of the campaign loop (four to seven 10-s samples a
+# position, as the lab's shortest dwell gives).
+ACCEL_TURNED = ((180, 70), (180, 40), (250, 70), (290, 40), (290, 40), (290, 40), (0, 40), (0, 70), (70, 40), (70, 50))
+ACCEL_TURNED += ((110, 40), (110, 40))
+ACCEL_TRUTH = {"K_0": 3.4e-4, "K_1": 1.00005, "K_2": -8.3e-5, "K_IO": -1.6e-4}
+ACCEL_ARW = 3e-7  # g·√h: 60·N/√10 s ≈ 5.7 μg a sample
+
+
+def _accel_inputs(record) -> tuple:
+    """(a_I, a_O) of every sample of a one-axis accelerometer record, from conventions §2–§4 alone: the platform
+    turned θ about the head axis u (right-hand rule), f = (0, 0, g) in L, a = (C·axis)·f / g0 (g from the record's
+    site, else g0: a 0.3 % change of a, nothing to the bound below)."""
+    from scipy.spatial.transform import Rotation
+
+    meta = record.meta
+    u = np.asarray(meta["table"]["axes"][0]["axis_enu"], dtype=float)
+    name = meta["table"]["axes"][0]["name"]
+    theta = np.deg2rad(np.asarray(record.columns[f"angle_{name}_deg"], dtype=float))
+    c = Rotation.from_rotvec(theta[:, None] * u).as_matrix()
+    g = meta["site"].get("gravity_mps2", pw.G0) / pw.G0
+    ia, oa = (np.asarray(meta["instrument"][k], dtype=float) for k in ("ia", "oa"))
+    return (c @ ia)[:, 2] * g, (c @ oa)[:, 2] * g
+
+
+def test_a_position_dependent_effect_at_few_samples_a_position_is_proposed_not_taken_for_colour():
+    """Four to seven samples a position cannot tell a Gauss–Markov or AR colour whose memory spans the position from
+    an offset per position. The residual of a model that misses K_IO holds such offsets (K_IO·a_I·a_O, 9–14 σ of a
+    sample), their lagged products read as an AR(1) colour (φ ≈ 0.77 on the turned record), and its whitening removes
+    the offsets K_IO is seen in: K_IO is then far from significant and the colour is all the diagnosis reports.
+    Judged by likelihood against the colour (as input-following candidates always are), white noise with K_IO
+    explains the records far better, and K_IO is proposed.
+
+    Decided by design: the score test of K_IO with the noise known, beside K_0, K_1, K_2 fitted to both records, has
+    noncentrality λ = K_IO² |h⊥|² / σ² (σ = 60 N / √Δt), and the diagnosis' LM form nλ / (n + λ) (tests/power.py)
+    gives power ≥ 0.999 at the first Holm step of the campaign's second look (α = 0.05/6) in a family of 60."""
+    from gyrojax.data.plans import Plan, Run, Segment, accel_mount
+
+    segs = tuple(Segment((float(a),), float(d), 10.0, label=j) for j, (a, d) in enumerate(ACCEL_TURNED))
+    run = Run("turned", (("head", (0.0, 1.0, 0.0)),), accel_mount((0, 0, -1), (0, 1, 0)), segs, scale_factor=1e-3)
+    truth = {"coefficients": ACCEL_TRUTH, "noise": {"white": ACCEL_ARW}}
+    records = simulate(plans.accel_tumble(36, 60.0, 10.0), truth, seed=0)
+    records += simulate(Plan("turned", (run,)), truth, seed=100)
+
+    a = [_accel_inputs(r) for r in records]
+    j0 = np.concatenate([np.column_stack([np.ones_like(ai), ai, ai**2]) for ai, _ in a])
+    h = np.concatenate([ai * ao for ai, ao in a])
+    h_perp = h - j0 @ np.linalg.lstsq(j0, h, rcond=None)[0]
+    sigma = 60.0 * ACCEL_ARW / np.sqrt(10.0)
+    lam = ACCEL_TRUTH["K_IO"] ** 2 * float(h_perp @ h_perp) / sigma**2
+    n = len(h)
+    alpha = 0.05 / 6  # the campaign's second look (gyrojax.adaptive.goal.look_alpha)
+    power = pw.power(n * lam / (n + lam), 1, alpha, FAMILY, pw.MARGIN)
+    assert power >= 0.999, f"this campaign cannot decide the test: power {power:.4f} (λ = {lam:.1f})"
+
+    d = diagnose(records, ["K_0", "K_1", "K_2"], alpha=alpha, suggest_tests=False)
+    assert d.proposal == "K_IO", [(c.name, c.p_adjusted) for c in d.candidates[:3]]
+    _, new_fit, new_d, _ = add_and_refit(records, ["K_0", "K_1", "K_2"], diagnosis=d, alpha=alpha, suggest_tests=False)
+    k = new_fit.values["K_IO"]
+    assert abs(k - ACCEL_TRUTH["K_IO"]) <= 4.0 * new_fit.stds["K_IO"], (k, new_fit.stds["K_IO"])
+    assert new_d.verdict == "adequate", [(c.name, c.p_adjusted) for c in new_d.candidates[:3]]
+
+
+def test_correlation_time_of_a_colour_is_its_slowest_decay():
+    """AR(2) with real roots r_1, r_2 (φ_1 = r_1 + r_2, φ_2 = −r_1 r_2) has autocorrelation A r_1^k + B r_2^k: its
+    slowest decay is the larger root's, −Δt / ln r; a Gauss–Markov term's is its T; white noise has none."""
+    from gyrojax.inference.turntable_diagnosis import correlation_time_s
+    from gyrojax.noise.spec import NoiseSpec
+
+    r1, r2, dt = 0.9, -0.5, 10.0
+    ar2 = NoiseSpec(white=1e-6, ar=(r1 + r2, -r1 * r2), dt_s=dt)
+    assert correlation_time_s(ar2) == pytest.approx(-dt / np.log(r1), rel=1e-12)
+    assert correlation_time_s(NoiseSpec(white=1e-6, gauss_markov=((1e-6, 250.0),), dt_s=dt)) == 250.0
+    assert correlation_time_s(NoiseSpec(white=1e-6, dt_s=dt)) == 0.0

@@ -11,8 +11,11 @@ are. The loop itself is the same for all:
    does not pass for coloured noise, and colour does not pass for an effect. When none is significant under the
    colour, the colour is judged against the candidates that follow a slowly varying input (temperature, time) by
    likelihood — white noise with the candidate against the colour alone (the plug-in's ``outweighs_colour``) — and
-   the one that wins is taken: a colour never hides what an input explains. Taking changes only the noise model the
-   candidates are tested under; a taken candidate is proposed only if its test then says so.
+   the one that wins is taken: a colour never hides what an input explains. Where the records' positions hold a
+   few samples each and the colour's memory spans them (they cannot tell it from an offset per position), every
+   candidate is judged so: a colour never hides an effect that differs between positions either. Taking changes
+   only the noise model the candidates are tested under; a taken candidate is proposed only if its test then says
+   so.
 2. **Aliases**: candidates whose projected regressors are collinear (:func:`gyrojax.inference.scoring.alias_pairs`).
 3. **One family**: the named candidates and the model-free shapes the plug-in tests beside them
    (:class:`gyrojax.inference.verdict.Structure`) are adjusted together by Holm

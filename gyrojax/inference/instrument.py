@@ -48,9 +48,10 @@ class Session:
         return rnd.candidates
 
     def outweighs_colour(self, rnd, taken: list) -> str | None:
-        """A candidate that follows a slowly varying input and explains the records better with white noise than
-        the colour of ``rnd`` does without it, to be taken among the fixed effects of the noise fit before the colour
-        hides it; None (the default: an instrument whose noise has no colour to judge)."""
+        """A candidate that explains the records better with white noise than the colour of ``rnd`` does without
+        it, where the colour could hide it (one that follows a slowly varying input; any, where the records cannot
+        resolve the colour), to be taken among the fixed effects of the noise fit before the colour hides it; None
+        (the default: an instrument whose noise has no colour to judge)."""
         return None
 
     def explaining(self, live: list, alpha: float) -> list[str]:

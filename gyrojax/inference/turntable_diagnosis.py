@@ -9,6 +9,8 @@ readings.
   hidden deterministic effect is not taken for colour, and colour is not taken for an effect. Its Gauss–Markov τ is
   capped at a fraction of the record (:data:`gyrojax.noise.whiten.TAU_SPAN_FRACTION`): slower structure counts as
   a trend. Colour that no candidate explains is reported as ``gauss_markov`` (conventions §6), never as an effect.
+  Colour seen in positions of a few samples, whose memory spans them, is judged against every candidate by
+  likelihood before it may hide one (:data:`POSITION_SAMPLES`).
 * **Shapes**: the model-free shapes of :mod:`gyrojax.inference.adequacy`, whitened with the fit's noise model.
 * **Readings beside drift**: a significant slow candidate (:data:`SLOW`) is read again with the drift re-fitted
   beside it; if it is not significant that way it is ``indistinguishable`` from ``gauss_markov``.
@@ -74,6 +76,17 @@ INPUT_FOLLOWING = SLOW + ("temperature_hinge",)
 """Candidates that follow a slowly varying input (time, temperature) and so may be taken for colour: each is judged
 against the colour by likelihood before the colour is allowed to hide it (:meth:`TurntableSession.outweighs_colour`,
 :func:`colour_against_shape`)."""
+
+POSITION_SAMPLES = 8
+"""Samples a record's median continuous segment (a static position) must hold for its colour to be told from an
+offset per position (the fewest a segment must hold for the white + Gauss–Markov fit,
+:func:`gyrojax.noise.whiten.fit_gm`). Within a position of n samples the colour is seen only through its first
+n − 1 lags (an AR(p) fit then has p ≤ n/4), where a colour whose memory spans the position and a constant level
+look alike: an effect the model lacks that differs between positions leaves such levels in the residual, their
+lagged products are read as colour, and its whitening removes the very levels the effect is seen in."""
+POSITION_CORRELATION_TIMES = 10.0
+"""Correlation times of a record's colour its median position must hold for a position's level to pass for the
+colour's own wandering rather than an offset (a colour of shorter memory does not hold a position at one level)."""
 
 RULES = Rules(retest_shapes=True, refit_budget=3, skip_aliased=False, plausible_before_refit=False)
 """Turntable proposals: shapes a refused or implausible candidate would have hidden are tested again without it;
@@ -172,15 +185,18 @@ class TurntableSession(Session):
         return Round(noises, *_score(self.lin, noises, self.fit, self.full, self.names, self.knees))
 
     def outweighs_colour(self, rnd: Round, taken: list) -> str | None:
-        """The candidate that follows a slow input (:data:`INPUT_FOLLOWING`) and explains the records better, with
-        white noise, than the colour of ``rnd`` does without it (:func:`colour_against_shape`); None when none
-        does, the noise has no colour, or a record's readout noise is known (its white alternative is not white)."""
+        """The candidate that explains the records better, with white noise, than the colour of ``rnd`` does
+        without it (:func:`colour_against_shape`): among those that follow a slow input (:data:`INPUT_FOLLOWING`),
+        and among every candidate where the colour is not resolved by the records' positions
+        (:func:`colour_unresolved`). None when none does, the noise has no colour, or a record's readout noise is
+        known (its white alternative is not white)."""
         if not any(nz.gauss_markov or nz.order for nz in rnd.noises) or any(self.readouts):
             return None
+        every = colour_unresolved(self.lin, rnd.noises)
         sl = self.full.slices()
         best = None
         for c in rnd.candidates:
-            if c.df == 0 or c.name in taken or c.name not in INPUT_FOLLOWING:
+            if c.df == 0 or c.name in taken or not (every or c.name in INPUT_FOLLOWING):
                 continue
             cols = np.arange(self.full.size)[sl[c.name]]
             gain = colour_against_shape(self.lin, rnd.noises, self.columns(taken), cols, fx.get(c.name).knee)
@@ -362,6 +378,44 @@ def colour_against_shape(lin, noises, cols0, cols_c, knee: str | None) -> float:
         n_all += n
     k_shape += knee is not None
     return (m2_colour + k_colour * math.log(n_all)) - (m2_white + k_shape * math.log(n_all))
+
+
+def correlation_time_s(nz: NoiseSpec) -> float:
+    """The correlation time (s) of a noise model's colour: T of its Gauss–Markov term, or of an AR(p) colour
+    −Δt / ln ρ, ρ the largest modulus of the roots of z^p − φ_1 z^(p−1) − … − φ_p (the slowest decay of its
+    autocorrelation, e^(−kΔt/T) at lag k; −Δt / ln φ for AR(1)); 0 for white noise."""
+    if nz.gauss_markov:
+        return float(nz.gm_tau)
+    if not nz.ar:
+        return 0.0
+    rho = float(np.max(np.abs(np.roots(np.concatenate([[1.0], -np.asarray(nz.ar, dtype=float)])))))
+    if rho <= 0.0:
+        return 0.0
+    return math.inf if rho >= 1.0 else -float(nz.dt_s) / math.log(rho)
+
+
+def median_segment_s(times: np.ndarray, labels: np.ndarray) -> float:
+    """The median span (s) of a record's continuous segments (its static positions), first to last sample."""
+    spans = [float(np.ptp(times[labels == k])) for k in np.unique(labels[labels >= 0])]
+    return float(np.median(spans)) if spans else 0.0
+
+
+def median_segment_samples(labels: np.ndarray) -> float:
+    """The median number of samples of a record's continuous segments (its static positions)."""
+    _, counts = np.unique(labels[labels >= 0], return_counts=True)
+    return float(np.median(counts)) if counts.size else 0.0
+
+
+def colour_unresolved(lin, noises) -> bool:
+    """Whether some record's colour is not resolved by its positions, so that the colour and an effect that differs
+    between positions leave the same levels: its median segment holds fewer than :data:`POSITION_SAMPLES` samples and
+    fewer than :data:`POSITION_CORRELATION_TIMES` correlation times (:func:`correlation_time_s`)."""
+    return any(
+        median_segment_samples(rec.labels) < POSITION_SAMPLES
+        and correlation_time_s(nz) * POSITION_CORRELATION_TIMES > median_segment_s(rec.times, rec.labels)
+        for rec, nz in zip(lin, noises)
+        if nz.order
+    )
 
 
 def _nuisance(t: np.ndarray) -> np.ndarray:
