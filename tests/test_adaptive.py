@@ -307,6 +307,34 @@ def test_classical_hours_beyond_any_test_are_said_not_printed():
     assert need > MAX_CLASSICAL_HOURS
 
 
+def test_classical_hours_short_of_the_target_after_the_last_check_say_so(monkeypatch):
+    """A fit whose σ stays at twice the target however long the sequence (every check rescales by 4 and misses
+    again): the hours after the last check are stated with the reason that they fall short, never as the sequence's
+    answer; the same sequence and goal with the fit as it is (the truth's whole model) have no such reason."""
+    from gyrojax.adaptive import classical
+
+    goal, terms = Goal(sigma=0.01), ["D_F", "D_I", "D_S", "D_O"]
+    good = classical.classical_hours(TRUTH, terms, goal, "sdf-gyro")
+    assert good.hours and not good.reason
+
+    class Stuck:
+        def __init__(self, res):
+            self.res = res
+
+        def __getattr__(self, name):
+            return getattr(self.res, name)
+
+        @property
+        def stds(self):
+            return {c: 0.02 for c in self.res.stds}
+
+    real = classical.fit
+    monkeypatch.setattr(classical, "fit", lambda *a, **k: Stuck(real(*a, **k)))
+    short = classical.classical_hours(TRUTH, terms, goal, "sdf-gyro")
+    assert short.hours > good.hours and set(short.sigma.values()) == {0.02}
+    assert short.reason.startswith(f"after {classical.CHECKS} rescalings") and "σ 2 × its target" in short.reason
+
+
 def test_dwell_lower_bound_against_the_mean_of_white_noise(first_records):
     """The fewest hours any static design needs for D_F and D_I to σ ≤ S (no records before): D_I's row is a_I, at
     most g, so 1/σ_I² ≤ H·g²/N² whatever the design (the mean of white noise over H hours); half the
