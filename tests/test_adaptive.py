@@ -307,6 +307,16 @@ def test_classical_hours_beyond_any_test_are_said_not_printed():
     assert need > MAX_CLASSICAL_HOURS
 
 
+def test_classical_hours_of_a_noiseless_truth_are_refused_with_the_reason():
+    """A truth that draws no noise has σ = 0 at any length: no hours are defined, and the reason names the noise
+    (no placeholder noise invented to give a number)."""
+    from gyrojax.adaptive.classical import classical_hours
+
+    quiet = {**TRUTH, "noise": {}}
+    c = classical_hours(quiet, ["D_F", "D_I", "D_S"], Goal(sigma=0.01), "sdf-gyro")
+    assert c.hours is None and c.scale is None and "no noise (noise is 0)" in c.reason
+
+
 def test_classical_hours_short_of_the_target_after_the_last_check_say_so(monkeypatch):
     """A fit whose σ stays at twice the target however long the sequence (every check rescales by 4 and misses
     again): the hours after the last check are stated with the reason that they fall short, never as the sequence's

@@ -211,3 +211,16 @@ def test_first_session_repeated_to_the_same_sigma():
         assert s <= target
         assert s == pytest.approx(one[f"D_F[{ch}]"] / math.sqrt(c.scale), rel=0.15)
     assert [p["hours"] for p in c.path] == pytest.approx([120.0 / 3600.0, c.hours])
+
+
+@pytest.mark.parametrize(
+    ("change", "key"), [({"noise": {"white": 0.0}}, "noise.white"), ({"acc": 0.0}, "session.acc_noise_g")]
+)
+def test_first_session_repeated_is_refused_for_a_noiseless_truth(change, key):
+    """A truth whose gyro or accelerometer noise is 0 has σ = 0 at any number of sessions: no hours, and the reason
+    names the key that is 0 (no placeholder noise invented to give a number)."""
+    d = dict(TRUTH, **{k: v for k, v in change.items() if k != "acc"})
+    if "acc" in change:
+        d["session"] = {**TRUTH["session"], "acc_noise_g": change["acc"]}
+    c = hand_classical_hours(truth_from_dict(d), tpr.ferraris_steps(120.0), ("D_F",), Goal(targets={"D_F": 1.0}))
+    assert c.hours is None and c.scale is None and f"({key} is 0)" in c.reason

@@ -62,6 +62,9 @@ MAX_CLASSICAL_HOURS = 1.0e5
 hours are then null, with the coefficient whose σ target asks for them), never as a number."""
 MAX_CHECKED_SESSIONS = 40
 """Repetitions of a hand session beyond which the classical hours are not checked by simulation (Fisher only)."""
+_NOISELESS = (
+    "the truth draws no noise ({} is 0): its simulated σ are zero at any length, so no classical hours are defined"
+)
 SAMPLES = {"position": 20, "tumble": 720, "servo": 1440, "head": 30}
 """Samples per static position, per tumble run, per servo run and per dividing-head position, at every scale."""
 
@@ -202,7 +205,10 @@ def classical_hours(truth, terms, goal, kind: str, seed: int = 0, latitude_deg: 
     names = model.coefficient_names
     targets = np.array([goal.target(c) or math.inf for c in names])
     idx = np.arange(model.size)
-    noise = NoiseSpec(white=white_equivalent(truth.noise) or 1e-6)
+    white = white_equivalent(truth.noise)
+    if not white > 0.0:
+        return ClassicalResult(None, None, {}, reason=_NOISELESS.format("noise"))
+    noise = NoiseSpec(white=white)
     base = sequence(kind, 1.0, latitude_deg)
     infos = _information(model, base, noise)
     measure = [_hours([t]) - _gap_hours(t[1]) for t in base]
@@ -225,24 +231,29 @@ def classical_hours(truth, terms, goal, kind: str, seed: int = 0, latitude_deg: 
     if best_split is not None:
         best_split += sum(_gap_hours(p) for _, p in base) + joined(base).gap_between_runs_s * (len(base) - 1) / 3600.0
     key = jax.random.fold_in(jax.random.PRNGKey(seed), 7919)
-    sigma = {}
-    for _ in range(CHECKS):
+
+    def run(scale):
         tests = sequence(kind, scale, latitude_deg)
         recs = simulate(joined(tests), truth, key=key)
-        res = fit(recs, list(model.terms))
-        sigma = res.stds
-        ratio = max(sigma[c] / t for c, t in zip(names, targets))
-        if ratio <= 1.0:
-            break
-        scale *= ratio**2 * 1.001
-    else:
-        tests = sequence(kind, scale, latitude_deg)
-        recs = simulate(joined(tests), truth, key=key)
-        res = fit(recs, list(model.terms))
-        sigma = res.stds
-        ratio = max(sigma[c] / t for c, t in zip(names, targets))
+        return tests, recs, fit(recs, list(model.terms))
+
+    scale, (tests, recs, res), ratio = _checked(run, scale, names, targets, lambda s, r: s * r**2 * 1.001)
     path = _path(recs, tests, model, res)
-    return ClassicalResult(scale, _hours(tests), sigma, path, best_split, reason=_short(ratio, CHECKS))
+    return ClassicalResult(scale, _hours(tests), res.stds, path, best_split, reason=_short(ratio, CHECKS))
+
+
+def _checked(run, scale, names, targets, grow, beyond=lambda scale: False):
+    """``(scale, run(scale), worst σ/target)`` once the fit of the simulated ``run(scale)`` (its last item) meets
+    every target, the scale grown by ``grow(scale, worst ratio)`` at most :data:`CHECKS` times; the run is ``None``
+    where the grown scale is ``beyond`` what is checked by simulation."""
+    for check in range(CHECKS + 1):
+        out = run(scale)
+        ratio = max(out[-1].stds[c] / t for c, t in zip(names, targets))
+        if ratio <= 1.0 or check == CHECKS:
+            return scale, out, ratio
+        scale = grow(scale, ratio)
+        if beyond(scale):
+            return scale, None, ratio
 
 
 def _gap_hours(plan) -> float:
@@ -286,15 +297,18 @@ def hand_classical_hours(truth, first, terms, goal, seed: int = 0) -> ClassicalR
     from gyrojax.simulation.triad_session import simulate_session
 
     start, steps = first
-    session_h = sum(float(s.get("rest_s", s.get("duration_s", 0.0))) for s in steps) / 3600.0
+    session_h = tpr.session_seconds(steps) / 3600.0
+    opts = truth.session_options()
+    if not (truth.arw > 0.0 and opts["acc_noise_g"] > 0.0):
+        key = "noise.white" if not truth.arw > 0.0 else "session.acc_noise_g"
+        return ClassicalResult(None, None, {}, reason=_NOISELESS.format(key))
     try:
         model = tpr.triad_model(terms)
     except ModelError as e:
         return ClassicalResult(None, None, {}, reason=f"the first session's hours for this model are not computed: {e}")
-    opts = truth.session_options()
     noise = TriadNoise(
-        arw=truth.arw or 1e-6,
-        acc_noise_g=opts["acc_noise_g"] or 1e-6,
+        arw=truth.arw,
+        acc_noise_g=opts["acc_noise_g"],
         rate_hz=opts["rate_hz"],
         latitude_deg=None,  # the simulated records leave the site unknown, as a hand session's
         earth_rate=opts["earth_rate"],
@@ -338,21 +352,16 @@ def hand_classical_hours(truth, first, terms, goal, seed: int = 0) -> ClassicalR
             recs.append(simulate_session(steps, truth.coefficients, start_attitude=start, seed=sub, **sim))
         return recs, fit_triad(recs, list(model.terms))
 
-    for _ in range(CHECKS):
-        recs, res = run(n)
-        ratio = max(res.stds[c] / t for c, t in zip(names, targets))
-        if ratio <= 1.0:
-            break
-        tried, n = n, math.ceil(n * ratio**2 * 1.001)
-        if n > MAX_CHECKED_SESSIONS:
-            note = (
-                f"{tried} sessions simulated leave a σ {ratio:.3g} × its target: {n} sessions, beyond "
-                f"{MAX_CHECKED_SESSIONS}, are not checked by simulation"
-            )
-            return ClassicalResult(n, n * session_h, {}, reason=note)
-    else:
-        recs, res = run(n)
-        ratio = max(res.stds[c] / t for c, t in zip(names, targets))
+    n, out, ratio = _checked(
+        run, n, names, targets, lambda n, r: math.ceil(n * r**2 * 1.001), lambda n: n > MAX_CHECKED_SESSIONS
+    )
+    if out is None:
+        note = (
+            f"the simulated sessions leave a σ {ratio:.3g} × its target: {n} sessions, beyond "
+            f"{MAX_CHECKED_SESSIONS}, are not checked by simulation"
+        )
+        return ClassicalResult(n, n * session_h, {}, reason=note)
+    recs, res = out
     path = []
     for k in sorted({1, n}):
         try:

@@ -28,6 +28,7 @@ from gyrojax.adaptive.lab import Lab
 from gyrojax.adaptive.step import NextTest, next_test
 from gyrojax.data.truth import TriadTruth, Truth, truth_from_dict
 from gyrojax.errors import ModelError
+from gyrojax.planning.triad_protocol import session_seconds
 from gyrojax.simulation.simulator import simulate
 from gyrojax.simulation.triad_session import simulate_session
 
@@ -301,7 +302,7 @@ def run_hand_campaign(
         return simulate_session(plan, coefficients, start_attitude=start, seed=sub, **session)
 
     records = [simulate_one(start, plan, 0)]
-    hours = sum(float(s.get("rest_s", s.get("duration_s", 0.0))) for s in plan) / 3600.0
+    hours = session_seconds(plan) / 3600.0
     first_step = CampaignStep(None, hours, "the lab's first session", hours, name="first session")
 
     def run(nt, k, records):

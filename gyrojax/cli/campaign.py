@@ -307,12 +307,14 @@ def _first_payload(name: str, start, steps, truth, terms) -> dict:
     reads; its ``noise`` the truth's, at which it is simulated)."""
     import numpy as np
 
+    from gyrojax.planning import triad_protocol as tpr
+
     opts = truth.session_options()
     return {
         "instrument": "imu-triad",
         "name": name,
         "terms": list(terms),
-        "total_s": sum(float(s.get("rest_s", s.get("duration_s", 0.0))) for s in steps),
+        "total_s": tpr.session_seconds(steps),
         "noise": {
             "arw_deg_per_sqrt_h": truth.arw,
             "acc_noise_g": opts["acc_noise_g"],

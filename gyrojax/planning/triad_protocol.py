@@ -83,6 +83,11 @@ def turn_seconds(angle_deg) -> float:
     return MIN_TURN_S + abs(angle_deg) / HAND_RATE_DPS
 
 
+def session_seconds(steps) -> float:
+    """Length (s) of a hand session's steps: its rests and its moves, one after another."""
+    return sum(float(s.get("rest_s", s.get("duration_s", 0.0))) for s in steps)
+
+
 def triad_model(terms):
     """The channel model of ``terms``, refused with one line when a term is unknown, not of an ``imu-triad``
     instrument, or outside what moves integrate (the linear model)."""
