@@ -309,12 +309,15 @@ def test_classical_hours_beyond_any_test_are_said_not_printed():
 
 def test_classical_hours_of_a_noiseless_truth_are_refused_with_the_reason():
     """A truth that draws no noise has σ = 0 at any length: no hours are defined, and the reason names the noise
-    (no placeholder noise invented to give a number)."""
+    (no placeholder noise invented to give a number); a noise with no white or Gauss–Markov part (a random walk
+    alone), which the sequence's information is not computed for, is said too."""
     from gyrojax.adaptive.classical import classical_hours
 
     quiet = {**TRUTH, "noise": {}}
     c = classical_hours(quiet, ["D_F", "D_I", "D_S"], Goal(sigma=0.01), "sdf-gyro")
     assert c.hours is None and c.scale is None and "no noise (noise is 0)" in c.reason
+    walk = classical_hours({**TRUTH, "noise": {"random_walk": 0.01}}, ["D_F"], Goal(sigma=0.01), "sdf-gyro")
+    assert walk.hours is None and "no white or Gauss–Markov part" in walk.reason
 
 
 def test_classical_hours_short_of_the_target_after_the_last_check_say_so(monkeypatch):

@@ -30,7 +30,8 @@ fitting (:func:`gyrojax.inference.triad.fit_triad`, which estimates the noise as
 σ exceeds its target, n grows by the squared ratio (at most :data:`CHECKS` times). Beyond
 :data:`MAX_CHECKED_SESSIONS` sessions the hours stand on the Fisher information alone, and ``reason`` says so. A
 first session that does not identify a targeted coefficient of the final model (its information singular there:
-no number of repetitions reaches the target) gives no hours, with the reason.
+no number of repetitions reaches the target) gives no hours, with the reason; so does a truth that draws no noise
+(its simulated σ are zero at any length).
 
 **The best split.** Beside the sequence in its own proportions, the hours of the most favourable split of time
 among its tests (the scale of each test chosen apart, minimising the total measuring time under the σ targets;
@@ -206,8 +207,16 @@ def classical_hours(truth, terms, goal, kind: str, seed: int = 0, latitude_deg: 
     targets = np.array([goal.target(c) or math.inf for c in names])
     idx = np.arange(model.size)
     white = white_equivalent(truth.noise)
-    if not white > 0.0:
+    if truth.noise.is_zero:
         return ClassicalResult(None, None, {}, reason=_NOISELESS.format("noise"))
+    if not white > 0.0:
+        return ClassicalResult(
+            None,
+            None,
+            {},
+            reason="the truth's noise has no white or Gauss–Markov part, the classical sequence's information is "
+            "computed from them: its hours are not computed for this noise",
+        )
     noise = NoiseSpec(white=white)
     base = sequence(kind, 1.0, latitude_deg)
     infos = _information(model, base, noise)
