@@ -224,3 +224,27 @@ def test_first_session_repeated_is_refused_for_a_noiseless_truth(change, key):
         d["session"] = {**TRUTH["session"], "acc_noise_g": change["acc"]}
     c = hand_classical_hours(truth_from_dict(d), tpr.ferraris_steps(120.0), ("D_F",), Goal(targets={"D_F": 1.0}))
     assert c.hours is None and c.scale is None and f"({key} is 0)" in c.reason
+
+
+@pytest.mark.parametrize(
+    "flag",
+    [
+        ["--poses", "1"],
+        ["--minutes", "-3"],
+        ["--budget-minutes", "-1"],
+        ["--acc-noise", "-1"],
+        ["--placement-deg", "-2"],
+        ["--turn-pairs", "7"],
+    ],
+)
+def test_a_bad_hand_option_exits_2_naming_the_flag(tmp_path, capsys, flag):
+    """Each hand lab option out of its range exits 2 with one line that names the flag the user typed (not the
+    HandLab field it sets), before anything is simulated or written."""
+    path = tmp_path / "truth.json"
+    path.write_text(json.dumps(TRUTH))
+    out = tmp_path / "run"
+    argv = ["campaign", "--simulate", str(path), "--first", "ferraris", "--terms", "D_F", "--target-sigma", "1"]
+    assert main(argv + ["--out", str(out)] + flag) == 2
+    err = capsys.readouterr().err
+    assert f"error: {flag[0]}: " in err and len(err.strip().splitlines()) == 1, err
+    assert not out.exists()

@@ -206,9 +206,9 @@ def classical_hours(truth, terms, goal, kind: str, seed: int = 0, latitude_deg: 
     names = model.coefficient_names
     targets = np.array([goal.target(c) or math.inf for c in names])
     idx = np.arange(model.size)
-    white = white_equivalent(truth.noise)
     if truth.noise.is_zero:
         return ClassicalResult(None, None, {}, reason=_NOISELESS.format("noise"))
+    white = white_equivalent(truth.noise)
     if not white > 0.0:
         return ClassicalResult(
             None,
@@ -248,7 +248,7 @@ def classical_hours(truth, terms, goal, kind: str, seed: int = 0, latitude_deg: 
 
     scale, (tests, recs, res), ratio = _checked(run, scale, names, targets, lambda s, r: s * r**2 * 1.001)
     path = _path(recs, tests, model, res)
-    return ClassicalResult(scale, _hours(tests), res.stds, path, best_split, reason=_short(ratio, CHECKS))
+    return ClassicalResult(scale, _hours(tests), res.stds, path, best_split, reason=_short(ratio))
 
 
 def _checked(run, scale, names, targets, grow, beyond=lambda scale: False):
@@ -278,22 +278,29 @@ def _path(recs, tests, model: Model, last) -> list:
     for i, (name, p) in enumerate(tests):
         n += len(p.runs)
         clock = float(joined(tests[: i + 1]).duration_s) / 3600.0
-        try:
-            res = last if i == len(tests) - 1 else fit(recs[:n], list(model.terms), allow_aliases=True)
-        except ModelError:
-            out.append({"test": name, "hours": clock, "sigma": {}, "residual_rms": None, "noise_floor": None})
-            continue
-        sig = {c: (v if math.isfinite(v) else None) for c, v in res.stds.items()}
+        last_test = i == len(tests) - 1
         out.append(
-            {
-                "test": name,
-                "hours": clock,
-                "sigma": sig,
-                "residual_rms": res.residual_rms,
-                "noise_floor": res.noise_floor,
-            }
+            _point(name, clock, lambda: last if last_test else fit(recs[:n], list(model.terms), allow_aliases=True))
         )
     return out
+
+
+def _point(test: str, hours: float, fitted) -> dict:
+    """A point of a path: the cumulative hours after ``test``, and the σ (null where not identified), residual RMS
+    and noise floor of the fit ``fitted()``; σ empty and the rest null where the records so far do not identify the
+    model (:class:`~gyrojax.errors.ModelError`)."""
+    try:
+        res = fitted()
+    except ModelError:
+        return {"test": test, "hours": hours, "sigma": {}, "residual_rms": None, "noise_floor": None}
+    sigma = {c: (v if math.isfinite(v) else None) for c, v in res.stds.items()}
+    return {
+        "test": test,
+        "hours": hours,
+        "sigma": sigma,
+        "residual_rms": res.residual_rms,
+        "noise_floor": res.noise_floor,
+    }
 
 
 def hand_classical_hours(truth, first, terms, goal, seed: int = 0) -> ClassicalResult:
@@ -371,28 +378,19 @@ def hand_classical_hours(truth, first, terms, goal, seed: int = 0) -> ClassicalR
         )
         return ClassicalResult(n, n * session_h, {}, reason=note)
     recs, res = out
-    path = []
-    for k in sorted({1, n}):
-        try:
-            part = res if k == n else fit_triad(recs[:k], list(model.terms))
-            sig = {c: (v if math.isfinite(v) else None) for c, v in part.stds.items()}
-            rms, floor = part.residual_rms, part.noise_floor
-        except ModelError:
-            sig, rms, floor = {}, None, None
-        path.append(
-            {
-                "test": f"{k} × the first session",
-                "hours": k * session_h,
-                "sigma": sig,
-                "residual_rms": rms,
-                "noise_floor": floor,
-            }
+    path = [
+        _point(
+            f"{k} × the first session",
+            k * session_h,
+            lambda: res if k == n else fit_triad(recs[:k], list(model.terms)),
         )
-    return ClassicalResult(n, n * session_h, dict(res.stds), path, reason=_short(ratio, CHECKS))
+        for k in sorted({1, n})
+    ]
+    return ClassicalResult(n, n * session_h, dict(res.stds), path, reason=_short(ratio))
 
 
-def _short(ratio: float, checks: int) -> str:
+def _short(ratio: float) -> str:
     """Why hours whose last simulated check left a σ above its target are stated anyway ("" when none is)."""
     if ratio <= 1.0:
         return ""
-    return f"after {checks} rescalings the simulated fit still leaves a σ {ratio:.3g} × its target: the hours are short"
+    return f"after {CHECKS} rescalings the simulated fit still leaves a σ {ratio:.3g} × its target: the hours are short"

@@ -52,6 +52,15 @@ def add_hand_arguments(s) -> None:
 
 HAND_FLAGS = ("poses", "minutes", "placement_deg", "acc_noise", "turn_pairs", "lbfgs_steps", "budget_minutes")
 """The hand lab's options (``args`` names): refused on turntable records."""
+HAND_FIELDS = {
+    "poses": "poses",
+    "minutes": "max_minutes",
+    "placement_deg": "placement_deg",
+    "acc_noise": "acc_noise_g",
+    "turn_pairs": "turn_pairs",
+    "budget_minutes": "budget_minutes",
+}
+"""The hand lab's options (``args`` names) by the :class:`~gyrojax.adaptive.hand.HandLab` field they set."""
 TABLE_DEFAULTS = {
     "table": "records",
     "hours": 8.0,
@@ -78,12 +87,9 @@ def hand_lab_from_args(args):
         if getattr(args, key, default) != default:
             raise UsageError(f"--{key.replace('_', '-')} is an option of a turntable test, not of a hand session")
     over = {}
-    pairs = (("poses", "poses"), ("minutes", "max_minutes"), ("placement_deg", "placement_deg"))
-    for key, name in pairs + (("budget_minutes", "budget_minutes"),):
-        if getattr(args, key) is not None:
+    for key, name in HAND_FIELDS.items():
+        if key != "turn_pairs" and getattr(args, key) is not None:
             over[name] = getattr(args, key)
-    if args.acc_noise is not None:
-        over["acc_noise_g"] = args.acc_noise
     if args.turn_pairs is not None:
         try:
             over["turn_pairs"] = tuple(int(k) for k in parse_terms(args.turn_pairs))
@@ -94,11 +100,9 @@ def hand_lab_from_args(args):
     try:
         return HandLab(**over)
     except ModelError as e:
-        key = str(e).split("'")[1] if "'" in str(e) else ""
-        flag = {"poses": "--poses", "max_minutes": "--minutes", "placement_deg": "--placement-deg"}.get(key)
-        flag = flag or {"budget_minutes": "--budget-minutes"}.get(key)
-        flag = flag or {"acc_noise_g": "--acc-noise", "turn_pairs": "--turn-pairs"}.get(key, "hand lab")
-        raise UsageError(f"{flag}: {e}") from None
+        field = str(e).split("'")[1] if "'" in str(e) else ""
+        flags = {name: f"--{key.replace('_', '-')}" for key, name in HAND_FIELDS.items()}
+        raise UsageError(f"{flags.get(field, 'hand lab')}: {e}") from None
 
 
 LAB_FLAGS = {
