@@ -1,7 +1,8 @@
 """The measurement model's executables kept across processes (gyrojax.inference.kept_model): a built-in model's
-predict and Jacobian (one pass) through the kept executable equal the jitted functions bit for bit, a reload does not
-compile, a file of another function under the key's name is compiled again (never called), and a model with an effect
-the user registered is never kept."""
+predict and Jacobian (one pass) through the kept executable of its kind's library equal the jitted functions of the
+model to rounding, a reload does not compile, other models of one library share the executable, a file of another
+function under the key's name is compiled again (never called), and a model with an effect the user registered is never
+kept."""
 
 import jax
 import jax.numpy as jnp
@@ -27,26 +28,32 @@ def data():
 @pytest.fixture
 def where(tmp_path, monkeypatch):
     monkeypatch.setattr(kept, "folder", lambda: tmp_path / "k")
-    kept_model._kept.cache_clear()
+    kept_model._kept_library.cache_clear()
     yield tmp_path / "k"
-    kept_model._kept.cache_clear()
+    kept_model._kept_library.cache_clear()
 
 
 MODEL = Model(("D_F", "D_I", "D_S", "D_SS"))
 
 
-def _file(stem: str) -> str:
-    return kept_model.model_name(stem, MODEL) + "-*.xla"
+def _file(stem: str, model: Model = MODEL) -> str:
+    return kept_model.model_name(stem, kept_model.library(model)) + "-*.xla"
+
+
+def _close(a, b):
+    """Equal to rounding: the library sums the model's terms in its own order."""
+    b = np.asarray(b)
+    np.testing.assert_allclose(np.asarray(a), b, rtol=0, atol=1e-13 * (float(np.max(np.abs(b))) + 1.0))
 
 
 def test_kept_model_functions_equal_the_jitted_ones_and_reload_without_tracing(data, where, monkeypatch):
     theta = jnp.linspace(0.1, 0.4, MODEL.size)
     y, j = kept_model.kept_predict_and_jacobian(MODEL, theta, data)
     assert len(list(where.glob(_file("predict_jacobian")))) == 1
-    np.testing.assert_array_equal(np.asarray(j), np.asarray(jacobian_jit(MODEL, theta, data)))
-    np.testing.assert_array_equal(np.asarray(y), np.asarray(predict_jit(MODEL, theta, data)))
-    np.testing.assert_array_equal(np.asarray(kept_model.kept_predict(MODEL, theta, data)), np.asarray(y))
-    kept_model._kept.cache_clear()  # as in a fresh process
+    _close(j, jacobian_jit(MODEL, theta, data))
+    _close(y, predict_jit(MODEL, theta, data))
+    _close(kept_model.kept_predict(MODEL, theta, data), y)
+    kept_model._kept_library.cache_clear()  # as in a fresh process
 
     def no_compile(*a, **k):
         raise AssertionError("compiled again")
@@ -61,10 +68,10 @@ def test_a_foreign_file_under_the_key_is_compiled_again(data, where):
     (path,) = where.glob(_file("predict_jacobian"))
     other = jax.jit(lambda x: 2.0 * x).lower(jax.ShapeDtypeStruct((3,), np.float64)).compile()
     path.write_bytes(kept._written(other, "0" * 64))  # a valid executable of another function and shape
-    kept_model._kept.cache_clear()
+    kept_model._kept_library.cache_clear()
     with pytest.warns(UserWarning, match="another key"):
         _, j = kept_model.kept_predict_and_jacobian(MODEL, theta, data)
-    np.testing.assert_array_equal(np.asarray(j), np.asarray(jacobian_jit(MODEL, theta, data)))
+    _close(j, jacobian_jit(MODEL, theta, data))
 
 
 def test_a_model_with_a_user_effect_is_not_kept(data, where):
@@ -109,7 +116,7 @@ def test_a_record_in_pieces_predicts_as_the_whole_record(plan, kind, mode, where
     scale = float(np.max(np.abs(np.asarray(y0)))) + 1.0
     np.testing.assert_allclose(y, np.asarray(y0), rtol=0, atol=1e-13 * scale)
     np.testing.assert_allclose(j, np.asarray(j0), rtol=0, atol=1e-13 * (float(np.max(np.abs(np.asarray(j0)))) + 1.0))
-    assert len(list(where.glob(kept_model.model_name("predict_jacobian", model) + "-*.xla"))) == 1
+    assert len(list(where.glob(_file("predict_jacobian", model)))) == 1
 
 
 def test_records_of_any_length_share_one_executable(where, monkeypatch):
@@ -127,3 +134,27 @@ def test_records_of_any_length_share_one_executable(where, monkeypatch):
     _, j = kept_model.kept_predict_and_jacobian(MODEL, np.zeros(MODEL.size), long)
     np.testing.assert_allclose(j, np.asarray(jacobian_jit(MODEL, np.zeros(MODEL.size), long)), rtol=0, atol=1e-12)
     assert len(list(where.glob(_file("predict_jacobian")))) == 1
+
+
+def test_models_of_one_library_share_its_executable(data, where, monkeypatch):
+    """Another model of the library (other terms, a θ of the same padded length) loads the executable the first one
+    compiled: a diagnosis that adds an effect compiles nothing; a set-up effect takes the library with the kinematics'
+    derivatives, an effect not linear in the rate the one with the servo's Newton steps."""
+    kept_model.kept_predict_and_jacobian(MODEL, np.zeros(MODEL.size), data)
+
+    def no_compile(*a, **k):
+        raise AssertionError("compiled again")
+
+    monkeypatch.setattr(kept, "_compile", no_compile)
+    other = Model(("D_IS", "sf_error", "D_O", "D_F"))
+    theta = np.linspace(-1.0, 2.0, other.size)
+    y, j = kept_model.kept_predict_and_jacobian(other, theta, data)
+    assert j.shape == (y.size, other.size)
+    _close(j, jacobian_jit(other, theta, data))
+    _close(y, predict_jit(other, theta, data))
+    assert kept_model.library(other) == kept_model.library(MODEL)
+    assert not {e.setup for e in kept_model.library(MODEL).effects} - {False}
+    assert "table_tilt" in kept_model.library(MODEL.extend("table_tilt")).terms
+    assert "sf_asymmetry" not in kept_model.library(MODEL).terms
+    assert "sf_asymmetry" in kept_model.library(MODEL.extend("sf_asymmetry")).terms
+    assert [kept_model.padded(p) for p in (0, 1, 4, 5, 9, 17)] == [4, 4, 4, 8, 16, 32]

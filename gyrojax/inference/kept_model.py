@@ -1,15 +1,19 @@
 """The measurement model's compiled functions kept across processes: ``predict``, and ``predict_and_jacobian`` (the
-prediction and the Jacobian in one pass: what ``linearize`` needs), of a :class:`~gyrojax.physics.model.Model` (a
-static argument) called through their kept executables (:class:`gyrojax.runtime.kept.Kept`), so that the first
-diagnosis of a fresh process neither traces nor compiles the model again.
+prediction and the Jacobian in one pass: what ``linearize`` needs), called through their kept executables
+(:class:`gyrojax.runtime.kept.Kept`), so that the first diagnosis of a fresh process neither traces nor compiles the
+model again.
+
+The model is data, not code: it is evaluated as a :class:`~gyrojax.physics.model.Selected` of its kind's
+:func:`library` (every built-in effect of the kind), its θ padded to a few lengths (:func:`padded`), so that one
+executable per library, θ length and piece size serves every model, and a diagnosis that adds an effect, or a model
+never fitted before, loads what an earlier one compiled.
 
 A record is evaluated in pieces of a few fixed numbers of measurements (:func:`over_rows`: the chunks of
 :mod:`gyrojax.runtime.rows`, each piece a record of its own, :func:`gyrojax.physics.model.measurement_rows`), so
-that one executable per model and chunk size serves records of every length: a campaign of lengths never seen before
-loads what an earlier one compiled.
+that records of every length share the executables.
 
 A model is kept only when every term is a built-in effect (:data:`gyrojax.physics.registry.BUILTIN`): the code
-of a built-in effect depends on the library source alone, which the key carries (with the model's kind and terms,
+of a built-in effect depends on the library source alone, which the key carries (with the library's kind and terms,
 the record's static fields and shapes, and the JAX version); an effect the user registered (``--effect``, an
 expression) is compiled in each process, so that an edited expression can never meet an old executable. The arguments'
 tree carries the record's static fields (mode, servo and encoder axes), so records of other modes get other keys.
@@ -24,12 +28,14 @@ import hashlib
 from functools import lru_cache, partial
 
 import jax
+import numpy as np
 
 from gyrojax.physics import effects as fx
 from gyrojax.physics import registry
 from gyrojax.physics.model import (
     Model,
     RecordData,
+    Selected,
     measurement_rows,
     measurements,
     predict,
@@ -66,6 +72,48 @@ def kept_call(stem: str, fn, jitted, model: Model, *args):
     return _kept(stem, model, fn)(*args)
 
 
+def library(model: Model) -> Model:
+    """The built-in effects of ``model``'s kind, in the registry's order, that compiled code of ``model`` carries: the
+    set-up effects only when the model holds one (else the kinematics carry no derivative), the effects not linear in
+    the rate only when it holds one (else a servo record takes one Newton step, :func:`~gyrojax.physics.model.
+    servo_rate`)."""
+    setup = any(e.setup for e in model.effects)
+    in_rate = all(e.linear_in_rate for e in model.effects)
+    terms = []
+    for name in registry.names(model.kind):
+        e = registry.get(name)
+        if name in registry.BUILTIN and (setup or not e.setup) and (e.linear_in_rate or not in_rate):
+            terms.append(name)
+    return Model(tuple(terms), model.kind)
+
+
+def padded(p: int) -> int:
+    """The length θ of p coefficients is padded to: a power of two, at least 4 (a handful of executables per
+    library)."""
+    return max(4, 1 << max(p - 1, 0).bit_length())
+
+
+def selected(model: Model) -> Selected:
+    """``model`` over its :func:`library`, θ padded to :func:`padded`."""
+    return Selected.of(model, library(model), padded(model.size))
+
+
+@lru_cache(maxsize=64)
+def _kept_library(stem: str, lib: Model, fn) -> Kept:
+    """The kept executable of ``fn(selected, theta, data)`` for the selections of ``lib``."""
+    return Kept(model_name(stem, lib), jax.jit(fn))
+
+
+def kept_selected(stem: str, fn, jitted, model: Model, *args):
+    """``fn(model, *args)`` compiled: when :func:`keepable`, as ``fn`` of the model's :func:`selected` through the
+    kept executable of its library named ``stem`` (outputs over θ then have the padded θ's length), else by ``jitted``
+    (``fn`` jitted with ``model`` static)."""
+    if not keepable(model):
+        return jitted(model, *args)
+    sel = selected(model)
+    return _kept_library(stem, sel.library, fn)(sel, *args)
+
+
 def over_rows(call, data: RecordData, blocks: int = 1):
     """``call(piece)`` of every piece of a record (:func:`gyrojax.physics.model.measurement_rows` at the chunks of
     :func:`gyrojax.runtime.rows.chunks`), its outputs (any tree of arrays whose leading axis holds ``blocks`` blocks of
@@ -79,14 +127,18 @@ def over_rows(call, data: RecordData, blocks: int = 1):
 
 
 def kept_rows(stem: str, fn, jitted, model: Model, theta, data: RecordData):
-    """``fn(model, theta, data)``, whose outputs are per measurement (TDF: both channels), compiled: through the kept
-    executable named ``stem`` piece by piece (:func:`over_rows`: one executable per chunk size, whatever the length)
-    when :func:`keepable`, else by ``jitted`` on the whole record."""
+    """``fn(model, theta, data)``, whose outputs are per measurement (TDF: both channels), compiled: when
+    :func:`keepable`, as ``fn`` of the model's :func:`selected` through the kept executable named ``stem``, piece by
+    piece (:func:`over_rows`: one executable per library, θ length and chunk size, whatever the model and the length;
+    a Jacobian then has the padded θ's columns), else by ``jitted`` on the whole record."""
     if not keepable(model) or measurements(data) == 0:
         return jitted(model, theta, data)
-    kept = _kept(stem, model, fn)
+    sel = selected(model)
+    th = np.zeros(sel.size)
+    th[: model.size] = np.asarray(theta, dtype=np.float64)
+    kept = _kept_library(stem, sel.library, fn)
     tdf = data.kind == fx.TDF and data.mode != "servo"
-    return over_rows(lambda piece: kept(theta, piece), data, 2 if tdf else 1)
+    return over_rows(lambda piece: kept(sel, th, piece), data, 2 if tdf else 1)
 
 
 def kept_predict(model: Model, theta, data):
@@ -97,5 +149,6 @@ def kept_predict(model: Model, theta, data):
 
 def kept_predict_and_jacobian(model: Model, theta, data):
     """:func:`gyrojax.physics.model.predict_and_jacobian` of ``model`` (one compiled pass: a fresh process loads one
-    executable per model instead of two), through a kept executable when :func:`keepable`."""
-    return kept_rows("predict_jacobian", predict_and_jacobian, predict_and_jacobian_jit, model, theta, data)
+    executable per library instead of two), through a kept executable when :func:`keepable`."""
+    y, jac = kept_rows("predict_jacobian", predict_and_jacobian, predict_and_jacobian_jit, model, theta, data)
+    return y, np.asarray(jac)[:, : model.size]

@@ -18,13 +18,13 @@ from gyrojax import tails
 from gyrojax.data.arrays import record_data
 from gyrojax.data.importclues import signed_permutations
 from gyrojax.inference.identifiability import ALIAS_TOL
-from gyrojax.inference.kept_model import keepable, model_name
+from gyrojax.inference.kept_model import kept_selected
 from gyrojax.inference.lstsq import lstsq_normal
 from gyrojax.inference.scoring import ALPHA
 from gyrojax.physics import effects as fx
 from gyrojax.physics import registry
 from gyrojax.physics.model import Model, jacobian, measurement_rows
-from gyrojax.runtime.kept import Kept, kept_arrays
+from gyrojax.runtime.kept import kept_arrays
 
 
 @lru_cache(maxsize=4)
@@ -176,11 +176,12 @@ def static_rows(model: Model, data, triad, angles_rad):
     return jacobian(model, jnp.zeros(model.size), d).reshape(n, model.size)
 
 
-@lru_cache(maxsize=8)
-def _rows_jit(model: Model):
-    # kept across processes for built-in models (gyrojax.runtime.kept): a process' first diagnosis skips the compile
-    fn = jax.jit(lambda d, t, a: jax.vmap(lambda tt: static_rows(model, d, tt, a))(t))
-    return Kept(model_name("static_rows", model), fn) if keepable(model) else fn
+def _mounted_rows(model: Model, data, triads, angles_rad):
+    """:func:`static_rows` at each of the mountings ``triads`` (m, 3, 3)."""
+    return jax.vmap(lambda t: static_rows(model, data, t, angles_rad))(triads)
+
+
+_mounted_rows_jit = jax.jit(_mounted_rows, static_argnums=0)
 
 
 def schur_noncentrality(f: np.ndarray, test: np.ndarray, rest: np.ndarray, delta: np.ndarray) -> float:
@@ -227,7 +228,8 @@ def designed_entry(a: str, b: str, campaign, lin, full: Model, result, candidate
     k = int(table.angles.shape[1])
     ang = np.random.default_rng(0).uniform(0.0, 2.0 * math.pi, (ENTRY_POSITIONS, k))
     triads = np.einsum("mij,jk->mik", case_turns(), np.asarray(table.triad))
-    rows = np.asarray(_rows_jit(sub)(table, triads, ang))
+    rows = np.asarray(kept_selected("static_rows", _mounted_rows, _mounted_rows_jit, sub, table, triads, ang))
+    rows = rows[..., : sub.size]
     per_sample = ENTRY_HOURS * 3600.0 / ENTRY_POSITIONS / (60.0 * float(np.sqrt(np.mean(np.square(white))))) ** 2
     best, bi = 0.0, np.arange(len(base))
     for r in rows:

@@ -102,6 +102,11 @@ class Model:
                 raise ModelError(f"unknown coefficient {k!r}; valid: {', '.join(idx)}")
         return np.array([float(coefficients.get(c, 0.0)) for c in self.coefficient_names])
 
+    def full(self, theta):
+        """θ of :attr:`effects` from the model's θ: itself (a :class:`Selected` places its padded θ in its
+        library's)."""
+        return theta
+
     def extend(self, *terms) -> "Model":
         """This model with effect (or coefficient) names appended; names already present are kept once."""
         return Model.of(self.terms + tuple(terms), self.kind)
@@ -109,6 +114,55 @@ class Model:
     def without(self, *terms) -> "Model":
         """This model with the effects named ``terms`` removed (effect names; unknown names are ignored)."""
         return Model(tuple(t for t in self.terms if t not in terms), self.kind)
+
+
+@partial(jax.tree_util.register_dataclass, data_fields=["present", "index"], meta_fields=["library"])
+@dataclass(frozen=True)
+class Selected:
+    """A model as data over a library model of its kind: compiled code of the library serves every model of its terms.
+
+    θ is the model's own, padded by ``index`` to a fixed length (:attr:`size`) and placed in the library's θ by
+    :meth:`full` (the library's other coefficients zero, the padding dropped); ``present`` (L,) bool marks which of
+    the library's contributing effects (those with a contribution, library order) the model holds: the others add
+    nothing to :func:`indicated_output`. The sum is taken in the library's order, so it may differ from the model's in
+    the last bits (as evaluating a record in pieces does). Built by :meth:`of`.
+    """
+
+    library: Model
+    present: jax.Array  # (L,) bool
+    index: jax.Array  # (size,) int: position in the library's θ of each coefficient; library.size for padding
+
+    @classmethod
+    def of(cls, model: Model, library: Model, size: int) -> "Selected":
+        """``model`` (whose terms are all in ``library``) over ``library``, its θ padded to ``size``."""
+        if not set(model.terms) <= set(library.terms) or size < model.size:
+            raise ModelError(f"{model.terms} is not a selection of {library.terms} of at most {size} coefficients")
+        present = np.array([e.name in model.terms for e in library.effects if e.contribution is not None])
+        position = {c: i for i, c in enumerate(library.coefficient_names)}
+        index = [position[c] for c in model.coefficient_names] + [library.size] * (size - model.size)
+        return cls(library, present, np.array(index, dtype=np.int32))
+
+    @property
+    def kind(self) -> str:
+        return self.library.kind
+
+    @property
+    def effects(self) -> tuple[fx.Effect, ...]:
+        """The library's effects: :func:`predict` evaluates them all, on θ placed by :meth:`full`."""
+        return self.library.effects
+
+    @property
+    def size(self) -> int:
+        """The length of the padded θ."""
+        return int(self.index.shape[0])
+
+    def slices(self) -> dict[str, slice]:
+        """The library's slices (of :meth:`full`)."""
+        return self.library.slices()
+
+    def full(self, theta):
+        """The library's θ of the padded θ of the model."""
+        return jnp.zeros(self.library.size + 1, theta.dtype).at[self.index].set(theta)[: self.library.size]
 
 
 def _effect_of(name: str) -> str:
@@ -331,11 +385,11 @@ def instrument_inputs(data: RecordData, setup: dict, angles=None, rates=None, tr
     return x
 
 
-def indicated_output(model: Model, theta, x: dict, kind: str):
+def indicated_output(model: Model | Selected, theta, x: dict, kind: str):
     """The balance equation: what the instrument indicates for inputs ``x`` (conventions §4).
 
     SDF: ω_ind = ω_I + Σ effects (deg/h). TDF: channels X then Y stacked. Accelerometer: Σ effects (g; the
-    K_1 a_I term is an effect like the others, Hu 3-38).
+    K_1 a_I term is an effect like the others, Hu 3-38). θ is the model's (a :class:`Selected`: its library's).
     """
     if kind == fx.TDF:
         n = x["w_X"].shape[0]
@@ -348,11 +402,14 @@ def indicated_output(model: Model, theta, x: dict, kind: str):
         base = jnp.zeros_like(x["a_I"])
     else:
         base = x["w_I"]
-    out = base
     sl = model.slices()
-    for e in model.effects:
-        if e.contribution is not None:
-            out = out + e.contribution(x, theta[sl[e.name]])
+    adds = [e for e in model.effects if e.contribution is not None]
+    parts = [jnp.broadcast_to(e.contribution(x, theta[sl[e.name]]), base.shape) for e in adds]
+    if isinstance(model, Selected):
+        parts = [jnp.where(model.present[k], p, 0.0) for k, p in enumerate(parts)]
+    out = base
+    for p in parts:
+        out = out + p
     return out
 
 
@@ -401,11 +458,11 @@ def check_servo(data: RecordData, where: str) -> None:
         )
 
 
-def predict(model: Model, theta, data: RecordData, trig=None):
+def predict(model: Model | Selected, theta, data: RecordData, trig=None):
     """Predicted measurement vector of a record (module doc), same shape as ``data.y`` (deg/h for gyros, g for
     accelerometers). ``trig``: optional precomputed (cos, sin) of ``data.angles`` (rad) per axis
-    (:func:`angle_trig`; rebalance records)."""
-    theta = jnp.asarray(theta, dtype=jnp.float64)
+    (:func:`angle_trig`; rebalance records). θ is the model's (a :class:`Selected`: padded, :meth:`Selected.full`)."""
+    theta = model.full(jnp.asarray(theta, dtype=jnp.float64))
     setup = setup_values(model, theta)
     if data.mode == "servo":
         r, _ = servo_rate(model, theta, data, setup)
