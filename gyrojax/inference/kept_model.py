@@ -75,8 +75,8 @@ def kept_call(stem: str, fn, jitted, model: Model, *args):
 def library(model: Model) -> Model:
     """The built-in effects of ``model``'s kind, in the registry's order, that compiled code of ``model`` carries: the
     set-up effects only when the model holds one (else the kinematics carry no derivative), the effects not linear in
-    the rate only when it holds one (else a servo record takes one Newton step, :func:`~gyrojax.physics.model.
-    servo_rate`)."""
+    the input rate (deg/h) only when it holds one (else a servo record takes one Newton step,
+    :func:`~gyrojax.physics.model.servo_rate`)."""
     setup = any(e.setup for e in model.effects)
     in_rate = all(e.linear_in_rate for e in model.effects)
     terms = []

@@ -144,6 +144,7 @@ class Selected:
 
     @property
     def kind(self) -> str:
+        """The library's instrument kind."""
         return self.library.kind
 
     @property
