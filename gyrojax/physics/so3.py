@@ -24,9 +24,9 @@ JR_SERIES_BELOW = 1e-8
 (θ − sin θ)/θ³ loses its digits to cancellation first; both forms agree to rounding at the switch."""
 
 
-def _namespace(v):
-    """``jax.numpy`` for a JAX array or trace, ``numpy`` for anything else."""
-    return jnp if isinstance(v, jax.Array) else np
+def _namespace(*arrays):
+    """``jax.numpy`` when any of ``arrays`` is a JAX array or trace, ``numpy`` otherwise."""
+    return jnp if any(isinstance(v, jax.Array) for v in arrays) else np
 
 
 LEVI_CIVITA = np.array(
@@ -93,5 +93,5 @@ def right_jacobian(v):
 
 def rotation(axis, angle):
     """R(n, α) = exp([α n×]): the rotation by ``angle`` (rad, shape (...)) about the unit vector ``axis`` (..., 3)."""
-    xp = jnp if isinstance(axis, jax.Array) or isinstance(angle, jax.Array) else np
+    xp = _namespace(axis, angle)
     return exp(xp.asarray(axis, dtype=float) * xp.asarray(angle, dtype=float)[..., None])

@@ -63,6 +63,17 @@ def split_channel_name(name: str) -> tuple[str, str]:
     raise ModelError(f"{name!r} is not a per-channel coefficient name such as 'D_F[x]'")
 
 
+def effect_of(coefficient: str) -> str | None:
+    """The effect (conventions §6) of a coefficient, a channel's (``D_F[x]``) as its name's; None for a coefficient
+    of no effect (a triad's power-up steps ``D_F_step_1[x]``)."""
+    try:
+        coefficient = split_channel_name(coefficient)[0]
+    except ModelError:
+        pass
+    entry = fx.coefficient_index().get(coefficient)
+    return entry[0] if entry else None
+
+
 def channel_model(terms) -> Model:
     """The SDF model of one channel; refuses effects that need a turntable (there is none)."""
     model = Model.of(terms, fx.SDF)

@@ -363,6 +363,8 @@ def campaign_figure(result, title: str | None = None):
     target σ as a dotted line; right, the residual the noise does not explain, √(RMS² − floor²) (output units; the
     floor from successive differences, so it does not depend on the sample interval), of the loop's model after each
     test (the effects it added marked) and of the final model fitted to the classical sequence."""
+    from gyrojax.physics.triad import effect_of
+
     fig, (ax, ar) = _figure(1, 2, figsize=(11.0, 4.0))
     names = list(result.last.terms)
     hours = [s.cumulative_hours for s in result.steps]
@@ -370,7 +372,7 @@ def campaign_figure(result, title: str | None = None):
     colours = {}
     for eff in names:
         fit = result.last.fit
-        coeffs = [c for c in fit.coefficient_names if _effect_of(c) == eff] if fit else [eff]
+        coeffs = [c for c in fit.coefficient_names if effect_of(c) == eff] if fit else [eff]
         for c in coeffs:
             ys = [_state_sigma(s.state, c) for s in result.steps]
             line = ax.plot(hours, ys, "o-", lw=1.4, ms=4, label=c)[0]
@@ -414,21 +416,6 @@ def campaign_figure(result, title: str | None = None):
     ar.legend(fontsize=7)
     fig.tight_layout()
     return fig
-
-
-def _effect_of(coefficient: str) -> str | None:
-    """The effect of a coefficient, a triad channel's (``D_F[x]``) as its name's; None for one of no effect of §6
-    (a triad's power-up steps ``D_F_step_1[x]``)."""
-    from gyrojax.errors import ModelError
-    from gyrojax.physics.effects import coefficient_index
-    from gyrojax.physics.triad import split_channel_name
-
-    try:
-        coefficient = split_channel_name(coefficient)[0]
-    except ModelError:
-        pass
-    entry = coefficient_index().get(coefficient)
-    return entry[0] if entry else None
 
 
 def _state_sigma(state: dict, coefficient: str) -> float:
