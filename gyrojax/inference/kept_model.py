@@ -100,7 +100,7 @@ def selected(model: Model) -> Selected:
 
 @lru_cache(maxsize=64)
 def _kept_library(stem: str, lib: Model, fn) -> Kept:
-    """The kept executable of ``fn(selected, theta, data)`` for the selections of ``lib``."""
+    """The kept executable named ``stem`` of ``fn(selected, …)`` for the selections of ``lib``."""
     return Kept(model_name(stem, lib), jax.jit(fn))
 
 

@@ -405,7 +405,7 @@ def indicated_output(model: Model | Selected, theta, x: dict, kind: str):
         base = x["w_I"]
     sl = model.slices()
     adds = [e for e in model.effects if e.contribution is not None]
-    parts = [jnp.broadcast_to(e.contribution(x, theta[sl[e.name]]), base.shape) for e in adds]
+    parts = [e.contribution(x, theta[sl[e.name]]) for e in adds]
     if isinstance(model, Selected):
         parts = [jnp.where(model.present[k], p, 0.0) for k, p in enumerate(parts)]
     out = base
