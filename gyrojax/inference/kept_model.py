@@ -134,8 +134,7 @@ def kept_rows(stem: str, fn, jitted, model: Model, theta, data: RecordData):
     if not keepable(model) or measurements(data) == 0:
         return jitted(model, theta, data)
     sel = selected(model)
-    th = np.zeros(sel.size)
-    th[: model.size] = np.asarray(theta, dtype=np.float64)
+    th = sel.pad(theta)
     kept = _kept_library(stem, sel.library, fn)
     tdf = data.kind == fx.TDF and data.mode != "servo"
     return over_rows(lambda piece: kept(sel, th, piece), data, 2 if tdf else 1)

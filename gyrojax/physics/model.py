@@ -161,6 +161,11 @@ class Selected:
         """The library's slices (of :meth:`full`)."""
         return self.library.slices()
 
+    def pad(self, theta) -> np.ndarray:
+        """The padded θ (:attr:`size`) of the model's own θ (numpy, zeros after it)."""
+        th = np.asarray(theta, dtype=np.float64)
+        return np.concatenate([th, np.zeros(self.size - th.size)])
+
     def full(self, theta):
         """The library's θ of the padded θ of the model."""
         return jnp.zeros(self.library.size + 1, theta.dtype).at[self.index].set(theta)[: self.library.size]
