@@ -1,4 +1,4 @@
-"""The measurement model's executables kept across processes (gyrojax.inference.kept_model): a built-in model's
+"""The measurement model's executables kept across processes (gyrojax.physics.kept_model): a built-in model's
 predict and Jacobian (one pass) through the kept executable of its kind's library equal the jitted functions of the
 model to rounding, a reload does not compile, other models of one library share the executable, a file of another
 function under the key's name is compiled again (never called), and a model with an effect the user registered is never
@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from gyrojax.data import plans
-from gyrojax.inference import kept_model
 from gyrojax.inference.campaign import Campaign
 from gyrojax.physics import expression as ex
+from gyrojax.physics import kept_model
 from gyrojax.physics.model import Model, jacobian_jit, measurements, predict_jit
 from gyrojax.report.demo import TRUTH
 from gyrojax.runtime import kept, rows

@@ -36,12 +36,12 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyrojax.inference.drift_rows import rows_of, servo_state
-from gyrojax.inference.kept_model import over_rows
 from gyrojax.inference.scoring import collinear, score
 from gyrojax.inference.solver import stack_whitened
 from gyrojax.inference.subspace import UNSEEN, WhitenedSystem, basis, perp
 from gyrojax.inference.verdict import POWERS, Structure
 from gyrojax.physics import effects as fx
+from gyrojax.physics.kept_model import over_rows
 from gyrojax.physics.model import instrument_inputs
 from gyrojax.runtime.kept import Kept
 from gyrojax.tails import chi2_isf
@@ -74,7 +74,7 @@ def _inputs_without_setup(d):
 def inputs_without_setup(d) -> dict:
     """:func:`gyrojax.physics.model.instrument_inputs` of a rebalance record with no set-up error, per sample (one
     compiled function, not a few hundred dispatched operations per record; one executable per chunk size, whatever
-    the length, :func:`gyrojax.inference.kept_model.over_rows`)."""
+    the length, :func:`gyrojax.physics.kept_model.over_rows`)."""
     return over_rows(_inputs_without_setup, d)
 
 

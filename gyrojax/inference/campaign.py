@@ -14,8 +14,8 @@ from gyrojax.data.arrays import record_data
 from gyrojax.data.record import Record
 from gyrojax.data.triad import TRIAD_KIND
 from gyrojax.errors import ModelError, RecordError
-from gyrojax.inference.kept_model import kept_predict, kept_predict_and_jacobian
 from gyrojax.physics import effects as fx
+from gyrojax.physics.kept_model import kept_predict, kept_predict_and_jacobian
 from gyrojax.physics.model import Model, RecordData, check_servo
 
 
@@ -164,7 +164,7 @@ def linearize(model: Model, theta, campaign: Campaign) -> list[Linearized]:
     th = np.asarray(theta, dtype=np.float64)  # numpy: a jnp array of a new shape compiles a staging function
     for d, lab, t in zip(campaign.data, campaign.labels, campaign.times):
         ok = lab >= 0
-        # executables kept across processes (built-in models: gyrojax.inference.kept_model)
+        # executables kept across processes (built-in models: gyrojax.physics.kept_model)
         if model.size:
             y, jac = kept_predict_and_jacobian(model, th, d)
             jac = np.asarray(jac)[ok]

@@ -18,11 +18,11 @@ from gyrojax import tails
 from gyrojax.data.arrays import record_data
 from gyrojax.data.importclues import signed_permutations
 from gyrojax.inference.identifiability import ALIAS_TOL
-from gyrojax.inference.kept_model import kept_selected
 from gyrojax.inference.lstsq import lstsq_normal
 from gyrojax.inference.scoring import ALPHA
 from gyrojax.physics import effects as fx
 from gyrojax.physics import registry
+from gyrojax.physics.kept_model import kept_selected
 from gyrojax.physics.model import Model, jacobian, measurement_rows
 from gyrojax.runtime.kept import kept_arrays
 

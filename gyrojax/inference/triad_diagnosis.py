@@ -42,7 +42,6 @@ from gyrojax.errors import ModelError
 from gyrojax.inference import triad as tf
 from gyrojax.inference.adequacy import near_aliases
 from gyrojax.inference.instrument import Rules, Session
-from gyrojax.inference.kept_model import kept_call
 from gyrojax.inference.scoring import ALPHA, candidates, residual_variance, score, score_beside, score_tests
 from gyrojax.inference.subspace import WhitenedSystem, basis
 from gyrojax.inference.triad_components import (
@@ -65,6 +64,7 @@ from gyrojax.inference.verdict import Candidate, Structure
 from gyrojax.physics import effects as fx
 from gyrojax.physics import plausibility
 from gyrojax.physics import triad as tp
+from gyrojax.physics.kept_model import kept_call
 
 NOISE_PROCESSES = {"pose": "pose_bias_scatter", "move": "move_angle_noise", "walk": "bias_random_walk"}
 """Variance components between segments (:mod:`gyrojax.inference.triad_components`), tested as noise, by the names

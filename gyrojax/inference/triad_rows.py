@@ -18,7 +18,7 @@ many times over:
 
 Shapes are bucketed (:func:`bucket`: four lengths per octave; padded samples masked, padded moves and segments
 dropped) so that sessions of similar size share one compiled function. Each pass of a built-in model is kept
-across processes (:func:`gyrojax.inference.kept_model.kept_call`): a fresh process neither traces nor lowers it.
+across processes (:func:`gyrojax.physics.kept_model.kept_call`): a fresh process neither traces nor lowers it.
 """
 
 from __future__ import annotations
@@ -30,10 +30,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyrojax import units
-from gyrojax.inference.kept_model import kept_call
 from gyrojax.physics import effects as fx
 from gyrojax.physics import so3
 from gyrojax.physics import triad as tp
+from gyrojax.physics.kept_model import kept_call
 from gyrojax.physics.model import indicated_output
 
 

@@ -1,9 +1,10 @@
 """Quasi-static simulation of a plan into records (conventions §5).
 
 The instrument's indicated output comes from the same measurement model the fit uses
-(:func:`gyrojax.physics.model.predict`), with the truth's coefficients and set-up errors, plus random drift. Servo runs
-integrate the servo axis in time (``lax.scan``, RK4 between samples) so that the table angle is the integral of
-the balance equation (Hu 3-59). Deterministic for a given key.
+(:func:`gyrojax.physics.model.predict`, through its compiled code kept across processes,
+:func:`gyrojax.physics.kept_model.kept_predict`), with the truth's coefficients and set-up errors, plus random drift.
+Servo runs integrate the servo axis in time (``lax.scan``, RK4 between samples) so that the table angle is the
+integral of the balance equation (Hu 3-59). Deterministic for a given key.
 """
 
 from __future__ import annotations
@@ -26,13 +27,13 @@ from gyrojax.errors import PlanError, TruthError
 from gyrojax.noise.processes import random_drift
 from gyrojax.physics import effects as fx
 from gyrojax.physics import frames
+from gyrojax.physics.kept_model import kept_predict
 from gyrojax.physics.model import (
     Model,
     RecordData,
     check_servo,
     encoder_error,
     instrument_inputs,
-    predict,
     servo_rate,
     setup_values,
 )
@@ -303,7 +304,7 @@ def simulate_run(
     h = np.asarray(encoder_error(setup["encoder"], jnp.deg2rad(jnp.asarray(ang[:, enc])))[0])
     cols[f"angle_{run.axes[enc][0]}_deg"] = ang[:, enc] + np.rad2deg(h)
     data = record_data(Record(meta, cols))
-    ind = np.asarray(predict(model, theta, data))
+    ind = np.asarray(kept_predict(model, theta, data))
     if kind == fx.TDF:
         k1, k2 = jax.random.split(key)
         n = len(t)

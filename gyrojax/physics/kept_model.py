@@ -72,6 +72,17 @@ def kept_call(stem: str, fn, jitted, model: Model, *args):
     return _kept(stem, model, fn)(*args)
 
 
+def kept_jit(stem: str, model: Model, fn, *statics):
+    """``fn`` jitted, its executables kept across processes under a name of ``stem``, ``model`` and ``statics`` when
+    :func:`keepable` (else jitted in each process). ``fn`` is a function of arrays closing over ``model`` and
+    ``statics``, which must be everything it closes over: together with the library's source (in every key) they
+    determine its code."""
+    if not keepable(model):
+        return jax.jit(fn)
+    digest = hashlib.sha256(repr(statics).encode()).hexdigest()[:8]
+    return Kept(f"{model_name(stem, model)}_{digest}", jax.jit(fn))
+
+
 def library(model: Model) -> Model:
     """The built-in effects of ``model``'s kind, in the registry's order, that compiled code of ``model`` carries: the
     set-up effects only when the model holds one (else the kinematics carry no derivative), the effects not linear in
