@@ -46,6 +46,7 @@ from gyrojax.adaptive.information import rows
 from gyrojax.adaptive.requirements import variances
 from gyrojax.errors import ModelError
 from gyrojax.noise.meancov import gm_mean_factor
+from gyrojax.physics.kept_model import kept_jit
 from gyrojax.planning import search
 from gyrojax.planning.fisher import Table
 from gyrojax.planning.optimal import dwell_from_logits
@@ -90,7 +91,8 @@ GM_TERMS = 2
 
 
 class _Problem:
-    """The compiled search and ratio function of one configuration: ``runs`` mountings of ``n`` positions each."""
+    """The compiled search and ratio function of one configuration: ``runs`` mountings of ``n`` positions each, kept
+    across processes for a universe of built-in effects (:func:`gyrojax.physics.kept_model.kept_jit`)."""
 
     def __init__(self, uni, runs: int, n: int, limits: tuple, steps: int, learning_rate: float):
         m_frac = 0.25 / (runs * n)
@@ -145,10 +147,13 @@ class _Problem:
             p, hist = search.adam_scan(vg, p0, steps, learning_rate, triads, template, total, a, schedule=taus)
             return p, hist, loss(p, taus[-1], triads, template, total, a)
 
-        self.search = jax.jit(jax.vmap(run, in_axes=(0, 0, None, None, None)))
-        self.ratios = jax.jit(ratios)
-        self.angles = jax.jit(angles)
-        self.fractions = jax.jit(lambda z: dwell_from_logits(z, 1.0, m_frac).reshape(runs, n))
+        statics = (runs, n, limits, steps, learning_rate)
+        self.search = kept_jit("design_search", uni, jax.vmap(run, in_axes=(0, 0, None, None, None)), *statics)
+        self.ratios = kept_jit("design_ratios", uni, ratios, *statics)
+        self.angles = kept_jit("design_angles", uni, angles, *statics)
+        self.fractions = kept_jit(
+            "design_fractions", uni, lambda z: dwell_from_logits(z, 1.0, m_frac).reshape(runs, n), *statics
+        )
 
 
 @lru_cache(maxsize=8)

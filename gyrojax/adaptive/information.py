@@ -22,6 +22,7 @@ term) and θ as arguments so that the search can ``vmap`` over mountings and pos
 from __future__ import annotations
 
 from dataclasses import replace
+from functools import lru_cache
 
 import jax
 import jax.numpy as jnp
@@ -29,8 +30,9 @@ import numpy as np
 
 from gyrojax.noise.spec import NoiseSpec
 from gyrojax.noise.whiten import first_difference_std
+from gyrojax.physics.kept_model import kept_jit
 from gyrojax.physics.model import Model, jacobian
-from gyrojax.planning.fisher import position_times, record_fisher
+from gyrojax.planning.fisher import Table, position_times, record_fisher
 
 
 def record_white(record) -> float:
@@ -119,3 +121,16 @@ def test_information(universe: Model, table, noise: NoiseSpec, triad, angles_rad
     chol = jnp.linalg.cholesky(noise.mean_covariance(starts, dwell))
     w = jax.vmap(lambda x: jax.scipy.linalg.solve_triangular(chol, x, lower=True))(h)
     return jnp.einsum("cnp,cnq->pq", w, w)
+
+
+@lru_cache(maxsize=16)
+def compiled_information(universe: Model, noise: NoiseSpec):
+    """:func:`test_information` of ``universe`` and ``noise`` compiled (kept across processes,
+    :func:`gyrojax.physics.kept_model.kept_jit`): f(template, triad, angles_rad, dwell_s, start_s, gap_s, theta), the
+    table given by its template record (:class:`gyrojax.planning.fisher.Table`)."""
+
+    def f(template, triad, angles_rad, dwell_s, start_s, gap_s, theta):
+        table = Table(template, (), (), {}, 0.0)
+        return test_information(universe, table, noise, triad, angles_rad, dwell_s, start_s, gap_s, theta)
+
+    return kept_jit("test_information", universe, f, noise)

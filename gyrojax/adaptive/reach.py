@@ -28,6 +28,7 @@ from gyrojax.adaptive.information import rows
 from gyrojax.adaptive.requirements import sigmas
 from gyrojax.data import plans
 from gyrojax.physics import effects as fx
+from gyrojax.physics.kept_model import kept_jit
 
 SAMPLES = 64
 """Random angle sets per mounting."""
@@ -52,7 +53,8 @@ def reachable_information(uni, lab, samples: int = SAMPLES, seed: int = 0) -> np
 
 @lru_cache(maxsize=16)
 def mounting_rows(uni):
-    """Rows of every mounting at a set of angles, compiled once per universe: f(template, triads, angles rad)."""
+    """Rows of every mounting at a set of angles, compiled once per universe (kept across processes,
+    :func:`gyrojax.physics.kept_model.kept_jit`): f(template, triads, angles rad)."""
     from gyrojax.planning.fisher import Table
 
     def at(template, triads, ang):
@@ -60,7 +62,7 @@ def mounting_rows(uni):
         times = jnp.zeros(ang.shape[0])
         return jax.vmap(lambda t: rows(uni, table, t, ang, times, jnp.zeros(uni.size)))(triads)
 
-    return jax.jit(at)
+    return kept_jit("mounting_rows", uni, at)
 
 
 def _normalised(f: np.ndarray) -> np.ndarray:

@@ -41,8 +41,8 @@ from gyrojax.adaptive.goal import Goal, detect_level, detection_power, look_alph
 from gyrojax.adaptive.hand import HandLab, design_session, prior_information, session_comparison, session_noise
 from gyrojax.adaptive.information import (
     RESOLVED_CORRELATION_TIMES,
+    compiled_information,
     record_information,
-    test_information,
     test_noise,
 )
 from gyrojax.adaptive.lab import Lab
@@ -701,7 +701,7 @@ def _predicted(uni, reqs, f_rec, lab, noise, plan, res, start) -> np.ndarray:
         ang = jnp.deg2rad(jnp.asarray([s.start_deg for s in run.segments]))
         dwell = jnp.asarray([s.duration_s for s in run.segments])
         triad = jnp.asarray([run.instrument[k] for k in keys], dtype=float)
-        f += np.asarray(test_information(uni, table, noise, triad, ang, dwell, t0, run.gap_s, theta))
+        f += np.asarray(compiled_information(uni, noise)(table.template, triad, ang, dwell, t0, run.gap_s, theta))
         t0 += run.duration_s + plan.gap_between_runs_s
     return rq.sigmas(f, reqs, uni)
 

@@ -31,6 +31,7 @@ none is given.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import lru_cache
 
 import jax
 import jax.numpy as jnp
@@ -53,6 +54,22 @@ DEFAULT_NOISE = NoiseSpec(white=0.01)
 
 
 # ---- the static-position fast path ----------------------------------------------------------------------------
+
+
+def _frozen(value):
+    """A mounting's value (a string, a number or a vector) in a hashable form."""
+    return value if value is None or isinstance(value, (str, int, float)) else tuple(float(c) for c in value)
+
+
+@lru_cache(maxsize=64)
+def _template(axes: tuple, mount: tuple, latitude_deg: float) -> RecordData:
+    """The one-sample record of a table (:meth:`Table.of`; arguments in hashable form), made by the simulator: the exact
+    arrays fit() would see. Kept per table: the simulator runs once for each."""
+    from gyrojax.simulation.simulator import simulate
+
+    k = len(axes)
+    run = plans.Run("template", axes, dict(mount), (plans.Segment((0.0,) * k, 1.0, 1.0),))
+    return record_data(simulate(plans.Plan("template", (run,), latitude_deg), {"coefficients": {}})[0])
 
 
 @dataclass(frozen=True)
@@ -81,15 +98,10 @@ class Table:
     def of(cls, axes, mount: dict, latitude_deg: float) -> "Table":
         """A table of gimbal ``axes`` ((name, ENU unit vector), outermost first) and ``mount``, at ``latitude_deg``
         (deg), built from a one-sample simulated record."""
-        # a one-sample record made by the simulator gives the exact arrays fit() would see
-        from gyrojax.simulation.simulator import simulate
-
-        k = len(axes)
-        run = plans.Run("template", tuple(axes), mount, (plans.Segment((0.0,) * k, 1.0, 1.0),))
-        rec = simulate(plans.Plan("template", (run,), latitude_deg), {"coefficients": {}})[0]
-        return cls(
-            record_data(rec), tuple(n for n, _ in axes), tuple(tuple(u) for _, u in axes), dict(mount), latitude_deg
-        )
+        axes = tuple((n, tuple(float(c) for c in u)) for n, u in axes)
+        frozen = tuple(sorted((key, _frozen(v)) for key, v in mount.items()))
+        template = _template(axes, frozen, float(latitude_deg))
+        return cls(template, tuple(n for n, _ in axes), tuple(u for _, u in axes), dict(mount), latitude_deg)
 
     def positions_data(self, angles_rad) -> RecordData:
         """A RecordData whose samples are the static positions ``angles_rad`` (n, k)."""
