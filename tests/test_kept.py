@@ -395,8 +395,9 @@ KEPT_BY_A_DIAGNOSIS = {
 
 def test_a_fresh_process_diagnoses_with_the_kept_executables_to_the_same_bits(tmp_path):
     """The library's kept functions (the noise fit's likelihood, the model's prediction (the simulator's) and Jacobian,
-    the static rows, the adequacy inputs, the triad's passes) compiled and kept by a first simulation and diagnosis of a tumble and a triad session,
-    then loaded, none compiled again, by a fresh process, whose diagnoses print the same JSON to the last digit."""
+    the static rows, the adequacy inputs, the triad's passes) compiled and kept by a first simulation and diagnosis of a
+    tumble and a triad session, then loaded, none compiled again, by a fresh process, whose diagnoses print the same
+    JSON to the last digit."""
     run = [sys.executable, "-c", DIAGNOSIS]
     first = subprocess.run(run, env=_env(tmp_path), capture_output=True, text=True, check=True).stdout
     folder = tmp_path / ("c" + kept.SUFFIX)

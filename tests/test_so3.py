@@ -1,6 +1,6 @@
-"""The one SO(3) exponential (:mod:`gyrojax.physics.so3`) against scipy's rotation vectors, and its derivatives
-against central finite differences, near the identity (θ from 1e-12 to 1e-3 rad, where the closed form divides zero
-by zero) and far from it; the right Jacobian against its defining first-order property."""
+"""The one SO(3) exponential and logarithm (:mod:`gyrojax.physics.so3`) against scipy's rotation vectors, and its
+derivatives against central finite differences, near the identity (θ from 1e-12 to 1e-3 rad, where the closed form
+divides zero by zero) and far from it; the right Jacobian against its defining first-order property."""
 
 from __future__ import annotations
 
@@ -29,6 +29,30 @@ def test_exp_is_scipys_rotation_vector_rotation():
     np.testing.assert_allclose(got, want, rtol=0, atol=4e-16 * 8)
     one = np.asarray(so3.exp(jnp.asarray(v[7])))  # a single vector as well as a stack
     np.testing.assert_array_equal(one, got[7])
+
+
+def test_log_is_scipys_rotation_vector_at_every_angle():
+    """Rotations at every angle of :data:`ANGLES` below π, at π and just below it, random ones and the face turns a
+    hand protocol makes: scipy's rotation vector to rounding (at π, where ±v is one rotation, the same sign), in
+    numpy and in JAX, and exp(log r) = r."""
+    axes = RNG.standard_normal((50, 3))
+    axes /= np.linalg.norm(axes, axis=1)[:, None]
+    v = np.concatenate(
+        [
+            vectors()[np.linalg.norm(vectors(), axis=1) < np.pi],
+            axes * np.pi,
+            axes * (np.pi - 1e-9),
+            Rotation.random(200, random_state=5).as_rotvec(),
+        ]
+    )
+    faces = np.array([[[0, 0, 1], [0, 1, 0], [-1, 0, 0]], [[1, 0, 0], [0, 0, -1], [0, 1, 0]], np.eye(3)], float)
+    r = np.concatenate([Rotation.from_rotvec(v).as_matrix(), faces, faces.transpose(0, 2, 1) @ faces[::-1]])
+    want = Rotation.from_matrix(r).as_rotvec()
+    got = so3.log(r)
+    np.testing.assert_allclose(got, want, rtol=0, atol=8 * 4.5e-16 * np.pi)
+    np.testing.assert_allclose(np.asarray(so3.log(jnp.asarray(r))), want, rtol=0, atol=8 * 4.5e-16 * np.pi)
+    np.testing.assert_allclose(so3.exp(got), r, rtol=0, atol=8 * 2.3e-16 * np.pi)
+    assert so3.log(r[0]).shape == (3,)
 
 
 def test_rotation_of_axis_and_angle():

@@ -1,7 +1,7 @@
-"""The rotation group SO(3): the cross-product matrix, the exponential and its right Jacobian, for stacks of
-rotation vectors (..., 3) in rad, right-hand rule (conventions §3). One implementation for both array kinds: JAX
-arrays (and traces) are computed by ``jax.numpy``, anything else by ``numpy``, so a simulation or a check loop in
-numpy pays no dispatch and a fit or design differentiates through the same formulas.
+"""The rotation group SO(3): the cross-product matrix, the exponential, its inverse (the logarithm) and its right
+Jacobian, for stacks of rotation vectors (..., 3) in rad, right-hand rule (conventions §3). One implementation for both
+array kinds: JAX arrays (and traces) are computed by ``jax.numpy``, anything else by ``numpy``, so a simulation or a
+check loop in numpy pays no dispatch and a fit or design differentiates through the same formulas.
 
     exp([v×]) = I + sin θ/θ [v×] + (1 − cos θ)/θ² [v×]²                                   (Rodrigues, θ = |v|)
     J_r(v)    = I − (1 − cos θ)/θ² [v×] + (θ − sin θ)/θ³ [v×]²,   exp([(v + δ)×]) ≈ exp([v×]) exp([(J_r δ)×])
@@ -95,3 +95,39 @@ def rotation(axis, angle):
     """R(n, α) = exp([α n×]): the rotation by ``angle`` (rad, shape (...)) about the unit vector ``axis`` (..., 3)."""
     xp = _namespace(axis, angle)
     return exp(xp.asarray(axis, dtype=float) * xp.asarray(angle, dtype=float)[..., None])
+
+
+def log(r):
+    """The rotation vector v (..., 3) rad, |v| ≤ π, of rotations ``r`` (..., 3, 3): exp([v×]) = r.
+
+    Through the unit quaternion (w, x, y, z), w ≥ 0, whose largest component is found first and the others from the
+    sums and differences of r's off-diagonal entries divided by it (Shepperd 1978: no square root of a small number,
+    exact to rounding at every angle); at π, where ±v are one rotation, the largest axis component is positive. Then
+    θ = 2 atan2(|(x, y, z)|, w) and v = θ/sin(θ/2)·(x, y, z), the factor by its series 2 + θ²/12 + 7θ⁴/2880 below
+    θ = 10⁻³ rad."""
+    xp = _namespace(r)
+    r = xp.asarray(r, dtype=float)
+    d0, d1, d2 = r[..., 0, 0], r[..., 1, 1], r[..., 2, 2]
+    tr = d0 + d1 + d2
+    s01, s02, s12 = r[..., 0, 1] + r[..., 1, 0], r[..., 0, 2] + r[..., 2, 0], r[..., 1, 2] + r[..., 2, 1]
+    a0, a1, a2 = r[..., 2, 1] - r[..., 1, 2], r[..., 0, 2] - r[..., 2, 0], r[..., 1, 0] - r[..., 0, 1]
+    # each row is 4 q_k (x, y, z, w) with q_k the pivot: x, y, z, then w (ties go to the axes)
+    rows = xp.stack(
+        [
+            xp.stack([1.0 + 2.0 * d0 - tr, s01, s02, a0], axis=-1),
+            xp.stack([s01, 1.0 + 2.0 * d1 - tr, s12, a1], axis=-1),
+            xp.stack([s02, s12, 1.0 + 2.0 * d2 - tr, a2], axis=-1),
+            xp.stack([a0, a1, a2, 1.0 + tr], axis=-1),
+        ],
+        axis=-2,
+    )
+    pivot = xp.argmax(xp.stack([d0, d1, d2, tr], axis=-1), axis=-1)
+    q = xp.take_along_axis(rows, pivot[..., None, None], axis=-2)[..., 0, :]
+    q = q / xp.sqrt((q * q).sum(axis=-1))[..., None]
+    q = xp.where(q[..., 3:] < 0.0, -q, q)
+    xyz, w = q[..., :3], q[..., 3]
+    theta = 2.0 * xp.arctan2(xp.sqrt((xyz * xyz).sum(axis=-1)), w)
+    small = theta <= 1e-3
+    t2 = theta * theta
+    scale = xp.where(small, 2.0 + t2 / 12.0 + 7.0 * t2 * t2 / 2880.0, theta / xp.sin(xp.where(small, 1.0, theta) / 2.0))
+    return scale[..., None] * xyz

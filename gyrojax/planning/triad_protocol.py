@@ -37,7 +37,6 @@ from functools import lru_cache, partial
 import jax
 import jax.numpy as jnp
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from gyrojax import protocol
 from gyrojax.errors import ConvergenceWarning, ModelError
@@ -74,8 +73,8 @@ TURN_PAIRS = (0, 1, 2)
 """The structures searched: this many pairs of known-angle turns (one each way) about each body axis."""
 FACE_ATTITUDES = np.array([face_attitude(i, 1.0, 0.0) for i in range(3)])
 """The rests of the known-angle turns: the box on the faces +x, +y, +z at heading 0 (body → ENU)."""
-_FACES_X0 = Rotation.from_matrix(FACE_ATTITUDES[0]).as_rotvec()
-_FACES_MOVES = np.array([Rotation.from_matrix(a.T @ b).as_rotvec() for a, b in zip(FACE_ATTITUDES, FACE_ATTITUDES[1:])])
+_FACES_X0 = so3.log(FACE_ATTITUDES[0])
+_FACES_MOVES = np.array([so3.log(a.T @ b) for a, b in zip(FACE_ATTITUDES, FACE_ATTITUDES[1:])])
 
 
 def turn_seconds(angle_deg) -> float:
@@ -460,7 +459,6 @@ def _design_steps(parts: Parts, pairs: int) -> list[dict]:
 # ---- any protocol given as steps; the baselines ---------------------------------------------------------------
 
 
-@partial(jax.jit, static_argnames=("crit",))
 def _evaluate(parts, basis, noise, *, crit):
     """F and the criterion's loss of every protocol of the stacked ``parts``."""
 
@@ -471,10 +469,17 @@ def _evaluate(parts, basis, noise, *, crit):
     return jax.vmap(one)(parts)
 
 
+@lru_cache(maxsize=16)
+def _kept_evaluate(crit: Criterion | None) -> Kept:
+    """:func:`_evaluate` of one criterion compiled, kept across processes as the search is."""
+    digest = hashlib.sha256(repr(crit).encode()).hexdigest()[:12]
+    return Kept(f"triad_evaluate_{digest}", jax.jit(partial(_evaluate, crit=crit)))
+
+
 def evaluate(model, protocols, noise: TriadNoise, crit: Criterion | None = None):
     """(F (P, 3p, 3p), criterion losses (P,)) of ``protocols``, each (start attitude, steps), in one compiled call."""
     parts = pad_parts([steps_parts(c0, st) for c0, st in protocols])
-    f, loss = _evaluate(parts, rows_basis(model), noise.numbers(), crit=crit)
+    f, loss = _kept_evaluate(crit)(parts, rows_basis(model), noise.numbers())
     return np.asarray(f), np.asarray(loss)
 
 

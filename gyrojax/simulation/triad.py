@@ -15,7 +15,6 @@ import math
 
 import jax
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from gyrojax import units
 from gyrojax.data.importers import triad_meta
@@ -30,7 +29,7 @@ FACES = (("x_p", 0, 1.0), ("x_a", 0, -1.0), ("y_p", 1, 1.0), ("y_a", 1, -1.0), (
 def relative_turn(c0, c1) -> tuple[np.ndarray, float]:
     """The body-frame turn (unit axis, angle in rad, in [0, π]) that takes attitude ``c0`` to ``c1`` (body → L,
     3×3 each): c1 = c0 R(axis, angle); the axis is +z when the attitudes are equal."""
-    v = Rotation.from_matrix(np.asarray(c0).T @ np.asarray(c1)).as_rotvec()
+    v = so3.log(np.asarray(c0).T @ np.asarray(c1))
     a = float(np.linalg.norm(v))
     return (v / a if a > 0 else np.array([0.0, 0.0, 1.0])), a
 

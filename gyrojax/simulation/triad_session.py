@@ -25,7 +25,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from gyrojax.data.record import Record
 from gyrojax.errors import ModelError
@@ -133,7 +132,7 @@ def simulate_session(
         else:
             plan = plan @ so3.rotation(axis, phi)
             target = plan @ so3.rotation(rng.standard_normal(3), sig) if sig else plan
-            err = Rotation.from_matrix((act @ so3.rotation(axis, phi)).T @ target).as_rotvec()
+            err = so3.log((act @ so3.rotation(axis, phi)).T @ target)
             tail = max(n // 20, 2) if sig else 0
             w, f = turn_samples(act, axis, phi, n - tail, dt, omega_l, f_l)
             mid = act @ so3.rotation(axis, phi)
