@@ -19,7 +19,8 @@ expression) is compiled in each process, so that an edited expression can never 
 tree carries the record's static fields (mode, servo and encoder axes), so records of other modes get other keys.
 
 The triad fit's compiled passes (:mod:`gyrojax.inference.triad_rows`: segment means and their Jacobian, the moves'
-rows, S of the channel model) are kept the same way, through :func:`kept_call`.
+rows, S of the channel model) are kept the same way, through :func:`kept_call`; a function that closes over a model
+and a few constants (the campaign loop's design search and the information of a test) through :func:`kept_jit`.
 """
 
 from __future__ import annotations

@@ -58,7 +58,10 @@ DEFAULT_NOISE = NoiseSpec(white=0.01)
 
 def _frozen(value):
     """A mounting's value (a string, a number or a vector) in a hashable form."""
-    return value if value is None or isinstance(value, (str, int, float)) else tuple(float(c) for c in value)
+    if value is None or isinstance(value, (str, bool, int, float)):
+        return value
+    arr = np.asarray(value, dtype=float)
+    return float(arr) if arr.ndim == 0 else tuple(arr.tolist())
 
 
 @lru_cache(maxsize=64)
