@@ -1,8 +1,8 @@
 """The measurement model's executables kept across processes (gyrojax.physics.kept_model): a built-in model's
 predict and Jacobian (one pass) through the kept executable of its kind's library equal the jitted functions of the
 model to rounding, a reload does not compile, other models of one library share the executable, a file of another
-function under the key's name is compiled again (never called), and a model with an effect the user registered is never
-kept."""
+function under the key's name is compiled again (never called), a model with an effect the user registered is never
+kept, and a function closing over a model and constants is kept under a name of both."""
 
 import jax
 import jax.numpy as jnp
@@ -81,6 +81,19 @@ def test_a_model_with_a_user_effect_is_not_kept(data, where):
         _, j = kept_model.kept_predict_and_jacobian(model, jnp.zeros(2), data)
         np.testing.assert_array_equal(np.asarray(j), np.asarray(jacobian_jit(model, jnp.zeros(2), data)))
     assert not where.exists()
+
+
+def test_kept_jit_names_its_model_and_constants_and_keeps_no_user_effect(where):
+    """A function closing over a model and constants (the campaign loop's design search) is kept under a name of both:
+    other constants, another file; it computes what ``jax.jit`` computes, and a user effect's is jitted, never kept."""
+    a = kept_model.kept_jit("f", MODEL, lambda x: 2.0 * x, 8, (0.0, 90.0))
+    b = kept_model.kept_jit("f", MODEL, lambda x: 2.0 * x, 8, (0.0, 91.0))
+    assert isinstance(a, kept.Kept) and a.name.startswith(kept_model.model_name("f", MODEL)) and a.name != b.name
+    np.testing.assert_array_equal(np.asarray(a(np.arange(3.0))), [0.0, 2.0, 4.0])
+    assert len(list(where.glob(a.name + "-*.xla"))) == 1
+    with ex.defined("U_jit=a_I**3") as (name,):
+        c = kept_model.kept_jit("f", Model(("D_F", name)), lambda x: 2.0 * x, 8)
+        assert not isinstance(c, kept.Kept)
 
 
 def _plan_data(plan):
