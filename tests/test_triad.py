@@ -15,7 +15,7 @@ from gyrojax.data.records import load_record, save_record
 from gyrojax.errors import ConvergenceWarning, ModelError, RecordError
 from gyrojax.inference.identifiability import IdentifiabilityError
 from gyrojax.inference.identify import fit
-from gyrojax.inference.triad import DEFAULT_ROTATION_TERMS, fit_triad, long_run_variance
+from gyrojax.inference.triad import fit_triad, long_run_variance
 from gyrojax.inference.triad_result import load_triad_fit
 from gyrojax.montecarlo.triad import mems_truth
 from gyrojax.physics import triad as tp
@@ -113,7 +113,7 @@ def test_static_only_session_refuses_scale_factor():
         fit_triad(static, ["D_F", "D_I", "sf_error"], earth_rate=False)
     # nine unexcited columns span a degenerate null space: they are named unexcited, never invented into groups
     with pytest.raises(IdentifiabilityError) as e:
-        fit_triad(static, DEFAULT_ROTATION_TERMS, earth_rate=False)
+        fit_triad(static, tp.DEFAULT_ROTATION_TERMS, earth_rate=False)
     unseen = {f"{c}[{ch}]" for c in ("E_SF", "M_O", "M_S") for ch in "xyz"}
     assert e.value.report["aliases"] == [] and set(e.value.report["unexcited"]) == unseen
     # with the Earth rate, static faces do excite the scale factor: by 15 deg/h, hence a σ of a few 10^5 ppm

@@ -23,7 +23,7 @@ from gyrojax.physics import triad as tp
 from gyrojax.simulation.triad import simulate_multiposition
 
 TRUTH = mems_truth(11)
-LINEAR = tf.DEFAULT_ROTATION_TERMS
+LINEAR = tp.DEFAULT_ROTATION_TERMS
 NONLINEAR = LINEAR + ("sf_asymmetry", "sf_quadratic", "bias_trend")
 # central-difference steps in report units, each moving the rates by ~1 deg/h (a 30 s session: t ≤ 0.01 h; rates
 # ≤ 100 deg/s): small beside the coefficients' MEMS sizes (500 deg/h, 30 deg/h/g, 1e4 ppm, 3000 arcsec), large

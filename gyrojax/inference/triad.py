@@ -69,8 +69,6 @@ from gyrojax.optimize import least_squares
 from gyrojax.physics import triad as tp
 from gyrojax.runtime.threads import narrow_blas
 
-DEFAULT_STATIC_TERMS = ("D_F", "D_I", "D_O", "D_S")
-DEFAULT_ROTATION_TERMS = DEFAULT_STATIC_TERMS + ("sf_error", "ia_misalignment")
 MAX_NOISE_PASSES = 8  # fits at fixed noise, the noise updated with the fitted S between them (2–3 suffice)
 NOISE_PASS_TOL = 1e-10  # relative change of S below which the noise is settled (χ² then changes by ≲ 1e-10)
 MOVE_DIVERGED_DEG = 10.0  # median angle left at the moves above which the fit of the moves has diverged
@@ -110,7 +108,7 @@ def default_terms(records) -> tuple:
     misalignment when a rotation or move segment is there, else bias and g-terms."""
     recs = [records] if isinstance(records, Record) else list(records)
     moving = any(s["type"] in ("rotation", "move") for r in recs for s in r.meta["segments"])
-    return DEFAULT_ROTATION_TERMS if moving else DEFAULT_STATIC_TERMS
+    return tp.DEFAULT_ROTATION_TERMS if moving else tp.DEFAULT_STATIC_TERMS
 
 
 def is_triad_input(records) -> bool:
@@ -198,7 +196,7 @@ def fit_triad_unchecked(
     has_rot = any(s.kind == "rotation" for s in segments) or bool(moves)
     default = terms is None
     if default:
-        terms = DEFAULT_ROTATION_TERMS if has_rot else DEFAULT_STATIC_TERMS
+        terms = tp.DEFAULT_ROTATION_TERMS if has_rot else tp.DEFAULT_STATIC_TERMS
     terms, turn_on = split_terms(terms)
     terms, force_notes = terms_for_force(terms, segments, default)
     model = tp.channel_model(terms)

@@ -37,6 +37,10 @@ CHANNELS = ("x", "y", "z")
 FRAMES = ((0, 1, 2), (1, 2, 0), (2, 0, 1))
 """Body-axis indices of (IA, OA, SA) for channels x, y, z."""
 TURNTABLE_ONLY = ("table_tilt", "table_azimuth", "encoder_harmonic")
+DEFAULT_STATIC_TERMS = ("D_F", "D_I", "D_O", "D_S")
+"""The triad's default channel model of a session of rests: bias and the g-sensitive drift."""
+DEFAULT_ROTATION_TERMS = DEFAULT_STATIC_TERMS + ("sf_error", "ia_misalignment")
+"""The default of a session with turns or moves: bias, g-terms, scale-factor error and misalignment."""
 
 
 def channel_name(coefficient: str, channel: str) -> str:

@@ -40,7 +40,6 @@ import numpy as np
 
 from gyrojax import protocol
 from gyrojax.errors import ConvergenceWarning, ModelError
-from gyrojax.inference.triad import DEFAULT_ROTATION_TERMS as LINEAR_TERMS  # bias, g-terms, scale, misalignment
 from gyrojax.physics import effects as fx
 from gyrojax.physics import so3
 from gyrojax.physics import triad as tp
@@ -94,16 +93,18 @@ def triad_model(terms):
     known = fx.names()
     bad = [t for t in terms if t not in known]
     if bad:
-        raise ModelError(f"unknown effect {bad[0]!r}; the imu-triad protocol designs for {', '.join(LINEAR_TERMS)}")
+        raise ModelError(
+            f"unknown effect {bad[0]!r}; the imu-triad protocol designs for {', '.join(tp.DEFAULT_ROTATION_TERMS)}"
+        )
     try:
         model = tp.channel_model(terms)
     except ModelError as e:
         raise ModelError(f"{e} (not an effect of an imu-triad's channels)") from None
-    other = [t for t in model.terms if t not in LINEAR_TERMS]
+    other = [t for t in model.terms if t not in tp.DEFAULT_ROTATION_TERMS]
     if other:
         raise ModelError(
             f"effect {other[0]!r} is not fitted from hand moves of an imu-triad; the protocol designs for "
-            f"{', '.join(LINEAR_TERMS)}"
+            f"{', '.join(tp.DEFAULT_ROTATION_TERMS)}"
         )
     return model
 
