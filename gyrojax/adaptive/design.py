@@ -108,7 +108,7 @@ class _Problem:
             return jnp.stack(cols, axis=-1)
 
         def information(template, triads, ang, dwell, a):
-            table = Table(template, (), (), {}, 0.0)
+            table = Table.of_template(template)
             flat = dwell.reshape(-1)
             times = a["start"] + jnp.cumsum(flat + a["gap"]) - a["gap"] - 0.5 * flat
             times = times.reshape(runs, n) + a["remount"] * jnp.arange(runs)[:, None]

@@ -130,7 +130,7 @@ def compiled_information(universe: Model, noise: NoiseSpec):
     table given by its template record (:class:`gyrojax.planning.fisher.Table`)."""
 
     def f(template, triad, angles_rad, dwell_s, start_s, gap_s, theta):
-        table = Table(template, (), (), {}, 0.0)
+        table = Table.of_template(template)
         return test_information(universe, table, noise, triad, angles_rad, dwell_s, start_s, gap_s, theta)
 
     return kept_jit("test_information", universe, f, noise)

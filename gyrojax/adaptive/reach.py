@@ -58,7 +58,7 @@ def mounting_rows(uni):
     from gyrojax.planning.fisher import Table
 
     def at(template, triads, ang):
-        table = Table(template, (), (), {}, 0.0)
+        table = Table.of_template(template)
         times = jnp.zeros(ang.shape[0])
         return jax.vmap(lambda t: rows(uni, table, t, ang, times, jnp.zeros(uni.size)))(triads)
 

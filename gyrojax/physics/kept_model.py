@@ -78,10 +78,7 @@ def kept_jit(stem: str, model: Model, fn, *statics):
     :func:`keepable` (else jitted in each process). ``fn`` is a function of arrays closing over ``model`` and
     ``statics``, which must be everything it closes over: together with the library's source (in every key) they
     determine its code."""
-    if not keepable(model):
-        return jax.jit(fn)
-    digest = hashlib.sha256(repr(statics).encode()).hexdigest()[:8]
-    return Kept(f"{model_name(stem, model)}_{digest}", jax.jit(fn))
+    return Kept.of(model_name(stem, model), fn, *statics) if keepable(model) else jax.jit(fn)
 
 
 def library(model: Model) -> Model:

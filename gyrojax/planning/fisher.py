@@ -106,6 +106,12 @@ class Table:
         template = _template(axes, frozen, float(latitude_deg))
         return cls(template, tuple(n for n, _ in axes), tuple(u for _, u in axes), dict(mount), latitude_deg)
 
+    @classmethod
+    def of_template(cls, template: RecordData) -> "Table":
+        """A table of which only the template record is known: what :meth:`positions_data` needs, inside a traced
+        function that takes the template as an argument."""
+        return cls(template, (), (), {}, 0.0)
+
     def positions_data(self, angles_rad) -> RecordData:
         """A RecordData whose samples are the static positions ``angles_rad`` (n, k)."""
         n, k = angles_rad.shape

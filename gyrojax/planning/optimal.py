@@ -141,7 +141,7 @@ def _optimiser(model, crit, n_positions, total, m, free_dwell, noise, dt_s, adam
     def loss_fn(params, template, thetas):
         ang, z = params
         dw = dwell_from_logits(z, total, m) if free_dwell else jnp.full(n_positions, total / n_positions)
-        tab = Table(template, (), (), {}, 0.0)
+        tab = Table.of_template(template)
 
         def one(th):
             return crit.loss(static_fisher(full, tab, ang, dw, noise, dt_s, th), model.size)

@@ -28,7 +28,6 @@ poses (N uniformly random attitudes, the mean of :data:`RANDOM_DRAWS` draws).
 
 from __future__ import annotations
 
-import hashlib
 import math
 import warnings
 from dataclasses import dataclass, field
@@ -196,8 +195,7 @@ def _kept_search(crit: Criterion, max_pairs: int, adam_steps: int, lbfgs_steps: 
     """The compiled search (:func:`_search`) of one criterion and configuration, kept across processes
     (:class:`gyrojax.runtime.kept.Kept`: a fresh ``gyrojax design`` neither traces nor lowers the search again)."""
     statics = {"crit": crit, "max_pairs": max_pairs, "adam_steps": adam_steps, "lbfgs_steps": lbfgs_steps}
-    digest = hashlib.sha256(repr(sorted(statics.items())).encode()).hexdigest()[:12]
-    return Kept(f"triad_search_{digest}", jax.jit(partial(_search, **statics)))
+    return Kept.of("triad_search", partial(_search, **statics), *sorted(statics.items()))
 
 
 def _search(
@@ -473,8 +471,7 @@ def _evaluate(parts, basis, noise, *, crit):
 @lru_cache(maxsize=16)
 def _kept_evaluate(crit: Criterion | None) -> Kept:
     """:func:`_evaluate` of one criterion compiled, kept across processes as the search is."""
-    digest = hashlib.sha256(repr(crit).encode()).hexdigest()[:12]
-    return Kept(f"triad_evaluate_{digest}", jax.jit(partial(_evaluate, crit=crit)))
+    return Kept.of("triad_evaluate", partial(_evaluate, crit=crit), crit)
 
 
 def evaluate(model, protocols, noise: TriadNoise, crit: Criterion | None = None):

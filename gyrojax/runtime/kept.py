@@ -207,6 +207,13 @@ class Kept:
         self.__doc__ = getattr(fn, "__doc__", None)
         _ALL.add(self)
 
+    @classmethod
+    def of(cls, stem: str, fn, *statics) -> Kept:
+        """``fn`` jitted and kept under ``stem`` and a digest of ``statics``: every value ``fn`` closes over, which
+        (with the library's source, in every key) determine its code."""
+        digest = hashlib.sha256(repr(statics).encode()).hexdigest()[:12]
+        return cls(f"{stem}_{digest}", jax.jit(fn))
+
     def _load(self, where: Path, tree, specs):
         """The executable of ``fn`` at the argument tree ``tree`` and flat ``specs``: read from its file when that
         holds an executable of this key, else compiled (and the file written or replaced, when it can be kept)."""
