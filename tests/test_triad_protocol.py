@@ -217,6 +217,34 @@ def test_figure_draws_every_rest(tmp_path):
     assert (tmp_path / "p.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_figure_paints_the_plus_z_face_blue_and_the_near_faces_last():
+    """The box as the eye of the figure sees it (20° up, from the south-east: E to the right, U up): at level
+    attitude the +x, −y and +z faces face the eye and are painted over the others; the blue face is the one whose
+    corners have z = + in the body frame, whatever the attitude."""
+    from matplotlib.colors import to_rgba
+    from matplotlib.figure import Figure
+
+    from gyrojax.physics import so3
+    from gyrojax.report import protocol_figure as pf
+
+    v = pf.view()
+    assert np.allclose(v @ v.T, np.eye(3))
+    assert v[0] @ [1, 0, 0] > 0.8 and v[1] @ [0, 0, 1] > 0.9 and v[2] @ [0, -1, 0] > 0.8  # E right, U up, eye south
+    for c in (np.eye(3), so3.exp(np.array([0.3, -1.2, 2.0]))):
+        ax = Figure().add_subplot()
+        pf.draw_box(ax, c, v)
+        faces = sorted(ax.patches, key=lambda p: p.get_zorder())
+        toward = (pf.FACE_NORMALS @ c.T @ v[2]) > 0
+        screen = pf.CORNERS @ c.T @ v.T
+        near = {tuple(np.round(screen[list(f), :2], 9).ravel()) for f, t in zip(pf.FACES, toward) if t}
+        painted_last = {tuple(np.round(p.get_xy()[:4], 9).ravel()) for p in faces[3:]}
+        assert painted_last == near
+        blue = [p for p in faces if np.allclose(p.get_facecolor()[:3], to_rgba("tab:blue")[:3])]
+        assert len(blue) == 1
+        plus_z = pf.CORNERS[:, 2] > 0
+        assert np.allclose(np.sort(blue[0].get_xy()[:4], axis=0), np.sort(screen[plus_z, :2], axis=0))
+
+
 def test_cli_prints_the_turns_a_person_follows(tmp_path, capsys, monkeypatch):
     """The CLI's table, each motion with its kind, axis and angle (the search replaced by Ferraris' steps: the
     printing is under test here, the search above)."""
