@@ -43,7 +43,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from gyrojax import units
-from gyrojax.data import schema
+from gyrojax.data import record
 from gyrojax.data.arrays import record_data
 from gyrojax.data.record import Record
 from gyrojax.physics import kinematics, model
@@ -603,7 +603,7 @@ def test_record_path_reproduces_3_13():
     axes, triad = tumble_sdf_mounting("3-13", phi)
     t = np.arange(THETAS.size, dtype=float)
     meta = {
-        "format": schema.FORMAT,
+        "format": record.FORMAT,
         "name": "hu-3-13",
         "site": {"latitude_deg": float(np.rad2deg(phi)), "gravity_mps2": G_SITE},
         "table": {"axes": [{"name": "polar", "axis_enu": axes[0].tolist()}]},

@@ -16,7 +16,7 @@ import pytest
 
 import gyrojax
 from gyrojax.cli import app as cli
-from gyrojax.data import csvfile, plans, records, schema
+from gyrojax.data import csvfile, plans, record, records
 from gyrojax.data.record import Record
 from gyrojax.data.records import load_record, save_record
 from gyrojax.errors import GyrojaxError, ModelError, RecordError
@@ -127,7 +127,7 @@ def test_failure_writing_json_leaves_no_csv(rec, tmp_path, monkeypatch):
     real = json.dumps
 
     def dumps(obj, *a, **k):
-        if isinstance(obj, dict) and obj.get("format") == schema.FORMAT:
+        if isinstance(obj, dict) and obj.get("format") == record.FORMAT:
             raise Boom("crash while writing the JSON")
         return real(obj, *a, **k)
 

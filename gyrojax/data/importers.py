@@ -41,7 +41,7 @@ from gyrojax.data.logs import (
 )
 from gyrojax.data.record import Record
 from gyrojax.data.segments import MIN_REST_S
-from gyrojax.data.triad import CHANNELS, TRIAD_KIND, validate_triad_columns, validate_triad_meta
+from gyrojax.data.triad import CHANNELS, triad_meta, validate_triad_columns, validate_triad_meta
 from gyrojax.errors import RecordError
 from gyrojax.physics.gravity import site_gravity
 
@@ -55,7 +55,6 @@ FERRARIS_FACES = {
 }
 """imucal's static sections: the sensor axis that points up (``p``) or down (``a``)."""
 FERRARIS_ROTATIONS = {"x_rot": "x", "y_rot": "y", "z_rot": "z"}
-FORMAT = "gyrojax-record-1"
 
 
 def ferraris_accelerometer(means: dict, g: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
@@ -75,37 +74,6 @@ def ferraris_accelerometer(means: dict, g: float = 1.0) -> tuple[np.ndarray, np.
         rhs.append(np.asarray(means[f], dtype=float))
     sol, *_ = np.linalg.lstsq(np.array(rows), np.array(rhs), rcond=None)
     return sol[:3].T, sol[3]
-
-
-def triad_meta(
-    name: str,
-    segments: list,
-    *,
-    latitude_deg=None,
-    gravity_mps2: float | None = None,
-    counts_per_dps=None,
-    notes: str = "",
-    instrument_id: str | None = None,
-    extra: dict | None = None,
-) -> dict:
-    """The JSON of a triad record (:mod:`gyrojax.data.triad`)."""
-    gravity_mps2 = site_gravity(latitude_deg) if gravity_mps2 is None else float(gravity_mps2)
-    inst = {"kind": TRIAD_KIND, "channels": list(CHANNELS)}
-    if instrument_id is not None:
-        inst["id"] = instrument_id
-    if counts_per_dps is not None:
-        inst["gyro_counts_per_dps"] = float(counts_per_dps)
-    meta = {
-        "format": FORMAT,
-        "name": name,
-        "site": {"latitude_deg": latitude_deg, "gravity_mps2": gravity_mps2},
-        "instrument": inst,
-        "earth_rate": True,
-        "segments": segments,
-        "notes": notes,
-    }
-    meta.update(extra or {})
-    return meta
 
 
 def _section_bounds(name, v, where: str) -> tuple[int, int]:

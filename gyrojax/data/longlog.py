@@ -170,10 +170,10 @@ def import_long_csv(
     as :func:`gyrojax.data.importers.import_csv` (``time_unit`` s, ms, us or ns); a sample counter (``sample``) is
     not taken here."""
     gravity_mps2 = site_gravity(latitude_deg) if gravity_mps2 is None else float(gravity_mps2)
-    from gyrojax.data.importers import gyro_record_columns, triad_meta
+    from gyrojax.data.importers import gyro_record_columns
     from gyrojax.data.records import record_paths
     from gyrojax.data.restlog import REST_LOG_COVERAGE, SAME_ORIENTATION_DEG, rest_accelerometer
-    from gyrojax.data.triad import validate_triad_meta
+    from gyrojax.data.triad import triad_meta, validate_triad_meta
     from gyrojax.protocol import atomic_write_text
 
     where = str(path)

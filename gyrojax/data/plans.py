@@ -18,7 +18,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from gyrojax import units
-from gyrojax.data.schema import FORMAT, validate_meta
+from gyrojax.data.record import FORMAT
+from gyrojax.data.schema import validate_meta
 from gyrojax.errors import PlanError, RecordError
 from gyrojax.protocol import is_finite_number
 

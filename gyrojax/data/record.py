@@ -13,6 +13,9 @@ import numpy as np
 from gyrojax.data.timebase import continuous_segments, derive_rate
 from gyrojax.kinds import ACCEL, FOG, RLG, SDF, TDF
 
+FORMAT = "gyrojax-record-1"
+"""The ``format`` of a record's JSON (conventions §5)."""
+
 TRIAD_KEYS = {
     SDF: ("ia", "oa", "sa"),
     TDF: ("x", "y", "z"),

@@ -7,13 +7,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from gyrojax.data.record import TRIAD_KEYS
+from gyrojax.data.record import FORMAT, TRIAD_KEYS
 from gyrojax.data.triad import is_triad, validate_triad_columns, validate_triad_meta
 from gyrojax.errors import RecordError
 from gyrojax.kinds import ACCEL, INSTRUMENT_KINDS, TDF
 from gyrojax.protocol import is_finite_number
 
-FORMAT = "gyrojax-record-1"
 AXIS_TOL = 1e-6
 
 

@@ -27,8 +27,8 @@ from __future__ import annotations
 import numpy as np
 
 from gyrojax.data.logs import file_stem, numeric_columns, read_table
-from gyrojax.data.record import Record
-from gyrojax.data.schema import FORMAT, validate_columns, validate_meta
+from gyrojax.data.record import FORMAT, Record
+from gyrojax.data.schema import validate_columns, validate_meta
 from gyrojax.data.tablesegments import describe, detect_table_segments
 from gyrojax.data.tablesetup import TableSetup, check_setup
 from gyrojax.data.tableunits import (

@@ -28,8 +28,10 @@ from __future__ import annotations
 import numpy as np
 
 from gyrojax import units
+from gyrojax.data.record import FORMAT
 from gyrojax.errors import RecordError
 from gyrojax.kinds import TRIAD_KIND
+from gyrojax.physics.gravity import site_gravity
 from gyrojax.protocol import is_finite_number
 
 CHANNELS = ("x", "y", "z")
@@ -186,3 +188,34 @@ def acc_g(record) -> np.ndarray | None:
     if not all(n in record.columns for n in names):
         return None
     return np.stack([np.asarray(record.columns[n], dtype=float) for n in names], axis=1)
+
+
+def triad_meta(
+    name: str,
+    segments: list,
+    *,
+    latitude_deg=None,
+    gravity_mps2: float | None = None,
+    counts_per_dps=None,
+    notes: str = "",
+    instrument_id: str | None = None,
+    extra: dict | None = None,
+) -> dict:
+    """The JSON of a triad record (:mod:`gyrojax.data.triad`)."""
+    gravity_mps2 = site_gravity(latitude_deg) if gravity_mps2 is None else float(gravity_mps2)
+    inst = {"kind": TRIAD_KIND, "channels": list(CHANNELS)}
+    if instrument_id is not None:
+        inst["id"] = instrument_id
+    if counts_per_dps is not None:
+        inst["gyro_counts_per_dps"] = float(counts_per_dps)
+    meta = {
+        "format": FORMAT,
+        "name": name,
+        "site": {"latitude_deg": latitude_deg, "gravity_mps2": gravity_mps2},
+        "instrument": inst,
+        "earth_rate": True,
+        "segments": segments,
+        "notes": notes,
+    }
+    meta.update(extra or {})
+    return meta

@@ -47,7 +47,9 @@ from gyrojax.noise.spec import NoiseSpec
 from gyrojax.physics import so3
 from gyrojax.physics import triad as tp
 from gyrojax.physics.gravity import site_gravity
+from gyrojax.physics.kept_model import keepable
 from gyrojax.planning.fisher import information
+from gyrojax.runtime.kept import kept_arrays
 
 MOVE_SAMPLES = 24
 """Samples of a move's profile in its rows (between the rests before and after)."""
@@ -171,8 +173,15 @@ _affine_rows = jax.jit(tp.affine_rows, static_argnums=0)
 
 @functools.lru_cache(maxsize=16)
 def rows_basis(model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The model's :func:`~gyrojax.physics.triad.affine_rows` (B₀, B_ω, B_a) as numpy arrays (computed once)."""
-    return tuple(np.asarray(b) for b in _affine_rows(model))
+    """The model's :func:`~gyrojax.physics.triad.affine_rows` (B₀, B_ω, B_a) as numpy arrays: computed once, and kept
+    across processes (:func:`~gyrojax.runtime.kept.kept_arrays`) when the model's effects are all built in."""
+
+    def compute():
+        return [np.asarray(b) for b in _affine_rows(model)]
+
+    if not keepable(model):
+        return tuple(compute())
+    return tuple(kept_arrays("affine_rows", (model.kind, model.terms), compute))
 
 
 def profile_fractions(n_samples: int) -> tuple[np.ndarray, np.ndarray]:

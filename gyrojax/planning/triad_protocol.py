@@ -407,7 +407,8 @@ def design_protocol(
     if crit.kind == "ratio" and not (np.all(weights >= 0) and np.any(weights > 0)):
         raise ModelError("criterion ratio: the weights are 1/target² >= 0, at least one > 0")
     kept_search = _kept_search(crit, max(structures), steps, lbfgs_steps)
-    hist, final, (att, parts) = kept_search(params, pairs, total, basis, noise.numbers(), learning_rate, prior, weights)
+    out = kept_search(params, pairs, total, basis, noise.numbers(), learning_rate, prior, weights)
+    hist, final, (att, parts) = jax.tree_util.tree_map(np.asarray, out)  # indexed below: on the host, not by JAX ops
     parts = Parts(*parts)
     final = np.where(np.isfinite(np.asarray(final)), np.asarray(final), np.inf)
     by_structure = {k: final[i * starts : (i + 1) * starts] for i, k in enumerate(structures)}

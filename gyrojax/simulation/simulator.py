@@ -20,8 +20,7 @@ import numpy as np
 from gyrojax import units
 from gyrojax.data.arrays import record_data
 from gyrojax.data.plans import Plan, Run
-from gyrojax.data.record import Record
-from gyrojax.data.schema import FORMAT
+from gyrojax.data.record import FORMAT, Record
 from gyrojax.data.truth import TriadTruth, Truth, truth_from_dict
 from gyrojax.errors import PlanError, TruthError
 from gyrojax.noise.processes import random_drift

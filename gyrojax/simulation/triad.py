@@ -17,8 +17,8 @@ import jax
 import numpy as np
 
 from gyrojax import units
-from gyrojax.data.importers import triad_meta
 from gyrojax.data.record import Record
+from gyrojax.data.triad import triad_meta
 from gyrojax.physics import so3
 from gyrojax.physics import triad as tp
 from gyrojax.physics.gravity import site_gravity
