@@ -201,7 +201,8 @@ def triad_meta(
     instrument_id: str | None = None,
     extra: dict | None = None,
 ) -> dict:
-    """The JSON of a triad record (:mod:`gyrojax.data.triad`)."""
+    """The JSON of a triad record (module doc): its site (gravity from the latitude when not given), instrument and
+    segments."""
     gravity_mps2 = site_gravity(latitude_deg) if gravity_mps2 is None else float(gravity_mps2)
     inst = {"kind": TRIAD_KIND, "channels": list(CHANNELS)}
     if instrument_id is not None:

@@ -139,7 +139,7 @@ def noncentrality(f_full, p: int, delta):
 
 def detect_power(lam: float, df: int = 1, alpha: float = 0.01) -> float:
     """Power of the χ²_df score test at level α for noncentrality λ."""
-    from gyrojax import tails  # scipy.special: a fifth of a second that a D, A or E design does not need
+    from gyrojax import tails  # and so scipy.special, which a D, A or E design never needs
 
     return tails.score_power(max(lam, 1e-300), df, alpha)
 

@@ -1,9 +1,8 @@
 """A figure of a hand calibration protocol: the box at each rest, in order, as a person sees it on the table
 (:mod:`gyrojax.planning.triad_protocol`).
 
-Each box is projected orthographically onto plain 2-D axes from a fixed eye, 20° above the horizon in the
-south-east, and its faces are painted far to near (a convex box needs no depth buffer): a dozen boxes draw in a
-fraction of the time a dozen 3-D axes take."""
+Each box is projected orthographically onto one pair of plain 2-D axes from a fixed eye, 20° above the horizon in
+the south-east, and its faces are painted far to near: a convex box needs no depth buffer, so no 3-D axes."""
 
 from __future__ import annotations
 
