@@ -201,8 +201,9 @@ def triad_meta(
     instrument_id: str | None = None,
     extra: dict | None = None,
 ) -> dict:
-    """The JSON of a triad record (module doc): its site (gravity from the latitude when not given), instrument and
-    segments."""
+    """The JSON of a triad record (module doc): its site (``latitude_deg`` in deg or None; ``gravity_mps2`` in m/s²,
+    when not given WGS-84 normal gravity at the latitude, g0 without one), instrument (``counts_per_dps``: the gyro's
+    nominal scale, counts per deg/s) and segments."""
     gravity_mps2 = site_gravity(latitude_deg) if gravity_mps2 is None else float(gravity_mps2)
     inst = {"kind": TRIAD_KIND, "channels": list(CHANNELS)}
     if instrument_id is not None:
