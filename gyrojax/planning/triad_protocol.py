@@ -410,7 +410,7 @@ def design_protocol(
     out = kept_search(params, pairs, total, basis, noise.numbers(), learning_rate, prior, weights)
     hist, final, (att, parts) = jax.tree_util.tree_map(np.asarray, out)  # indexed below: on the host, not by JAX ops
     parts = Parts(*parts)
-    final = np.where(np.isfinite(np.asarray(final)), np.asarray(final), np.inf)
+    final = np.where(np.isfinite(final), final, np.inf)
     by_structure = {k: final[i * starts : (i + 1) * starts] for i, k in enumerate(structures)}
     b = search.best_start(final, "the protocol design")
     best_pairs = int(pairs[b])
@@ -419,8 +419,8 @@ def design_protocol(
         crit,
         noise,
         total,
-        np.asarray(att[b, 0]),
-        _design_steps(jax.tree_util.tree_map(lambda a: np.asarray(a[b]), parts), best_pairs),
+        att[b, 0],
+        _design_steps(jax.tree_util.tree_map(lambda a: a[b], parts), best_pairs),
         float(final[b]),
         by_structure[best_pairs],
         _iterated(hist[b]),
