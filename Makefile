@@ -15,7 +15,7 @@ LATEST := .venv-latest
 HOLD   := "ml_dtypes<0.7"
 NEED_PYTHON = @test -n "$(PYTHON)" || { echo "need Python >= 3.11 (python3.11, 3.12, 3.13 or python3); or run: make PYTHON=/path/to/python ..."; exit 2; }
 
-.PHONY: demo test test-isa test-latest lock lint docs bench clean venv
+.PHONY: demo test studies test-isa test-latest lock lint docs bench clean venv
 
 $(PY):
 	$(NEED_PYTHON)
@@ -31,9 +31,13 @@ venv: $(STAMP)
 demo: $(STAMP)
 	$(VENV)/bin/gyrojax demo --out demo-report --force
 
-# the whole suite, statistical studies included (marked slow); the 20 slowest tests are printed
+# the suite, without the studies; the 20 slowest tests are printed
 test: $(STAMP)
-	$(PY) -m pytest -q -n 2 --dist loadfile --durations=20 tests
+	$(PY) -m pytest -q -n 2 --dist loadfile --durations=20 -m "not slow" tests
+
+# the studies (marked slow): Monte Carlo coverage and null rates, whole campaigns of the loop, the campaign notebook
+studies: $(STAMP)
+	$(PY) -m pytest -q -n 2 --dist loadfile --durations=20 -m slow tests
 
 # the whole suite as another CPU would run it: XLA's code and OpenBLAS's kernels held to an older instruction set
 # (default AVX2; ISA=SSE4_2 BLAS_CORE=Nehalem for older still), with a compilation cache of its own so that no

@@ -34,13 +34,18 @@ SHOWN = 30
 
 _current = ["(collection)"]
 _sums: dict = collections.defaultdict(collections.Counter)
+_functions: dict = collections.defaultdict(collections.Counter)
+"""XLA compilation by the compiled function's name: which computations the suite compiles most."""
 
 
-def _listen(event: str, duration: float, **_) -> None:
+def _listen(event: str, duration: float, fun_name: str = "?", **_) -> None:
     column = EVENTS.get(event)
     if column is not None:
         _sums[_current[0]][column] += duration
         _sums[_current[0]][column + "_n"] += 1
+        if column == "compile":
+            _functions[fun_name]["compile"] += duration
+            _functions[fun_name]["n"] += 1
 
 
 def pytest_configure(config):
@@ -61,16 +66,24 @@ def pytest_runtest_logfinish(nodeid, location):
 
 def pytest_sessionfinish(session):
     name = os.environ.get("PYTEST_XDIST_WORKER", "main")
-    Path(os.environ[FOLDER], f"{name}.json").write_text(json.dumps({k: dict(v) for k, v in _sums.items()}))
+    Path(os.environ[FOLDER], f"{name}.json").write_text(
+        json.dumps(
+            {"files": {k: dict(v) for k, v in _sums.items()}, "functions": {k: dict(v) for k, v in _functions.items()}}
+        )
+    )
 
 
 def pytest_terminal_summary(terminalreporter):
     if os.environ.get("PYTEST_XDIST_WORKER"):
         return
     total: dict = collections.defaultdict(collections.Counter)
+    functions: dict = collections.defaultdict(collections.Counter)
     for path in Path(os.environ[FOLDER]).glob("*.json"):
-        for file, sums in json.loads(path.read_text()).items():
-            total[file].update(sums)
+        sums = json.loads(path.read_text())
+        for file, s in sums["files"].items():
+            total[file].update(s)
+        for name, s in sums["functions"].items():
+            functions[name].update(s)
     write = terminalreporter.write_line
     whole = collections.Counter()
     for sums in total.values():
@@ -85,3 +98,6 @@ def pytest_terminal_summary(terminalreporter):
     write(f"{'wall s':>8} {'trace':>7} {'lower':>7} {'compile':>8} {'execs':>6}  file")
     for file, s in sorted(total.items(), key=lambda kv: -kv[1]["wall"])[:SHOWN]:
         write(f"{s['wall']:8.1f} {s['trace']:7.1f} {s['lower']:7.1f} {s['compile']:8.1f} {s['compile_n']:6.0f}  {file}")
+    write(f"{'compile':>8} {'execs':>6}  compiled function")
+    for name, s in sorted(functions.items(), key=lambda kv: -kv[1]["compile"])[:SHOWN]:
+        write(f"{s['compile']:8.1f} {s['n']:6.0f}  {name}")

@@ -477,6 +477,7 @@ RIVAL_POSITIONS = [
 ]  # fmt: skip
 
 
+@pytest.mark.slow
 def test_two_missing_effects_that_look_like_a_third_are_not_named_by_it():
     """After the tumble and those positions, one-at-a-time score tests rank a scale-factor asymmetry E_A·|ω_I| (at
     Earth rate, it follows a_O and a_S² across the positions) above D_O and D_SS, the effects the truth holds; the

@@ -113,6 +113,7 @@ def campaign(request, tmp_path_factory):
     return case, _run(argv + case["lab"] + SEARCH), d / "run"
 
 
+@pytest.mark.slow
 def test_the_loop_finds_the_hidden_effect_and_states_honest_sigma(campaign):
     case, j, out = campaign
     truth = case["truth"]["coefficients"]
@@ -129,6 +130,7 @@ def test_the_loop_finds_the_hidden_effect_and_states_honest_sigma(campaign):
         assert j["steps"][0]["coefficients"] == {} and {"D_F", "D_I"} <= set(j["steps"][1]["coefficients"])
 
 
+@pytest.mark.slow
 def test_the_classical_sequence_is_simulated_from_the_same_truth_to_the_same_sigma(campaign):
     """Hu's sequence of the kind, scaled until its own fit of records simulated from the truth meets every σ target
     of the loop's final model: its hours are that scaled sequence's duration, and it identifies every coefficient
@@ -146,6 +148,7 @@ def test_the_classical_sequence_is_simulated_from_the_same_truth_to_the_same_sig
     assert j["hours_ratio"] == pytest.approx(j["table_hours"] / cl["hours"])
 
 
+@pytest.mark.slow
 def test_next_on_the_campaign_records_designs_a_test_then_stops(campaign, tmp_path):
     """``gyrojax next`` on the first test's records designs a test that runs in the simulator; on every record of
     the campaign, with its model and looks, the goal is met and nothing is written."""

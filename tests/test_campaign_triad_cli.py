@@ -107,6 +107,7 @@ def _command(truth, first, out):
     ] + HAND
 
 
+@pytest.mark.slow
 def test_campaign_finds_the_effect_the_first_session_cannot_see(tmp_path, capsys):
     """The loop meets the goal with D_I in the model though the first session's fit did not have it; every target σ
     is met; each fitted coefficient lies within 3σ of the truth (D_I with the vertical Earth rate a fit of unknown

@@ -20,6 +20,7 @@ def _white(n, seed):
     return np.random.default_rng(seed).normal(0.0, 60.0 * N_WHITE / np.sqrt(DT), n)
 
 
+@pytest.mark.slow
 def test_white_data_stay_white():
     """30 white records of 2^14 samples: a spurious component in at most 5 (binomial at the stated 5 %:
     P(X ≥ 6) = 0.3 %; the WIC selection this replaces kept one in 10 of 60), every white-only fit's N within 3 % of

@@ -105,6 +105,7 @@ def test_json_follows_conventions(example_campaigns):
     json.dumps(j, allow_nan=False)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("noise", [{"white": 0.0008}, {"white": 0.0008, "gauss_markov": [0.006, 400.0]}])
 def test_coverage_small_monte_carlo(noise):
     """Stated standard errors are honest (40 draws × 5 coefficients = 200 normalised errors).

@@ -78,6 +78,7 @@ def test_flicker_poles_reproduce_the_spectral_integral_and_the_allan_floor():
     np.testing.assert_allclose(floor, (BI_FACTOR * b) ** 2, rtol=2e-2)  # IEEE 952 C.1: σ = 0.664 B
 
 
+@pytest.mark.slow
 def test_covariance_against_a_monte_carlo_of_the_simulator():
     """The simulator's white + quantization + GM + RW (each from its own generator) on a positions time line with
     gaps: the sample covariance of the run means within its sampling error (4 σ of a covariance element,
@@ -133,6 +134,7 @@ STUDY = {
 }
 
 
+@pytest.mark.slow
 def test_monte_carlo_gls_coverage_under_coloured_noise():
     """300 draws under white + GM + RW + quantization: the GLS of the position means covers θ at ±2σ̂ as often as
     0.9545 within 4 binomial σ (±0.048); the white-noise OLS σ̂ of before covered D_F in about half the draws."""

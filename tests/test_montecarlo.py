@@ -183,6 +183,7 @@ def test_one_and_four_devices_agree():
         assert d[k] <= 1e-12, d
 
 
+@pytest.mark.slow
 def test_gauss_markov_gls_std_is_honest_and_white_ls_is_not():
     """Coloured drift: the white-noise LS σ̂ is too small (coverage far below 0.954); the GLS fit of identify.fit
     (white + Gauss–Markov noise pooled over the campaign, Student-t widened; numpy) on draws written as records
@@ -222,6 +223,7 @@ N_GLS = 50
 N_SLOW = 100
 
 
+@pytest.mark.slow
 def test_slow_drift_on_eight_positions_small_sample_standard_errors():
     """Drift as slow as a position (τ = 300 s, 5-min positions): it shows only in the scatter of 8 position means, a
     handful of degrees of freedom for 5 coefficients. The pooled REML noise model with Satterthwaite's effective

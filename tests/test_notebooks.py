@@ -22,6 +22,9 @@ pytest.importorskip("ipykernel")
 
 ROOT = Path(__file__).resolve().parents[1]
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("[0-9][0-9]_*.py"))
+STUDIES = {"13_campaign_loop"}
+"""Notebooks that run a whole campaign (minutes of compilation on a fresh machine): studies (``make studies``); the
+loop they show is tested in ``test_adaptive``."""
 
 
 @pytest.fixture(scope="module")
@@ -55,7 +58,9 @@ def test_notebooks_exist():
     assert len(NOTEBOOKS) >= 4
 
 
-@pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
+@pytest.mark.parametrize(
+    "path", [pytest.param(p, id=p.stem, marks=[pytest.mark.slow] if p.stem in STUDIES else []) for p in NOTEBOOKS]
+)
 def test_notebook_runs_and_writes_final_figure(path, tmp_path, kernel_env):
     nb = jupytext.reads(path.read_text(encoding="utf-8"), fmt="py:percent")
     client = nbclient.NotebookClient(

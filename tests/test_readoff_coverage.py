@@ -14,6 +14,7 @@ import dataclasses
 import math
 
 import numpy as np
+import pytest
 from scipy import stats
 
 from gyrojax.noise import allan, headline, readoff
@@ -90,6 +91,7 @@ def _failures(rows, scale):
     return out
 
 
+@pytest.mark.slow
 def test_readoff_coverage_on_white_plus_random_walk():
     """N, B, K read off the curve (χ² interval) and off a GMWM white+rw model (delta method in ln) in 600 records
     of 2^16 samples: ±1σ and ±2σ coverage inside the binomial tolerance (each figure read in at least 400 draws),

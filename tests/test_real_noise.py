@@ -88,6 +88,7 @@ def test_gauss_markov_of_the_writer_is_the_reference_covariance(tmp_path):
     assert raw[1:] @ raw[:-1] / (raw @ raw) > 0.15  # σ_gm² / (σ_gm² + σ_w²) = 0.27
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("drift, size", [("steps", 20.0), ("rrw", 400.0), ("scatter", 20.0)])
 def test_reference_p_values_uniform_under_each_drift(drift, size):
     """Hand sessions drawn by the writer with each drift between rests: the reference's score-test p-values of a

@@ -76,6 +76,7 @@ def test_known_latitude_session_with_moves_fits_the_truth():
     assert np.max(np.abs(z)) < 4.5, z  # 21 normal deviates: P(max |z| > 4.5) ≈ 1.4e-4
 
 
+@pytest.mark.slow
 def test_coverage_with_moves_in_every_earth_rate_mode():
     """±2σ coverage of 21 coefficients × 6 sessions (20 poses) in each Earth-rate mode, against the planted truth:
     inside the two-sided 99.9 % binomial interval of an honest σ (p = 0.9545); benchmarks/bench_triad.py runs more."""
