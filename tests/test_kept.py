@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from gyrojax.runtime import kept, lapack
+from gyrojax.runtime.threads import in_background
 
 TRACES = []
 
@@ -48,6 +49,22 @@ def test_a_saved_executable_is_loaded_without_tracing(where):
     assert TRACES == []
     assert float(y) == pytest.approx(3.0 * 30.0, rel=1e-15) and float(y2) == pytest.approx(0.5 * 55.0, rel=1e-15)
     np.testing.assert_allclose(np.asarray(g2), (x + 1.0), rtol=1e-15)
+
+
+def test_an_executable_prepared_from_shapes_on_another_thread_serves_the_call(where):
+    """``prepare`` with shapes alone (:class:`jax.ShapeDtypeStruct`, as the triad design loads its second stage while
+    the first runs) on a worker thread (:func:`gyrojax.runtime.threads.in_background`) traces, compiles and keeps the
+    executable once; the call at those shapes then neither traces nor writes a file, to the same bits as jit."""
+    f, x = _fresh(), np.arange(9.0)  # a shape no other test traces
+    shape = jax.ShapeDtypeStruct(x.shape, x.dtype)
+    in_background(f.prepare, shape, jax.ShapeDtypeStruct((), np.float64)).result()
+    assert len(TRACES) == 1 and len(files := list(where.glob("energy-*.xla"))) == 1
+    written = files[0].stat().st_mtime_ns
+    TRACES.clear()
+    y, g = f(x, 1.5)
+    assert TRACES == [] and files[0].stat().st_mtime_ns == written
+    y0, g0 = jax.jit(_energy)(x, 1.5)
+    assert float(y) == float(y0) and np.array_equal(np.asarray(g), np.asarray(g0))
 
 
 def test_released_executables_are_read_again_from_their_files(where):
@@ -252,6 +269,7 @@ import sys, warnings
 import jax.numpy as jnp, numpy as np
 import gyrojax, jax
 from gyrojax.runtime import kept, lapack
+from gyrojax.runtime.threads import in_background
 from gyrojax.runtime.cache import use_persistent_cache
 
 if sys.argv[2] == "command":  # the command's process: JAX's persistent cache on as well
@@ -316,6 +334,7 @@ import numpy as np
 import gyrojax, jax, jax.numpy as jnp
 from jax.lax import linalg
 from gyrojax.runtime import kept, lapack
+from gyrojax.runtime.threads import in_background
 
 OPS = {
     "cholesky": lambda a: linalg.cholesky(a @ a.T + 4.0 * jnp.eye(4)),

@@ -53,6 +53,7 @@ from gyrojax.planning.triad_fisher import (
     steps_parts,
 )
 from gyrojax.runtime.kept import Kept
+from gyrojax.runtime.threads import in_background
 from gyrojax.simulation.triad import face_attitude, random_attitude, relative_turn
 
 HAND_RATE_DPS = 90.0
@@ -191,35 +192,48 @@ def design_parts(params, pairs, total_s, max_pairs: int):
 
 
 @lru_cache(maxsize=16)
-def _kept_search(crit: Criterion, max_pairs: int, adam_steps: int, lbfgs_steps: int) -> Kept:
-    """The compiled search (:func:`_search`) of one criterion and configuration, kept across processes
-    (:class:`gyrojax.runtime.kept.Kept`: a fresh ``gyrojax design`` neither traces nor lowers the search again)."""
-    statics = {"crit": crit, "max_pairs": max_pairs, "adam_steps": adam_steps, "lbfgs_steps": lbfgs_steps}
-    return Kept.of("triad_search", partial(_search, **statics), *sorted(statics.items()))
+def _kept_search(crit: Criterion, max_pairs: int, adam_steps: int, lbfgs_steps: int) -> tuple[Kept, Kept]:
+    """The compiled search of one criterion and configuration in its two stages, :func:`_adam` and :func:`_refine`,
+    each kept across processes (:class:`gyrojax.runtime.kept.Kept`: a fresh ``gyrojax design`` neither traces nor
+    lowers them again). Two executables, not one: the second is read from its file while the first runs."""
+    statics = {"crit": crit, "max_pairs": max_pairs, "adam_steps": adam_steps}
+    adam = Kept.of("triad_adam", partial(_adam, **statics), *sorted(statics.items()))
+    statics["lbfgs_steps"] = lbfgs_steps
+    return adam, Kept.of("triad_refine", partial(_refine, **statics), *sorted(statics.items()))
 
 
-def _search(
-    params, pairs, total_s, basis, noise, learning_rate, prior, weights, *, crit, max_pairs, adam_steps, lbfgs_steps
-):
-    """Every lane (a structure's ``pairs`` and a start) searched at once by Adam (each lane keeping its iterate of
-    least loss); then the best lane of each structure refined by L-BFGS until its loss settles
-    (:func:`gyrojax.planning.search.lbfgs_while`, at most ``lbfgs_steps``). Returns the lanes' loss histories (NaN
-    where a lane was not iterated), final losses, and their attitudes and parts at the end. The model and the
-    session are arguments, not constants: one compiled search serves every noise, site and duration of the same
-    shapes. ``prior`` (3p × 3p) is the information the protocol adds to (the sessions so far; zeros for none),
-    ``weights`` (3p,) the criterion's (:meth:`~gyrojax.planning.criteria.Criterion.loss`)."""
+def _loss(crit, max_pairs, total_s, basis, noise, prior, weights):
+    """The search's loss of (parameters, structure): the criterion of the information the protocol adds to
+    ``prior`` (3p × 3p); ``weights`` (3p,) the criterion's (:meth:`~gyrojax.planning.criteria.Criterion.loss`)."""
     p_total = basis[0].shape[-1]
 
     def loss(p, k):
         f = prior + protocol_information(basis, design_parts(p, k, total_s, max_pairs)[1], noise)
         return crit.loss(f, p_total, weights)
 
-    def adam(p0, k):
-        p, hist, val = search.adam_scan(jax.value_and_grad(loss), p0, adam_steps, learning_rate, k, keep_best=True)
-        return p, hist, val
+    return loss
 
-    p, hist, final = jax.vmap(adam)(params, pairs)
+
+def _adam(params, pairs, total_s, basis, noise, learning_rate, prior, weights, *, crit, max_pairs, adam_steps):
+    """Every lane (a structure's ``pairs`` and a start) searched at once by Adam, each keeping its iterate of least
+    loss (:func:`gyrojax.planning.search.adam_scan`). Returns the lanes' parameters, loss histories and final
+    losses. The model and the session are arguments, not constants: one compiled search serves every noise, site and
+    duration of the same shapes."""
+    loss = _loss(crit, max_pairs, total_s, basis, noise, prior, weights)
+
+    def adam(p0, k):
+        return search.adam_scan(jax.value_and_grad(loss), p0, adam_steps, learning_rate, k, keep_best=True)
+
+    return jax.vmap(adam)(params, pairs)
+
+
+def _refine(p, hist, final, pairs, total_s, basis, noise, prior, weights, *, crit, max_pairs, adam_steps, lbfgs_steps):
+    """The best lane of each structure after :func:`_adam` refined by L-BFGS until its loss settles
+    (:func:`gyrojax.planning.search.lbfgs_while`, at most ``lbfgs_steps``), kept where it lowered the loss. Returns
+    the lanes' loss histories (NaN where a lane was not iterated), final losses, and their attitudes and parts at the
+    end."""
     if lbfgs_steps:
+        loss = _loss(crit, max_pairs, total_s, basis, noise, prior, weights)
         hist = jnp.concatenate([hist, jnp.full((hist.shape[0], lbfgs_steps), jnp.nan)], axis=1)
         best = jnp.stack([jnp.argmin(jnp.where(pairs == k, final, jnp.inf)) for k in range(max_pairs + 1)])
 
@@ -368,7 +382,7 @@ def design_protocol(
     ``ratio`` with its ``weights`` (3p,) (:mod:`gyrojax.planning.criteria`): every structure of ``turn_pairs``
     (pairs of known-angle turns about each body axis) searched from the same ``starts`` by ``steps`` Adam
     iterations (each start keeps its iterate of least loss), the best start of each structure then by at most
-    ``lbfgs_steps`` L-BFGS ones until its loss settles, all in one compiled search, the best kept; refuses terms
+    ``lbfgs_steps`` L-BFGS ones until its loss settles (two compiled stages), the best kept; refuses terms
     the protocol cannot fit, too few poses, or too little time."""
     model = triad_model(terms)
     noise = noise or TriadNoise()
@@ -406,8 +420,14 @@ def design_protocol(
         )
     if crit.kind == "ratio" and not (np.all(weights >= 0) and np.any(weights > 0)):
         raise ModelError("criterion ratio: the weights are 1/target² >= 0, at least one > 0")
-    kept_search = _kept_search(crit, max(structures), steps, lbfgs_steps)
-    out = kept_search(params, pairs, total, basis, noise.numbers(), learning_rate, prior, weights)
+    adam, refine = _kept_search(crit, max(structures), steps, lbfgs_steps)
+    session = (total, basis, noise.numbers())
+    adam.prepare(params, pairs, *session, learning_rate, prior, weights)
+    shaped = [jax.ShapeDtypeStruct(s, np.float64) for s in [a.shape for a in params] + [(lanes, steps), (lanes,)]]
+    loading = in_background(refine.prepare, tuple(shaped[:3]), *shaped[3:], pairs, *session, prior, weights)
+    p, hist, final = adam(params, pairs, *session, learning_rate, prior, weights)
+    loading.result()
+    out = refine(p, hist, final, pairs, *session, prior, weights)
     hist, final, (att, parts) = jax.tree_util.tree_map(np.asarray, out)  # indexed below: on the host, not by JAX ops
     parts = Parts(*parts)
     final = np.where(np.isfinite(final), final, np.inf)

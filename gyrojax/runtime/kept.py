@@ -224,7 +224,7 @@ class Kept:
                 return _read(path.read_bytes(), key, specs)
             except Exception as e:  # a damaged or foreign file: say so, compile again and replace it
                 warnings.warn(
-                    f"{path}: kept executable not loaded ({type(e).__name__}: {e}); compiled again", stacklevel=3
+                    f"{path}: kept executable not loaded ({type(e).__name__}: {e}); compiled again", stacklevel=4
                 )
 
         def flat(*leaves):  # compiled over the leaves: the argument tree (in the key) may hold non-array types
@@ -237,7 +237,7 @@ class Kept:
             compiled, _ = _compile(flat, specs)
         data = _written(compiled, key)
         if data is not None:
-            _save(path, data, "executables", stacklevel=4)
+            _save(path, data, "executables", stacklevel=5)
         return compiled
 
     def __call__(self, *args):
@@ -246,6 +246,19 @@ class Kept:
         if where is None or any(isinstance(x, jax.core.Tracer) for x in leaves):
             return self.fn(*args)
         leaves = [x if isinstance(x, jax.Array) else np.asarray(x) for x in leaves]
+        return self._executable(where, tree, leaves)(*leaves)
+
+    def prepare(self, *args) -> None:
+        """Make the executable of arguments shaped as ``args`` ready (read from its file, or compiled) without
+        calling it; an argument may be a :class:`jax.ShapeDtypeStruct` in place of an array. For a caller that
+        loads one kept function on another thread while a first runs."""
+        where = folder()
+        if where is not None:
+            leaves, tree = jax.tree_util.tree_flatten(args)
+            self._executable(where, tree, [x if hasattr(x, "dtype") else np.asarray(x) for x in leaves])
+
+    def _executable(self, where: Path, tree, leaves):
+        """The executable of the argument tree ``tree`` at the shapes and dtypes of ``leaves``."""
         key = (where, tree, tuple((x.shape, x.dtype) for x in leaves))  # dtype objects: str() of each is slow
         call = self._calls.get(key)
         if call is None:
@@ -256,7 +269,7 @@ class Kept:
                     make_room()
                     specs = [jax.ShapeDtypeStruct(x.shape, x.dtype) for x in leaves]
                     call = self._calls[key] = self._load(where, tree, specs)
-        return call(*leaves)
+        return call
 
 
 def release() -> int:
@@ -299,7 +312,7 @@ def make_room() -> None:
             f"XLA cannot compile past the limit, so gyrojax dropped its {n} kept executables (read again from their "
             "files when called); jax.clear_caches() drops those of every other jitted function",
             RuntimeWarning,
-            stacklevel=4,
+            stacklevel=5,
         )
 
 

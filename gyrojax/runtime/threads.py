@@ -19,7 +19,7 @@ import functools
 import os
 import sys
 import threading
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 
 ENV = "GYROJAX_BLAS_THREADS"
 WORKERS_ENV = "GYROJAX_WORKERS"
@@ -72,6 +72,13 @@ def parallel_map(func, items) -> list:
     if n <= 1 or getattr(_state, "worker", False):
         return [func(x) for x in items]
     return list(_executor().map(_in_worker(func), items))
+
+
+def in_background(func, *args) -> Future:
+    """``func(*args)`` started on a worker thread of :func:`parallel_map`'s pool; its Future
+    (``.result()`` waits, and raises what ``func`` raised). For work the caller's next step does not need, such as
+    loading the executable of the step after it."""
+    return _executor().submit(_in_worker(lambda a: func(*a)), args)
 
 
 def _in_worker(func):
