@@ -101,6 +101,27 @@ def test_nested_calls_run_in_the_worker(monkeypatch):
     assert all(same for row in out for same, _ in row)
 
 
+def test_in_background_runs_on_a_worker_and_inside_one_runs_there(monkeypatch):
+    """``in_background`` runs its call on a worker of the pool (its Future gives the value, or raises the error);
+    called from every worker at once it runs each call in its own worker, so that no worker waits for a free one."""
+    monkeypatch.setenv(threads.WORKERS_ENV, "2")
+    import threading
+
+    main = threading.current_thread()
+    elsewhere, total = threads.in_background(
+        lambda a, b: (threading.current_thread() is not main, a + b), 2, 3
+    ).result()
+    assert elsewhere and total == 5
+    with pytest.raises(KeyError):
+        threads.in_background(lambda: {}[1]).result()
+
+    def outer(i):
+        me = threading.current_thread()
+        return threads.in_background(lambda: (threading.current_thread() is me, i)).result(timeout=30)
+
+    assert threads.parallel_map(outer, range(4)) == [(True, i) for i in range(4)]
+
+
 def test_workers_from_the_environment(monkeypatch):
     monkeypatch.setenv(threads.WORKERS_ENV, "3")
     assert threads.workers() == 3

@@ -77,7 +77,15 @@ def parallel_map(func, items) -> list:
 def in_background(func, *args) -> Future:
     """``func(*args)`` started on a worker thread of :func:`parallel_map`'s pool; its Future
     (``.result()`` waits, and raises what ``func`` raised). For work the caller's next step does not need, such as
-    loading the executable of the step after it."""
+    loading the executable of the step after it. Called inside a worker it runs ``func`` there and then (a worker
+    that waited for another could wait for ever once every worker waits)."""
+    if getattr(_state, "worker", False):
+        done: Future = Future()
+        try:
+            done.set_result(func(*args))
+        except Exception as e:
+            done.set_exception(e)
+        return done
     return _executor().submit(_in_worker(lambda a: func(*a)), args)
 
 
