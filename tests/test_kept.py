@@ -269,7 +269,6 @@ import sys, warnings
 import jax.numpy as jnp, numpy as np
 import gyrojax, jax
 from gyrojax.runtime import kept, lapack
-from gyrojax.runtime.threads import in_background
 from gyrojax.runtime.cache import use_persistent_cache
 
 if sys.argv[2] == "command":  # the command's process: JAX's persistent cache on as well
@@ -334,7 +333,6 @@ import numpy as np
 import gyrojax, jax, jax.numpy as jnp
 from jax.lax import linalg
 from gyrojax.runtime import kept, lapack
-from gyrojax.runtime.threads import in_background
 
 OPS = {
     "cholesky": lambda a: linalg.cholesky(a @ a.T + 4.0 * jnp.eye(4)),
