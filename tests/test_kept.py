@@ -54,10 +54,12 @@ def test_a_saved_executable_is_loaded_without_tracing(where):
 def test_an_executable_prepared_from_shapes_on_another_thread_serves_the_call(where):
     """``prepare`` with shapes alone (:class:`jax.ShapeDtypeStruct`, as the triad design loads its second stage while
     the first runs) on a worker thread (:func:`gyrojax.runtime.threads.in_background`) traces, compiles and keeps the
-    executable once; the call at those shapes then neither traces nor writes a file, to the same bits as jit."""
+    executable once and returns the shapes of its outputs; the call at those shapes then neither traces nor writes a
+    file, to the same bits as jit."""
     f, x = _fresh(), np.arange(9.0)  # a shape no other test traces
     shape = jax.ShapeDtypeStruct(x.shape, x.dtype)
-    in_background(f.prepare, shape, jax.ShapeDtypeStruct((), np.float64)).result()
+    out = in_background(f.prepare, shape, jax.ShapeDtypeStruct((), np.float64)).result()
+    assert [(o.shape, o.dtype) for o in out] == [((), np.float64), (x.shape, np.float64)]  # _energy's outputs
     assert len(TRACES) == 1 and len(files := list(where.glob("energy-*.xla"))) == 1
     written = files[0].stat().st_mtime_ns
     TRACES.clear()

@@ -422,12 +422,13 @@ def design_protocol(
         raise ModelError("criterion ratio: the weights are 1/target² >= 0, at least one > 0")
     adam, refine = _kept_search(crit, max(structures), steps, lbfgs_steps)
     session = (total, basis, noise.numbers())
-    adam.prepare(params, pairs, *session, learning_rate, prior, weights)  # first: one executable is read at a time
-    # the refinement's (three times the size) is read on a worker thread while Adam runs
-    shaped = [jax.ShapeDtypeStruct(s, np.float64) for s in [a.shape for a in params] + [(lanes, steps), (lanes,)]]
-    loading = in_background(refine.prepare, tuple(shaped[:3]), *shaped[3:], pairs, *session, prior, weights)
+    # Adam's executable first (one is read at a time); the refinement's, three times the size, is read on a worker
+    # thread at the shapes of Adam's outputs while Adam runs
+    searched = adam.prepare(params, pairs, *session, learning_rate, prior, weights)
+    loading = searched and in_background(refine.prepare, *searched, pairs, *session, prior, weights)
     p, hist, final = adam(params, pairs, *session, learning_rate, prior, weights)
-    loading.result()
+    if loading:
+        loading.result()
     out = refine(p, hist, final, pairs, *session, prior, weights)
     hist, final, (att, parts) = jax.tree_util.tree_map(np.asarray, out)  # indexed below: on the host, not by JAX ops
     parts = Parts(*parts)

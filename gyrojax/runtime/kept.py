@@ -248,14 +248,16 @@ class Kept:
         leaves = [x if isinstance(x, jax.Array) else np.asarray(x) for x in leaves]
         return self._executable(where, tree, leaves)(*leaves)
 
-    def prepare(self, *args) -> None:
+    def prepare(self, *args):
         """Make the executable of arguments shaped as ``args`` ready (read from its file, or compiled) without
-        calling it; an argument may be a :class:`jax.ShapeDtypeStruct` in place of an array. For a caller that
-        loads one kept function on another thread while a first runs."""
+        calling it; an argument may be a :class:`jax.ShapeDtypeStruct` in place of an array. Returns the shapes of
+        its outputs (a tree of :class:`jax.ShapeDtypeStruct`), or None when nothing is kept (the cache off). For a
+        caller that loads one kept function on another thread while a first runs."""
         where = folder()
-        if where is not None:
-            leaves, tree = jax.tree_util.tree_flatten(args)
-            self._executable(where, tree, [x if hasattr(x, "dtype") else np.asarray(x) for x in leaves])
+        if where is None:
+            return None
+        leaves, tree = jax.tree_util.tree_flatten(args)
+        return self._executable(where, tree, [x if hasattr(x, "dtype") else np.asarray(x) for x in leaves]).out_info
 
     def _executable(self, where: Path, tree, leaves):
         """The executable of the argument tree ``tree`` at the shapes and dtypes of ``leaves``."""
