@@ -167,15 +167,7 @@ def least_squares(system, x0, max_nfev: int) -> Solution:
     the answer."""
     from scipy.optimize import least_squares as lm
 
-    cache = {}
-
-    def cached(x):
-        key = x.tobytes()
-        if key not in cache:
-            cache.clear()
-            cache[key] = system(x)
-        return cache[key]
-
+    cached = remember_last(system)  # MINPACK asks for J at the answer after a trial step beyond it
     sol = lm(
         lambda x: -cached(x)[0],
         np.asarray(x0, dtype=float),
@@ -193,6 +185,23 @@ def least_squares(system, x0, max_nfev: int) -> Solution:
         status = Status.ITERATION_LIMIT if sol.status == 0 else Status.NOT_FINITE
         why = f"Levenberg–Marquardt stopped after {sol.nfev} evaluations: {sol.message}"
     return Solution(np.asarray(sol.x, dtype=float), 2.0 * float(sol.cost), status, int(sol.nfev), why)
+
+
+def remember_last(f, points: int = 2):
+    """``f`` of one float array, its values at the last ``points`` arguments kept: a search that comes back to a
+    point (the answer after a trial beyond it, the caller's evaluation at the answer) does not evaluate it again.
+    The values are returned as they are (shared, not copied): for functions whose results are read, never written."""
+    kept: dict = {}
+
+    def remembered(x):
+        key = np.asarray(x, dtype=float).tobytes()
+        if key not in kept:
+            while len(kept) >= points:
+                del kept[next(iter(kept))]
+            kept[key] = f(x)
+        return kept[key]
+
+    return remembered
 
 
 def minimize_scalar(f, lo: float, hi: float, xatol: float = 1e-5, what: str = "search") -> Solution:

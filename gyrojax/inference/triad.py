@@ -65,7 +65,7 @@ from gyrojax.inference.triad_turn_on import BIAS, move_rows_with_steps, power_up
 from gyrojax.inference.triad_turn_on import check as check_turn_on
 from gyrojax.noise.spec import SessionNoise
 from gyrojax.noise.whiten import pooled_autocovariance
-from gyrojax.optimize import least_squares
+from gyrojax.optimize import least_squares, remember_last
 from gyrojax.physics import triad as tp
 from gyrojax.runtime.threads import narrow_blas
 
@@ -253,7 +253,8 @@ def fit_triad_unchecked(
     if moves:
         base_w = (lin_r, lin_j, move_w)  # the white-noise model's rows: its χ² says how poor that model is
         if components and not why:
-            moves_at = move_rows_with_steps(model, theta, packed, move_w, pu)[1:]
+            rows, jrows = system(theta)  # the search's last evaluation
+            moves_at = (rows[len(lin_r) :], jrows[len(lin_r) :])
             groups = component_groups(segments, y - base - jac @ theta, jac, q, s_mat, moves_at, move_w)
             tau2, why_components = estimate_components(groups)
         if any(v > 0 for v in tau2.values()):  # refit with the components in the covariance
@@ -403,7 +404,7 @@ def _moves_system(model, packed, lin_r, lin_j, move_w, pu):
         _, mr, mj = move_rows_with_steps(model, th, packed, move_w, pu)
         return np.concatenate([lin_r - lin_j @ th, mr]), np.concatenate([lin_j, mj])
 
-    return system
+    return remember_last(system)
 
 
 def whiten_segments(segments, resid, jac, q, s_mat, pose_var: float = 0.0):
@@ -576,6 +577,7 @@ def _walk_groups(model, segments, moves, resid0, jac, q, s_mat, packed, pu, reco
     clock, move_clock = walk_clocks(segments, moves)
     bias = [c * model.size + model.coefficient_names.index(BIAS) for c in range(3)]
 
+    @remember_last
     def at(theta):
         rows, jrows = move_rows_with_steps(model, theta, packed, move_w, pu)[1:]
         move_bias = [sd * jrows[2 * k : 2 * k + 2, bias] for k, (_p, sd) in enumerate(move_w)]

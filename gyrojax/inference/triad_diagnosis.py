@@ -263,6 +263,12 @@ def session_data(records, fit, earth_rate=None) -> dict:
         move_w = tf.move_whitening(moves, q, s_mat, tau2["move"])
         _, mr, mj = move_rows_with_steps(model, theta, packed, move_w, pu)
         data.update(packed=packed, move_w=move_w, move_r=mr, move_j=mj)
+        # the rows without the angle noise, whose REML groups estimate it (_groups)
+        if tau2["move"] > 0:
+            bare_w = tf.move_whitening(moves, q, s_mat)
+            data["moves_bare"] = (bare_w, move_rows_with_steps(model, theta, packed, bare_w, pu)[1:])
+        else:
+            data["moves_bare"] = (move_w, (mr, mj))
         data["dr_dg"] = move_dr_dg(model, th_ch, pu.shifted_moves(packed, theta))  # (M, 3, L, 3)
         mv_inputs = []
         for m, ri, (t_h, temp) in zip(moves, mv_rec, mv_times):
@@ -345,10 +351,7 @@ def _groups(data: dict, extra: list) -> list:
     """The fit's rows as REML groups (:func:`gyrojax.inference.triad.component_groups`), beside the raw columns
     ``extra`` of the candidates taken in (:func:`raw_columns`), the moves without their angle component (what is
     estimated)."""
-    move_w, moves_at = [], (np.zeros(0), np.zeros((0, data["jac"].shape[1])))
-    if data["moves"]:
-        move_w = tf.move_whitening(data["moves"], data["q"], data["s_mat"])
-        moves_at = move_rows_with_steps(data["model"], data["theta"], data["packed"], move_w, data["power_ups"])[1:]
+    move_w, moves_at = data.get("moves_bare", ([], (np.zeros(0), np.zeros((0, data["jac"].shape[1])))))
     return tf.component_groups(
         data["segments"], data["resid"], data["jac"], data["q"], data["s_mat"], moves_at, move_w, extra, data["walk"]
     )
