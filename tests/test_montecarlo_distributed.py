@@ -52,23 +52,20 @@ def test_share_splits_every_draw_once():
             assert max(sizes) - min(sizes) <= 1
 
 
-def test_two_process_distributed_mc_equals_one_process(tmp_path):
-    """Two processes of one jax.distributed job (coordinator on a free localhost port) write what one process does."""
-    sp = tmp_path / "study.json"
-    sp.write_text(json.dumps(STUDY))
-    env = dict(
-        os.environ, PYTHONPATH=str(ROOT), JAX_PLATFORMS="cpu", GYROJAX_NO_CACHE="1", XLA_FLAGS="", GYROJAX_DEBUG=""
-    )
-    env.pop("JAX_COORDINATOR_ADDRESS", None)
-    out = tmp_path / "two"
+def _two_processes(sp: Path, out: Path, cache: Path) -> list[str]:
+    """``gyrojax mc`` of the study ``sp`` as two processes of one jax.distributed job (coordinator on a free
+    localhost port) with gyrojax's cache in ``cache``: the stdout of each."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT), JAX_PLATFORMS="cpu", GYROJAX_CACHE_DIR=str(cache), GYROJAX_DEBUG="")
+    for k in ("JAX_COORDINATOR_ADDRESS", "GYROJAX_NO_CACHE"):
+        env.pop(k, None)
     port = _free_port()
     procs = []
     try:
         for k in (0, 1):
-            cmd = [sys.executable, "-m", "gyrojax", "mc", str(sp), "--out", str(out), "--json"]
+            cmd = [sys.executable, "-m", "gyrojax", "mc", str(sp), "--out", str(out), "--json", "--force"]
             cmd += ["--coordinator", f"127.0.0.1:{port}", "--num-processes", "2", "--process-id", str(k)]
             procs.append(subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True))
-        outs = [p.communicate(timeout=300) for p in procs]
+        outs = [p.communicate(timeout=120) for p in procs]
     finally:
         for p in procs:  # never leave a process behind, whatever happened
             if p.poll() is None:
@@ -76,16 +73,28 @@ def test_two_process_distributed_mc_equals_one_process(tmp_path):
                 p.wait()
     for p, (_so, se) in zip(procs, outs):
         assert p.returncode == 0, se[-2000:]
-    rep0 = json.loads(outs[0][0].strip().splitlines()[-1])
-    assert rep0["draws"] == 37 and outs[1][0].strip() == ""  # process 0 alone reports and writes
-    two = results.load_result(out)
+    return [so for so, _ in outs]
+
+
+def test_two_process_distributed_mc_equals_one_process(tmp_path):
+    """Two processes of one jax.distributed job write what one process does, with gyrojax's cache empty and again
+    with the executables the first job kept (each process keeps its own: one compiled for another process' device
+    would wait for it for ever)."""
+    sp = tmp_path / "study.json"
+    sp.write_text(json.dumps(STUDY))
     one = runner.run_study(mc.study_from_dict(STUDY))
     assert np.abs(one.estimate).max() > 0.1  # the comparison has teeth
-    _assert_same(two, one)
-    # the files process 0 wrote are the single-process files
     results.save_result(one, tmp_path / "one")
-    assert (out / "summary.csv").read_text() == (tmp_path / "one" / "summary.csv").read_text()
-    assert json.loads((out / "study.json").read_text()) == json.loads((tmp_path / "one" / "study.json").read_text())
+    for run in ("cold", "kept"):
+        out = tmp_path / run
+        stdout = _two_processes(sp, out, tmp_path / "cache")
+        rep0 = json.loads(stdout[0].strip().splitlines()[-1])
+        assert rep0["draws"] == 37 and stdout[1].strip() == ""  # process 0 alone reports and writes
+        _assert_same(results.load_result(out), one)
+        # the files process 0 wrote are the single-process files
+        assert (out / "summary.csv").read_text() == (tmp_path / "one" / "summary.csv").read_text()
+        assert json.loads((out / "study.json").read_text()) == json.loads((tmp_path / "one" / "study.json").read_text())
+    assert len(list((tmp_path / "cache-kept").glob("*.xla"))) >= 2  # kept, by each process
 
 
 def test_index_ranges_merge_to_the_whole_run(tmp_path, capsys):

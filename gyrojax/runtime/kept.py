@@ -8,11 +8,13 @@ A kept executable is keyed by the function's name, the argument tree, shapes and
 chunks of a few sizes, :mod:`gyrojax.runtime.rows`, or padded to a few lengths, :func:`gyrojax.noise.reml.bucket_rows`),
 the digest of the whole ``gyrojax`` source (its version included), the JAX and jaxlib versions, the backend, the host
 CPU (:func:`host_cpu`: XLA compiles for the instruction set of the machine it runs on, so a cache shared over a network
-or copied to an older machine must never run code for features that CPU lacks) and the XLA flags (which may hold XLA to
-another instruction set). Any edit of the library makes new keys, so a stale executable is never called. The file holds
-its whole key, checked on reading, and the LAPACK kernels it calls, made ready before it is loaded
-(:mod:`gyrojax.runtime.lapack`); a loaded executable whose inputs are not the call's, a file that cannot be read, or one
-of another key is compiled again with a warning and replaced, never called.
+or copied to an older machine must never run code for features that CPU lacks), the XLA flags (which may hold XLA to
+another instruction set) and the process' index and count in a ``jax.distributed`` job (an executable runs on the
+device it was compiled for: one kept by another process of the job would wait for that process' device for ever).
+Any edit of the library makes new keys, so a stale executable is never called. The file holds its whole key, checked
+on reading, and the LAPACK kernels it calls, made ready before it is loaded (:mod:`gyrojax.runtime.lapack`); a loaded
+executable whose inputs are not the call's, a file that cannot be read, or one of another key is compiled again with a
+warning and replaced, never called.
 
 The file name carries the first :data:`DIGEST_CHARS` hex digits of the source digest, and the first use of the folder
 in a process deletes the files of other library sources (:func:`prune`) but those of the :data:`KEEP_OTHER_SOURCES`
@@ -195,6 +197,8 @@ def _key(name: str, tree, specs) -> str:
         bool(jax.config.jax_enable_x64),
         host_cpu(),
         os.environ.get("XLA_FLAGS", ""),
+        jax.process_count(),
+        jax.process_index(),
     )
     return hashlib.sha256(repr(parts).encode()).hexdigest()
 
