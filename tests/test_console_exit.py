@@ -2,6 +2,7 @@
 nothing by it: the same bytes on stdout and the same exit code as the ordinary exit, the exit handlers run, and a
 thread still at work is waited for."""
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -18,7 +19,8 @@ ORDINARY = "import sys; from gyrojax.cli.app import main; sys.argv[0] = 'gyrojax
 
 
 def _run(args, env_dir: Path, code: str | None = None):
-    env = {"GYROJAX_CACHE_DIR": str(env_dir), "PATH": "/usr/bin:/bin"}
+    # the suite's compilation cache (tests/conftest.py) where there is one: what the processes compile is not the test
+    env = {"GYROJAX_CACHE_DIR": os.environ.get("GYROJAX_CACHE_DIR", str(env_dir)), "PATH": "/usr/bin:/bin"}
     cmd = [sys.executable, "-m", "gyrojax", *args] if code is None else [sys.executable, "-c", code, *args]
     return subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, timeout=300)
 
