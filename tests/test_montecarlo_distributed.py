@@ -14,6 +14,7 @@ import pytest
 from gyrojax.cli import app as cli
 from gyrojax.montecarlo import hosts, results, runner
 from gyrojax.montecarlo import study as mc
+from gyrojax.runtime import kept
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDY = {
@@ -94,7 +95,7 @@ def test_two_process_distributed_mc_equals_one_process(tmp_path):
         # the files process 0 wrote are the single-process files
         assert (out / "summary.csv").read_text() == (tmp_path / "one" / "summary.csv").read_text()
         assert json.loads((out / "study.json").read_text()) == json.loads((tmp_path / "one" / "study.json").read_text())
-    assert len(list((tmp_path / "cache-kept").glob("*.xla"))) >= 2  # kept, by each process
+    assert len(list((tmp_path / ("cache" + kept.SUFFIX)).glob("*.xla"))) >= 2  # kept, by each process
 
 
 def test_index_ranges_merge_to_the_whole_run(tmp_path, capsys):

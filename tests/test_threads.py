@@ -1,6 +1,8 @@
 """gyrojax.runtime.threads: the library's entry points run BLAS on the threads GYROJAX_BLAS_THREADS names (1 by default)
 for the call, and give the caller's setting back after it."""
 
+import threading
+
 import numpy as np
 import pytest
 from threadpoolctl import threadpool_info, threadpool_limits
@@ -89,7 +91,6 @@ def test_nested_calls_run_in_the_worker(monkeypatch):
     """A parallel_map inside a worker runs there, one item after the other: two workers each waiting for an inner
     item that no free worker could take would wait for ever."""
     monkeypatch.setenv(threads.WORKERS_ENV, "2")
-    import threading
 
     def outer(i):
         me = threading.current_thread()
@@ -105,8 +106,6 @@ def test_in_background_runs_on_a_worker_and_inside_one_runs_there(monkeypatch):
     """``in_background`` runs its call on a worker of the pool (its Future gives the value, or raises the error);
     called from every worker at once it runs each call in its own worker, so that no worker waits for a free one."""
     monkeypatch.setenv(threads.WORKERS_ENV, "2")
-    import threading
-
     main = threading.current_thread()
     elsewhere, total = threads.in_background(
         lambda a, b: (threading.current_thread() is not main, a + b), 2, 3
