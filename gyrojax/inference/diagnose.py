@@ -9,9 +9,10 @@ are. The loop itself is the same for all:
    (Bonferroni) is taken among the fixed effects of the noise fit and the noise re-estimated, until none is
    significant or the next adds nothing new (:func:`gyrojax.inference.scoring.spanned`): a strong missing effect then
    does not pass for coloured noise, and colour does not pass for an effect. When none is significant under the
-   colour, the colour is judged against the candidates that follow a slowly varying input (temperature, time) by
+   colour, the colour is judged against the candidates that follow a slowly varying recorded input (temperature) by
    likelihood — white noise with the candidate against the colour alone (the plug-in's ``outweighs_colour``) — and
-   the one that wins is taken: a colour never hides what an input explains. Where the records' positions hold a
+   the one that wins, if it also holds beside the colour re-fitted with it, is taken: a colour never hides what an
+   input explains, and an input never takes what one realisation of slow drift drew. Where the records' positions hold a
    few samples each and the colour's memory spans them (they cannot tell it from an offset per position), every
    candidate is judged so: a colour never hides an effect that differs between positions either. Taking changes
    only the noise model the candidates are tested under; a taken candidate is proposed only if its test then says
@@ -166,7 +167,7 @@ def select_noise(s, alpha: float) -> tuple:
         if best.log10_p + math.log10(len(live)) < math.log10(alpha) and not spanned(rnd.perps, best.name, taken):
             taken.append(best.name)
             continue
-        follows = s.outweighs_colour(rnd, taken)
+        follows = s.outweighs_colour(rnd, taken, alpha)
         if follows is None:
             break
         taken.append(follows)

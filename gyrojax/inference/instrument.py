@@ -47,7 +47,7 @@ class Session:
         """What competes to be taken into the noise fit: the named candidates."""
         return rnd.candidates
 
-    def outweighs_colour(self, rnd, taken: list) -> str | None:
+    def outweighs_colour(self, rnd, taken: list, alpha: float) -> str | None:
         """A candidate that explains the records better with white noise than the colour of ``rnd`` does without
         it, where the colour could hide it (one that follows a slowly varying input; any, where the records cannot
         resolve the colour), to be taken among the fixed effects of the noise fit before the colour hides it; None

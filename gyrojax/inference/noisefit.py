@@ -57,7 +57,7 @@ def mean_interval(times: np.ndarray, labels: np.ndarray) -> float:
     return float(np.median(steps)) if steps else 0.0
 
 
-def campaign_noise(lin, campaign: Campaign) -> list:
+def campaign_noise(lin, campaign: Campaign, keep_drift: bool = False) -> list:
     """Noise model of every record, fitted jointly over each :func:`noise_groups` group: the residuals of the
     group's records stacked as independent series (each restarts), REML with the fit's regressors of all of them.
 
@@ -65,7 +65,9 @@ def campaign_noise(lin, campaign: Campaign) -> list:
     position shows only in the scatter of the position means, which per-record noise fits cannot see; the joint
     REML does, so the GLS standard errors stay honest (``benchmarks/bench_coverage.py``). White + Gauss–Markov is
     preferred to AR(p) whenever it can be fitted (``prefer_gm``), and a drift the REML cannot tell from white noise
-    is dropped (:data:`WHITE_LR_CRITICAL`).
+    is dropped (:data:`WHITE_LR_CRITICAL`) unless ``keep_drift``: a coefficient tested beside the drift
+    (:func:`gyrojax.inference.turntable_diagnosis.wald_beside_drift`) must not be tested against white noise because
+    one realisation of the drift happened to look small.
 
     ``lin`` as from :func:`linearize` (residuals in the output unit, deg/h or g; times in s). Returns one
     :class:`~gyrojax.noise.spec.NoiseSpec` per record, white + Gauss–Markov (with the REML covariance of N, σ, T) or
@@ -77,7 +79,7 @@ def campaign_noise(lin, campaign: Campaign) -> list:
         q = group_readout_variance(campaign, idx)
         kw = {"tau_span_fraction": FIT_TAU_SPAN_FRACTION, "neutral_start": True, "prefer_gm": True, "readout_var": q}
         nz = fit_noise(r, lab, t, design=j, **kw)
-        if nz.gauss_markov:
+        if nz.gauss_markov and not keep_drift:
             nz = _white_unless_drift(r, j, lab, t, nz)
         if nz.gauss_markov:
             nz = with_reml_covariance(nz, r, j, lab, t, FIT_TAU_SPAN_FRACTION)
