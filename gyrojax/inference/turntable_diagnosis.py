@@ -218,7 +218,9 @@ class TurntableSession(Session):
             return None
         live = sum(1 for c in rnd.candidates if c.df > 0)
         cols0 = self.columns(taken)
-        p, _, _ = wald_beside_drift(self.campaign, self.lin, np.concatenate([cols0, best[2]]), len(cols0), True)
+        p, _, _ = wald_beside_drift(
+            self.campaign, self.lin, np.concatenate([cols0, best[2]]), len(cols0), keep_drift=True
+        )
         return best[1] if p * live < alpha else None
 
     # ---- shapes, near-aliases, proposals ------------------------------------------------------------------------
